@@ -1,0 +1,14 @@
+//! axisctl: commissioning PowerCube, PA-CONTROL and Cdios motion hardware.
+//!
+//! Layers, from the wire up:
+//! - [`proto`]: sans-IO codecs and the protocol tables. No I/O, no clock.
+//! - [`link`]: transports (SocketCAN, slcan, serial, in-memory) behind small traits.
+//! - [`session`]: request/answer matching with timeouts and the retry policy.
+//! - [`sim`]: clock-driven simulators of the devices.
+//! - `commands` (binary side): the CLI subcommands.
+
+pub mod clock;
+pub mod link;
+pub mod proto;
+pub mod session;
+pub mod sim;

@@ -1,0 +1,222 @@
+//! `--link` URIs: `socketcan:IFACE`, `slcan:TTY[?bitrate=N]`,
+//! `serial:TTY[?baud=N&format=F]`, `sim`.
+
+use std::fmt;
+
+/// Serial character format.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SerialFormat {
+    F8N1,
+    F7N1,
+    F7E1,
+    F7O1,
+}
+
+impl SerialFormat {
+    pub fn data_bits(self) -> u8 {
+        if self == Self::F8N1 {
+            8
+        } else {
+            7
+        }
+    }
+
+    /// Bits on the wire per character: start + data + parity + stop.
+    pub fn bits_per_char(self) -> u32 {
+        match self {
+            Self::F8N1 => 10,
+            Self::F7N1 => 9,
+            Self::F7E1 | Self::F7O1 => 10,
+        }
+    }
+}
+
+impl std::str::FromStr for SerialFormat {
+    type Err = SpecError;
+    fn from_str(s: &str) -> Result<Self, SpecError> {
+        match s.to_ascii_uppercase().as_str() {
+            "8N1" => Ok(Self::F8N1),
+            "7N1" => Ok(Self::F7N1),
+            "7E1" => Ok(Self::F7E1),
+            "7O1" => Ok(Self::F7O1),
+            _ => Err(SpecError(format!("unknown serial format {s:?} (expected 8N1, 7N1, 7E1 or 7O1)"))),
+        }
+    }
+}
+
+impl fmt::Display for SerialFormat {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            Self::F8N1 => "8N1",
+            Self::F7N1 => "7N1",
+            Self::F7E1 => "7E1",
+            Self::F7O1 => "7O1",
+        })
+    }
+}
+
+/// The slcan bitrates S0..S8.
+pub const SLCAN_BITRATES: [u32; 9] = [10_000, 20_000, 50_000, 100_000, 125_000, 250_000, 500_000, 800_000, 1_000_000];
+
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum LinkSpec {
+    SocketCan {
+        iface: String,
+    },
+    Slcan {
+        path: String,
+        bitrate: u32,
+    },
+    /// `baud` / `format` `None` means the device family's default.
+    Serial {
+        path: String,
+        baud: Option<u32>,
+        format: Option<SerialFormat>,
+    },
+    Sim,
+}
+
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("bad link {0}")]
+pub struct SpecError(pub String);
+
+impl LinkSpec {
+    pub fn is_can(&self) -> bool {
+        matches!(self, Self::SocketCan { .. } | Self::Slcan { .. } | Self::Sim)
+    }
+}
+
+impl std::str::FromStr for LinkSpec {
+    type Err = SpecError;
+
+    fn from_str(uri: &str) -> Result<Self, SpecError> {
+        if uri == "sim" {
+            return Ok(Self::Sim);
+        }
+        let (scheme, rest) = uri
+            .split_once(':')
+            .ok_or_else(|| SpecError(format!("{uri:?}: expected socketcan:IFACE, slcan:TTY, serial:TTY or sim")))?;
+        let (path, query) = rest.split_once('?').unwrap_or((rest, ""));
+        if path.is_empty() {
+            return Err(SpecError(format!("{uri:?}: missing device after {scheme}:")));
+        }
+        let mut params = Vec::new();
+        for pair in query.split('&').filter(|p| !p.is_empty()) {
+            let (k, v) =
+                pair.split_once('=').ok_or_else(|| SpecError(format!("{uri:?}: {pair:?} is not key=value")))?;
+            params.push((k, v));
+        }
+        let number = |k: &str, v: &str| -> Result<u32, SpecError> {
+            v.parse().map_err(|_| SpecError(format!("{uri:?}: {k}={v:?} is not a number")))
+        };
+        let unknown = |k: &str| SpecError(format!("{uri:?}: unknown option {k:?} for {scheme}:"));
+        match scheme {
+            "socketcan" => {
+                if let Some((k, _)) = params.first() {
+                    return Err(unknown(k));
+                }
+                if path.len() > 15 {
+                    return Err(SpecError(format!("{uri:?}: interface name longer than 15 characters")));
+                }
+                Ok(Self::SocketCan { iface: path.into() })
+            }
+            "slcan" => {
+                let mut bitrate = 1_000_000;
+                for (k, v) in params {
+                    match k {
+                        "bitrate" => bitrate = number(k, v)?,
+                        _ => return Err(unknown(k)),
+                    }
+                }
+                if !SLCAN_BITRATES.contains(&bitrate) {
+                    return Err(SpecError(format!(
+                        "{uri:?}: bitrate {bitrate} is not one of slcan's S0..S8 {SLCAN_BITRATES:?}"
+                    )));
+                }
+                Ok(Self::Slcan { path: path.into(), bitrate })
+            }
+            "serial" => {
+                let (mut baud, mut format) = (None, None);
+                for (k, v) in params {
+                    match k {
+                        "baud" => {
+                            let b = number(k, v)?;
+                            if !(300..=4_000_000).contains(&b) {
+                                return Err(SpecError(format!("{uri:?}: baud {b} out of range 300..=4000000")));
+                            }
+                            baud = Some(b)
+                        }
+                        "format" => format = Some(v.parse()?),
+                        _ => return Err(unknown(k)),
+                    }
+                }
+                Ok(Self::Serial { path: path.into(), baud, format })
+            }
+            _ => Err(SpecError(format!("{uri:?}: unknown link type {scheme:?} (socketcan, slcan, serial or sim)"))),
+        }
+    }
+}
+
+impl fmt::Display for LinkSpec {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::SocketCan { iface } => write!(f, "socketcan:{iface}"),
+            Self::Slcan { path, bitrate } => write!(f, "slcan:{path}?bitrate={bitrate}"),
+            Self::Serial { path, baud, format } => {
+                write!(f, "serial:{path}")?;
+                let mut sep = '?';
+                if let Some(b) = baud {
+                    write!(f, "{sep}baud={b}")?;
+                    sep = '&';
+                }
+                if let Some(fm) = format {
+                    write!(f, "{sep}format={fm}")?;
+                }
+                Ok(())
+            }
+            Self::Sim => f.write_str("sim"),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn parses_every_form() {
+        assert_eq!("sim".parse(), Ok(LinkSpec::Sim));
+        assert_eq!("socketcan:can0".parse(), Ok(LinkSpec::SocketCan { iface: "can0".into() }));
+        assert_eq!(
+            "slcan:/dev/ttyACM0".parse(),
+            Ok(LinkSpec::Slcan { path: "/dev/ttyACM0".into(), bitrate: 1_000_000 })
+        );
+        assert_eq!(
+            "slcan:/dev/ttyACM0?bitrate=500000".parse(),
+            Ok(LinkSpec::Slcan { path: "/dev/ttyACM0".into(), bitrate: 500_000 })
+        );
+        assert_eq!(
+            "serial:/dev/pts/8?baud=9600&format=7N1".parse(),
+            Ok(LinkSpec::Serial { path: "/dev/pts/8".into(), baud: Some(9600), format: Some(SerialFormat::F7N1) })
+        );
+        let s: LinkSpec = "serial:/dev/pts/8?baud=9600&format=7N1".parse().unwrap();
+        assert_eq!(s.to_string(), "serial:/dev/pts/8?baud=9600&format=7N1");
+    }
+
+    #[test]
+    fn rejects_bad_uris() {
+        for bad in [
+            "",
+            "can0",
+            "socketcan:",
+            "slcan:/dev/x?bitrate=123",
+            "serial:/dev/x?baud=abc",
+            "serial:/dev/x?format=9N2",
+            "serial:/dev/x?speed=1",
+            "usb:/dev/x",
+            "socketcan:a?x=1",
+        ] {
+            assert!(bad.parse::<LinkSpec>().is_err(), "{bad}");
+        }
+    }
+}

@@ -1,0 +1,1 @@
+//! CubeState, short state, DIO, Setup, Config and Profibus words.

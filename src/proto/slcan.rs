@@ -1,0 +1,1 @@
+//! The Lawicel / slcan ASCII protocol, sans-IO.
