@@ -236,3 +236,538 @@ pub struct ParamDef {
     pub class: ParamClass,
     pub description: &'static str,
 }
+
+use Access as Acc;
+use ParamClass as Cls;
+use ParamType as Ty;
+
+const fn p(
+    id: u8,
+    name: &'static str,
+    ty: ParamType,
+    unit: &'static str,
+    access: Access,
+    class: ParamClass,
+    description: &'static str,
+) -> ParamDef {
+    ParamDef { id, name, ty, unit, access, class, description }
+}
+
+/// Every parameter of manual section 4.6, in id order.
+///
+/// Class follows the row's "(Default value)" / "(Actual value)" / "(Limit)" /
+/// "(Target value)" remark. Rows without one are classed here:
+/// - `DioSetup`: actual (it reflects the live I/O).
+/// - `Config` "(Vorgabe)": limit, because like the limits it can be written
+///   after power on and is reset from `DefConfig` at the next power on.
+/// - writable `ActI*` / `ActMin*` / `ActMax*` / `Act*Time` rows: limit (they
+///   bound the operation and are lost at power off, the manual's definition).
+/// - the other `Act*` rows, including writable `ActSyncTime`: actual.
+///
+/// Types follow the table except the `*Inc` targets and `StepInc`, which the
+/// specs README gives as signed Int32. `TargetPos`' remark "in units/s" is a
+/// misprint for units. The two `ActFScanPos*` remarks name the opposite edge to
+/// the parameter name; they are kept as printed.
+pub const PARAMS: &[ParamDef] = &[
+    p(0x00, "DefHomeOffset", Ty::Float, "rad|m", Acc::Read, Cls::Default, "Offset to the Home position. By means of this parameter the user can adjust an offset to the physical zero position (home) of the drive."),
+    p(0x01, "DefGearRatio", Ty::Float, "", Acc::Read, Cls::Default, "Gear ratio"),
+    p(0x02, "DefLinRatio", Ty::Float, "", Acc::Read, Cls::Default, "Transmission factor for transforming rotary in linear motion"),
+    p(0x03, "DefMinPos", Ty::Float, "rad|m", Acc::Read, Cls::Default, "Minimum drive position"),
+    p(0x04, "DefMaxPos", Ty::Float, "rad|m", Acc::Read, Cls::Default, "Maximum drive position"),
+    p(0x05, "DefMaxDeltaPos", Ty::Float, "rad|m", Acc::Read, Cls::Default, "Maximum following error (tow) for the digital servo filter"),
+    p(0x06, "DefMaxDeltaVel", Ty::Float, "rad/s|m/s", Acc::Read, Cls::Default, "Maximum following error for velocity control"),
+    p(0x07, "DefTorqueRatio", Ty::Float, "", Acc::Read, Cls::Default, "Transmission factor for transforming current to torque"),
+    p(0x08, "DefCurRatio", Ty::Float, "", Acc::Read, Cls::Default, "Transmission factor for current measurement"),
+    p(0x09, "DefMinVel", Ty::Float, "rad/s|m/s", Acc::Read, Cls::Default, "Minimum velocity"),
+    p(0x0a, "DefMaxVel", Ty::Float, "rad/s|m/s", Acc::Read, Cls::Default, "Maximum velocity"),
+    p(0x0b, "DefMinAcc", Ty::Float, "rad/s²|m/s²", Acc::Read, Cls::Default, "Minimum acceleration"),
+    p(0x0c, "DefMaxAcc", Ty::Float, "rad/s²|m/s²", Acc::Read, Cls::Default, "Maximum acceleration"),
+    p(0x0d, "DefMinCur", Ty::Float, "A", Acc::Read, Cls::Default, "Minimum current"),
+    p(0x0e, "DefMaxCur", Ty::Float, "A", Acc::Read, Cls::Default, "Maximum current"),
+    p(0x0f, "DefHomeVel", Ty::Float, "rad/s|m/s", Acc::Read, Cls::Default, "Homing velocity. This value is signed and thereby specifies the homing direction."),
+    p(0x10, "DefHomeAcc", Ty::Float, "rad/s²|m/s²", Acc::Read, Cls::Default, "Homing acceleration"),
+    p(0x1a, "DefCubeSerial", Ty::UInt32, "", Acc::Read, Cls::Default, "Serial number of the PowerCube"),
+    p(0x1b, "DefConfig", Ty::UInt32, "", Acc::Read, Cls::Default, "Config word"),
+    p(0x1c, "DefPulsesPerTurn", Ty::UInt32, "ticks", Acc::Read, Cls::Default, "Number of Encoder ticks per revolution"),
+    p(0x1d, "DefCubeVersion", Ty::UInt16, "", Acc::Read, Cls::Default, "Version information"),
+    p(0x1e, "DefServiceInterval", Ty::UInt16, "", Acc::Read, Cls::Default, "Service interval"),
+    p(0x1f, "DefBrakeTimeOut", Ty::UInt16, "ms", Acc::Read, Cls::Default, "Delay for releasing the brake in ms"),
+    p(0x20, "DefAddress", Ty::UInt8, "", Acc::Read, Cls::Default, "Module bus address [1...31]"),
+    p(0x22, "DefPrimBaud", Ty::UInt8, "", Acc::Read, Cls::Default, "Primary Baud rate setting"),
+    p(0x23, "DefScndBaud", Ty::UInt8, "", Acc::Read, Cls::Default, "Secondary Baud rate setting"),
+    p(0x24, "PosCount", Ty::Int32, "ticks", Acc::Read, Cls::Actual, "Absolute Counter value"),
+    p(0x25, "RefPosCount", Ty::Int32, "ticks", Acc::Read, Cls::Actual, "Absolute Counter value at Homing position"),
+    p(0x26, "DioSetup", Ty::UInt32, "", Acc::ReadWrite, Cls::Actual, "Digital IO word"),
+    p(0x27, "CubeState", Ty::UInt32, "", Acc::Read, Cls::Actual, "Module State word"),
+    p(0x28, "TargetPosInc", Ty::Int32, "ticks", Acc::ReadWrite, Cls::Target, "Target position in Encoder ticks"),
+    p(0x29, "TargetVelInc", Ty::Int32, "ticks/s", Acc::ReadWrite, Cls::Target, "Target velocity in Encoder ticks/s"),
+    p(0x2a, "TargetAccInc", Ty::Int32, "ticks/s²", Acc::ReadWrite, Cls::Target, "Target acceleration in Encoder ticks/s²"),
+    p(0x2b, "StepInc", Ty::Int32, "ticks", Acc::Read, Cls::Actual, "Step mode target position in Encoder ticks"),
+    p(0x2c, "HomeOffsetInc", Ty::Int32, "ticks", Acc::Read, Cls::Actual, "Home offset in Encoder ticks"),
+    p(0x35, "RawCur", Ty::Int16, "digits", Acc::ReadWrite, Cls::Actual, "Commanded Current in Digits [-500...+500]"),
+    p(0x36, "HomeToZeroInc", Ty::Int32, "ticks", Acc::Read, Cls::Actual, "Number of Encoder ticks between home switch and Encoder index"),
+    p(0x39, "Config", Ty::UInt32, "", Acc::ReadWrite, Cls::Limit, "Config word"),
+    p(0x3a, "MoveMode", Ty::UInt8, "", Acc::Read, Cls::Actual, "Motion mode"),
+    p(0x3b, "IncRatio", Ty::Float, "ticks/rad|ticks/m", Acc::Read, Cls::Actual, "Ratio of Encoder ticks and unit, rad resp. m"),
+    p(0x3c, "ActPos", Ty::Float, "rad|m", Acc::Read, Cls::Actual, "Actual position in rad resp. m"),
+    p(0x3d, "ActPos_", Ty::Float, "rad|m", Acc::Read, Cls::Actual, "Previous position in rad resp. m"),
+    p(0x3e, "IPolPos", Ty::Float, "rad|m", Acc::Read, Cls::Actual, "Actual interpolated position"),
+    p(0x3f, "DeltaPos", Ty::Float, "rad|m", Acc::Read, Cls::Actual, "Actual following error"),
+    p(0x40, "MaxDeltaPos", Ty::Float, "rad|m", Acc::ReadWrite, Cls::Limit, "Maximum following error"),
+    p(0x41, "ActVel", Ty::Float, "rad/s|m/s", Acc::Read, Cls::Actual, "Actual velocity in units/s"),
+    p(0x42, "IPolVel", Ty::Float, "rad/s|m/s", Acc::Read, Cls::Actual, "Actual interpolated velocity in units/s"),
+    p(0x45, "MinPos", Ty::Float, "rad|m", Acc::ReadWrite, Cls::Limit, "Minimum position"),
+    p(0x46, "MaxPos", Ty::Float, "rad|m", Acc::ReadWrite, Cls::Limit, "Maximum position"),
+    p(0x48, "MaxVel", Ty::Float, "rad/s|m/s", Acc::ReadWrite, Cls::Limit, "Maximum velocity in units/s"),
+    p(0x4a, "MaxAcc", Ty::Float, "rad/s²|m/s²", Acc::ReadWrite, Cls::Limit, "Maximum acceleration in units/s²"),
+    p(0x4c, "MaxCur", Ty::Float, "A", Acc::ReadWrite, Cls::Limit, "Maximum Current"),
+    p(0x4d, "Cur", Ty::Float, "A", Acc::ReadWrite, Cls::Actual, "Actual current"),
+    p(0x4e, "TargetPos", Ty::Float, "rad|m", Acc::Write, Cls::Target, "Target position in units"),
+    p(0x4f, "TargetVel", Ty::Float, "rad/s|m/s", Acc::Write, Cls::Target, "Target velocity in units/s"),
+    p(0x50, "TargetAcc", Ty::Float, "rad/s²|m/s²", Acc::Write, Cls::Target, "Target acceleration in units/s²"),
+    p(0x51, "DefC0", Ty::Int16, "", Acc::Read, Cls::Default, "Servo loop gain C0"),
+    p(0x52, "DefDamp", Ty::Int16, "", Acc::Read, Cls::Default, "Servo loop damping"),
+    p(0x53, "DefA0", Ty::Int16, "", Acc::None, Cls::Default, "Servo loop parameter A0"),
+    p(0x54, "ActC0", Ty::Int16, "", Acc::ReadWrite, Cls::Actual, "Servo loop gain C0"),
+    p(0x55, "ActDamp", Ty::Int16, "", Acc::ReadWrite, Cls::Actual, "Servo loop damping"),
+    p(0x56, "ActA0", Ty::Int16, "", Acc::ReadWrite, Cls::Actual, "Servo loop parameter A0"),
+    p(0x57, "DefBurnCount", Ty::UInt8, "", Acc::Read, Cls::Default, "Number of flash downloads"),
+    p(0x58, "Setup", Ty::UInt32, "", Acc::Read, Cls::Default, "Setup word"),
+    p(0x59, "HomeOffset", Ty::Float, "rad|m", Acc::ReadWrite, Cls::Actual, "Home offset"),
+    p(0x5a, "ActIPos", Ty::Int32, "ticks", Acc::Read, Cls::Actual, "Actual position in encoder ticks"),
+    p(0x5b, "ActIMaxDeltaPos", Ty::Int32, "ticks", Acc::ReadWrite, Cls::Limit, "Maximum allowed difference between commanded and actual position, in encoder ticks = tow distance"),
+    p(0x5c, "ActIMinPos", Ty::Int32, "ticks", Acc::ReadWrite, Cls::Limit, "Minimum allowed Position in encoder ticks"),
+    p(0x5d, "ActIMaxPos", Ty::Int32, "ticks", Acc::ReadWrite, Cls::Limit, "Maximum allowed Position in encoder ticks"),
+    p(0x5e, "ActIMaxVel", Ty::Int32, "ticks/s", Acc::ReadWrite, Cls::Limit, "Maximum allowed speed in encoder ticks/s"),
+    p(0x5f, "ActIMaxAcc", Ty::Int32, "ticks/s²", Acc::ReadWrite, Cls::Limit, "Maximum allowed acceleration in encoder ticks/s²"),
+    p(0x60, "ActIVel", Ty::Int32, "ticks/s", Acc::Read, Cls::Actual, "Actual speed in encoder ticks/s"),
+    p(0x61, "ActIDeltaPos", Ty::Int32, "ticks", Acc::Read, Cls::Actual, "Actual tow distance in encoder ticks"),
+    p(0x62, "ActFPosStateDio", Ty::FloatStateDio, "rad|m", Acc::Read, Cls::Actual, "Returns 3 Values: Actual Position, Short state, I/O-State"),
+    p(0x63, "ActFSavedPos", Ty::Float, "rad|m", Acc::Read, Cls::Actual, "Last upon broadcast saved position"),
+    p(0x64, "ActFHomeVel", Ty::Float, "rad/s|m/s", Acc::Read, Cls::Actual, "Actual homing speed"),
+    p(0x65, "ActIHomeVel", Ty::Int32, "ticks/s", Acc::Read, Cls::Actual, "Actual homing speed in encoder ticks/s"),
+    p(0x66, "ActSyncTime", Ty::UInt16, "", Acc::ReadWrite, Cls::Actual, "Actual SYNC time"),
+    p(0x6a, "ActIIPolVel", Ty::Int32, "ticks/s", Acc::Read, Cls::Actual, "Actual calculated speed in encoder ticks/s"),
+    p(0x6c, "ActRawMotorCurrent", Ty::UInt16, "digits", Acc::Read, Cls::Actual, "Actual DC Bus Current in Digits"),
+    p(0x6d, "ActRawMotorSupply", Ty::UInt16, "digits", Acc::Read, Cls::Actual, "Actual DC Bus Voltage in Digits"),
+    p(0x6e, "ActRawTemp", Ty::Int16, "digits", Acc::Read, Cls::Actual, "Actual temperature inside housing in Digits"),
+    p(0x6f, "ActRawLogicSupply", Ty::UInt16, "digits", Acc::Read, Cls::Actual, "Actual Logic voltage in Digits"),
+    p(0x70, "ActFMotorCurrent", Ty::Float, "A", Acc::Read, Cls::Actual, "Actual DC Bus Current in A"),
+    p(0x71, "ActFMotorSupply", Ty::Float, "V", Acc::Read, Cls::Actual, "Actual DC Bus Voltage in V"),
+    p(0x72, "ActFTemp", Ty::Float, "°C", Acc::Read, Cls::Actual, "Actual temperature in housing in °C"),
+    p(0x73, "ActFLogicSupply", Ty::Float, "V", Acc::Read, Cls::Actual, "Actual logic supply voltage in V"),
+    p(0x74, "ActMinLogicSupply", Ty::Float, "V", Acc::ReadWrite, Cls::Limit, "Minimum allowed logic voltage in V"),
+    p(0x75, "ActMaxLogicSupply", Ty::Float, "V", Acc::ReadWrite, Cls::Limit, "Maximum allowed logic voltage in V"),
+    p(0x76, "ActMinMotorSupply", Ty::Float, "V", Acc::ReadWrite, Cls::Limit, "Minimum allowed motor voltage in V"),
+    p(0x77, "ActMaxMotorSupply", Ty::Float, "V", Acc::ReadWrite, Cls::Limit, "Maximum allowed motor voltage in V"),
+    p(0x7a, "ActLogicUndershootTime", Ty::UInt32, "ms", Acc::ReadWrite, Cls::Limit, "Maximum allowed undershoot time for logic voltage in ms"),
+    p(0x7b, "ActLogicOvershootTime", Ty::UInt32, "ms", Acc::ReadWrite, Cls::Limit, "Maximum allowed overshoot time for logic voltage in ms"),
+    p(0x7c, "ActMotorUndershootTime", Ty::UInt32, "ms", Acc::ReadWrite, Cls::Limit, "Maximum allowed undershoot time for motor voltage in ms"),
+    p(0x7d, "ActMotorOvershootTime", Ty::UInt32, "ms", Acc::ReadWrite, Cls::Limit, "Maximum allowed overshoot time for motor voltage in ms"),
+    p(0x84, "ActMaxTemp", Ty::Float, "°C", Acc::ReadWrite, Cls::Limit, "Maximum allowed temperature inside housing"),
+    p(0x85, "ActMinTemp", Ty::Float, "°C", Acc::ReadWrite, Cls::Limit, "Minimum allowed temperature inside housing"),
+    p(0xa1, "ActFPosTime", Ty::FloatTime, "rad|m", Acc::Read, Cls::Actual, "Returns 2 Values: Actual position and time stamp [ms]"),
+    p(0xa2, "ActFScanPosFallEdge", Ty::Float, "rad|m", Acc::Read, Cls::Actual, "Last upon rising edge on input SW3 saved Position"),
+    p(0xa3, "ActFScanPosRisgEdge", Ty::Float, "rad|m", Acc::Read, Cls::Actual, "Last upon falling edge on input SW3 saved Position"),
+];
+
+/// The parameter with id `id`.
+pub fn param(id: u8) -> Option<&'static ParamDef> {
+    PARAMS.iter().find(|d| d.id == id)
+}
+
+/// The parameter named `name` (the manual's name, any case).
+pub fn param_by_name(name: &str) -> Option<&'static ParamDef> {
+    PARAMS.iter().find(|d| d.name.eq_ignore_ascii_case(name))
+}
+
+/// A parameter given as a name, a decimal id or a `0x` hex id.
+pub fn resolve_param(text: &str) -> Option<&'static ParamDef> {
+    let t = text.trim();
+    if let Some(d) = param_by_name(t) {
+        return Some(d);
+    }
+    let id = if let Some(h) = t.strip_prefix("0x").or_else(|| t.strip_prefix("0X")) {
+        u8::from_str_radix(h, 16).ok()?
+    } else {
+        t.parse::<u8>().ok()?
+    };
+    param(id)
+}
+
+/// Parameter ids other code names directly. Each is checked against
+/// [`PARAMS`] by name in the tests, so a typo cannot drift from the table.
+pub mod ids {
+    /// `DefHomeOffset`
+    pub const DEF_HOME_OFFSET: u8 = 0x00;
+    /// `DefGearRatio`
+    pub const DEF_GEAR_RATIO: u8 = 0x01;
+    /// `DefLinRatio`
+    pub const DEF_LIN_RATIO: u8 = 0x02;
+    /// `DefMinPos`
+    pub const DEF_MIN_POS: u8 = 0x03;
+    /// `DefMaxPos`
+    pub const DEF_MAX_POS: u8 = 0x04;
+    /// `DefMaxDeltaPos`
+    pub const DEF_MAX_DELTA_POS: u8 = 0x05;
+    /// `DefMaxDeltaVel`
+    pub const DEF_MAX_DELTA_VEL: u8 = 0x06;
+    /// `DefTorqueRatio`
+    pub const DEF_TORQUE_RATIO: u8 = 0x07;
+    /// `DefCurRatio`
+    pub const DEF_CUR_RATIO: u8 = 0x08;
+    /// `DefMinVel`
+    pub const DEF_MIN_VEL: u8 = 0x09;
+    /// `DefMaxVel`
+    pub const DEF_MAX_VEL: u8 = 0x0a;
+    /// `DefMinAcc`
+    pub const DEF_MIN_ACC: u8 = 0x0b;
+    /// `DefMaxAcc`
+    pub const DEF_MAX_ACC: u8 = 0x0c;
+    /// `DefMinCur`
+    pub const DEF_MIN_CUR: u8 = 0x0d;
+    /// `DefMaxCur`
+    pub const DEF_MAX_CUR: u8 = 0x0e;
+    /// `DefHomeVel`
+    pub const DEF_HOME_VEL: u8 = 0x0f;
+    /// `DefHomeAcc`
+    pub const DEF_HOME_ACC: u8 = 0x10;
+    /// `DefCubeSerial`
+    pub const DEF_CUBE_SERIAL: u8 = 0x1a;
+    /// `DefConfig`
+    pub const DEF_CONFIG: u8 = 0x1b;
+    /// `DefPulsesPerTurn`
+    pub const DEF_PULSES_PER_TURN: u8 = 0x1c;
+    /// `DefCubeVersion`
+    pub const DEF_CUBE_VERSION: u8 = 0x1d;
+    /// `DefServiceInterval`
+    pub const DEF_SERVICE_INTERVAL: u8 = 0x1e;
+    /// `DefBrakeTimeOut`
+    pub const DEF_BRAKE_TIME_OUT: u8 = 0x1f;
+    /// `DefAddress`
+    pub const DEF_ADDRESS: u8 = 0x20;
+    /// `DefPrimBaud`
+    pub const DEF_PRIM_BAUD: u8 = 0x22;
+    /// `DefScndBaud`
+    pub const DEF_SCND_BAUD: u8 = 0x23;
+    /// `PosCount`
+    pub const POS_COUNT: u8 = 0x24;
+    /// `RefPosCount`
+    pub const REF_POS_COUNT: u8 = 0x25;
+    /// `DioSetup`
+    pub const DIO_SETUP: u8 = 0x26;
+    /// `CubeState`
+    pub const CUBE_STATE: u8 = 0x27;
+    /// `TargetPosInc`
+    pub const TARGET_POS_INC: u8 = 0x28;
+    /// `TargetVelInc`
+    pub const TARGET_VEL_INC: u8 = 0x29;
+    /// `TargetAccInc`
+    pub const TARGET_ACC_INC: u8 = 0x2a;
+    /// `StepInc`
+    pub const STEP_INC: u8 = 0x2b;
+    /// `HomeOffsetInc`
+    pub const HOME_OFFSET_INC: u8 = 0x2c;
+    /// `RawCur`
+    pub const RAW_CUR: u8 = 0x35;
+    /// `HomeToZeroInc`
+    pub const HOME_TO_ZERO_INC: u8 = 0x36;
+    /// `Config`
+    pub const CONFIG: u8 = 0x39;
+    /// `MoveMode`
+    pub const MOVE_MODE: u8 = 0x3a;
+    /// `IncRatio`
+    pub const INC_RATIO: u8 = 0x3b;
+    /// `ActPos`
+    pub const ACT_POS: u8 = 0x3c;
+    /// `ActPos_`
+    pub const ACT_POS_PREV: u8 = 0x3d;
+    /// `IPolPos`
+    pub const I_POL_POS: u8 = 0x3e;
+    /// `DeltaPos`
+    pub const DELTA_POS: u8 = 0x3f;
+    /// `MaxDeltaPos`
+    pub const MAX_DELTA_POS: u8 = 0x40;
+    /// `ActVel`
+    pub const ACT_VEL: u8 = 0x41;
+    /// `IPolVel`
+    pub const I_POL_VEL: u8 = 0x42;
+    /// `MinPos`
+    pub const MIN_POS: u8 = 0x45;
+    /// `MaxPos`
+    pub const MAX_POS: u8 = 0x46;
+    /// `MaxVel`
+    pub const MAX_VEL: u8 = 0x48;
+    /// `MaxAcc`
+    pub const MAX_ACC: u8 = 0x4a;
+    /// `MaxCur`
+    pub const MAX_CUR: u8 = 0x4c;
+    /// `Cur`
+    pub const CUR: u8 = 0x4d;
+    /// `TargetPos`
+    pub const TARGET_POS: u8 = 0x4e;
+    /// `TargetVel`
+    pub const TARGET_VEL: u8 = 0x4f;
+    /// `TargetAcc`
+    pub const TARGET_ACC: u8 = 0x50;
+    /// `DefC0`
+    pub const DEF_C0: u8 = 0x51;
+    /// `DefDamp`
+    pub const DEF_DAMP: u8 = 0x52;
+    /// `DefA0`
+    pub const DEF_A0: u8 = 0x53;
+    /// `ActC0`
+    pub const ACT_C0: u8 = 0x54;
+    /// `ActDamp`
+    pub const ACT_DAMP: u8 = 0x55;
+    /// `ActA0`
+    pub const ACT_A0: u8 = 0x56;
+    /// `DefBurnCount`
+    pub const DEF_BURN_COUNT: u8 = 0x57;
+    /// `Setup`
+    pub const SETUP: u8 = 0x58;
+    /// `HomeOffset`
+    pub const HOME_OFFSET: u8 = 0x59;
+    /// `ActIPos`
+    pub const ACT_I_POS: u8 = 0x5a;
+    /// `ActIMaxDeltaPos`
+    pub const ACT_I_MAX_DELTA_POS: u8 = 0x5b;
+    /// `ActIMinPos`
+    pub const ACT_I_MIN_POS: u8 = 0x5c;
+    /// `ActIMaxPos`
+    pub const ACT_I_MAX_POS: u8 = 0x5d;
+    /// `ActIMaxVel`
+    pub const ACT_I_MAX_VEL: u8 = 0x5e;
+    /// `ActIMaxAcc`
+    pub const ACT_I_MAX_ACC: u8 = 0x5f;
+    /// `ActIVel`
+    pub const ACT_I_VEL: u8 = 0x60;
+    /// `ActIDeltaPos`
+    pub const ACT_I_DELTA_POS: u8 = 0x61;
+    /// `ActFPosStateDio`
+    pub const ACT_F_POS_STATE_DIO: u8 = 0x62;
+    /// `ActFSavedPos`
+    pub const ACT_F_SAVED_POS: u8 = 0x63;
+    /// `ActFHomeVel`
+    pub const ACT_F_HOME_VEL: u8 = 0x64;
+    /// `ActIHomeVel`
+    pub const ACT_I_HOME_VEL: u8 = 0x65;
+    /// `ActSyncTime`
+    pub const ACT_SYNC_TIME: u8 = 0x66;
+    /// `ActIIPolVel`
+    pub const ACT_II_POL_VEL: u8 = 0x6a;
+    /// `ActRawMotorCurrent`
+    pub const ACT_RAW_MOTOR_CURRENT: u8 = 0x6c;
+    /// `ActRawMotorSupply`
+    pub const ACT_RAW_MOTOR_SUPPLY: u8 = 0x6d;
+    /// `ActRawTemp`
+    pub const ACT_RAW_TEMP: u8 = 0x6e;
+    /// `ActRawLogicSupply`
+    pub const ACT_RAW_LOGIC_SUPPLY: u8 = 0x6f;
+    /// `ActFMotorCurrent`
+    pub const ACT_F_MOTOR_CURRENT: u8 = 0x70;
+    /// `ActFMotorSupply`
+    pub const ACT_F_MOTOR_SUPPLY: u8 = 0x71;
+    /// `ActFTemp`
+    pub const ACT_F_TEMP: u8 = 0x72;
+    /// `ActFLogicSupply`
+    pub const ACT_F_LOGIC_SUPPLY: u8 = 0x73;
+    /// `ActMinLogicSupply`
+    pub const ACT_MIN_LOGIC_SUPPLY: u8 = 0x74;
+    /// `ActMaxLogicSupply`
+    pub const ACT_MAX_LOGIC_SUPPLY: u8 = 0x75;
+    /// `ActMinMotorSupply`
+    pub const ACT_MIN_MOTOR_SUPPLY: u8 = 0x76;
+    /// `ActMaxMotorSupply`
+    pub const ACT_MAX_MOTOR_SUPPLY: u8 = 0x77;
+    /// `ActLogicUndershootTime`
+    pub const ACT_LOGIC_UNDERSHOOT_TIME: u8 = 0x7a;
+    /// `ActLogicOvershootTime`
+    pub const ACT_LOGIC_OVERSHOOT_TIME: u8 = 0x7b;
+    /// `ActMotorUndershootTime`
+    pub const ACT_MOTOR_UNDERSHOOT_TIME: u8 = 0x7c;
+    /// `ActMotorOvershootTime`
+    pub const ACT_MOTOR_OVERSHOOT_TIME: u8 = 0x7d;
+    /// `ActMaxTemp`
+    pub const ACT_MAX_TEMP: u8 = 0x84;
+    /// `ActMinTemp`
+    pub const ACT_MIN_TEMP: u8 = 0x85;
+    /// `ActFPosTime`
+    pub const ACT_F_POS_TIME: u8 = 0xa1;
+    /// `ActFScanPosFallEdge`
+    pub const ACT_F_SCAN_POS_FALL_EDGE: u8 = 0xa2;
+    /// `ActFScanPosRisgEdge`
+    pub const ACT_F_SCAN_POS_RISG_EDGE: u8 = 0xa3;
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn params_match_the_manual_table() {
+        // Manual 4.6 lists 100 rows, DefHomeOffset 0x00 .. ActFScanPosRisgEdge 0xA3.
+        assert_eq!(PARAMS.len(), 100);
+        assert_eq!(PARAMS.first().map(|d| d.name), Some("DefHomeOffset"));
+        assert_eq!(PARAMS.last().map(|d| (d.id, d.name)), Some((0xa3, "ActFScanPosRisgEdge")));
+        assert!(PARAMS.windows(2).all(|w| w[0].id < w[1].id), "ids strictly ascending, hence unique");
+        let mut names: Vec<String> = PARAMS.iter().map(|d| d.name.to_ascii_lowercase()).collect();
+        names.sort();
+        names.dedup();
+        assert_eq!(names.len(), PARAMS.len(), "names unique ignoring case");
+    }
+
+    #[test]
+    fn every_param_resolves_by_id_name_and_text() {
+        for d in PARAMS {
+            assert_eq!(param(d.id).map(|p| p.name), Some(d.name));
+            assert_eq!(param_by_name(&d.name.to_ascii_uppercase()).map(|p| p.id), Some(d.id));
+            assert_eq!(resolve_param(d.name).map(|p| p.id), Some(d.id));
+            assert_eq!(resolve_param(&d.id.to_string()).map(|p| p.id), Some(d.id));
+            assert_eq!(resolve_param(&format!("{:#04x}", d.id)).map(|p| p.id), Some(d.id));
+            assert_eq!(resolve_param(&format!("0X{:02X}", d.id)).map(|p| p.id), Some(d.id));
+        }
+        // 0x11..0x19 are not in the table.
+        assert!(param(0x11).is_none());
+        assert!(resolve_param("0x11").is_none());
+        assert!(resolve_param("256").is_none());
+        assert!(resolve_param("NoSuchParam").is_none());
+    }
+
+    #[test]
+    fn row_types_access_and_classes() {
+        let row = |id| param(id).unwrap();
+        assert_eq!(row(ids::ACT_POS).ty, ParamType::Float);
+        assert_eq!(row(ids::ACT_POS).unit, "rad|m");
+        assert_eq!(row(ids::CUBE_STATE).ty, ParamType::UInt32);
+        assert_eq!(row(ids::DEF_CUBE_VERSION).ty, ParamType::UInt16);
+        assert_eq!(row(ids::RAW_CUR).ty, ParamType::Int16);
+        assert_eq!(row(ids::DIO_SETUP).access, Access::ReadWrite);
+        // specs README: the *Inc targets are signed.
+        for id in [ids::TARGET_POS_INC, ids::TARGET_VEL_INC, ids::TARGET_ACC_INC, ids::STEP_INC] {
+            assert_eq!(row(id).ty, ParamType::Int32, "{}", row(id).name);
+        }
+        assert_eq!(row(ids::ACT_F_POS_STATE_DIO).ty, ParamType::FloatStateDio);
+        assert_eq!(row(ids::ACT_F_POS_TIME).ty, ParamType::FloatTime);
+        assert_eq!(row(ids::DEF_A0).access, Access::None);
+        for id in [ids::TARGET_POS, ids::TARGET_VEL, ids::TARGET_ACC] {
+            assert_eq!(row(id).access, Access::Write);
+            assert_eq!(row(id).class, ParamClass::Target);
+        }
+        assert_eq!(row(ids::MAX_VEL).class, ParamClass::Limit);
+        assert_eq!(row(ids::DEF_MAX_VEL).class, ParamClass::Default);
+        assert_eq!(row(ids::CUR).class, ParamClass::Actual);
+        assert_eq!(row(ids::ACT_F_TEMP).unit, "°C");
+        assert_eq!(row(ids::TARGET_ACC).unit, "rad/s²|m/s²");
+    }
+
+    #[test]
+    fn ids_name_the_right_rows() {
+        let pairs = [
+            (ids::DEF_HOME_OFFSET, "DefHomeOffset"),
+            (ids::DEF_GEAR_RATIO, "DefGearRatio"),
+            (ids::DEF_LIN_RATIO, "DefLinRatio"),
+            (ids::DEF_MIN_POS, "DefMinPos"),
+            (ids::DEF_MAX_POS, "DefMaxPos"),
+            (ids::DEF_MAX_DELTA_POS, "DefMaxDeltaPos"),
+            (ids::DEF_MAX_DELTA_VEL, "DefMaxDeltaVel"),
+            (ids::DEF_TORQUE_RATIO, "DefTorqueRatio"),
+            (ids::DEF_CUR_RATIO, "DefCurRatio"),
+            (ids::DEF_MIN_VEL, "DefMinVel"),
+            (ids::DEF_MAX_VEL, "DefMaxVel"),
+            (ids::DEF_MIN_ACC, "DefMinAcc"),
+            (ids::DEF_MAX_ACC, "DefMaxAcc"),
+            (ids::DEF_MIN_CUR, "DefMinCur"),
+            (ids::DEF_MAX_CUR, "DefMaxCur"),
+            (ids::DEF_HOME_VEL, "DefHomeVel"),
+            (ids::DEF_HOME_ACC, "DefHomeAcc"),
+            (ids::DEF_CUBE_SERIAL, "DefCubeSerial"),
+            (ids::DEF_CONFIG, "DefConfig"),
+            (ids::DEF_PULSES_PER_TURN, "DefPulsesPerTurn"),
+            (ids::DEF_CUBE_VERSION, "DefCubeVersion"),
+            (ids::DEF_SERVICE_INTERVAL, "DefServiceInterval"),
+            (ids::DEF_BRAKE_TIME_OUT, "DefBrakeTimeOut"),
+            (ids::DEF_ADDRESS, "DefAddress"),
+            (ids::DEF_PRIM_BAUD, "DefPrimBaud"),
+            (ids::DEF_SCND_BAUD, "DefScndBaud"),
+            (ids::POS_COUNT, "PosCount"),
+            (ids::REF_POS_COUNT, "RefPosCount"),
+            (ids::DIO_SETUP, "DioSetup"),
+            (ids::CUBE_STATE, "CubeState"),
+            (ids::TARGET_POS_INC, "TargetPosInc"),
+            (ids::TARGET_VEL_INC, "TargetVelInc"),
+            (ids::TARGET_ACC_INC, "TargetAccInc"),
+            (ids::STEP_INC, "StepInc"),
+            (ids::HOME_OFFSET_INC, "HomeOffsetInc"),
+            (ids::RAW_CUR, "RawCur"),
+            (ids::HOME_TO_ZERO_INC, "HomeToZeroInc"),
+            (ids::CONFIG, "Config"),
+            (ids::MOVE_MODE, "MoveMode"),
+            (ids::INC_RATIO, "IncRatio"),
+            (ids::ACT_POS, "ActPos"),
+            (ids::ACT_POS_PREV, "ActPos_"),
+            (ids::I_POL_POS, "IPolPos"),
+            (ids::DELTA_POS, "DeltaPos"),
+            (ids::MAX_DELTA_POS, "MaxDeltaPos"),
+            (ids::ACT_VEL, "ActVel"),
+            (ids::I_POL_VEL, "IPolVel"),
+            (ids::MIN_POS, "MinPos"),
+            (ids::MAX_POS, "MaxPos"),
+            (ids::MAX_VEL, "MaxVel"),
+            (ids::MAX_ACC, "MaxAcc"),
+            (ids::MAX_CUR, "MaxCur"),
+            (ids::CUR, "Cur"),
+            (ids::TARGET_POS, "TargetPos"),
+            (ids::TARGET_VEL, "TargetVel"),
+            (ids::TARGET_ACC, "TargetAcc"),
+            (ids::DEF_C0, "DefC0"),
+            (ids::DEF_DAMP, "DefDamp"),
+            (ids::DEF_A0, "DefA0"),
+            (ids::ACT_C0, "ActC0"),
+            (ids::ACT_DAMP, "ActDamp"),
+            (ids::ACT_A0, "ActA0"),
+            (ids::DEF_BURN_COUNT, "DefBurnCount"),
+            (ids::SETUP, "Setup"),
+            (ids::HOME_OFFSET, "HomeOffset"),
+            (ids::ACT_I_POS, "ActIPos"),
+            (ids::ACT_I_MAX_DELTA_POS, "ActIMaxDeltaPos"),
+            (ids::ACT_I_MIN_POS, "ActIMinPos"),
+            (ids::ACT_I_MAX_POS, "ActIMaxPos"),
+            (ids::ACT_I_MAX_VEL, "ActIMaxVel"),
+            (ids::ACT_I_MAX_ACC, "ActIMaxAcc"),
+            (ids::ACT_I_VEL, "ActIVel"),
+            (ids::ACT_I_DELTA_POS, "ActIDeltaPos"),
+            (ids::ACT_F_POS_STATE_DIO, "ActFPosStateDio"),
+            (ids::ACT_F_SAVED_POS, "ActFSavedPos"),
+            (ids::ACT_F_HOME_VEL, "ActFHomeVel"),
+            (ids::ACT_I_HOME_VEL, "ActIHomeVel"),
+            (ids::ACT_SYNC_TIME, "ActSyncTime"),
+            (ids::ACT_II_POL_VEL, "ActIIPolVel"),
+            (ids::ACT_RAW_MOTOR_CURRENT, "ActRawMotorCurrent"),
+            (ids::ACT_RAW_MOTOR_SUPPLY, "ActRawMotorSupply"),
+            (ids::ACT_RAW_TEMP, "ActRawTemp"),
+            (ids::ACT_RAW_LOGIC_SUPPLY, "ActRawLogicSupply"),
+            (ids::ACT_F_MOTOR_CURRENT, "ActFMotorCurrent"),
+            (ids::ACT_F_MOTOR_SUPPLY, "ActFMotorSupply"),
+            (ids::ACT_F_TEMP, "ActFTemp"),
+            (ids::ACT_F_LOGIC_SUPPLY, "ActFLogicSupply"),
+            (ids::ACT_MIN_LOGIC_SUPPLY, "ActMinLogicSupply"),
+            (ids::ACT_MAX_LOGIC_SUPPLY, "ActMaxLogicSupply"),
+            (ids::ACT_MIN_MOTOR_SUPPLY, "ActMinMotorSupply"),
+            (ids::ACT_MAX_MOTOR_SUPPLY, "ActMaxMotorSupply"),
+            (ids::ACT_LOGIC_UNDERSHOOT_TIME, "ActLogicUndershootTime"),
+            (ids::ACT_LOGIC_OVERSHOOT_TIME, "ActLogicOvershootTime"),
+            (ids::ACT_MOTOR_UNDERSHOOT_TIME, "ActMotorUndershootTime"),
+            (ids::ACT_MOTOR_OVERSHOOT_TIME, "ActMotorOvershootTime"),
+            (ids::ACT_MAX_TEMP, "ActMaxTemp"),
+            (ids::ACT_MIN_TEMP, "ActMinTemp"),
+            (ids::ACT_F_POS_TIME, "ActFPosTime"),
+            (ids::ACT_F_SCAN_POS_FALL_EDGE, "ActFScanPosFallEdge"),
+            (ids::ACT_F_SCAN_POS_RISG_EDGE, "ActFScanPosRisgEdge"),
+        ];
+        assert_eq!(pairs.len(), PARAMS.len());
+        for (id, name) in pairs {
+            assert_eq!(param(id).map(|d| d.name), Some(name));
+        }
+    }
+}
