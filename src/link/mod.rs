@@ -3,6 +3,12 @@
 
 use std::time::Duration;
 
+pub mod log;
+pub mod pty;
+pub mod serial;
+pub mod slcan;
+#[cfg(target_os = "linux")]
+pub mod socketcan;
 pub mod spec;
 
 pub use spec::{LinkSpec, SerialFormat, SpecError};
