@@ -3,6 +3,12 @@
 
 use std::time::Duration;
 
+pub mod log;
+pub mod pty;
+pub mod serial;
+pub mod slcan;
+#[cfg(target_os = "linux")]
+pub mod socketcan;
 pub mod spec;
 
 pub use spec::{LinkSpec, SerialFormat, SpecError};
@@ -37,6 +43,32 @@ pub trait ByteLink: Send {
     fn clear_input(&mut self) -> Result<(), LinkError>;
 }
 
+/// Opens a CAN link. `sim` is built by [`crate::sim`], and `serial:` carries bytes:
+/// callers check [`LinkSpec::is_can`] and handle `sim` first; here both are
+/// [`LinkError::Open`] with an `InvalidInput` reason.
+pub fn open_can(spec: &LinkSpec) -> Result<Box<dyn CanLink>, LinkError> {
+    let unsupported = |path: &str, why: &str| LinkError::Open {
+        path: path.into(),
+        source: std::io::Error::new(std::io::ErrorKind::InvalidInput, why.to_string()),
+    };
+    match spec {
+        #[cfg(target_os = "linux")]
+        LinkSpec::SocketCan { iface } => Ok(Box::new(socketcan::SocketCanLink::open(iface)?)),
+        #[cfg(not(target_os = "linux"))]
+        LinkSpec::SocketCan { iface } => Err(unsupported(iface, "SocketCAN exists only on Linux")),
+        LinkSpec::Slcan { path, bitrate } => Ok(Box::new(slcan::open(path, *bitrate)?)),
+        LinkSpec::Serial { path, .. } => {
+            Err(unsupported(path, "a serial: link carries bytes, not CAN frames (use slcan: for a USB-CAN adapter)"))
+        }
+        LinkSpec::Sim => Err(unsupported("sim", "the simulated bench is opened by the sim module, not as a device")),
+    }
+}
+
+/// Opens a serial port as a byte link.
+pub fn open_bytes(path: &str, baud: u32, format: SerialFormat) -> Result<Box<dyn ByteLink>, LinkError> {
+    Ok(Box::new(serial::SerialLink::open(path, baud, format)?))
+}
+
 impl<T: CanLink + ?Sized> CanLink for Box<T> {
     fn send(&mut self, frame: &CanFrame) -> Result<(), LinkError> {
         (**self).send(frame)
@@ -55,5 +87,56 @@ impl<T: ByteLink + ?Sized> ByteLink for Box<T> {
     }
     fn clear_input(&mut self) -> Result<(), LinkError> {
         (**self).clear_input()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn open_err(uri: &str) -> (String, std::io::ErrorKind) {
+        match open_can(&uri.parse().unwrap()) {
+            Err(LinkError::Open { path, source }) => (path, source.kind()),
+            Err(e) => panic!("{uri}: {e:?}"),
+            Ok(_) => panic!("{uri} opened"),
+        }
+    }
+
+    #[test]
+    fn open_can_reports_the_path_that_failed() {
+        assert_eq!(open_err("slcan:/dev/axisctl-none").0, "/dev/axisctl-none");
+        assert_eq!(open_err("socketcan:axisnocan0").0, "axisnocan0");
+        assert_eq!(open_err("serial:/dev/ttyS0"), ("/dev/ttyS0".into(), std::io::ErrorKind::InvalidInput));
+        assert_eq!(open_err("sim").1, std::io::ErrorKind::InvalidInput);
+        let Err(LinkError::Open { path, .. }) = open_bytes("/dev/axisctl-none", 9600, SerialFormat::F7N1) else {
+            panic!("opened a missing tty")
+        };
+        assert_eq!(path, "/dev/axisctl-none");
+    }
+
+    #[test]
+    fn open_can_runs_slcan_over_a_pty() {
+        use crate::proto::slcan::{AckStyle, Adapter};
+        let (mut master, path) = pty::open_pair().unwrap();
+        let server = std::thread::spawn(move || {
+            let mut adapter = Adapter::new(AckStyle::Lawicel);
+            let mut buf = [0u8; 64];
+            let deadline = std::time::Instant::now() + Duration::from_secs(2);
+            while std::time::Instant::now() < deadline {
+                let n = master.read(&mut buf, Duration::from_millis(5)).unwrap();
+                adapter.handle_host_bytes(&buf[..n]);
+                if let Some(out) = adapter.poll_output() {
+                    master.write_all(&out).unwrap();
+                }
+                if let Some(f) = adapter.poll_transmit() {
+                    return (f, adapter.bitrate());
+                }
+            }
+            panic!("no frame transmitted")
+        });
+        let mut link = open_can(&format!("slcan:{path}?bitrate=125000").parse().unwrap()).unwrap();
+        let f = CanFrame::new(0x201, &[0x23, 1, 0, 0x88, 0x13, 0, 0, 0]).unwrap();
+        link.send(&f).unwrap();
+        assert_eq!(server.join().unwrap(), (f, 125_000));
     }
 }

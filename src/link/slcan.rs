@@ -1,0 +1,374 @@
+//! A Lawicel / slcan USB-CAN adapter (CANable, USBtin, CANUSB) as a [`CanLink`].
+//!
+//! Opening runs `C` (ignore the answer: closing a closed channel is an error on
+//! Lawicel adapters), `S<n>`, `O`. Adapters differ in what they acknowledge
+//! (see [`crate::proto::slcan`]): the answer to `C` tells which kind this is. An
+//! adapter that answers nothing within [`PROBE`] (CANable 1.x firmware) is driven
+//! without waiting for acknowledges; one that answers gets its BEL errors checked.
+
+use std::collections::VecDeque;
+use std::time::{Duration, Instant};
+
+use super::serial::SerialLink;
+use super::{ByteLink, CanLink, LinkError, SerialFormat};
+use crate::proto::slcan::{Command, LineDecoder, SlcanEvent};
+use crate::proto::CanFrame;
+
+/// How long to wait for the answer to the first command before deciding the
+/// adapter never acknowledges. USB adapters answer within a few milliseconds.
+pub const PROBE: Duration = Duration::from_millis(100);
+/// How long an acknowledging adapter may take to answer a setup command.
+pub const SETUP_REPLY: Duration = Duration::from_millis(500);
+/// Serial settings for the tty; USB CDC adapters ignore them.
+pub const TTY_BAUD: u32 = 115_200;
+/// Transmits awaiting their acknowledge, at most; older ones are forgotten.
+const MAX_PENDING: usize = 256;
+
+/// An open slcan adapter on a byte link.
+pub struct SlcanLink<B: ByteLink> {
+    io: B,
+    decoder: LineDecoder,
+    bitrate: u32,
+    /// The adapter answers commands (it answered `C`).
+    acks: bool,
+    /// Frames sent whose acknowledge (or BEL) has not arrived yet, oldest first.
+    pending: VecDeque<CanFrame>,
+    decode_errors: u64,
+    adapter_errors: u64,
+}
+
+impl<B: ByteLink> std::fmt::Debug for SlcanLink<B> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("SlcanLink").field("bitrate", &self.bitrate).field("acks", &self.acks).finish_non_exhaustive()
+    }
+}
+
+/// Opens the adapter on tty `path` and starts the channel at `bitrate`.
+pub fn open(path: &str, bitrate: u32) -> Result<SlcanLink<SerialLink>, LinkError> {
+    let io = SerialLink::open(path, TTY_BAUD, SerialFormat::F8N1)?;
+    SlcanLink::new(io, bitrate).map_err(|e| match e {
+        LinkError::Adapter(m) => LinkError::Adapter(format!("{path}: {m}")),
+        other => other,
+    })
+}
+
+impl<B: ByteLink> SlcanLink<B> {
+    /// Runs the setup handshake on `io` and opens the CAN channel.
+    pub fn new(io: B, bitrate: u32) -> Result<Self, LinkError> {
+        let set_bitrate = Command::set_bitrate(bitrate).map_err(|e| LinkError::Adapter(e.to_string()))?;
+        let mut link = Self {
+            io,
+            decoder: LineDecoder::new(),
+            bitrate,
+            acks: false,
+            pending: VecDeque::new(),
+            decode_errors: 0,
+            adapter_errors: 0,
+        };
+        link.io.clear_input()?;
+        link.command(Command::Close)?;
+        link.acks = link.wait_reply(PROBE)?.is_some();
+        link.command(set_bitrate)?;
+        if link.acks && link.wait_reply(SETUP_REPLY)? == Some(false) {
+            return Err(LinkError::Adapter(format!(
+                "adapter rejected bitrate {bitrate} bit/s ({})",
+                String::from_utf8_lossy(&set_bitrate.to_bytes()).trim_end()
+            )));
+        }
+        link.command(Command::Open)?;
+        if link.acks && link.wait_reply(SETUP_REPLY)? == Some(false) {
+            return Err(LinkError::Adapter(
+                "adapter refused to open the CAN channel (O); is it in use by another program, e.g. slcand?".into(),
+            ));
+        }
+        Ok(link)
+    }
+
+    pub fn bitrate(&self) -> u32 {
+        self.bitrate
+    }
+
+    /// Whether the adapter acknowledges commands (Lawicel, CANable 2) or not (CANable 1).
+    pub fn adapter_acks(&self) -> bool {
+        self.acks
+    }
+
+    /// Lines from the adapter that could not be decoded (and were skipped).
+    pub fn decode_errors(&self) -> u64 {
+        self.decode_errors
+    }
+
+    /// BEL replies received since opening.
+    pub fn adapter_errors(&self) -> u64 {
+        self.adapter_errors
+    }
+
+    fn command(&mut self, cmd: Command) -> Result<(), LinkError> {
+        self.io.write_all(&cmd.to_bytes())
+    }
+
+    /// Reads into the decoder for at most `timeout`; false when nothing came.
+    fn fill(&mut self, timeout: Duration) -> Result<bool, LinkError> {
+        let mut buf = [0u8; 256];
+        let n = self.io.read(&mut buf, timeout)?;
+        self.decoder.push(&buf[..n]);
+        Ok(n > 0)
+    }
+
+    /// Waits for the answer to a setup command: `Some(true)` OK, `Some(false)` BEL,
+    /// `None` nothing within `timeout`. Frames still arriving from before the channel
+    /// was (re)opened are stale and dropped.
+    fn wait_reply(&mut self, timeout: Duration) -> Result<Option<bool>, LinkError> {
+        let deadline = Instant::now() + timeout;
+        loop {
+            while let Some(ev) = self.decoder.next_event() {
+                match ev {
+                    Ok(SlcanEvent::Ack | SlcanEvent::TransmitAck { .. }) => return Ok(Some(true)),
+                    Ok(SlcanEvent::Error) => {
+                        self.adapter_errors += 1;
+                        return Ok(Some(false));
+                    }
+                    Ok(_) => {}
+                    Err(_) => self.decode_errors += 1,
+                }
+            }
+            let left = deadline.saturating_duration_since(Instant::now());
+            if left.is_zero() {
+                return Ok(None);
+            }
+            self.fill(left)?;
+        }
+    }
+}
+
+impl<B: ByteLink> CanLink for SlcanLink<B> {
+    fn send(&mut self, frame: &CanFrame) -> Result<(), LinkError> {
+        self.command(Command::Transmit(*frame))?;
+        if self.acks {
+            if self.pending.len() == MAX_PENDING {
+                self.pending.pop_front();
+            }
+            self.pending.push_back(*frame);
+        }
+        Ok(())
+    }
+
+    fn recv(&mut self, timeout: Duration) -> Result<Option<CanFrame>, LinkError> {
+        let deadline = Instant::now() + timeout;
+        loop {
+            while let Some(ev) = self.decoder.next_event() {
+                match ev {
+                    Ok(SlcanEvent::Frame(f)) => return Ok(Some(f)),
+                    Ok(SlcanEvent::Ack | SlcanEvent::TransmitAck { .. }) => {
+                        self.pending.pop_front();
+                    }
+                    Ok(SlcanEvent::Error) => {
+                        self.adapter_errors += 1;
+                        if let Some(f) = self.pending.pop_front() {
+                            return Err(LinkError::Adapter(format!(
+                                "adapter did not transmit {f} (BEL): bus off, no other node acknowledging, \
+                                 or wrong bitrate?"
+                            )));
+                        }
+                    }
+                    // Remote frames, status and version lines: nothing a device command waits for.
+                    Ok(_) => {}
+                    Err(_) => self.decode_errors += 1,
+                }
+            }
+            let left = deadline.saturating_duration_since(Instant::now());
+            if left.is_zero() {
+                return Ok(None);
+            }
+            self.fill(left)?;
+        }
+    }
+}
+
+impl<B: ByteLink> Drop for SlcanLink<B> {
+    fn drop(&mut self) {
+        // Leave the adapter closed, as slcand does; the link may already be gone.
+        let _ = self.command(Command::Close);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use std::sync::atomic::{AtomicBool, Ordering};
+    use std::sync::{mpsc, Arc};
+    use std::thread;
+
+    use super::*;
+    use crate::link::pty::{open_pair, PtyMaster};
+    use crate::proto::slcan::{AckStyle, Adapter};
+
+    /// A simulated adapter on a pty: every frame the host transmits is answered by
+    /// the frames `respond` returns; the host's frames are also sent to `seen`.
+    struct Server {
+        stop: Arc<AtomicBool>,
+        handle: Option<thread::JoinHandle<Adapter>>,
+        seen: mpsc::Receiver<CanFrame>,
+        path: String,
+    }
+
+    impl Server {
+        fn start(style: AckStyle, respond: fn(&CanFrame) -> Vec<CanFrame>) -> Self {
+            let (master, path) = open_pair().unwrap();
+            let stop = Arc::new(AtomicBool::new(false));
+            let (tx, seen) = mpsc::channel();
+            let flag = stop.clone();
+            let handle = thread::spawn(move || serve(master, Adapter::new(style), &flag, &tx, respond));
+            Self { stop, handle: Some(handle), seen, path }
+        }
+
+        fn stop(mut self) -> Adapter {
+            self.stop.store(true, Ordering::Relaxed);
+            self.handle.take().unwrap().join().unwrap()
+        }
+    }
+
+    fn serve(
+        mut io: PtyMaster,
+        mut adapter: Adapter,
+        stop: &AtomicBool,
+        seen: &mpsc::Sender<CanFrame>,
+        respond: fn(&CanFrame) -> Vec<CanFrame>,
+    ) -> Adapter {
+        let mut buf = [0u8; 256];
+        while !stop.load(Ordering::Relaxed) {
+            let n = io.read(&mut buf, Duration::from_millis(10)).unwrap();
+            adapter.handle_host_bytes(&buf[..n]);
+            while let Some(f) = adapter.poll_transmit() {
+                let _ = seen.send(f);
+                for answer in respond(&f) {
+                    adapter.bus_frame(&answer);
+                }
+            }
+            if let Some(out) = adapter.poll_output() {
+                io.write_all(&out).unwrap();
+            }
+        }
+        adapter
+    }
+
+    /// A PowerCube-like echo: a frame to 0x0E0 + M is acknowledged on 0x0A0 + M.
+    fn ack_on_a0(f: &CanFrame) -> Vec<CanFrame> {
+        match f.id() {
+            id @ 0x0E0..=0x0FF if !f.is_extended() => vec![CanFrame::new(id - 0x40, f.data()).unwrap()],
+            _ => vec![],
+        }
+    }
+
+    fn exchange_for(style: AckStyle) {
+        let server = Server::start(style, ack_on_a0);
+        let mut link = open(&server.path, 500_000).unwrap();
+        assert_eq!(link.adapter_acks(), style != AckStyle::Silent);
+        let home = CanFrame::new(0x0F1, &[0x01]).unwrap();
+        let t0 = Instant::now();
+        link.send(&home).unwrap();
+        assert_eq!(link.recv(Duration::from_secs(2)).unwrap(), Some(CanFrame::new(0x0B1, &[0x01]).unwrap()));
+        assert!(t0.elapsed() < Duration::from_millis(500), "round trip took {:?}", t0.elapsed());
+        assert_eq!(server.seen.recv_timeout(Duration::from_secs(1)).unwrap(), home);
+        let ext = CanFrame::new_extended(0x1234_5678, &[1, 2, 3]).unwrap();
+        link.send(&ext).unwrap();
+        assert_eq!(server.seen.recv_timeout(Duration::from_secs(1)).unwrap(), ext);
+        // Only acknowledges remain: recv times out without a frame.
+        let t0 = Instant::now();
+        assert_eq!(link.recv(Duration::from_millis(50)).unwrap(), None);
+        assert!(t0.elapsed() < Duration::from_millis(400));
+        assert_eq!(link.decode_errors(), 0);
+        drop(link);
+        thread::sleep(Duration::from_millis(50));
+        let adapter = server.stop();
+        assert_eq!(adapter.bitrate(), 500_000);
+        assert!(!adapter.is_open(), "dropping the link closes the channel");
+    }
+
+    #[test]
+    fn exchanges_frames_with_a_lawicel_adapter() {
+        exchange_for(AckStyle::Lawicel);
+    }
+
+    #[test]
+    fn exchanges_frames_with_a_canable2_adapter() {
+        exchange_for(AckStyle::CrOnly);
+    }
+
+    #[test]
+    fn exchanges_frames_with_a_silent_adapter() {
+        exchange_for(AckStyle::Silent);
+    }
+
+    #[test]
+    fn reopening_an_open_adapter_works() {
+        let server = Server::start(AckStyle::Lawicel, ack_on_a0);
+        // Leave the channel open, as a crashed client would.
+        let mut first = SerialLink::open(&server.path, TTY_BAUD, SerialFormat::F8N1).unwrap();
+        first.write_all(b"S8\rO\r").unwrap();
+        thread::sleep(Duration::from_millis(50));
+        drop(first);
+        let mut second = open(&server.path, 250_000).unwrap();
+        second.send(&CanFrame::new(0x0E3, &[0x00]).unwrap()).unwrap();
+        assert_eq!(second.recv(Duration::from_secs(2)).unwrap(), Some(CanFrame::new(0x0A3, &[0x00]).unwrap()));
+        drop(second);
+        assert_eq!(server.stop().bitrate(), 250_000);
+    }
+
+    /// A byte link that answers the handshake with a script, for adapter misbehaviour.
+    struct Scripted {
+        replies: VecDeque<&'static [u8]>,
+        incoming: Vec<u8>,
+    }
+
+    impl ByteLink for Scripted {
+        fn write_all(&mut self, bytes: &[u8]) -> Result<(), LinkError> {
+            if bytes.ends_with(b"\r") {
+                if let Some(r) = self.replies.pop_front() {
+                    self.incoming.extend_from_slice(r);
+                }
+            }
+            Ok(())
+        }
+        fn read(&mut self, buf: &mut [u8], _timeout: Duration) -> Result<usize, LinkError> {
+            let n = self.incoming.len().min(buf.len());
+            buf[..n].copy_from_slice(&self.incoming[..n]);
+            self.incoming.drain(..n);
+            Ok(n)
+        }
+        fn clear_input(&mut self) -> Result<(), LinkError> {
+            Ok(())
+        }
+    }
+
+    fn scripted(replies: &[&'static [u8]]) -> Scripted {
+        Scripted { replies: replies.iter().copied().collect(), incoming: Vec::new() }
+    }
+
+    #[test]
+    fn bel_on_open_is_an_adapter_error() {
+        let err = SlcanLink::new(scripted(&[b"\x07", b"\r", b"\x07"]), 1_000_000).unwrap_err();
+        assert!(matches!(&err, LinkError::Adapter(m) if m.contains("open")), "{err}");
+        let err = SlcanLink::new(scripted(&[b"\r", b"\x07"]), 125_000).unwrap_err();
+        assert!(matches!(&err, LinkError::Adapter(m) if m.contains("125000") && m.contains("S4")), "{err}");
+        assert!(matches!(SlcanLink::new(scripted(&[]), 42), Err(LinkError::Adapter(_))));
+    }
+
+    #[test]
+    fn stale_frames_during_setup_are_dropped_and_bel_after_transmit_is_reported() {
+        let mut link =
+            SlcanLink::new(scripted(&[b"t0B1101\r\x07", b"\r", b"t0B1102\r\r", b"\x07"]), 1_000_000).unwrap();
+        assert!(link.adapter_acks());
+        link.send(&CanFrame::new(0x0F1, &[1]).unwrap()).unwrap();
+        let err = link.recv(Duration::from_millis(10)).unwrap_err();
+        assert!(matches!(&err, LinkError::Adapter(m) if m.contains("0F1#01")), "{err}");
+        assert_eq!(link.recv(Duration::from_millis(10)).unwrap(), None);
+    }
+
+    #[test]
+    fn garbage_between_frames_is_counted_and_skipped() {
+        let mut link = SlcanLink::new(scripted(&[b"\r", b"\r", b"\r"]), 1_000_000).unwrap();
+        link.io.incoming.extend_from_slice(b"t0B\r\xff\xff\rt0B1103\r");
+        assert_eq!(link.recv(Duration::from_millis(10)).unwrap(), Some(CanFrame::new(0x0B1, &[3]).unwrap()));
+        assert_eq!(link.decode_errors(), 2);
+    }
+}
