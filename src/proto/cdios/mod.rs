@@ -12,6 +12,19 @@
 //!
 //! Data bytes are indexed from 0 here; the manual numbers them 1..8
 //! (manual byte N is index N - 1).
+//!
+//! Where the manual is read rather than copied:
+//! - 23h: an absolute goto is selector 0 (`cdios-goto -m 1 --node 1 5000` is
+//!   `201#2301008813000000`); relative moves are selector 2 (from the
+//!   current position) or 4 (from the setpoint).
+//! - 25h option 3 is printed "Reserved", but status 2 bit 5 says a stop with
+//!   option 3 releases the emergency stop: it is accepted as that.
+//! - 26h: the command table says selector 0..1, the reply table shows 0..2.
+//! - 16h analog values: -10000..10000 for -10.00..+10.00 V is 1 mV per count.
+//! - Events carry the reply layout of their command (the controller page:
+//!   "an event code is similar to a reply code, with bit 6 set").
+//! - 01h: selectors 0..7 are type / version pairs; the layout of selectors
+//!   8..24 (serial numbers) is not in our specs and decodes as raw bytes.
 
 pub mod command;
 pub mod table;

@@ -1437,8 +1437,18 @@ impl DecodedCommand {
         value_of(&self.fields, key)
     }
 
-    /// The first field outside the manual's range, as the module would reject it.
+    /// The address and the first field outside the manual's range, as the
+    /// module would reject them.
     pub fn validate(&self) -> Result<(), ValidationError> {
+        match (self.def.target, self.address) {
+            (Target::Module, Address::Controller) => {
+                return Err(ValidationError::Address { command: self.def.key, expected: "a module 0..=15" })
+            }
+            (Target::Controller, Address::Module(_)) => {
+                return Err(ValidationError::Address { command: self.def.key, expected: "the controller (0xFF)" })
+            }
+            _ => {}
+        }
         for (v, f) in self.fields.iter().zip(self.def.fields) {
             f.check(v.raw)?;
         }

@@ -371,6 +371,9 @@ fn command_decode_rejects_what_a_module_rejects() {
     assert!(matches!(Command::decode(&[0x05, 1, 0, 0x43, 0x44]), Err(ValidationError::OutOfRange { .. })));
     // Start option 7.
     assert!(matches!(Command::decode(&[0x24, 1, 0, 0, 7]), Err(ValidationError::OutOfRange { .. })));
+    // Identify belongs to the controller, motion to a module.
+    assert!(matches!(Command::decode(&[0x01, 3, 0]), Err(ValidationError::Address { .. })));
+    assert!(matches!(Command::decode(&[0x26, 0xFF, 0]), Err(ValidationError::Address { .. })));
     // A short command reads as zero padded.
     assert_eq!(Command::decode(&[0x26, 4]), Ok((m(4), Command::ReadStatus(StatusSelector::Status))));
 }
