@@ -5,6 +5,7 @@
 
 pub mod can;
 pub mod candump;
+pub mod cdios;
 pub mod powercube;
 pub mod slcan;
 
