@@ -964,6 +964,52 @@ mod tests {
         assert_eq!(Command::decode(&frame("0a87;-2;1;-1.25")).unwrap().0, cmd(0x0A87, -2, Par2::Float(-1.25)));
     }
 
+    // The RS232 columns of the chapter 5 examples print values with leading
+    // zeros and varying decimals; the decoders must read every form.
+    #[test]
+    fn chapter_5_value_forms() {
+        let frame = |body: &str| {
+            let mut v = Vec::new();
+            finish_frame(body.as_bytes(), CheckRule::WithEtx, &mut v);
+            v
+        };
+        // Commands: 5.2.3.1 (1800 # 0543 # 0), 5.2.3 (0800 # 774 # 200.00),
+        // 5.2.4.14 (1907 # 0037), 5.2.6.12 (0A92 # 4 # 0.0).
+        let cmds = [
+            ("1800;0543;1;0", cmd(0x1800, 543, Par2::Float(0.0))),
+            ("0800;774;1;200.00", cmd(0x0800, 774, Par2::Float(200.0))),
+            ("1907;0037;1;0", cmd(0x1907, 37, Par2::Float(0.0))),
+            ("0A92;4;1;0.0", cmd(0x0A92, 4, Par2::Float(0.0))),
+            ("0A96;0004;1;0.0", cmd(0x0A96, 4, Par2::Float(0.0))),
+            ("0903;25;0;15889", cmd(0x0903, 25, Par2::Int(15889))),
+        ];
+        for (body, expected) in cmds {
+            assert_eq!(Command::decode(&frame(body)).unwrap(), (expected, CheckRule::WithEtx), "{body}");
+        }
+        // Acknowledge dates of 5.2.2 - 5.2.6.
+        let dates = [
+            ("0;00004", Par2::Int(4)),
+            ("0;36099", Par2::Int(36099)),
+            ("0;88224", Par2::Int(88224)),
+            ("0;529", Par2::Int(529)),
+            ("0;16777476", Par2::Int(16777476)),
+            ("0;00208", Par2::Int(208)),
+            ("1;0.00000", Par2::Float(0.0)),
+            ("1;50000.00", Par2::Float(50000.0)),
+            ("1;7000.000", Par2::Float(7000.0)),
+            ("1;10.00000", Par2::Float(10.0)),
+            ("1;111.11100", Par2::Float(111.111)),
+            ("1;5000.000", Par2::Float(5000.0)),
+            ("1;40.03", Par2::Float(40.03)),
+            ("1;640.50", Par2::Float(640.5)),
+            ("1;20480.0", Par2::Float(20480.0)),
+        ];
+        for (date, expected) in dates {
+            let a = Ack::decode(&frame(&format!("0;1;31;0;{date}"))).unwrap();
+            assert_eq!(a.q_par, expected, "{date}");
+        }
+    }
+
     mod props {
         use super::*;
         use proptest::prelude::*;

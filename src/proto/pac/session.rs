@@ -154,9 +154,10 @@ impl Transaction {
     pub fn allows(&self, next: Outgoing<'_>) -> bool {
         match self.state {
             State::Busy => allowed_while_busy(next),
-            // Before the first acknowledge a poll would only repeat the
-            // request's answer; a new command would race it.
-            State::AwaitingAck => false,
+            // A poll asks for the acknowledge again (the way to recover a
+            // lost one without running the command twice); a new command
+            // would race the pending one.
+            State::AwaitingAck => allowed_while_busy(next),
             State::Done => matches!(next, Outgoing::Command(_)),
         }
     }
@@ -210,7 +211,8 @@ mod tests {
         let mut t = Transaction::new(Command::new(0x0A87, 2, Par2::Float(5552.0)));
         assert!(t.def().unwrap().is_start_and_wait());
         assert_eq!(t.request().unwrap(), b"\x01\x020A87;2;1;5552.0\x0395\x04");
-        assert!(!t.allows(Outgoing::Poll));
+        assert!(t.allows(Outgoing::Poll));
+        assert!(!t.allows(Outgoing::Command(&Command::new(0x190B, 0, Par2::Int(0)))));
         let answers = [
             ("01 02 30 3B 30 3B 33 31 3B 30 3B 31 3B 31 32 35 35 2E 30 30 30 03 33 38 04", 1255.0),
             ("01 02 30 3B 30 3B 33 31 3B 30 3B 31 3B 31 35 31 36 2E 39 35 30 03 34 32 04", 1516.95),

@@ -106,6 +106,23 @@ pub enum Par1Kind {
 }
 
 impl Par1Kind {
+    /// What PAR_1 means, for help texts.
+    pub fn text(self) -> &'static str {
+        match self {
+            Self::Unused => "not used (0)",
+            Self::Axis => "axis number 1..16",
+            Self::AxisOrAll => "axis number 1..16, 0 = all axes",
+            Self::Input => "input number 1..1024",
+            Self::Output => "output number 1..1024",
+            Self::Flag => "flag number 1..1024",
+            Self::IntRegister => "integer register number 1..1024",
+            Self::FloatRegister => "real number register number 1..1024",
+            Self::SystemParam => "system parameter number",
+            Self::AxisParam => "axis * 256 + axis parameter number",
+            Self::SystemElement => "system element number",
+        }
+    }
+
     /// The valid PAR_1 range that the manual states, if any.
     pub fn range(self) -> Option<(i64, i64)> {
         match self {
@@ -143,6 +160,22 @@ pub enum Par2Kind {
     /// 0AA3: `condition << 24 | element type << 16 | element number`
     /// (see [`Condition`]).
     Condition,
+}
+
+impl Par2Kind {
+    /// What PAR_2 means, for help texts.
+    pub fn text(self) -> &'static str {
+        match self {
+            Self::Unused => "not used (0)",
+            Self::Bit => "state 0 / 1",
+            Self::Word16 => "16-bit word 0..65535, bit 0 = first element of the word",
+            Self::Int32 => "32-bit integer",
+            Self::Float => "real number",
+            Self::SystemParamValue => "system parameter value (integer)",
+            Self::AxisParamValue => "axis parameter value (real number)",
+            Self::Condition => "condition << 24 | element type (1 input, 2 output, 3 flag) << 16 | element number",
+        }
+    }
 }
 
 /// TYP of the command date and of the acknowledge date.
@@ -193,6 +226,26 @@ pub enum AckKind {
     AllAxesBitmap,
     /// 1921: see [`ExtAxisStatus`].
     ExtAxisStatus,
+}
+
+impl AckKind {
+    /// What Q_PAR means, for help texts.
+    pub fn text(self) -> &'static str {
+        match self {
+            Self::None => "no meaning",
+            Self::Echo => "the value written",
+            Self::Bit => "state 0 / 1",
+            Self::ElementWord => "16 elements, bit 0 = first element of the word",
+            Self::Int => "integer value",
+            Self::Float => "real value",
+            Self::StartPosition => "position where the move started (on polls: current position)",
+            Self::Position => "current position",
+            Self::ErrorNumber => "PA-CONTROL error number",
+            Self::AxisStatus => "axis status (0 in position, 1 moving, 2 stopped, 4 fault, 8 measuring mode)",
+            Self::AllAxesBitmap => "bit n = axis n+1 moving",
+            Self::ExtAxisStatus => "power pack, limit switches and axis status bytes",
+        }
+    }
 }
 
 /// How a command finishes, as seen in BE of its acknowledges.
@@ -1148,7 +1201,6 @@ mod tests {
     // positive limit switch reached, negative not, axis 8 with malfunction.
     #[test]
     fn ext_axis_status_1921() {
-        assert_eq!(0x0100_0104, 16777476);
         let s = ExtAxisStatus::decode(16777476);
         assert!(s.power_pack_ready);
         assert!(s.positive_limit_activated);
