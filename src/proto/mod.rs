@@ -6,6 +6,7 @@
 pub mod can;
 pub mod candump;
 pub mod cdios;
+pub mod pac;
 pub mod powercube;
 pub mod slcan;
 
