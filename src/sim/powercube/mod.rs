@@ -44,7 +44,8 @@
 //!   temperature limits are stored; the simulated supplies never leave them.
 //!   The servo follows exactly: DeltaPos is 0, IPolPos = ActPos, ActPos_ is
 //!   the position one 1 ms servo cycle earlier.
-//! - **Power on.** Not homed, CubeState 0, ActPos = DefHomeOffset (manual 12).
+//! - **Power on.** Not homed, CubeState 0, ActPos = DefHomeOffset (manual 12),
+//!   TargetVel / TargetAcc at half of MaxVel / MaxAcc.
 //!   Motion commands are accepted before homing ("run the module only at slow
 //!   speed") unless CONFIGID_MOD_M3_COMPATIBLE is set; soft limits apply only
 //!   once homed, when the coordinate system is fixed.
@@ -109,6 +110,12 @@
 //!   ignored (manual 4.3). The manual says modules do not check the BCC; the
 //!   simulation does (the shared decoder drops such frames), so a tool with
 //!   a wrong BCC gets no answer here. Frames from modules are ignored.
+//! - **Setup** has SETUPID_MOD_4IN_4OUT and the interface the last command
+//!   came on (SETUPID_MOD_CAN at power on, SETUPID_MOD_RS232 after RS232).
+//! - **Not modelled:** Config's switch options (SWR_*, SW1_*, SW2_*,
+//!   CHANGE_SWR_TO_LIMIT), DISABLE_ON_HALT and BRAKE timing are stored and
+//!   read back but change nothing; there is no following error (TOW_ERROR
+//!   only by [`Module::inject_error`]), no hard limit switches, no heating.
 //! - **Broadcasts.** Reset, Home, Halt, watchdog refresh, SavePos (stores
 //!   ActFSavedPos) and StartMotion act on every module; ChangeBaudrate is
 //!   ignored. ResetTime zeroes the 16-bit millisecond stamp of ActFPosTime.

@@ -231,6 +231,16 @@ impl Module {
         self.spec
     }
 
+    /// The module's ROM values.
+    pub fn defaults(&self) -> &Defaults {
+        &self.def
+    }
+
+    /// Whether the watchdog is online (manual 13).
+    pub fn watchdog_online(&self) -> bool {
+        self.wd_online
+    }
+
     /// Handles one addressed command as if it came over CAN; `None` if no
     /// acknowledge is sent.
     pub fn handle(&mut self, now: Instant, req: &Request) -> Option<Response> {

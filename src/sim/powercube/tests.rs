@@ -941,3 +941,26 @@ proptest! {
         }
     }
 }
+
+proptest! {
+    // Lazy event handling is exact: polling in between changes nothing.
+    #[test]
+    fn extra_advance_calls_change_nothing(
+        reqs in prop::collection::vec((arb_request(), 0u64..2_000_000, 1u32..20), 1..40)) {
+        let t = Instant::now();
+        let spec = ModuleSpec::new(mid(17), ModuleKind::Linear);
+        let (mut lazy, mut polled) = (Module::new(spec, t), Module::new(spec, t));
+        let mut now = t;
+        for (req, dt_us, polls) in reqs {
+            for i in 1..polls {
+                polled.advance(now + Duration::from_micros(dt_us * u64::from(i) / u64::from(polls)));
+            }
+            now += Duration::from_micros(dt_us);
+            let a = lazy.handle(now, &req);
+            let b = polled.handle(now, &req);
+            prop_assert_eq!(a, b);
+            prop_assert_eq!(lazy.cube_state(), polled.cube_state());
+            prop_assert!((lazy.position() - polled.position()).abs() <= 1e-5, "{} {}", lazy.position(), polled.position());
+        }
+    }
+}
