@@ -4,6 +4,7 @@
 use std::time::Duration;
 
 pub mod log;
+pub mod mem;
 pub mod pty;
 pub mod serial;
 pub mod slcan;

@@ -1,1 +1,102 @@
-//! Sessions.
+//! Sessions: send a request, wait for the matching answer with a timeout,
+//! ignore foreign traffic, and turn what went wrong into a typed error.
+//!
+//! The matching rules live in `proto` (e.g. [`Request::matches`]); a session
+//! only adds deadlines, the retry policy and tracing. Reads may be retried;
+//! motion commands never are.
+//!
+//! [`Request::matches`]: crate::proto::powercube::Request::matches
+
+pub mod powercube;
+
+use std::time::Duration;
+
+use crate::link::LinkError;
+use crate::proto::DecodeError;
+
+/// What kind of failure, in the contract's exit-code terms.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ErrorKind {
+    Usage,
+    Link,
+    Timeout,
+    Device,
+    Malformed,
+    Interrupted,
+    Other,
+}
+
+impl ErrorKind {
+    /// The exit code of `cli-contract.md`.
+    pub fn exit_code(self) -> u8 {
+        match self {
+            Self::Other => 1,
+            Self::Usage => 2,
+            Self::Link => 3,
+            Self::Timeout => 4,
+            Self::Device => 5,
+            Self::Malformed => 6,
+            Self::Interrupted => 130,
+        }
+    }
+
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Self::Usage => "usage",
+            Self::Link => "link",
+            Self::Timeout => "timeout",
+            Self::Device => "device",
+            Self::Malformed => "malformed",
+            Self::Interrupted => "interrupted",
+            Self::Other => "other",
+        }
+    }
+}
+
+/// A session-level failure.
+#[derive(Debug, thiserror::Error)]
+pub enum SessionError {
+    #[error(transparent)]
+    Link(#[from] LinkError),
+    #[error("no answer from {target} to {what} within {} ms", timeout.as_millis())]
+    Timeout { target: String, what: String, timeout: Duration },
+    #[error("malformed answer from {target}: {source}")]
+    Malformed { target: String, source: DecodeError },
+    #[error("{target} refused {what}: {reason}")]
+    Device { target: String, what: String, reason: String },
+}
+
+impl SessionError {
+    pub fn kind(&self) -> ErrorKind {
+        match self {
+            Self::Link(_) => ErrorKind::Link,
+            Self::Timeout { .. } => ErrorKind::Timeout,
+            Self::Malformed { .. } => ErrorKind::Malformed,
+            Self::Device { .. } => ErrorKind::Device,
+        }
+    }
+}
+
+/// One line of `--trace`.
+#[derive(Debug, Clone)]
+pub enum TraceEvent {
+    Sent(String),
+    Received(String),
+    Note(String),
+}
+
+/// Receives trace events; `None` disables tracing at no cost.
+pub type Tracer = Box<dyn FnMut(TraceEvent) + Send>;
+
+/// How often a read is retried after a timeout or a malformed answer.
+#[derive(Debug, Clone, Copy)]
+pub struct RetryPolicy {
+    pub read_retries: u32,
+}
+
+impl Default for RetryPolicy {
+    fn default() -> Self {
+        Self { read_retries: 2 }
+    }
+}

@@ -1,3 +1,7 @@
-//! Simulators.
+//! Simulators of the devices, faithful to the manuals and driven by an
+//! injected clock: every entry point takes `now`, so tests run on virtual
+//! time. [`bench`] puts them on one bus; `axisctl sim` serves it on ptys.
 
+pub mod bench;
 pub mod powercube;
+pub mod serve;

@@ -1,0 +1,174 @@
+//! The subcommands. Each resolves what the user typed, validates it before
+//! anything is sent, talks to the device through a session and prints.
+
+mod decode;
+mod powercube;
+mod sim;
+
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, OnceLock};
+use std::time::Duration;
+
+use axisctl::clock::{Clock, SystemClock};
+use axisctl::link::log::{log_iface, LoggedByteLink, LoggedCanLink, TrafficLog};
+use axisctl::link::{self, LinkSpec};
+use axisctl::session::powercube::PowerCube;
+use axisctl::session::{ErrorKind, RetryPolicy, TraceEvent};
+
+use crate::cli::{Cli, Command, Global};
+use crate::output::Style;
+
+/// Bad input: exit 2, and nothing was sent.
+#[derive(Debug, thiserror::Error)]
+#[error("{0}")]
+pub struct UsageError(pub String);
+
+/// The device reports a fault or refuses: exit 5.
+#[derive(Debug, thiserror::Error)]
+#[error("{0}")]
+pub struct DeviceFault(pub String);
+
+/// Ctrl-C: exit 130 (a moving device was halted first).
+#[derive(Debug, thiserror::Error)]
+#[error("interrupted{0}")]
+pub struct Interrupted(pub String);
+
+pub fn usage(msg: impl Into<String>) -> anyhow::Error {
+    UsageError(msg.into()).into()
+}
+
+/// The exit-code class of an error anywhere in the chain.
+pub fn classify(err: &anyhow::Error) -> ErrorKind {
+    for cause in err.chain() {
+        if cause.is::<UsageError>() || cause.is::<link::SpecError>() {
+            return ErrorKind::Usage;
+        }
+        if cause.is::<DeviceFault>() {
+            return ErrorKind::Device;
+        }
+        if cause.is::<Interrupted>() {
+            return ErrorKind::Interrupted;
+        }
+        if let Some(e) = cause.downcast_ref::<axisctl::session::SessionError>() {
+            return e.kind();
+        }
+        if cause.is::<link::LinkError>() {
+            return ErrorKind::Link;
+        }
+    }
+    ErrorKind::Other
+}
+
+/// What every command gets: the resolved global options.
+pub struct Ctx {
+    pub link: Option<LinkSpec>,
+    pub json: bool,
+    pub timeout: Option<Duration>,
+    pub trace: bool,
+    pub log: Option<std::path::PathBuf>,
+    pub retry: RetryPolicy,
+    pub style: Style,
+    pub clock: Arc<dyn Clock>,
+}
+
+impl Ctx {
+    fn resolve(g: &Global) -> anyhow::Result<Self> {
+        let link = g.link.as_deref().map(str::parse::<LinkSpec>).transpose()?;
+        Ok(Self {
+            link,
+            json: g.json,
+            timeout: g.timeout.map(Duration::from_millis),
+            trace: g.trace,
+            log: g.log.clone(),
+            retry: RetryPolicy { read_retries: g.retries },
+            style: Style::detect(),
+            clock: Arc::new(SystemClock),
+        })
+    }
+
+    pub fn link(&self) -> anyhow::Result<&LinkSpec> {
+        self.link.as_ref().ok_or_else(|| {
+            usage("no link given: pass --link URI or set AXISCTL_LINK (try --link sim for the simulated bench)")
+        })
+    }
+
+    /// Opens a PowerCube session on the link: CAN for socketcan / slcan /
+    /// sim, RS232 for serial (default 9600 8N1).
+    pub fn powercube(&self) -> anyhow::Result<PowerCube> {
+        let spec = self.link()?;
+        let mut pc = match spec {
+            LinkSpec::Serial { path, baud, format } => {
+                let baud = baud.unwrap_or(9600);
+                let l = link::open_bytes(path, baud, format.unwrap_or(link::SerialFormat::F8N1))?;
+                PowerCube::over_rs232(self.logged_bytes(l)?, baud)
+            }
+            _ => PowerCube::over_can(self.can_link()?).with_clock(Arc::clone(&self.clock)),
+        };
+        if let Some(t) = self.timeout {
+            pc.set_timeout(t);
+        }
+        pc.set_retry(self.retry);
+        if self.trace {
+            pc.set_tracer(Box::new(print_trace));
+        }
+        Ok(pc)
+    }
+
+    /// A CAN link (the in-process bench for `sim`), logged with `--log`.
+    pub fn can_link(&self) -> anyhow::Result<Box<dyn link::CanLink>> {
+        let spec = self.link()?;
+        let l: Box<dyn link::CanLink> = match spec {
+            LinkSpec::Sim => Box::new(axisctl::sim::bench::in_process(Arc::clone(&self.clock)).open()),
+            LinkSpec::Serial { .. } => {
+                return Err(usage(format!(
+                    "{spec} is a serial link; this command needs CAN (socketcan:, slcan: or sim)"
+                )))
+            }
+            _ => link::open_can(spec)?,
+        };
+        Ok(match &self.log {
+            Some(path) => Box::new(LoggedCanLink::new(l, TrafficLog::append(path, &log_iface(spec))?)),
+            None => l,
+        })
+    }
+
+    fn logged_bytes(&self, l: Box<dyn link::ByteLink>) -> anyhow::Result<Box<dyn link::ByteLink>> {
+        Ok(match (&self.log, &self.link) {
+            (Some(path), Some(spec)) => Box::new(LoggedByteLink::new(l, TrafficLog::append(path, &log_iface(spec))?)),
+            _ => l,
+        })
+    }
+}
+
+fn print_trace(ev: TraceEvent) {
+    match ev {
+        TraceEvent::Sent(s) => eprintln!("-> {s}"),
+        TraceEvent::Received(s) => eprintln!("<- {s}"),
+        TraceEvent::Note(s) => eprintln!("   {s}"),
+    }
+}
+
+static INTERRUPTED: AtomicBool = AtomicBool::new(false);
+static HANDLER: OnceLock<Result<(), String>> = OnceLock::new();
+
+/// Installs the Ctrl-C handler (only around waits: elsewhere Ctrl-C ends the
+/// process at once, which is safe since nothing moves on our behalf).
+pub fn arm_interrupt() -> anyhow::Result<()> {
+    HANDLER
+        .get_or_init(|| ctrlc::set_handler(|| INTERRUPTED.store(true, Ordering::SeqCst)).map_err(|e| e.to_string()))
+        .clone()
+        .map_err(|e| anyhow::anyhow!("cannot install the Ctrl-C handler: {e}"))
+}
+
+pub fn interrupted() -> bool {
+    INTERRUPTED.load(Ordering::SeqCst)
+}
+
+pub fn run(cli: Cli) -> anyhow::Result<()> {
+    let ctx = Ctx::resolve(&cli.global)?;
+    match cli.command {
+        Command::Decode { kind, value } => decode::run(&ctx, &kind, &value),
+        Command::Sim(args) => sim::run(&ctx, &args),
+        other => powercube::run(&ctx, other),
+    }
+}

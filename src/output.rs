@@ -1,0 +1,91 @@
+//! Human and JSON output: colour only on a terminal and never with NO_COLOR.
+
+use std::io::{IsTerminal, Write};
+
+use axisctl::proto::powercube::flags::FlagClass;
+
+#[derive(Debug, Clone, Copy)]
+pub struct Style {
+    pub color: bool,
+}
+
+impl Style {
+    pub fn detect() -> Self {
+        let color = std::io::stdout().is_terminal() && std::env::var_os("NO_COLOR").is_none_or(|v| v.is_empty());
+        Self { color }
+    }
+
+    fn paint(self, code: &str, text: &str) -> String {
+        if self.color {
+            format!("\x1b[{code}m{text}\x1b[0m")
+        } else {
+            text.to_string()
+        }
+    }
+
+    pub fn error(self, text: &str) -> String {
+        self.paint("1;31", text)
+    }
+
+    pub fn warn(self, text: &str) -> String {
+        self.paint("33", text)
+    }
+
+    pub fn bold(self, text: &str) -> String {
+        self.paint("1", text)
+    }
+
+    /// A flag name coloured by its class: errors red, warnings yellow.
+    pub fn flag(self, name: &str, class: FlagClass) -> String {
+        match class {
+            FlagClass::Error => self.error(name),
+            FlagClass::Warning => self.warn(name),
+            _ => name.to_string(),
+        }
+    }
+}
+
+/// Prints one JSON document on stdout.
+pub fn json(value: &serde_json::Value) {
+    let mut out = std::io::stdout().lock();
+    // A closed pipe (e.g. `| head`) is not an error worth reporting.
+    if serde_json::to_writer(&mut out, value).is_ok() {
+        let _ = writeln!(out);
+    }
+}
+
+/// Prints rows as an aligned table; the first row is the header.
+pub fn table(rows: &[Vec<String>], style: Style) {
+    let cols = rows.iter().map(Vec::len).max().unwrap_or(0);
+    let width = |c: usize| rows.iter().filter_map(|r| r.get(c)).map(|s| visible_len(s)).max().unwrap_or(0);
+    let widths: Vec<usize> = (0..cols).map(width).collect();
+    let mut out = std::io::stdout().lock();
+    for (i, row) in rows.iter().enumerate() {
+        let mut line = String::new();
+        for (c, cell) in row.iter().enumerate() {
+            if c + 1 == row.len() {
+                line.push_str(cell);
+            } else {
+                line.push_str(cell);
+                line.push_str(&" ".repeat(widths[c] - visible_len(cell) + 2));
+            }
+        }
+        let line = if i == 0 { style.bold(&line) } else { line };
+        let _ = writeln!(out, "{}", line.trim_end());
+    }
+}
+
+/// Length without ANSI escapes.
+fn visible_len(s: &str) -> usize {
+    let mut n = 0;
+    let mut esc = false;
+    for ch in s.chars() {
+        match (esc, ch) {
+            (false, '\x1b') => esc = true,
+            (true, 'm') => esc = false,
+            (true, _) => {}
+            (false, _) => n += 1,
+        }
+    }
+    n
+}

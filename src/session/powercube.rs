@@ -1,0 +1,365 @@
+//! The PowerCube session: one request, one matching acknowledge, over CAN or
+//! RS232.
+//!
+//! On CAN, requests can be pipelined ([`PowerCube::transact_many`]): every
+//! request is sent first, then the answers are collected within one timeout,
+//! which is what makes a 31-id scan take one timeout instead of 31.
+
+use std::sync::Arc;
+use std::time::Duration;
+
+use crate::clock::{Clock, SystemClock};
+
+use super::{RetryPolicy, SessionError, TraceEvent, Tracer};
+use crate::link::{ByteLink, CanLink};
+use crate::proto::powercube::can::{self as pc_can, Broadcast};
+use crate::proto::powercube::rs232::{self, Direction};
+use crate::proto::powercube::table::{ParamDef, ParamType};
+use crate::proto::powercube::{frame::Value, ModuleId, Request, Response};
+use crate::proto::DecodeError;
+
+/// Default CAN answer timeout (the vendor library's).
+pub const CAN_TIMEOUT: Duration = Duration::from_millis(100);
+/// Default RS232 timeout before wire time is added (the vendor library's).
+pub const RS232_BASE_TIMEOUT: Duration = Duration::from_millis(30);
+/// Longest RS232 frame on the wire: STX, ETX and 11 bytes that may all need DLE.
+const RS232_MAX_FRAME: u32 = 24;
+
+enum Transport {
+    Can(Box<dyn CanLink>),
+    Rs232 { link: Box<dyn ByteLink>, decoder: rs232::Decoder, baud: u32 },
+}
+
+pub struct PowerCube {
+    transport: Transport,
+    timeout: Duration,
+    retry: RetryPolicy,
+    tracer: Option<Tracer>,
+    clock: Arc<dyn Clock>,
+}
+
+impl PowerCube {
+    pub fn over_can(link: Box<dyn CanLink>) -> Self {
+        Self {
+            transport: Transport::Can(link),
+            timeout: CAN_TIMEOUT,
+            retry: RetryPolicy::default(),
+            tracer: None,
+            clock: Arc::new(SystemClock),
+        }
+    }
+
+    /// `baud` sets the default timeout: 30 ms plus the wire time of the
+    /// longest request and answer.
+    pub fn over_rs232(link: Box<dyn ByteLink>, baud: u32) -> Self {
+        let timeout = RS232_BASE_TIMEOUT + rs232_wire_time(baud, 2 * RS232_MAX_FRAME);
+        Self {
+            transport: Transport::Rs232 { link, decoder: rs232::Decoder::new(), baud },
+            timeout,
+            retry: RetryPolicy::default(),
+            tracer: None,
+            clock: Arc::new(SystemClock),
+        }
+    }
+
+    /// The clock deadlines are measured on; links on virtual time pass theirs.
+    pub fn with_clock(mut self, clock: Arc<dyn Clock>) -> Self {
+        self.clock = clock;
+        self
+    }
+
+    pub fn clock(&self) -> &Arc<dyn Clock> {
+        &self.clock
+    }
+
+    pub fn set_timeout(&mut self, timeout: Duration) {
+        self.timeout = timeout;
+    }
+
+    pub fn timeout(&self) -> Duration {
+        self.timeout
+    }
+
+    pub fn set_retry(&mut self, retry: RetryPolicy) {
+        self.retry = retry;
+    }
+
+    pub fn set_tracer(&mut self, tracer: Tracer) {
+        self.tracer = Some(tracer);
+    }
+
+    pub fn is_can(&self) -> bool {
+        matches!(self.transport, Transport::Can(_))
+    }
+
+    /// The per-id timeout a scan uses on RS232: the answer is due right after the request.
+    pub fn rs232_baud(&self) -> Option<u32> {
+        match &self.transport {
+            Transport::Rs232 { baud, .. } => Some(*baud),
+            Transport::Can(_) => None,
+        }
+    }
+
+    fn trace(&mut self, ev: impl FnOnce() -> TraceEvent) {
+        if let Some(t) = self.tracer.as_mut() {
+            t(ev());
+        }
+    }
+
+    /// Sends `req` to `module` and waits for its acknowledge. Reads are
+    /// retried per the [`RetryPolicy`]; nothing else is.
+    pub fn transact(&mut self, module: ModuleId, req: &Request) -> Result<Response, SessionError> {
+        let attempts = if req.is_read() { 1 + self.retry.read_retries } else { 1 };
+        let mut last = None;
+        for attempt in 0..attempts {
+            if attempt > 0 {
+                self.trace(|| TraceEvent::Note(format!("retrying read ({attempt}/{})", attempts - 1)));
+            }
+            match self.transact_once(module, req) {
+                Ok(r) => return Ok(r),
+                Err(e @ (SessionError::Timeout { .. } | SessionError::Malformed { .. })) => last = Some(e),
+                Err(e) => return Err(e),
+            }
+        }
+        Err(last.expect("at least one attempt"))
+    }
+
+    fn transact_once(&mut self, module: ModuleId, req: &Request) -> Result<Response, SessionError> {
+        let mut out = self.transact_many(&[(module, *req)])?;
+        out.pop().expect("one answer per request")
+    }
+
+    /// Sends every request, then collects the answers within one timeout
+    /// after the last send (CAN). On RS232 the line is half-duplex, so the
+    /// requests go one after the other, each with its own timeout. Answers
+    /// are returned in request order. No retries here.
+    pub fn transact_many(
+        &mut self,
+        reqs: &[(ModuleId, Request)],
+    ) -> Result<Vec<Result<Response, SessionError>>, SessionError> {
+        match self.transport {
+            Transport::Can(_) => self.can_transact_many(reqs),
+            Transport::Rs232 { .. } => {
+                let mut out = Vec::with_capacity(reqs.len());
+                for (m, r) in reqs {
+                    match self.rs232_transact(*m, r) {
+                        Err(e @ SessionError::Link(_)) => return Err(e),
+                        other => out.push(other),
+                    }
+                }
+                Ok(out)
+            }
+        }
+    }
+
+    fn can_transact_many(
+        &mut self,
+        reqs: &[(ModuleId, Request)],
+    ) -> Result<Vec<Result<Response, SessionError>>, SessionError> {
+        let mut answers: Vec<Option<Result<Response, SessionError>>> = (0..reqs.len()).map(|_| None).collect();
+        for (m, r) in reqs {
+            let frame = pc_can::request_frame(*m, r);
+            self.trace(|| TraceEvent::Sent(format!("{frame:<22} {} to module {m}", describe(r))));
+            let Transport::Can(link) = &mut self.transport else { unreachable!() };
+            link.send(&frame)?;
+        }
+        let deadline = self.clock.now() + self.timeout;
+        let mut pending = reqs.len();
+        while pending > 0 {
+            let now = self.clock.now();
+            if now >= deadline {
+                break;
+            }
+            let Transport::Can(link) = &mut self.transport else { unreachable!() };
+            let Some(frame) = link.recv(deadline - now)? else { break };
+            let mut matched = false;
+            for (i, (m, r)) in reqs.iter().enumerate() {
+                if answers[i].is_some() {
+                    continue;
+                }
+                match pc_can::ack_from(*m, &frame) {
+                    Some(Ok(resp)) if r.matches(&resp) => {
+                        answers[i] = Some(Ok(resp));
+                        matched = true;
+                    }
+                    // A frame on this module's ack id that does not decode is
+                    // malformed only if it could be the answer we wait for.
+                    Some(Err(e)) if frame.data().first() == Some(&(r.command() as u8)) => {
+                        answers[i] = Some(Err(SessionError::Malformed { target: format!("module {m}"), source: e }));
+                        matched = true;
+                    }
+                    _ => {}
+                }
+                if matched {
+                    pending -= 1;
+                    break;
+                }
+            }
+            self.trace(|| {
+                TraceEvent::Received(format!("{frame:<22} {}", if matched { "ack" } else { "ignored (not ours)" }))
+            });
+        }
+        let timeout = self.timeout;
+        Ok(answers
+            .into_iter()
+            .zip(reqs)
+            .map(|(a, (m, r))| {
+                a.unwrap_or_else(|| {
+                    Err(SessionError::Timeout { target: format!("module {m}"), what: describe(r), timeout })
+                })
+            })
+            .collect())
+    }
+
+    fn rs232_transact(&mut self, module: ModuleId, req: &Request) -> Result<Response, SessionError> {
+        let mut bytes = Vec::with_capacity(RS232_MAX_FRAME as usize);
+        rs232::encode(Direction::ToModule, module.get(), req.to_payload().as_slice(), &mut bytes);
+        self.trace(|| TraceEvent::Sent(format!("{} {} to module {module}", hex(&bytes), describe(req))));
+        let timeout = self.timeout;
+        let target = || format!("module {module}");
+        let clock = Arc::clone(&self.clock);
+        let Transport::Rs232 { link, decoder, .. } = &mut self.transport else { unreachable!() };
+        // Half-duplex: whatever is still in the buffers belongs to an older exchange.
+        link.clear_input()?;
+        *decoder = rs232::Decoder::new();
+        link.write_all(&bytes)?;
+        let deadline = clock.now() + timeout;
+        let mut buf = [0u8; 64];
+        loop {
+            while let Some(item) = decoder.next_frame() {
+                let note = match item {
+                    Ok(frame) if frame.dir == Direction::FromModule && frame.module == module.get() => {
+                        let mismatch = frame.declared_len != frame.payload.len() as u8;
+                        match Response::decode(frame.payload.as_slice()) {
+                            Ok(resp) if req.matches(&resp) => {
+                                let text = format!(
+                                    "{:?}{}",
+                                    frame.payload,
+                                    if mismatch {
+                                        format!(
+                                            " (TELID says {} bytes, {} framed)",
+                                            frame.declared_len,
+                                            frame.payload.len()
+                                        )
+                                    } else {
+                                        String::new()
+                                    }
+                                );
+                                if let Some(t) = self.tracer.as_mut() {
+                                    t(TraceEvent::Received(format!("{text} ack")));
+                                }
+                                return Ok(resp);
+                            }
+                            Ok(_) => format!("{:?} ignored (answers another command)", frame.payload),
+                            Err(e) => return Err(SessionError::Malformed { target: target(), source: e }),
+                        }
+                    }
+                    Ok(frame) => format!("{:?} ignored (module {} {:?})", frame.payload, frame.module, frame.dir),
+                    Err(e @ DecodeError::Checksum { .. }) => {
+                        return Err(SessionError::Malformed { target: target(), source: e })
+                    }
+                    Err(e) => format!("dropped: {e}"),
+                };
+                if let Some(t) = self.tracer.as_mut() {
+                    t(TraceEvent::Received(note));
+                }
+            }
+            let now = clock.now();
+            if now >= deadline {
+                return Err(SessionError::Timeout { target: target(), what: describe(req), timeout });
+            }
+            let n = link.read(&mut buf, deadline - now)?;
+            decoder.push(&buf[..n]);
+        }
+    }
+
+    /// Sends a broadcast; broadcasts are never acknowledged, so nothing is awaited.
+    pub fn broadcast(&mut self, b: Broadcast) -> Result<(), SessionError> {
+        match &mut self.transport {
+            Transport::Can(link) => {
+                let frame = b.frame();
+                link.send(&frame)?;
+                self.trace(|| TraceEvent::Sent(format!("{frame:<22} broadcast {b:?}")));
+            }
+            Transport::Rs232 { link, .. } => {
+                let mut bytes = Vec::new();
+                rs232::encode(Direction::ToModule, 0, &b.payload()[..broadcast_len(b)], &mut bytes);
+                link.write_all(&bytes)?;
+                self.trace(|| TraceEvent::Sent(format!("{} broadcast {b:?}", hex(&bytes))));
+            }
+        }
+        Ok(())
+    }
+
+    /// Reads a parameter and decodes it by the table's type.
+    pub fn get(&mut self, module: ModuleId, param: &ParamDef) -> Result<Value, SessionError> {
+        let resp = self.transact(module, &Request::GetExtended { param: param.id })?;
+        decode_get(module, param, &resp)
+    }
+
+    /// Writes a parameter; the caller has checked type and access.
+    pub fn set(&mut self, module: ModuleId, param: &ParamDef, value: Value) -> Result<(), SessionError> {
+        self.transact(module, &Request::set(param.id, value)).map(|_| ())
+    }
+}
+
+/// Decodes a GetExtended answer by the parameter's declared type.
+pub fn decode_get(module: ModuleId, param: &ParamDef, resp: &Response) -> Result<Value, SessionError> {
+    let Response::Get { data, .. } = resp else {
+        return Err(SessionError::Malformed {
+            target: format!("module {module}"),
+            source: DecodeError::Malformed(format!("expected a GetExtended answer, got {resp:?}")),
+        });
+    };
+    Value::decode(param.ty, data.as_slice())
+        .map_err(|source| SessionError::Malformed { target: format!("module {module}"), source })
+}
+
+/// RS232 broadcasts carry only the command byte unless it has a parameter.
+fn broadcast_len(b: Broadcast) -> usize {
+    if matches!(b, Broadcast::ChangeBaudrate(_)) {
+        2
+    } else {
+        1
+    }
+}
+
+/// Wire time of `bytes` bytes at `baud` with 10 bits per byte (8N1).
+pub fn rs232_wire_time(baud: u32, bytes: u32) -> Duration {
+    Duration::from_micros(u64::from(bytes) * 10 * 1_000_000 / u64::from(baud.max(1)))
+}
+
+/// A short human description of a request, for traces and errors.
+pub fn describe(req: &Request) -> String {
+    use crate::proto::powercube::table;
+    match req {
+        Request::GetExtended { param } => {
+            format!("GetExtended {}", table::param(*param).map_or_else(|| format!("{param:#04x}"), |p| p.name.into()))
+        }
+        Request::SetExtended { param, data } => {
+            let name = table::param(*param);
+            let value = name
+                .filter(|p| p.ty != ParamType::FloatStateDio && p.ty != ParamType::FloatTime)
+                .and_then(|p| Value::decode(p.ty, data.as_slice()).ok())
+                .map_or_else(|| format!("{data:?}"), |v| v.to_string());
+            format!("SetExtended {} = {value}", name.map_or_else(|| format!("{param:#04x}"), |p| p.name.into()))
+        }
+        Request::SetMotion(m) => {
+            let name = table::motion(m.id).map_or("motion?", |d| d.name);
+            let v = match m.value {
+                crate::proto::powercube::MotionValue::Float(v) => v.to_string(),
+                crate::proto::powercube::MotionValue::Int32(v) => v.to_string(),
+                crate::proto::powercube::MotionValue::Int16(v) => v.to_string(),
+            };
+            match m.time_ms {
+                Some(t) => format!("SetMotion {name} {v} in {t} ms"),
+                None => format!("SetMotion {name} {v}"),
+            }
+        }
+        other => other.command().name().to_string(),
+    }
+}
+
+fn hex(bytes: &[u8]) -> String {
+    bytes.iter().map(|b| format!("{b:02x}")).collect::<Vec<_>>().join(" ")
+}

@@ -1,0 +1,71 @@
+//! Shared helpers for the CLI tests: run the real binary, serve the bench.
+#![allow(dead_code)]
+
+use std::io::{BufRead, BufReader};
+use std::process::{Child, Command, Output, Stdio};
+
+pub fn bin() -> Command {
+    let mut c = Command::new(env!("CARGO_BIN_EXE_axisctl"));
+    c.env_remove("AXISCTL_LINK").env("NO_COLOR", "1");
+    c
+}
+
+pub struct Run {
+    pub code: i32,
+    pub stdout: String,
+    pub stderr: String,
+}
+
+impl Run {
+    pub fn json(&self) -> serde_json::Value {
+        serde_json::from_str(&self.stdout).unwrap_or_else(|e| panic!("stdout is not JSON ({e}): {:?}", self.stdout))
+    }
+}
+
+pub fn run(args: &[&str]) -> Run {
+    let Output { status, stdout, stderr } = bin().args(args).output().expect("run axisctl");
+    Run {
+        code: status.code().unwrap_or(-1),
+        stdout: String::from_utf8_lossy(&stdout).into(),
+        stderr: String::from_utf8_lossy(&stderr).into(),
+    }
+}
+
+/// `axisctl sim` in the background; killed on drop.
+pub struct Sim {
+    child: Child,
+    pub links: Vec<(String, String)>,
+}
+
+impl Sim {
+    pub fn start(args: &[&str], expect_links: usize) -> Self {
+        let mut child = bin()
+            .arg("sim")
+            .args(args)
+            .stdout(Stdio::piped())
+            .stderr(Stdio::inherit())
+            .spawn()
+            .expect("start axisctl sim");
+        let mut lines = BufReader::new(child.stdout.take().unwrap()).lines();
+        let mut links = Vec::new();
+        while links.len() < expect_links {
+            let line = lines.next().expect("sim printed a line").expect("read sim line");
+            let v: serde_json::Value = serde_json::from_str(&line).expect("sim prints JSON lines");
+            links.push((v["family"].as_str().unwrap().to_string(), v["link"].as_str().unwrap().to_string()));
+        }
+        Self { child, links }
+    }
+
+    pub fn link(&self, family: &str) -> &str {
+        &self.links.iter().find(|(f, _)| f == family).expect("family served").1
+    }
+}
+
+impl Drop for Sim {
+    fn drop(&mut self) {
+        unsafe {
+            libc::kill(self.child.id() as i32, libc::SIGTERM);
+        }
+        let _ = self.child.wait();
+    }
+}

@@ -1,0 +1,150 @@
+//! The CLI binary against `axisctl sim` over real ptys, on RS232 and slcan,
+//! and against the in-process `--link sim`.
+
+mod common;
+
+use common::{run, Sim};
+
+/// Both served transports for the same bench.
+fn sims() -> Vec<Sim> {
+    vec![Sim::start(&["--powercube", "pty-serial"], 1), Sim::start(&["--powercube", "pty-slcan"], 1)]
+}
+
+#[test]
+fn scan_finds_exactly_the_simulated_ids() {
+    for sim in sims() {
+        let link = sim.link("powercube");
+        let r = run(&["--link", link, "--json", "scan"]);
+        assert_eq!(r.code, 0, "{link}: {}", r.stderr);
+        let ids: Vec<u64> =
+            r.json()["modules"].as_array().unwrap().iter().map(|m| m["module"].as_u64().unwrap()).collect();
+        assert_eq!(ids, [3, 5, 17], "{link}");
+        let m17 = &r.json()["modules"][2];
+        assert_eq!(m17["kind"], "linear");
+        assert_eq!(m17["version"], 13592);
+    }
+}
+
+#[test]
+fn home_wait_sets_home_ok() {
+    for sim in sims() {
+        let link = sim.link("powercube");
+        let r = run(&["--link", link, "--json", "home", "-m", "17", "--wait"]);
+        assert_eq!(r.code, 0, "{link}: {}", r.stderr);
+        let flags = r.json()["state"]["flags"].clone();
+        assert!(flags.as_array().unwrap().iter().any(|f| f == "STATE_HOME_OK"), "{link}: {flags}");
+        let st = run(&["--link", link, "--json", "state", "-m", "17"]);
+        assert_eq!(st.code, 0);
+        assert!(st.json()["raw"].as_u64().unwrap() & 0x2 != 0, "HOME_OK after homing");
+    }
+}
+
+#[test]
+fn move_ramp_wait_ends_at_the_target() {
+    for sim in sims() {
+        let link = sim.link("powercube");
+        assert_eq!(run(&["--link", link, "home", "-m", "3", "--wait"]).code, 0);
+        let r =
+            run(&["--link", link, "--json", "move-ramp", "-m", "3", "0.75", "--vel", "1.0", "--acc", "2", "--wait"]);
+        assert_eq!(r.code, 0, "{link}: {}", r.stderr);
+        let pos = r.json()["position"].as_f64().unwrap();
+        assert!((pos - 0.75).abs() < 1e-3, "{link}: ended at {pos}");
+        let p = run(&["--link", link, "--json", "get-param", "-m", "3", "ActPos"]);
+        let act = p.json()["params"]["ActPos"]["value"].as_f64().unwrap();
+        assert!((act - 0.75).abs() < 1e-3, "{link}: ActPos {act}");
+    }
+}
+
+#[test]
+fn set_param_then_get_param() {
+    for sim in sims() {
+        let link = sim.link("powercube");
+        let r = run(&["--link", link, "--json", "set-param", "-m", "5", "MaxVel", "0.5"]);
+        assert_eq!(r.code, 0, "{link}: {}", r.stderr);
+        let g = run(&["--link", link, "--json", "get-param", "-m", "5", "maxvel", "0x45"]);
+        assert_eq!(g.code, 0, "{}", g.stderr);
+        let doc = g.json();
+        assert_eq!(doc["module"], 5);
+        assert_eq!(doc["params"]["MaxVel"]["value"].as_f64().unwrap(), 0.5);
+        assert_eq!(doc["params"]["MaxVel"]["id"], 72);
+        assert_eq!(doc["params"]["MaxVel"]["type"], "float");
+        assert!(doc["params"]["MinPos"]["value"].is_number());
+    }
+}
+
+#[test]
+fn absent_module_is_exit_4() {
+    for sim in sims() {
+        let link = sim.link("powercube");
+        let r = run(&["--link", link, "--json", "state", "-m", "9"]);
+        assert_eq!(r.code, 4, "{link}: {} {}", r.stdout, r.stderr);
+        assert!(r.stdout.is_empty());
+        let err: serde_json::Value = serde_json::from_str(r.stderr.trim()).unwrap();
+        assert_eq!(err["error"]["kind"], "timeout");
+    }
+}
+
+#[test]
+fn out_of_range_target_is_exit_2_and_sends_no_motion() {
+    for sim in sims() {
+        let link = sim.link("powercube");
+        let log = tempfile::NamedTempFile::new().unwrap();
+        let logp = log.path().to_str().unwrap();
+        let r = run(&["--link", link, "--log", logp, "move-ramp", "-m", "17", "5.0"]);
+        assert_eq!(r.code, 2, "{link}: {}", r.stderr);
+        assert!(r.stderr.contains("MaxPos"), "names the limit: {}", r.stderr);
+        let traffic = std::fs::read_to_string(log.path()).unwrap();
+        assert!(!traffic.is_empty(), "the limits were read, so the log has frames");
+        // SetMotion is command 0x0b: no frame carries it.
+        let motion = traffic.lines().any(|l| l.contains("#0B") || l.contains(" 0b 04") || l.contains(" 0b 09"));
+        assert!(!motion, "{link}: a motion frame left:\n{traffic}");
+        let pos = run(&["--link", link, "--json", "get-param", "-m", "17", "ActPos"]).json()["params"]["ActPos"]
+            ["value"]
+            .as_f64()
+            .unwrap();
+        assert_eq!(pos, 0.0, "the module did not move");
+    }
+}
+
+#[test]
+fn module_in_error_is_exit_5() {
+    // Slcan only: the watchdog is a CAN feature.
+    let sim = Sim::start(&["--powercube", "pty-slcan"], 1);
+    let link = sim.link("powercube");
+    let r = run(&["--link", link, "watchdog", "on", "-m", "5"]);
+    assert_eq!(r.code, 0, "{}", r.stderr);
+    std::thread::sleep(std::time::Duration::from_millis(120)); // no refresh: the watchdog trips
+    let st = run(&["--link", link, "--json", "state", "-m", "5"]);
+    let errors = st.json()["errors"].clone();
+    assert!(errors.as_array().unwrap().iter().any(|e| e == "STATE_COMM_ERROR"), "{errors}");
+    let mv = run(&["--link", link, "move-ramp", "-m", "5", "0.1"]);
+    assert_eq!(mv.code, 5, "{}", mv.stderr);
+    assert!(mv.stderr.contains("STATE_COMM_ERROR"), "{}", mv.stderr);
+}
+
+#[test]
+fn in_process_sim_scan_lists_3_5_17() {
+    let r = run(&["--link", "sim", "scan"]);
+    assert_eq!(r.code, 0, "{}", r.stderr);
+    let ids: Vec<&str> = r.stdout.lines().skip(1).map(|l| l.split_whitespace().next().unwrap()).collect();
+    assert_eq!(ids, ["3", "5", "17"], "{}", r.stdout);
+}
+
+#[test]
+fn usage_errors_are_exit_2() {
+    assert_eq!(run(&["scan"]).code, 2, "missing link");
+    assert!(run(&["scan"]).stderr.contains("--link sim"));
+    assert_eq!(run(&["--link", "bogus:x", "scan"]).code, 2);
+    assert_eq!(run(&["--link", "sim", "state", "-m", "32"]).code, 2);
+    assert_eq!(run(&["--link", "sim", "set-param", "-m", "3", "ActPos", "1"]).code, 2, "read-only");
+    assert_eq!(run(&["--link", "sim", "set-param", "-m", "3", "MaxVel", "fast"]).code, 2, "not a float");
+    assert_eq!(run(&["--link", "sim", "get-param", "-m", "3", "NoSuchParam"]).code, 2);
+    assert_eq!(run(&["--link", "sim", "set-config", "-m", "3", "+no-such-flag"]).code, 2);
+}
+
+#[test]
+fn unopenable_link_is_exit_3() {
+    let r = run(&["--link", "serial:/dev/does-not-exist", "--json", "scan"]);
+    assert_eq!(r.code, 3, "{}", r.stderr);
+    assert!(r.stderr.contains("/dev/does-not-exist"));
+}
