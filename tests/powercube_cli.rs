@@ -148,3 +148,82 @@ fn unopenable_link_is_exit_3() {
     assert_eq!(r.code, 3, "{}", r.stderr);
     assert!(r.stderr.contains("/dev/does-not-exist"));
 }
+
+#[test]
+fn ctrl_c_during_wait_halts_the_module_and_exits_130() {
+    let sim = Sim::start(&["--powercube", "pty-slcan"], 1);
+    let link = sim.link("powercube").to_string();
+    let child = common::bin()
+        .args(["--link", &link, "move-ramp", "-m", "3", "2.0", "--vel", "0.2", "--wait"])
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    // One client at a time on an slcan tty (as on a real adapter): no polling
+    // from here while the wait runs. The move takes 10 s; interrupt it early.
+    std::thread::sleep(std::time::Duration::from_millis(700));
+    unsafe { libc::kill(child.id() as i32, libc::SIGINT) };
+    let out = child.wait_with_output().unwrap();
+    assert_eq!(out.status.code(), Some(130), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("halted"));
+    let st = run(&["--link", &link, "--json", "state", "-m", "3"]).json();
+    let raw = st["raw"].as_u64().unwrap();
+    assert!(raw & 0x4 != 0, "STATE_HALTED set: {st}");
+    assert!(raw & 0x800 == 0, "not moving: {st}");
+    let pos = run(&["--link", &link, "--json", "get-param", "-m", "3", "ActPos"]).json()["params"]["ActPos"]["value"]
+        .as_f64()
+        .unwrap();
+    assert!(pos > 0.0 && pos < 2.0, "stopped on the way: {pos}");
+}
+
+#[test]
+fn broadcasts_reach_every_module() {
+    let sim = Sim::start(&["--powercube", "pty-slcan"], 1);
+    let link = sim.link("powercube");
+    assert_eq!(run(&["--link", link, "halt", "--all"]).code, 0);
+    for m in ["3", "5", "17"] {
+        let raw = run(&["--link", link, "--json", "state", "-m", m]).json()["raw"].as_u64().unwrap();
+        assert!(raw & 0x4 != 0, "module {m} halted by the broadcast");
+    }
+    assert_eq!(run(&["--link", link, "reset", "--all"]).code, 0);
+    for m in ["3", "5", "17"] {
+        let raw = run(&["--link", link, "--json", "state", "-m", m]).json()["raw"].as_u64().unwrap();
+        assert!(raw & 0x4 == 0, "module {m} reset by the broadcast");
+    }
+}
+
+#[test]
+fn trace_shows_frames_both_ways() {
+    let r = run(&["--link", "sim", "--trace", "state", "-m", "17"]);
+    assert_eq!(r.code, 0);
+    assert!(r.stderr.contains("-> 0D1#0A27"), "{}", r.stderr);
+    assert!(r.stderr.contains("<- 0B1#0A27"), "{}", r.stderr);
+}
+
+#[test]
+fn log_file_is_candump_format() {
+    let log = tempfile::NamedTempFile::new().unwrap();
+    let r = run(&["--link", "sim", "--log", log.path().to_str().unwrap(), "home", "-m", "17"]);
+    assert_eq!(r.code, 0, "{}", r.stderr);
+    let text = std::fs::read_to_string(log.path()).unwrap();
+    let frames: Vec<&str> = text.lines().map(|l| l.split_whitespace().nth(2).unwrap()).collect();
+    assert_eq!(frames, ["0F1#01", "0B1#01"], "{text}");
+    for l in text.lines() {
+        let (ts, rest) = l.split_once(' ').unwrap();
+        assert!(ts.starts_with('(') && ts.ends_with(')') && ts.contains('.'), "{l}");
+        assert!(rest.starts_with("sim0 "), "{l}");
+    }
+}
+
+#[test]
+fn decode_is_offline_and_shows_both_names_of_bit_27() {
+    let r = run(&["--json", "decode", "cube-state", "0x08800001"]);
+    assert_eq!(r.code, 0, "{}", r.stderr);
+    let d = r.json();
+    let flags: Vec<&str> = d["flags"].as_array().unwrap().iter().map(|f| f.as_str().unwrap()).collect();
+    assert!(flags.contains(&"STATE_LOGIC_VOLT") && flags.contains(&"STATE_POW_SETUP_ERR"), "{flags:?}");
+    assert!(flags.contains(&"STATE_POW_INTEGRAL_ERR"), "bit 23 per the errata: {flags:?}");
+    assert_eq!(run(&["decode", "no-such-kind", "1"]).code, 2);
+    let c = run(&["--json", "decode", "config", "brake-present|linear"]).json();
+    assert_eq!(c["raw"], 0x0002_0008);
+}

@@ -6,7 +6,7 @@ use std::time::Duration;
 use anyhow::{bail, Context as _};
 use axisctl::proto::powercube::can::Broadcast;
 use axisctl::proto::powercube::flags::{self, config, state, FlagWord};
-use axisctl::proto::powercube::frame::{parse_int, Value};
+use axisctl::proto::powercube::frame::{f32_to_f64, parse_int, Value};
 use axisctl::proto::powercube::table::{self, ids, ParamDef};
 use axisctl::proto::powercube::{ModuleId, Motion, MotionValue, Request, Response};
 use axisctl::session::powercube::{decode_get, describe, PowerCube};
@@ -451,7 +451,7 @@ fn print_wait_results(ctx: &Ctx, what: &str, results: &[WaitEnd]) {
         let list: Vec<_> = results
             .iter()
             .map(|r| {
-                json!({"module": r.module, "command": what, "done": true, "position": r.position,
+                json!({"module": r.module, "command": what, "done": true, "position": f32_to_f64(r.position),
                        "elapsed_ms": r.elapsed.as_millis() as u64, "state": word_json(&flags::CUBE_STATE, r.cube)})
             })
             .collect();
@@ -676,13 +676,17 @@ fn get_param(ctx: &Ctx, m: ModuleId, names: &[String], all: bool) -> anyhow::Res
         defs
     };
     let mut pc = ctx.powercube()?;
-    let vals = get_many(&mut pc, m, &defs)?;
+    // Config rides along so that "rad|m" units resolve for the module's kind.
+    let mut with_config = defs.clone();
+    with_config.push(param(ids::CONFIG));
+    let mut vals = get_many(&mut pc, m, &with_config)?;
+    let kind = vals.pop().map_or("rotary", |c| kind_of(f64_of(&c) as u32));
     if ctx.json {
         let mut params = serde_json::Map::new();
         for (d, v) in defs.iter().zip(&vals) {
             params.insert(
                 d.name.into(),
-                json!({"id": d.id, "type": d.ty.name(), "unit": d.unit, "value": serde_json::to_value(v)?}),
+                json!({"id": d.id, "type": d.ty.name(), "unit": unit_for(d, kind), "value": serde_json::to_value(v)?}),
             );
         }
         output::json(&json!({"module": m, "params": params}));
@@ -690,7 +694,7 @@ fn get_param(ctx: &Ctx, m: ModuleId, names: &[String], all: bool) -> anyhow::Res
     }
     let mut rows = vec![["PARAMETER", "ID", "TYPE", "VALUE", "UNIT"].map(String::from).to_vec()];
     for (d, v) in defs.iter().zip(&vals) {
-        rows.push(vec![d.name.into(), format!("{:#04x}", d.id), d.ty.name().into(), v.to_string(), d.unit.into()]);
+        rows.push(vec![d.name.into(), format!("{:#04x}", d.id), d.ty.name().into(), v.to_string(), unit_for(d, kind)]);
     }
     output::table(&rows, ctx.style);
     Ok(())

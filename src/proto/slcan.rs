@@ -509,8 +509,9 @@ impl Adapter {
                 Some(Reply::Ok)
             }
             Command::Close if self.open => {
+                // Frames accepted before the close are already on their way:
+                // a real adapter transmits them within microseconds.
                 self.open = false;
-                self.transmit.clear();
                 Some(Reply::Ok)
             }
             Command::ReadStatus if self.open => Some(Reply::Text(format!("F{:02X}", std::mem::take(&mut self.status)))),

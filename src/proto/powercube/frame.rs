@@ -57,18 +57,38 @@ impl std::fmt::Debug for Payload {
     }
 }
 
-/// A typed parameter value.
+/// A typed parameter value. Floats serialize as the shortest decimal that
+/// reads back as the same f32 (0.1, not 0.10000000149011612).
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
 #[serde(untagged)]
 pub enum Value {
-    Float(f32),
+    Float(#[serde(serialize_with = "ser_f32")] f32),
     Int32(i32),
     UInt32(u32),
     Int16(i16),
     UInt16(u16),
     UInt8(u8),
-    FloatStateDio { position: f32, short_state: u8, dio: u8 },
-    FloatTime { position: f32, time_ms: u16 },
+    FloatStateDio {
+        #[serde(serialize_with = "ser_f32")]
+        position: f32,
+        short_state: u8,
+        dio: u8,
+    },
+    FloatTime {
+        #[serde(serialize_with = "ser_f32")]
+        position: f32,
+        time_ms: u16,
+    },
+}
+
+/// The f64 whose shortest decimal form is that of `v`: what the user typed
+/// and what the module's float means, without f32-to-f64 widening noise.
+pub fn f32_to_f64(v: f32) -> f64 {
+    v.to_string().parse().unwrap_or(f64::from(v))
+}
+
+fn ser_f32<S: serde::Serializer>(v: &f32, s: S) -> Result<S::Ok, S::Error> {
+    s.serialize_f64(f32_to_f64(*v))
 }
 
 impl Value {
@@ -164,7 +184,7 @@ impl Value {
     /// The value as f64 where it is a single number.
     pub fn as_f64(&self) -> Option<f64> {
         Some(match *self {
-            Self::Float(v) => v.into(),
+            Self::Float(v) => f32_to_f64(v),
             Self::Int32(v) => v.into(),
             Self::UInt32(v) => v.into(),
             Self::Int16(v) => v.into(),
