@@ -182,3 +182,67 @@ mod tests {
         assert!(classify(&"0F1#0A27".parse().unwrap()).is_err(), "GetExtended belongs on 0x0D1");
     }
 }
+
+#[cfg(test)]
+mod proptests {
+    use super::super::frame::{Motion, MotionValue, Payload};
+    use super::*;
+    use proptest::prelude::*;
+
+    fn any_request() -> impl Strategy<Value = Request> {
+        let motion = (
+            proptest::sample::select(super::super::table::MOTIONS.iter().map(|m| m.id).collect::<Vec<_>>()),
+            any::<i32>(),
+            any::<u16>(),
+        )
+            .prop_map(|(id, raw, t)| {
+                let def = super::super::table::motion(id).unwrap();
+                let value = match def.arg {
+                    super::super::table::MotionArg::Float => {
+                        MotionValue::Float(f32::from_bits(raw as u32 & 0x3fff_ffff))
+                    }
+                    super::super::table::MotionArg::Int32 => MotionValue::Int32(raw),
+                    super::super::table::MotionArg::Int16 => MotionValue::Int16(raw as i16),
+                };
+                Request::SetMotion(Motion { id, value, time_ms: def.timed.then_some(t) })
+            });
+        prop_oneof![
+            Just(Request::Reset),
+            Just(Request::Home),
+            Just(Request::Halt),
+            Just(Request::Watchdog),
+            Just(Request::ResetTime),
+            any::<u8>().prop_map(|param| Request::GetExtended { param }),
+            (any::<u8>(), proptest::collection::vec(any::<u8>(), 1..=4))
+                .prop_map(|(param, d)| Request::SetExtended { param, data: Payload::new(&d).unwrap() }),
+            motion,
+            (any::<i32>(), any::<u16>()).prop_map(|(target, time_ms)| Request::SetIStep { target, time_ms }),
+        ]
+    }
+
+    proptest! {
+        #[test]
+        fn requests_round_trip_through_can(m in 1u8..=31, req in any_request()) {
+            let module = ModuleId::new(m).unwrap();
+            let frame = request_frame(module, &req);
+            prop_assert_eq!(classify(&frame), Ok(Some(CanMessage::Request { module, request: req })));
+        }
+
+        #[test]
+        fn classify_never_panics(id in 0u32..0x800, data in proptest::collection::vec(any::<u8>(), 0..=8)) {
+            let frame = CanFrame::new(id, &data).unwrap();
+            let _ = classify(&frame);
+            let _ = Response::decode(&data);
+            let _ = Request::decode(&data);
+            let _ = Broadcast::decode(&data);
+        }
+
+        #[test]
+        fn responses_round_trip(resp_bytes in proptest::collection::vec(any::<u8>(), 1..=8)) {
+            if let Ok(resp) = Response::decode(&resp_bytes) {
+                let again = resp.to_payload();
+                prop_assert_eq!(again.as_slice(), &resp_bytes[..]);
+            }
+        }
+    }
+}
