@@ -210,6 +210,8 @@ pub enum Command {
     },
     /// Serve the simulated bench on pseudo-terminals until stopped
     Sim(SimArgs),
+    /// Passive, decoded bus monitor on any CAN link, or replay of a candump log
+    Monitor(MonitorArgs),
 }
 
 #[derive(Debug, Subcommand)]
@@ -255,4 +257,32 @@ pub struct SimArgs {
     /// Cdios 6168 module ids
     #[arg(long, value_name = "LIST", default_value = "0,1")]
     pub cdios_modules: String,
+}
+
+#[derive(Debug, Args)]
+pub struct MonitorArgs {
+    /// Only these families: powercube, cdios, other (repeatable)
+    #[arg(long, value_name = "FAMILY")]
+    pub family: Vec<String>,
+    /// Only frames of these module ids (PowerCube 1..31, Cdios 0..15; repeatable)
+    #[arg(short, long, value_name = "ID")]
+    pub module: Vec<u8>,
+    /// Only these CAN ids, hex (e.g. 0F1; repeatable)
+    #[arg(long, value_name = "HEX")]
+    pub id: Vec<String>,
+    /// Stop after this many shown frames
+    #[arg(long, value_name = "N")]
+    pub count: Option<u64>,
+    /// Stop after this many seconds
+    #[arg(long = "for", value_name = "S")]
+    pub duration: Option<f64>,
+    /// Print frame statistics at the end
+    #[arg(long)]
+    pub stats: bool,
+    /// Print candump -L lines instead of decoded ones
+    #[arg(long)]
+    pub candump: bool,
+    /// Decode a candump log file instead of listening on a link
+    #[arg(long, value_name = "FILE")]
+    pub from_log: Option<PathBuf>,
 }

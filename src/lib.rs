@@ -9,6 +9,7 @@
 
 pub mod clock;
 pub mod link;
+pub mod monitor;
 pub mod proto;
 pub mod session;
 pub mod sim;

@@ -2,6 +2,7 @@
 //! anything is sent, talks to the device through a session and prints.
 
 mod decode;
+mod monitor;
 mod powercube;
 mod sim;
 
@@ -169,6 +170,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Decode { kind, value } => decode::run(&ctx, &kind, &value),
         Command::Sim(args) => sim::run(&ctx, &args),
+        Command::Monitor(args) => monitor::run(&ctx, &args),
         other => powercube::run(&ctx, other),
     }
 }

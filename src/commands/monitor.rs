@@ -1,0 +1,146 @@
+//! `axisctl monitor`: every frame on a CAN link (or in a candump log),
+//! decoded, filtered, counted. Never sends anything.
+
+use std::io::Write;
+use std::time::{Duration, SystemTime, UNIX_EPOCH};
+
+use axisctl::monitor::{describe, Family, FrameInfo, Stats};
+use axisctl::proto::candump::{format_candump_line, parse_candump_line};
+use axisctl::proto::CanFrame;
+use serde_json::json;
+
+use super::{arm_interrupt, interrupted, usage, Ctx};
+use crate::cli::MonitorArgs;
+
+struct Filter {
+    families: Vec<Family>,
+    modules: Vec<u8>,
+    ids: Vec<u32>,
+}
+
+impl Filter {
+    fn new(a: &MonitorArgs) -> anyhow::Result<Self> {
+        let families = a
+            .family
+            .iter()
+            .map(|f| Family::parse(f).ok_or_else(|| usage(format!("--family {f:?}: powercube, cdios or other"))))
+            .collect::<anyhow::Result<_>>()?;
+        let ids =
+            a.id.iter()
+                .map(|i| {
+                    u32::from_str_radix(i.trim_start_matches("0x"), 16)
+                        .ok()
+                        .filter(|v| *v <= 0x1FFF_FFFF)
+                        .ok_or_else(|| usage(format!("--id {i:?} is not a hex CAN id")))
+                })
+                .collect::<anyhow::Result<_>>()?;
+        Ok(Self { families, modules: a.module.clone(), ids })
+    }
+
+    fn pass(&self, f: &CanFrame, i: &FrameInfo) -> bool {
+        (self.families.is_empty() || self.families.contains(&i.family))
+            && (self.modules.is_empty() || i.module.is_some_and(|m| self.modules.contains(&m)))
+            && (self.ids.is_empty() || self.ids.contains(&f.id()))
+    }
+}
+
+struct Printer<'a> {
+    ctx: &'a Ctx,
+    candump: bool,
+    iface: String,
+    out: std::io::StdoutLock<'static>,
+}
+
+impl Printer<'_> {
+    fn frame(&mut self, ts: f64, f: &CanFrame, i: &FrameInfo) -> std::io::Result<()> {
+        if self.candump {
+            let secs = ts.floor();
+            let line =
+                format_candump_line(secs as u64, ((ts - secs) * 1e6).round().min(999_999.0) as u32, &self.iface, f);
+            writeln!(self.out, "{line}")?;
+        } else if self.ctx.json {
+            let mut v = serde_json::to_value(i).unwrap_or_default();
+            v["timestamp"] = json!(ts);
+            v["frame"] = json!(f.to_string());
+            writeln!(self.out, "{v}")?;
+        } else {
+            let who = match (i.family, i.node, i.module) {
+                (Family::Cdios, Some(n), Some(m)) => format!("node {n} module {m}"),
+                (Family::Cdios, Some(n), None) => format!("node {n}"),
+                (_, _, Some(m)) => format!("module {m}"),
+                _ => String::new(),
+            };
+            let fam = match i.family {
+                Family::Powercube => "powercube",
+                Family::Cdios => "cdios",
+                Family::Other => "-",
+            };
+            let text = match &i.error {
+                Some(e) => self.ctx.style.error(&format!("{} ({e})", i.summary)),
+                None if i.kind == "error" => self.ctx.style.error(&i.summary),
+                None => i.summary.clone(),
+            };
+            writeln!(self.out, "{ts:17.6}  {:<24} {fam:<9} {:<9} {who:<17} {text}", f.to_string(), i.kind)?;
+        }
+        self.out.flush()
+    }
+}
+
+fn now_secs() -> f64 {
+    SystemTime::now().duration_since(UNIX_EPOCH).map_or(0.0, |d| d.as_secs_f64())
+}
+
+pub fn run(ctx: &Ctx, a: &MonitorArgs) -> anyhow::Result<()> {
+    if a.candump && ctx.json {
+        return Err(usage("--candump and --json are two different outputs: pick one"));
+    }
+    let filter = Filter::new(a)?;
+    let mut stats = Stats::default();
+    let mut shown = 0u64;
+    let limit = a.count.unwrap_or(u64::MAX);
+    let iface = ctx.link.as_ref().map_or_else(|| "can0".to_string(), axisctl::link::log::log_iface);
+    let mut p = Printer { ctx, candump: a.candump, iface, out: std::io::stdout().lock() };
+    let mut handle = |ts: f64, f: &CanFrame, p: &mut Printer| -> anyhow::Result<bool> {
+        let info = describe(f);
+        if filter.pass(f, &info) {
+            stats.add(f, &info);
+            p.frame(ts, f, &info)?;
+            shown += 1;
+        }
+        Ok(shown < limit)
+    };
+    if let Some(path) = &a.from_log {
+        let text = std::fs::read_to_string(path).map_err(|e| usage(format!("cannot read {}: {e}", path.display())))?;
+        for (n, line) in text.lines().enumerate().filter(|(_, l)| !l.trim().is_empty()) {
+            let (ts, iface, frame) =
+                parse_candump_line(line).map_err(|e| usage(format!("{}:{}: {e}", path.display(), n + 1)))?;
+            p.iface = iface;
+            if !handle(ts, &frame, &mut p)? {
+                break;
+            }
+        }
+    } else {
+        arm_interrupt()?;
+        let mut link = ctx.can_link()?;
+        let start = std::time::Instant::now();
+        let stop = a.duration.map(|s| Duration::from_secs_f64(s.max(0.0)));
+        while !interrupted() && stop.is_none_or(|d| start.elapsed() < d) {
+            if let Some(frame) = link.recv(Duration::from_millis(50))? {
+                if !handle(now_secs(), &frame, &mut p)? {
+                    break;
+                }
+            }
+        }
+    }
+    if a.stats {
+        if ctx.json {
+            writeln!(p.out, "{}", json!({"stats": stats}))?;
+        } else {
+            writeln!(p.out, "{} frames, {} undecodable", stats.frames, stats.errors)?;
+            for (k, n) in &stats.by_kind {
+                writeln!(p.out, "  {k:<22} {n}")?;
+            }
+        }
+    }
+    Ok(())
+}

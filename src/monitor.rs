@@ -1,0 +1,283 @@
+//! Passive bus decoding: what any CAN frame on a commissioning bus means.
+//! PowerCube ids (0x0A1..0x0FF, 0x100) and Cdios ids (NMT 0x000, 0x181.., 0x201..)
+//! do not overlap; everything else is shown raw. Sans-IO: frames in, [`FrameInfo`] out.
+
+use std::collections::BTreeMap;
+
+use serde::Serialize;
+use serde_json::json;
+
+use crate::proto::cdios::transport::{self as cdios_tp, AnswerKind, BusMessage};
+use crate::proto::cdios::{table as cdios_table, Address};
+use crate::proto::powercube::can::{self as pc_can, CanMessage};
+use crate::proto::powercube::flags;
+use crate::proto::powercube::frame::Value;
+use crate::proto::powercube::{table as pc_table, Response};
+use crate::proto::CanFrame;
+use crate::session::powercube::describe as describe_request;
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Family {
+    Powercube,
+    Cdios,
+    Other,
+}
+
+impl Family {
+    pub fn parse(s: &str) -> Option<Self> {
+        match s.to_ascii_lowercase().as_str() {
+            "powercube" | "pc" => Some(Self::Powercube),
+            "cdios" => Some(Self::Cdios),
+            "other" | "raw" => Some(Self::Other),
+            _ => None,
+        }
+    }
+}
+
+/// One decoded frame.
+#[derive(Debug, Clone, Serialize)]
+pub struct FrameInfo {
+    pub family: Family,
+    /// request, ack, broadcast, nmt, command, reply, event, error or raw.
+    pub kind: &'static str,
+    /// PowerCube module id, or Cdios module id (0..15; > 15 the controller).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub module: Option<u8>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub node: Option<u8>,
+    pub summary: String,
+    /// Set when the frame belongs to a family but does not decode.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub error: Option<String>,
+    #[serde(skip_serializing_if = "serde_json::Value::is_null")]
+    pub details: serde_json::Value,
+}
+
+impl FrameInfo {
+    fn new(family: Family, kind: &'static str, summary: String) -> Self {
+        Self { family, kind, module: None, node: None, summary, error: None, details: serde_json::Value::Null }
+    }
+}
+
+/// Decodes one frame. Never panics; undecodable frames of a known family
+/// carry `error`.
+pub fn describe(frame: &CanFrame) -> FrameInfo {
+    if let Some(info) = powercube(frame) {
+        return info;
+    }
+    if let Some(info) = cdios(frame) {
+        return info;
+    }
+    FrameInfo::new(Family::Other, "raw", String::new())
+}
+
+fn powercube(frame: &CanFrame) -> Option<FrameInfo> {
+    let id = frame.id();
+    let ours = !frame.is_extended() && (id == pc_can::BROADCAST_ID || (0x0A1..=0x0FF).contains(&id) && id & 0x1F != 0);
+    if !ours {
+        return None;
+    }
+    Some(match pc_can::classify(frame) {
+        Ok(Some(CanMessage::Request { module, request })) => {
+            let mut i = FrameInfo::new(Family::Powercube, "request", describe_request(&request));
+            i.module = Some(module.get());
+            i
+        }
+        Ok(Some(CanMessage::Ack { module, response })) => {
+            let (summary, details) = describe_ack(&response);
+            let mut i = FrameInfo::new(Family::Powercube, "ack", summary);
+            i.module = Some(module.get());
+            i.details = details;
+            i
+        }
+        Ok(Some(CanMessage::Broadcast(b))) => FrameInfo::new(Family::Powercube, "broadcast", format!("{b:?} to all")),
+        Ok(None) => return None,
+        Err(e) => {
+            let mut i = FrameInfo::new(Family::Powercube, "raw", String::new());
+            i.module = Some((id & 0x1F) as u8).filter(|m| *m != 0);
+            i.error = Some(e.to_string());
+            i
+        }
+    })
+}
+
+fn describe_ack(resp: &Response) -> (String, serde_json::Value) {
+    match resp {
+        Response::Get { param, data } => {
+            let Some(def) = pc_table::param(*param) else {
+                return (format!("GetExtended {param:#04x} = {data:?}"), serde_json::Value::Null);
+            };
+            match Value::decode(def.ty, data.as_slice()) {
+                Ok(v) => {
+                    let mut details = json!({"param": def.name, "id": def.id, "value": v});
+                    let mut text = format!("{} = {v}", def.name);
+                    if let (Some(word), Some(raw)) = (flags::word_for_param(*param), v.as_f64()) {
+                        let d = word.decode(raw as u32);
+                        text.push_str(&format!(" [{}]", d.flags.join(" ")));
+                        details["flags"] = json!(d.flags);
+                        details["errors"] = json!(d.errors);
+                    }
+                    (text, details)
+                }
+                Err(e) => (format!("{} = {data:?} ({e})", def.name), serde_json::Value::Null),
+            }
+        }
+        Response::SetAck { param } => {
+            (format!("SetExtended {} ok", pc_table::param(*param).map_or("?", |d| d.name)), serde_json::Value::Null)
+        }
+        Response::MotionAck { motion } => {
+            (format!("SetMotion {} ok", pc_table::motion(*motion).map_or("?", |d| d.name)), serde_json::Value::Null)
+        }
+        Response::MotionAckExt { motion, pos, short_state, dio } => {
+            let def = pc_table::motion(*motion);
+            let float = def.is_some_and(|d| d.name.starts_with('F'));
+            let pos = if float { f64::from(f32::from_le_bytes(*pos)) } else { f64::from(i32::from_le_bytes(*pos)) };
+            let st = flags::SHORT_STATE.decode(u32::from(*short_state));
+            let io = flags::DIO.decode(u32::from(*dio));
+            (
+                format!(
+                    "SetMotion {} ok, pos {pos} [{}] dio [{}]",
+                    def.map_or("?", |d| d.name),
+                    st.flags.join(" "),
+                    io.flags.join(" ")
+                ),
+                json!({"position": pos, "short_state": st.flags, "dio": io.flags}),
+            )
+        }
+        Response::Simple(cmd) => (format!("{} ok", cmd.name()), serde_json::Value::Null),
+    }
+}
+
+fn cdios(frame: &CanFrame) -> Option<FrameInfo> {
+    let msg = match cdios_tp::classify(frame) {
+        Ok(Some(m)) => m,
+        Ok(None) => return None,
+        Err(e) => {
+            let mut i = FrameInfo::new(Family::Cdios, "raw", String::new());
+            i.error = Some(e.to_string());
+            return Some(i);
+        }
+    };
+    Some(match msg {
+        BusMessage::Nmt { command, node } => {
+            let what = if command == 0x01 { "start".to_string() } else { format!("command {command:#04x}") };
+            let target = if node == 0 { "all nodes".to_string() } else { format!("node {node}") };
+            FrameInfo::new(Family::Cdios, "nmt", format!("NMT {what} {target}"))
+        }
+        BusMessage::Command { node, data } => {
+            let mut i = match cdios_table::decode_command(&data) {
+                Ok(d) => {
+                    let mut i =
+                        FrameInfo::new(Family::Cdios, "command", format!("{} {}", d.def.key, fields_text(&d.fields)));
+                    i.module = Some(match d.address {
+                        Address::Module(m) => m.get(),
+                        Address::Controller => 0xFF,
+                    });
+                    i.details = json!({"command": d.def.key, "selector": d.selector, "fields": d.fields});
+                    i
+                }
+                Err(e) => {
+                    let mut i = FrameInfo::new(Family::Cdios, "command", format!("{:02x?}", data));
+                    i.error = Some(e.to_string());
+                    i
+                }
+            };
+            i.node = Some(node.get());
+            i
+        }
+        BusMessage::Answer(a) => {
+            let kind = match a.kind {
+                AnswerKind::Reply => "reply",
+                AnswerKind::Event => "event",
+                AnswerKind::Error => "error",
+            };
+            let mut i = FrameInfo::new(Family::Cdios, kind, String::new());
+            i.node = Some(a.node.get());
+            i.module = Some(a.module);
+            if let Some(err) = a.error() {
+                i.summary = format!("error to {:#04x}: {}", a.command, err.describe());
+                i.details = json!({"command": a.command, "general": err.general, "status1": err.status1, "status2": err.status2});
+            } else if let Some(r) = a.reply() {
+                match r {
+                    Ok(r) => {
+                        i.summary = format!("{} {}", r.def.map_or("?", |d| d.key), fields_text(&r.fields));
+                        i.details = serde_json::to_value(&r).unwrap_or_default();
+                    }
+                    Err(e) => i.error = Some(e.to_string()),
+                }
+            }
+            i
+        }
+    })
+}
+
+fn fields_text(fields: &[cdios_table::FieldValue]) -> String {
+    fields
+        .iter()
+        .map(|f| match (f.value, f.value_unit) {
+            (Some(v), Some(u)) => format!("{}={v}{u}", f.key),
+            _ => format!("{}={}", f.key, f.raw),
+        })
+        .collect::<Vec<_>>()
+        .join(" ")
+}
+
+/// Frame counts by family and kind, plus decode errors.
+#[derive(Debug, Default, Clone, Serialize)]
+pub struct Stats {
+    pub frames: u64,
+    pub errors: u64,
+    pub by_kind: BTreeMap<String, u64>,
+    pub by_id: BTreeMap<String, u64>,
+}
+
+impl Stats {
+    pub fn add(&mut self, frame: &CanFrame, info: &FrameInfo) {
+        self.frames += 1;
+        if info.error.is_some() {
+            self.errors += 1;
+        }
+        let fam = serde_json::to_value(info.family).ok().and_then(|v| v.as_str().map(String::from)).unwrap_or_default();
+        *self.by_kind.entry(format!("{fam}/{}", info.kind)).or_default() += 1;
+        *self.by_id.entry(format!("{:03X}", frame.id())).or_default() += 1;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn d(s: &str) -> FrameInfo {
+        describe(&s.parse().unwrap())
+    }
+
+    #[test]
+    fn decodes_both_families_and_leaves_others_raw() {
+        let home = d("0F1#01");
+        assert_eq!((home.family, home.kind, home.module), (Family::Powercube, "request", Some(17)));
+        assert_eq!(home.summary, "Home");
+        let st = d("0B1#0A2702000000");
+        assert_eq!(st.kind, "ack");
+        assert!(st.summary.contains("CubeState") && st.summary.contains("STATE_HOME_OK"), "{}", st.summary);
+        assert_eq!(d("100#0700").kind, "broadcast");
+        let goto = d("201#2301008813000000");
+        assert_eq!((goto.family, goto.kind, goto.node, goto.module), (Family::Cdios, "command", Some(1), Some(1)));
+        assert_eq!(d("000#0101").kind, "nmt");
+        assert_eq!(d("7FF#00").family, Family::Other);
+        assert_eq!(d("12345678#00").family, Family::Other);
+        let bad = d("0B1#0B");
+        assert!(bad.error.is_some(), "a truncated ack is an error of its family");
+    }
+
+    proptest::proptest! {
+        #[test]
+        fn never_panics(id in 0u32..0x800, data in proptest::collection::vec(proptest::prelude::any::<u8>(), 0..=8)) {
+            let f = CanFrame::new(id, &data).unwrap();
+            let info = describe(&f);
+            let mut s = Stats::default();
+            s.add(&f, &info);
+            let _ = serde_json::to_string(&info).unwrap();
+        }
+    }
+}
