@@ -257,6 +257,15 @@ pub struct SimArgs {
     /// Cdios 6168 module ids
     #[arg(long, value_name = "LIST", default_value = "0,1")]
     pub cdios_modules: String,
+    /// Run the simulated lines at their real speed: serial at --baud, CAN at --bitrate
+    #[arg(long)]
+    pub wire_speed: bool,
+    /// Baud rate of the served serial lines (with --wire-speed)
+    #[arg(long, default_value_t = 9600)]
+    pub baud: u32,
+    /// CAN bitrate of the simulated bus (with --wire-speed)
+    #[arg(long, default_value_t = 1_000_000)]
+    pub bitrate: u32,
 }
 
 #[derive(Debug, Args)]

@@ -64,6 +64,10 @@ pub fn run(ctx: &Ctx, args: &SimArgs) -> anyhow::Result<()> {
     }
 
     let bench = Bench::new(&cfg, Arc::clone(&ctx.clock));
+    if args.wire_speed {
+        bench.bus.set_bitrate(Some(args.bitrate));
+    }
+    let pace = |format| args.wire_speed.then(|| serve::Pace::serial(args.baud, format));
     let stop = Arc::new(AtomicBool::new(false));
     {
         let stop = Arc::clone(&stop);
@@ -75,9 +79,10 @@ pub fn run(ctx: &Ctx, args: &SimArgs) -> anyhow::Result<()> {
         match w {
             Where::PtySerial => {
                 let (master, path) = link::pty::open_pair()?;
-                announce("powercube", &format!("serial:{path}?baud=9600&format=8N1"));
+                announce("powercube", &format!("serial:{path}?baud={}&format=8N1", args.baud));
                 let (pc, clock, stop) = (Arc::clone(&bench.powercube), Arc::clone(&ctx.clock), Arc::clone(&stop));
-                threads.push(std::thread::spawn(move || serve::rs232(Box::new(master), pc, clock, &stop)));
+                let pace = pace(link::SerialFormat::F8N1);
+                threads.push(std::thread::spawn(move || serve::rs232(Box::new(master), pc, clock, &stop, pace)));
             }
             Where::PtySlcan => {
                 let (master, path) = link::pty::open_pair()?;
