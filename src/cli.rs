@@ -201,7 +201,7 @@ pub enum Command {
         #[command(subcommand)]
         action: WatchdogAction,
     },
-    /// Decode a raw word offline: cube-state, short-state, config, setup, dio, dio-setup, profibus-state, profibus-image
+    /// Decode a raw word offline: cube-state, short-state, config, setup, dio, dio-setup, profibus-state, profibus-image, cdios-status, cdios-error
     Decode {
         /// What the value is
         kind: String,
@@ -210,6 +210,8 @@ pub enum Command {
     },
     /// Serve the simulated bench on pseudo-terminals until stopped
     Sim(SimArgs),
+    #[command(flatten)]
+    Cdios(crate::cli_cdios::CdiosCommand),
 }
 
 #[derive(Debug, Subcommand)]

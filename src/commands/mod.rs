@@ -1,6 +1,7 @@
 //! The subcommands. Each resolves what the user typed, validates it before
 //! anything is sent, talks to the device through a session and prints.
 
+mod cdios;
 mod decode;
 mod powercube;
 mod sim;
@@ -169,6 +170,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Decode { kind, value } => decode::run(&ctx, &kind, &value),
         Command::Sim(args) => sim::run(&ctx, &args),
+        Command::Cdios(c) => cdios::run(&ctx, c),
         other => powercube::run(&ctx, other),
     }
 }
