@@ -320,7 +320,7 @@ fn goto(
     for c in &cmds {
         confirmed &= s.transact(node, addr(&t), c)?.is_some();
     }
-    let mut extra = json!({"mode": mode_name(mode), "position": position});
+    let mut extra = json!({"mode": mode_name(mode), "requested": position});
     if let Some(v) = speed {
         extra["speed"] = json!(v);
     }
@@ -484,7 +484,7 @@ fn wait_motion(
 
 fn print_wait_end(ctx: &Ctx, what: &str, end: &WaitEnd, target: Option<i32>, extra: Value) {
     if ctx.json {
-        let mut doc = json!({"command": what, "done": true, "end_position": end.position,
+        let mut doc = json!({"command": what, "done": true, "position": end.position,
                              "elapsed_ms": end.elapsed.as_millis() as u64});
         if let Some(t) = target {
             doc["target"] = json!(t);
