@@ -480,3 +480,328 @@ fn confirm_off() {
     assert!(r.send("201#2400000005000000").is_empty(), "enable confirmation");
     assert!(r.m(0).enabled());
 }
+
+// Manual 27h: events by mask (code | 40h, the 26h reply layout) and by timer.
+#[test]
+fn events_by_mask_and_timer() {
+    let mut r = Rig::started();
+    r.round_speeds(0);
+    // Mask: goto active (status 1 bit 7) and enabled (status 3 bit 7); no timers.
+    let set = Command::SetEventMask { masks: [0x80, 0, 0x80, 0], timers: Timers::default() };
+    assert_eq!(r.cmd(set, 0), ["181#2700000000000000"]);
+    assert_eq!(r.send("201#2700800000000000"), ["181#2700808000800000"]);
+    assert_eq!(r.send("201#2400000005000000"), ["181#2400000000000000", "181#6600000000809000"]);
+    let out = r.cmd(Command::Goto { mode: GotoMode::Absolute, position: 2000 }, 0);
+    assert_eq!(out, ["181#2300000000000000", "181#6600008900809000"], "goto, forward, starting at minimum speed");
+    // No events while only unmasked bits change (accelerating -> maximum...), one at the end.
+    let events = r.run(Duration::from_secs(5));
+    assert_eq!(events, ["181#6600000000809400"], "goto over: held, enabled");
+    // Module 1 has no mask: nothing from it.
+    r.send("201#2401000005000000");
+    // Timers: position every 62.5 ms (code 5), speed every 250 ms (code 7), always.
+    let timers = Timers { position_interval: 5, position_on_change: false, speed_interval: 7, speed_on_change: false };
+    assert_eq!(r.cmd(Command::SetEventMask { masks: [0; 4], timers }, 0), ["181#2700000000000000"]);
+    assert_eq!(r.send("201#2700800000000000"), ["181#2700800000000075"]);
+    let events = r.run(Duration::from_secs(1));
+    let pos: Vec<_> = events.iter().filter(|e| e.starts_with("181#6100")).collect();
+    let spd: Vec<_> = events.iter().filter(|e| e.starts_with("181#660002")).collect();
+    assert_eq!(pos.len(), 16, "{events:?}");
+    assert_eq!(spd.len(), 4);
+    assert_eq!(pos[0].as_str(), "181#610000D007000000");
+    assert_eq!(spd[0].as_str(), "181#6600020000000000");
+    assert_eq!(events.len(), 20);
+    // Only on change: one position event at rest.
+    let timers = Timers { position_interval: 1, position_on_change: true, speed_interval: 0, speed_on_change: false };
+    r.cmd(Command::SetEventMask { masks: [0; 4], timers }, 0);
+    assert_eq!(r.run(Duration::from_secs(1)).len(), 1);
+}
+
+// Manual 20h traject settings and 23h selector 6: speed changes at setpoint-relative positions.
+#[test]
+fn traject_runs_its_speed_changes() {
+    let mut r = Rig::started();
+    r.round_speeds(0);
+    let t = Traject::Zero;
+    for c in [
+        ServoConfig::TrajectEnd { traject: t, end_position: 20000, length: 3 },
+        ServoConfig::TrajectInitialSpeed { traject: t, speed: 550 },
+        ServoConfig::TrajectChangePosition { traject: t, step: crate::proto::cdios::Step::First, position: 5000 },
+        ServoConfig::TrajectSpeed { traject: t, step: crate::proto::cdios::Step::First, speed: 1050 },
+        ServoConfig::TrajectChangePosition { traject: t, step: crate::proto::cdios::Step::Second, position: 12000 },
+        ServoConfig::TrajectSpeed { traject: t, step: crate::proto::cdios::Step::Second, speed: 300 },
+    ] {
+        assert_eq!(r.cmd(Command::SetServoConfig(c), 0), ["181#2000000000000000"]);
+    }
+    r.enable(0);
+    r.send("201#2200001027000000"); // position and setpoint 10000
+    assert_eq!(r.cmd(Command::GotoTraject { traject: t, sync: false }, 0), ["181#2300000000000000"]);
+    assert_eq!(r.send("201#2100020000000000"), ["181#2100023075000000"], "setpoint 30000");
+    r.run(Duration::from_secs(1));
+    assert_eq!(r.m(0).status()[3] & 0x08, 0x08, "traject running");
+    assert!((r.m(0).desired_rpm() - 550.0).abs() < 1e-6);
+    assert_eq!(r.cmd(Command::ChangeGotoSpeed { speed: 100 }, 0), ["181#A300000001000000"], "not during a traject");
+    let mut seen_fast = false;
+    while r.m(0).running() {
+        r.run(Duration::from_millis(10));
+        let (p, v) = (r.m(0).position(), r.m(0).desired_rpm());
+        if p < 15000 {
+            assert!(v <= 550.0 + 1e-6, "{v} RPM at {p}");
+        }
+        seen_fast |= (v - 1050.0).abs() < 1e-6;
+        if (23000..27000).contains(&p) {
+            assert!(v <= 300.0 + 1e-6 || r.m(0).status()[0] & S1_DEC != 0, "{v} RPM at {p}");
+        }
+    }
+    assert!(seen_fast);
+    assert_eq!(r.m(0).position(), 30000);
+    assert_eq!(r.m(0).status()[3] & 0x08, 0);
+    // Traject 1 is undefined; the sin² profile refuses trajects.
+    assert_eq!(r.cmd(Command::GotoTraject { traject: Traject::One, sync: false }, 0), ["181#A300000008000000"]);
+    let c =
+        ServoConfig::Encoder { pulses_per_revolution: 500, hold_on_enable: false, auto_zero: false, sin2_slope: true };
+    r.cmd(Command::SetServoConfig(c), 0);
+    assert_eq!(r.cmd(Command::GotoTraject { traject: t, sync: false }, 0), ["181#A300000040000000"]);
+}
+
+// Manual 24h options 4 and 6: index search zeroes the position (status 3 bit 0, cleared by reading).
+#[test]
+fn index_searches_zero_the_position() {
+    let mut r = Rig::started();
+    r.enable(0);
+    let start = |option| Command::Start { sync: false, direction: Dir::Forward, option, motor_speed: 0 };
+    assert_eq!(r.cmd(start(StartOption::UntilIndex), 0), ["181#2400000000000000"]);
+    r.run(Duration::from_millis(50));
+    assert_eq!(r.m(0).status()[0], S1_FORWARD | S1_MIN);
+    r.run(Duration::from_secs(2));
+    let m = r.m(0);
+    assert!(!m.running());
+    assert!((0..10).contains(&m.position()), "a bit past the index: {}", m.position());
+    assert_eq!(m.status()[2] & 0x01, 0x01);
+    assert_eq!(m.status()[3] & 0x80, 0, "position initialised");
+    r.send("201#2600000000000000");
+    assert_eq!(r.m(0).status()[2] & 0x01, 0, "cleared by reading the status");
+    // Option 6 waits for the index inside the Z window (at 10000 pulses from power on).
+    r.cmd(start(StartOption::UntilIndexAndZero), 0);
+    r.run(Duration::from_secs(30));
+    assert!(!r.m(0).running());
+    r.cmd(Command::Goto { mode: GotoMode::Absolute, position: 0 }, 0);
+    r.run(Duration::from_secs(5));
+    assert_eq!(r.m(0).status()[3] & 0x01, 0x01, "Z active at the new zero");
+}
+
+// Manual 24h option 2: runs to the end switch whatever the checking; status 1 bit 2 meanwhile.
+#[test]
+fn end_switch_search() {
+    let mut r = Rig::started();
+    r.node.module_mut(0).unwrap().set_end_switch_positions(Some((-1000.0, 1000.0)));
+    r.enable(0);
+    let c =
+        Command::Start { sync: false, direction: Dir::Reverse, option: StartOption::UntilEndSwitch, motor_speed: 0 };
+    r.cmd(c, 0);
+    r.run(Duration::from_millis(100));
+    assert_eq!(r.m(0).status()[0], S1_REVERSE | 0x04 | S1_MIN);
+    r.run(Duration::from_secs(3));
+    let m = r.m(0);
+    assert!(!m.running() && m.enabled(), "found, not a fault");
+    assert_eq!(m.position(), 0);
+    assert_eq!(m.status()[1], 0x02, "reverse switch active, not 'stopped by'");
+    assert_eq!(r.cmd(c, 0), ["181#A400000040000000"], "already on the switch");
+}
+
+// Manual 24h options 0, 1, 3 and 25h options 0, 1, 2, 4.
+#[test]
+fn start_and_stop_options() {
+    let mut r = Rig::started();
+    r.round_speeds(0);
+    r.enable(0);
+    let start = |option, speed| Command::Start { sync: false, direction: Dir::Forward, option, motor_speed: speed };
+    let stop = |option| Command::Stop { sync: false, option };
+    assert_eq!(r.cmd(stop(StopOption::FastStop), 0), ["181#A500000004000000"], "not running");
+    r.cmd(start(StartOption::MinimumSpeed, 0), 0);
+    r.run(Duration::from_millis(100));
+    assert_eq!(r.m(0).status()[0], S1_FORWARD | S1_MIN);
+    let rev = Command::Start { sync: false, direction: Dir::Reverse, option: StartOption::Accelerate, motor_speed: 0 };
+    assert_eq!(r.cmd(rev, 0), ["181#A400000004000000"], "opposite direction");
+    assert_eq!(r.cmd(start(StartOption::Accelerate, 0), 0), ["181#2400000000000000"]);
+    r.run(Duration::from_millis(1100));
+    assert_eq!(r.m(0).status()[0], S1_FORWARD | S1_MAX);
+    assert_eq!(r.send("201#2400000003317500"), ["181#A400000080000000"], "MotorSpeed 30001");
+    assert_eq!(r.send("201#2400000001317500"), ["181#A400000001000000"], "only 'running': speed checked with option 3");
+    assert_eq!(r.cmd(start(StartOption::ToSpeed, 300), 0), ["181#2400000000000000"]);
+    r.run(Duration::from_millis(1000));
+    assert!((r.m(0).desired_rpm() - 300.0).abs() < 1e-6);
+    assert_eq!(r.cmd(stop(StopOption::ClearHold), 0), ["181#A500000001000000"], "running");
+    assert_eq!(r.cmd(stop(StopOption::DecelerateToMinimum), 0), ["181#2500000000000000"]);
+    r.run(Duration::from_millis(500));
+    assert_eq!(r.m(0).status()[0], S1_FORWARD | S1_MIN);
+    assert_eq!(r.cmd(start(StartOption::ToSpeed, 800), 0), ["181#2400000000000000"]);
+    r.run(Duration::from_millis(1000));
+    assert_eq!(r.cmd(stop(StopOption::DecelerateAndStop), 0), ["181#2500000000000000"]);
+    r.run(Duration::from_millis(400));
+    assert_eq!(r.m(0).status()[0], S1_FORWARD | S1_DEC);
+    r.run(Duration::from_millis(500));
+    let m = r.m(0);
+    assert!(!m.running());
+    assert_eq!(m.setpoint(), m.position());
+    assert_eq!(m.status()[3] & 0x04, 0, "no hold: 'Hold On Enable' is 0 and it was no goto");
+    // A goto stopped is held at the setpoint; 25h option 4 clears the hold.
+    r.cmd(Command::Goto { mode: GotoMode::Relative, position: 50_000 }, 0);
+    r.run(Duration::from_millis(500));
+    assert_eq!(r.cmd(stop(StopOption::FastStop), 0), ["181#2500000000000000"]);
+    assert_eq!(r.m(0).status()[3] & 0x04, 0x04);
+    assert_eq!(r.cmd(stop(StopOption::ClearHold), 0), ["181#2500000000000000"]);
+    assert_eq!(r.m(0).status()[3] & 0x04, 0);
+    assert_eq!(r.send("201#2500000600000000"), ["181#A500000010000000"], "option 6");
+    assert_eq!(r.send("201#2500020000000000"), ["181#A500000008000000"], "selector 2");
+    assert_eq!(r.send("201#2400000007000000"), ["181#A400000020000000"], "option 7");
+    assert_eq!(r.send("201#2400000200000000"), ["181#A400000010000000"], "direction 2");
+}
+
+// Hold on enable: a held motor pushed beyond Positioning Error (25) comes back at minimum speed.
+#[test]
+fn hold_corrects_beyond_the_positioning_error() {
+    let mut r = Rig::started();
+    let c =
+        ServoConfig::Encoder { pulses_per_revolution: 500, hold_on_enable: true, auto_zero: false, sin2_slope: false };
+    r.cmd(Command::SetServoConfig(c), 0);
+    r.enable(0);
+    assert_eq!(r.m(0).status()[3] & 0x04, 0x04);
+    r.node.module_mut(0).unwrap().push(20.0);
+    r.run(Duration::from_millis(100));
+    assert_eq!(r.m(0).position(), 20, "inside the window");
+    r.node.module_mut(0).unwrap().push(80.0);
+    r.run(Duration::from_millis(20));
+    assert_eq!(r.m(0).status()[0], S1_REVERSE | S1_MIN);
+    r.run(Duration::from_millis(500));
+    assert_eq!(r.m(0).position(), 0);
+    assert!(!r.m(0).running());
+}
+
+// 23h selector 1 and 21h selector 1: latched until SYNC.
+#[test]
+fn sync_latched_goto_and_position() {
+    let mut r = Rig::started();
+    r.enable(0);
+    assert_eq!(r.cmd(Command::Goto { mode: GotoMode::AbsoluteSync, position: 300 }, 0), ["181#2300000000000000"]);
+    r.run(Duration::from_millis(100));
+    assert!(!r.m(0).running());
+    r.send("080#");
+    r.run(Duration::from_millis(100));
+    assert!(r.m(0).running());
+    r.send("080#");
+    let latched = r.m(0).position();
+    r.run(Duration::from_secs(1));
+    let mut expect = vec![0x21, 0, 1];
+    expect.extend(latched.to_le_bytes());
+    expect.push(0);
+    let hex: String = expect.iter().map(|b| format!("{b:02X}")).collect();
+    assert_eq!(r.send("201#2100010000000000"), [format!("181#{hex}")]);
+    assert_eq!(r.m(0).position(), 300);
+}
+
+// Maximum Voltage limits the speed (status 3 bit 6, negative RPM error); 26h selectors 1 and 2.
+#[test]
+fn voltage_limiting() {
+    let mut r = Rig::started();
+    let c = ServoConfig::Voltage { maximum_voltage: 1000, forward_end_switch: true, reverse_end_switch: true };
+    r.cmd(Command::SetServoConfig(c), 0);
+    r.enable(0);
+    r.cmd(Command::Start { sync: false, direction: Dir::Forward, option: StartOption::Accelerate, motor_speed: 0 }, 0);
+    r.run(Duration::from_secs(2));
+    let m = r.m(0);
+    assert_eq!(m.status()[2] & 0x40, 0x40);
+    assert!((m.speed_rpm() - RPM_PER_VOLT).abs() < 1e-6);
+    assert_eq!(m.analog_outputs()[0], 1000);
+    // 3200 = 0x0C80, error 3200 - 8000 = -4800 = 0xED40.
+    assert_eq!(r.send("201#2600010000000000"), ["181#260001800C000000"]);
+    assert_eq!(r.send("201#2600020000000000"), ["181#260002800C40ED00"]);
+}
+
+// The bench: PowerCube and Cdios frames interleaved on one MemBus, both answered.
+#[test]
+fn powercube_and_cdios_share_one_bus() {
+    use crate::clock::VirtualClock;
+    use crate::link::CanLink;
+    use crate::sim::bench::Bench;
+    use std::sync::Arc;
+
+    let clock = Arc::new(VirtualClock::new());
+    let bench = Bench::contract(clock.clone());
+    let mut link = bench.bus.open();
+    let mut exchange = |frame: &str| {
+        link.send(&f(frame)).unwrap();
+        let mut got = Vec::new();
+        while let Some(fr) = link.recv(Duration::from_millis(5)).unwrap() {
+            got.push(fr.to_string());
+        }
+        got
+    };
+    assert!(exchange("000#0101").is_empty());
+    // PowerCube GetExtended DefCubeVersion (0x1d) of module 3 on 0x0C3, ack on 0x0A3.
+    let pc = exchange("0C3#0A1D");
+    assert_eq!(pc.len(), 1);
+    assert!(pc[0].starts_with("0A3#0A1D"), "{pc:?}");
+    assert_eq!(exchange("201#2600000000000000"), ["181#2600000000009000"]);
+    assert_eq!(exchange("201#2401000005000000"), ["181#2401000000000000"]);
+    assert!(exchange("0C5#0A1D")[0].starts_with("0A5#0A1D"));
+    assert_eq!(exchange("201#2301008813000000"), ["181#2301000000000000"], "the contract's goto 5000");
+    assert!(exchange("0C3#0A3C")[0].starts_with("0A3#0A3C"), "ActPos of module 3");
+    clock.advance(Duration::from_secs(3));
+    assert_eq!(exchange("201#2101000000000000"), ["181#2101008813000000"]);
+    assert_eq!(bench.cdios.lock().unwrap().module(1).unwrap().position(), 5000);
+    // PowerCube module 3 is no Cdios module: general error 1.
+    assert_eq!(exchange("201#2603000000000000"), ["181#A603000100000000"]);
+}
+
+fn arb_frame() -> impl Strategy<Value = CanFrame> {
+    let id = prop_oneof![Just(0x000u32), Just(0x080), Just(0x201), Just(0x181), Just(0x0E3), 0u32..0x800];
+    let data = prop_oneof![
+        proptest::collection::vec(any::<u8>(), 0..=8),
+        // Commands the node knows, with random selectors and values.
+        (prop_oneof![Just(0x05u8), Just(0x10), Just(0x16), 0x20u8..=0x27], 0u8..3, any::<[u8; 6]>()).prop_map(
+            |(c, m, rest)| {
+                let mut v = vec![c, m];
+                v.extend(rest);
+                v
+            }
+        ),
+    ];
+    (id, data).prop_map(|(id, d)| CanFrame::new(id, &d).unwrap())
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(64))]
+
+    // Never panic; answer only from 0x181 with 8 bytes; reserved status bits stay 0.
+    #[test]
+    fn random_frames_never_panic(
+        steps in proptest::collection::vec((arb_frame(), 0u64..400, any::<u8>()), 1..120)
+    ) {
+        let mut r = Rig::started();
+        for (frame, ms, poke) in steps {
+            r.now += Duration::from_millis(ms);
+            let mut out = Vec::new();
+            if let Some(m) = r.node.module_mut(poke & 1) {
+                match poke >> 5 {
+                    1 => m.set_end_switch(Dir::Forward, poke & 2 != 0),
+                    2 => m.set_emergency(poke & 2 != 0),
+                    3 => m.push(f64::from(poke) - 128.0),
+                    _ => {}
+                }
+            }
+            r.node.handle_can(r.now, &frame, &mut out);
+            r.node.poll(r.now + Duration::from_millis(ms / 2), &mut out);
+            for a in &out {
+                prop_assert_eq!(a.id(), 0x181);
+                prop_assert_eq!(a.dlc(), 8);
+            }
+            for m in r.node.modules() {
+                let s = m.status();
+                prop_assert_eq!(s[2] & 0x0A, 0, "reserved status 3 bits");
+                prop_assert_eq!(s[3] & 0x42, 0, "reserved status 4 bits");
+                prop_assert!(m.speed_rpm().is_finite());
+                prop_assert!(!m.running() || m.enabled(), "running while disabled");
+            }
+        }
+    }
+}
