@@ -588,14 +588,16 @@ impl Motor6168 {
             return 0.0;
         }
         let t = (rpm - min) / self.p.accel.max(EPS);
-        (rpm + min) / 2.0 * self.p.ppr / 60.0 * t
+        // The real speed runs ahead of the desired one while slowing down.
+        let lag = (rpm - min) * SPEED_LAG_S;
+        ((rpm + min) / 2.0 * t + lag) * self.p.ppr / 60.0
     }
 
     /// The desired speed for this cycle; may end the motion.
     fn motion_target(&mut self) -> f64 {
         let (min, max, pos, dir, speed) = (self.p.min_rpm, self.p.max_rpm, self.pos_f(), self.dir, self.speed);
         // Decide to brake one cycle early rather than one late.
-        let brake = self.braking_distance(speed) + 2.0 * self.pulses_per_cycle(speed);
+        let brake = self.braking_distance(speed) + self.pulses_per_cycle(speed);
         let mut stop_with = None;
         let target = match &mut self.motion {
             Motion::Idle => 0.0,
