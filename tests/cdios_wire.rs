@@ -79,7 +79,7 @@ fn goto_sends_nmt_then_the_contract_frame() {
     assert_eq!(r.frames(), ["t00020101", "t20182301008813000000"]);
     let doc: serde_json::Value = serde_json::from_str(&out).unwrap();
     assert_eq!(
-        (doc["node"].as_u64(), doc["module"].as_u64(), doc["position"].as_i64()),
+        (doc["node"].as_u64(), doc["module"].as_u64(), doc["requested"].as_i64()),
         (Some(1), Some(1), Some(5000))
     );
     assert_eq!(doc["confirmed"], true);
