@@ -201,7 +201,7 @@ pub enum Command {
         #[command(subcommand)]
         action: WatchdogAction,
     },
-    /// Decode a raw word offline: cube-state, short-state, config, setup, dio, dio-setup, profibus-state, profibus-image
+    /// Decode a raw word offline: cube-state, short-state, config, setup, dio, dio-setup, profibus-state, profibus-image, cdios-status, cdios-error
     Decode {
         /// What the value is
         kind: String,
@@ -212,6 +212,8 @@ pub enum Command {
     Sim(SimArgs),
     /// Passive, decoded bus monitor on any CAN link, or replay of a candump log
     Monitor(MonitorArgs),
+    #[command(flatten)]
+    Cdios(crate::cli_cdios::CdiosCommand),
 }
 
 #[derive(Debug, Subcommand)]
