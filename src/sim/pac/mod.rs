@@ -855,6 +855,9 @@ impl PacController {
                 if a.moving() {
                     return Err(quit::MOVING);
                 }
+                if value.abs() > f64::from(f32::MAX) {
+                    return Err(quit::RANGE);
+                }
                 let new = if def.code == 0x0A85 { 0.0 } else { f64::from(value as f32) };
                 let old = a.position(t);
                 match def.code {

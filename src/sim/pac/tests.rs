@@ -352,6 +352,8 @@ fn targets_outside_the_software_limits_answer_65() {
     assert_eq!(b.float(0x0A94, 1, 50.0).quit, 65);
     b.ok(0x0A85, 1, Par2::Int(0));
     assert_eq!(b.c.axis_position(1), Some(0.0));
+    assert_eq!(b.float(0x0A86, 1, 1e300).quit, 0x29, "the counter is a 32-bit float");
+    assert_eq!(b.float(0x0A89, 1, 1e300).quit, 65);
     assert_eq!(b.c.axis_limits(1), Some((100.0, 10_100.0)));
 }
 
