@@ -38,6 +38,9 @@ pub struct Global {
     /// How often a read is retried after a timeout (motion is never retried)
     #[arg(long, global = true, value_name = "N", default_value_t = 2)]
     pub retries: u32,
+    /// PA-CONTROL: send CHECK as the XOR including ETX (default: strictly between STX and ETX)
+    #[arg(long, global = true)]
+    pub pac_check_etx: bool,
 }
 
 #[derive(Debug, Args, Clone, Copy)]
@@ -210,6 +213,8 @@ pub enum Command {
     },
     /// Serve the simulated bench on pseudo-terminals until stopped
     Sim(SimArgs),
+    #[command(flatten)]
+    Pac(crate::cli_pac::PacCommand),
 }
 
 #[derive(Debug, Subcommand)]

@@ -110,6 +110,7 @@ pub struct Pac {
     /// A command left unfinished (BE = 0) by an abandoned wait or [`Pac::start`].
     busy: Option<Transaction>,
     last_status: Option<u16>,
+    last_quit: Option<u16>,
     last_check: Option<CheckRule>,
 }
 
@@ -135,6 +136,7 @@ impl Pac {
             clock: Arc::new(SystemClock),
             busy: None,
             last_status: None,
+            last_quit: None,
             last_check: None,
         }
     }
@@ -184,6 +186,11 @@ impl Pac {
     /// STATUS of the latest acknowledge.
     pub fn last_status(&self) -> Option<u16> {
         self.last_status
+    }
+
+    /// QUIT of the latest acknowledge (0: accepted).
+    pub fn last_quit(&self) -> Option<u16> {
+        self.last_quit
     }
 
     /// The CHECK rule the latest acknowledge matched.
@@ -315,6 +322,7 @@ impl Pac {
 
     fn handle(&mut self, t: &mut Transaction, ack: Ack) -> Result<Step, PacError> {
         self.last_status = Some(ack.status);
+        self.last_quit = Some(ack.quit);
         self.last_check = Some(ack.check_rule);
         match t.handle_ack(ack) {
             Ok(step) => Ok(step),
