@@ -52,7 +52,10 @@ pub fn run(ctx: &Ctx, args: &SimArgs) -> anyhow::Result<()> {
         return Err(usage("--modules: PowerCube ids are 1..31"));
     }
     let linear = parse_list(&args.linear, "--linear", 31)?;
-    let cfg = BenchConfig { modules, linear };
+    if !(1..=axisctl::proto::pac::table::MAX_AXES).contains(&args.axes) {
+        return Err(usage(format!("--axes: {} is not 1..={}", args.axes, axisctl::proto::pac::table::MAX_AXES)));
+    }
+    let cfg = BenchConfig { modules, linear, axes: args.axes };
     let only_some = args.powercube.is_some() || args.pac.is_some() || args.cdios.is_some();
     let powercube_where = match &args.powercube {
         Some(w) => Some(parse_where(w, "powercube")?),

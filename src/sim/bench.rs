@@ -1,13 +1,15 @@
 //! The simulated bench: the devices of `cli-contract.md` on one in-memory
-//! CAN bus (PowerCube modules 3, 5 and 17, 17 linear), shared by the
-//! in-process `--link sim` and by `axisctl sim`'s served links.
+//! CAN bus (PowerCube modules 3, 5 and 17, 17 linear), and a PA-CONTROL with
+//! 3 axes on its own serial line, shared by the in-process `--link sim` and
+//! by `axisctl sim`'s served links.
 
 use std::sync::{Arc, Mutex, MutexGuard};
 use std::time::Instant;
 
+use super::pac::PacController;
 use super::powercube::{ModuleKind, ModuleSpec, PowerCubeBus};
 use crate::clock::Clock;
-use crate::link::mem::{CanDevice, MemBus};
+use crate::link::mem::{CanDevice, MemBus, MemByteLink};
 use crate::proto::powercube::ModuleId;
 use crate::proto::CanFrame;
 
@@ -16,12 +18,14 @@ use crate::proto::CanFrame;
 pub struct BenchConfig {
     pub modules: Vec<u8>,
     pub linear: Vec<u8>,
+    /// PA-CONTROL axes (1..=16).
+    pub axes: u8,
 }
 
 impl Default for BenchConfig {
     /// The contract's bench.
     fn default() -> Self {
-        Self { modules: vec![3, 5, 17], linear: vec![17] }
+        Self { modules: vec![3, 5, 17], linear: vec![17], axes: 3 }
     }
 }
 
@@ -58,6 +62,8 @@ impl CanDevice for SharedPowerCube {
 pub struct Bench {
     pub bus: MemBus,
     pub powercube: Shared<PowerCubeBus>,
+    /// The PA-CONTROL, reached over [`Bench::pac_link`] or a served pty.
+    pub pac: Shared<PacController>,
 }
 
 impl Bench {
@@ -66,7 +72,14 @@ impl Bench {
         let bus = MemBus::new(clock);
         let powercube = Arc::new(Mutex::new(PowerCubeBus::new(cfg.module_specs(), now)));
         bus.attach(Box::new(SharedPowerCube(Arc::clone(&powercube))));
-        Self { bus, powercube }
+        let pac = Arc::new(Mutex::new(PacController::new(cfg.axes, now)));
+        Self { bus, powercube, pac }
+    }
+
+    /// A serial line to the PA-CONTROL (the in-process `--link sim`); every
+    /// link opened here talks to the same controller.
+    pub fn pac_link(&self, clock: Arc<dyn Clock>) -> MemByteLink {
+        MemByteLink::new(Box::new(Arc::clone(&self.pac)), clock)
     }
 
     pub fn contract(clock: Arc<dyn Clock>) -> Self {
