@@ -45,6 +45,9 @@ pub struct ParamAccess {
     pub max: bool,
 }
 
+// clap derives each subcommand's name from its variant: the prefix is the
+// contract's `pac-` and has to be there.
+#[allow(clippy::enum_variant_names)]
 #[derive(Debug, Subcommand)]
 pub enum PacCommand {
     /// PA-CONTROL: start online mode from home position (0603)

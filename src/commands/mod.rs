@@ -131,14 +131,11 @@ impl Ctx {
                 Pac::new(self.logged_bytes(link::open_bytes(path, baud, format)?)?, baud, format)
             }
             LinkSpec::Sim => {
-                let l = axisctl::sim::bench::pac_in_process(Arc::clone(&self.clock));
+                let bench = axisctl::sim::bench::Bench::contract(Arc::clone(&self.clock));
+                let l: Box<dyn link::ByteLink> = Box::new(bench.pac_link(Arc::clone(&self.clock)));
                 Pac::new(self.logged_bytes(l)?, 9600, link::SerialFormat::F7N1).with_clock(Arc::clone(&self.clock))
             }
-            _ => {
-                return Err(usage(format!(
-                    "{spec} is a CAN link; the PA-CONTROL talks RS232 (serial:TTY or sim)"
-                )))
-            }
+            _ => return Err(usage(format!("{spec} is a CAN link; the PA-CONTROL talks RS232 (serial:TTY or sim)"))),
         };
         if let Some(t) = self.timeout {
             pac.set_timeout(t);

@@ -18,7 +18,7 @@
 use std::io::IsTerminal;
 use std::time::Duration;
 
-use axisctl::proto::pac::table::{self, CommandDef, DataType, ExtAxisStatus, Modes};
+use axisctl::proto::pac::table::{self, CommandDef, ExtAxisStatus, Modes};
 use axisctl::proto::pac::validate::{self, Context as Limits};
 use axisctl::proto::pac::{Ack, CheckRule, Command, Par2};
 use axisctl::session::pac::{Done, Pac, PacError, Progress};
@@ -47,7 +47,9 @@ pub fn run(ctx: &Ctx, cmd: PacCommand) -> anyhow::Result<()> {
         PacCommand::PacState => state(ctx, d),
         PacCommand::PacError => error(ctx, d),
         PacCommand::PacResetError => reset_error(ctx, d),
-        PacCommand::PacMove { axis, pos, relative, force, wait } => move_axis(ctx, d, axis.axis, pos, relative, force, wait),
+        PacCommand::PacMove { axis, pos, relative, force, wait } => {
+            move_axis(ctx, d, axis.axis, pos, relative, force, wait)
+        }
         PacCommand::PacRef { axis, wait } => reference(ctx, d, axis.axis, wait),
         PacCommand::PacNoRef(a) => simple(ctx, d, 0x0A83, a.axis.into(), None),
         PacCommand::PacZero(a) => simple(ctx, d, 0x0A85, a.axis.into(), None),
@@ -65,7 +67,9 @@ pub fn run(ctx: &Ctx, cmd: PacCommand) -> anyhow::Result<()> {
         PacCommand::PacAxes => axes(ctx, d),
         PacCommand::PacAxisOn(a) => simple(ctx, d, 0x0A97, a.axis.into(), None),
         PacCommand::PacAxisOff(a) => simple(ctx, d, 0x0A98, a.axis.into(), None),
-        PacCommand::PacMeasure { axis, off } => simple(ctx, d, if off { 0x0AA1 } else { 0x0AA0 }, axis.axis.into(), None),
+        PacCommand::PacMeasure { axis, off } => {
+            simple(ctx, d, if off { 0x0AA1 } else { 0x0AA0 }, axis.axis.into(), None)
+        }
         PacCommand::PacLimitSwitch { axis, state } => {
             simple(ctx, d, 0x0AA2, axis.into(), Some(if state == "on" { 1.0 } else { 0.0 }))
         }
@@ -328,7 +332,15 @@ fn interrupted_after_stop(d: &mut Dev, axis: u8) -> anyhow::Error {
     }
 }
 
-fn move_axis(ctx: &Ctx, d: &mut Dev, axis: u8, pos: f64, relative: bool, force: bool, wait: PacWait) -> anyhow::Result<()> {
+fn move_axis(
+    ctx: &Ctx,
+    d: &mut Dev,
+    axis: u8,
+    pos: f64,
+    relative: bool,
+    force: bool,
+    wait: PacWait,
+) -> anyhow::Result<()> {
     let pos = finite("POS", pos)?;
     let code = if relative { 0x0A95 } else { 0x0A94 };
     // Mode and table ranges first: nothing is read from a controller that
@@ -417,7 +429,11 @@ fn move_axis(ctx: &Ctx, d: &mut Dev, axis: u8, pos: f64, relative: bool, force: 
             "status_text": table::axis_status_text(status), "done": true,
             "elapsed_ms": elapsed.as_millis() as u64}));
     } else {
-        println!("axis {axis}: at {position} after {:.2} s ({})", elapsed.as_secs_f64(), table::axis_status_text(status));
+        println!(
+            "axis {axis}: at {position} after {:.2} s ({})",
+            elapsed.as_secs_f64(),
+            table::axis_status_text(status)
+        );
     }
     Ok(())
 }
@@ -667,7 +683,9 @@ fn reg(ctx: &Ctx, d: &mut Dev, register: &str, value: Option<&str>) -> anyhow::R
     let ack = d.send(read, number, None)?.ack;
     let name = format!("{kind}{number}");
     if ctx.json {
-        output::json(&json!({"register": name, "type": if float { "float" } else { "int" }, "value": ack.q_par.as_f64()}));
+        output::json(
+            &json!({"register": name, "type": if float { "float" } else { "int" }, "value": ack.q_par.as_f64()}),
+        );
     } else {
         println!("{name} = {}", ack.q_par);
     }
