@@ -139,9 +139,14 @@ impl Dev {
     }
 
     /// Builds and validates the command (table ranges, mode, known limits): exit 2.
+    /// The mode is read first (190B) unless the command is valid in every
+    /// mode or is itself an operating-mode change (5.2.1, 0A41, 0A81): those
+    /// go out as exactly one frame and the controller's QUIT says if the
+    /// mode was wrong.
     fn build(&mut self, code: u16, par1: i64, value: Option<f64>) -> anyhow::Result<Command> {
         let def = def(code);
-        self.limits.status = if def.modes.contains_all() { None } else { Some(self.status()?) };
+        let mode_change = matches!(code, 0x0600 | 0x0602 | 0x0603 | 0x0A41 | 0x0A81);
+        self.limits.status = if def.modes.contains_all() || mode_change { None } else { Some(self.status()?) };
         validate::build(def, par1, value, &self.limits).map_err(|e| usage(format!("{e}; nothing was sent")))
     }
 
