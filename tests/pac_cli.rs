@@ -23,12 +23,15 @@ fn ack(status: u16, be: bool, q_par: Par2, rule: CheckRule) -> Ack {
     Ack { quit: 0, be, status, error: 0, q_par, check_rule: rule }
 }
 
+/// Each request as received: its raw bytes and what it decoded to.
+type Seen = Arc<Mutex<Vec<(Vec<u8>, Request)>>>;
+
 /// A hand-written controller on a pty: every request (raw bytes and
 /// decoded) is recorded; `answer` decides the acknowledge (`None`: silence).
 struct Responder {
     path: String,
     stop: Arc<AtomicBool>,
-    seen: Arc<Mutex<Vec<(Vec<u8>, Request)>>>,
+    seen: Seen,
     thread: Option<JoinHandle<()>>,
 }
 
@@ -36,7 +39,7 @@ impl Responder {
     fn start(mut answer: impl FnMut(&Request) -> Option<Ack> + Send + 'static) -> Self {
         let (mut master, path) = pty::open_pair().unwrap();
         let stop = Arc::new(AtomicBool::new(false));
-        let seen = Arc::new(Mutex::new(Vec::new()));
+        let seen: Seen = Arc::new(Mutex::new(Vec::new()));
         let (st, sn) = (Arc::clone(&stop), Arc::clone(&seen));
         let thread = std::thread::spawn(move || {
             let mut dec = CommandDecoder::new();
