@@ -681,4 +681,16 @@ mod tests {
         // 24 + 48 characters at 9 bits and 9600 baud: 67.5 ms.
         assert_eq!(pac.answer_timeout(24), Duration::from_micros(30_000 + 67_500));
     }
+
+    proptest::proptest! {
+        // Whatever the line delivers, the session answers with a value or a
+        // typed error, never a panic; bytes without a frame are a timeout.
+        #[test]
+        fn random_answers_never_panic(reply in proptest::collection::vec(proptest::prelude::any::<u8>(), 0..200)) {
+            let (mut pac, _, _) = session(vec![Some(reply.clone()), Some(reply.clone()), Some(reply)]);
+            pac.set_busy_timeout(Duration::from_millis(200));
+            let _ = pac.transact(&Command::new(0x190C, 1, Par2::Float(0.0)));
+            let _ = pac.transact(&Command::new(0x0A94, 1, Par2::Float(1.0)));
+        }
+    }
 }
