@@ -62,8 +62,15 @@ pub fn run(ctx: &Ctx, args: &SimArgs) -> anyhow::Result<()> {
         None if !only_some => Some(Where::PtySlcan),
         None => None,
     };
-    if args.pac.is_some() || args.cdios.is_some() {
-        return Err(usage("the PA-CONTROL and Cdios simulators are not served yet"));
+    // The PA-CONTROL has only its RS232 port.
+    let pac_where = match args.pac.as_deref() {
+        Some("pty-serial") => Some(Where::PtySerial),
+        Some(other) => return Err(usage(format!("--pac {other:?}: the PA-CONTROL is served on pty-serial only"))),
+        None if !only_some => Some(Where::PtySerial),
+        None => None,
+    };
+    if args.cdios.is_some() {
+        return Err(usage("the Cdios simulator is not served yet"));
     }
 
     let bench = Bench::new(&cfg, Arc::clone(&ctx.clock));
@@ -96,6 +103,12 @@ pub fn run(ctx: &Ctx, args: &SimArgs) -> anyhow::Result<()> {
                 threads.push(std::thread::spawn(move || serve::bridge(ext, client, &stop)));
             }
         }
+    }
+    if let Some(Where::PtySerial) = pac_where {
+        let (master, path) = link::pty::open_pair()?;
+        announce("pac", &format!("serial:{path}?baud=9600&format=7N1"));
+        let (pac, clock, stop) = (Arc::clone(&bench.pac), Arc::clone(&ctx.clock), Arc::clone(&stop));
+        threads.push(std::thread::spawn(move || serve::pac(Box::new(master), pac, clock, &stop)));
     }
     for t in threads {
         match t.join() {

@@ -91,3 +91,47 @@ impl Bench {
 pub fn in_process(clock: Arc<dyn Clock>) -> MemBus {
     Bench::contract(clock).bus
 }
+
+#[cfg(test)]
+mod tests {
+    use std::time::Duration;
+
+    use super::*;
+    use crate::clock::VirtualClock;
+    use crate::link::ByteLink;
+    use crate::proto::pac::{AckDecoder, Command, Par2};
+
+    fn transact(link: &mut MemByteLink, bytes: &[u8]) -> crate::proto::pac::Ack {
+        link.write_all(bytes).unwrap();
+        let mut buf = [0u8; 256];
+        let n = link.read(&mut buf, Duration::from_millis(100)).unwrap();
+        let mut dec = AckDecoder::new();
+        dec.push(&buf[..n]);
+        dec.next().expect("an acknowledge").unwrap()
+    }
+
+    // The in-process `--link sim` path: a 0A87 move polled on virtual time.
+    #[test]
+    fn pac_link_reaches_the_shared_controller_on_virtual_time() {
+        let clock = Arc::new(VirtualClock::new());
+        let bench = Bench::contract(clock.clone());
+        let mut link = bench.pac_link(clock.clone());
+        assert_eq!(transact(&mut link, &Command::new(0x0603, 0, Par2::Int(0)).encode().unwrap()).status, 31);
+        transact(&mut link, &Command::new(0x0A96, 3, Par2::Float(0.0)).encode().unwrap());
+        let first = transact(&mut link, &Command::new(0x0A87, 3, Par2::Float(2000.0)).encode().unwrap());
+        assert!(!first.be);
+        let t0 = clock.now();
+        let mut polls = 0;
+        while !transact(&mut link, &[0x04]).be {
+            polls += 1;
+            clock.advance(Duration::from_millis(50));
+        }
+        // 2000 AE at 1000 AE/s and 2000 AE/s²: 2.5 s.
+        assert_eq!(clock.now() - t0, Duration::from_millis(2500));
+        assert_eq!(polls, 50);
+        assert_eq!(lock(&bench.pac).axis_position(3), Some(2000.0));
+        let mut other = bench.pac_link(clock);
+        let pos = transact(&mut other, &Command::new(0x190C, 3, Par2::Float(0.0)).encode().unwrap());
+        assert_eq!(pos.q_par, Par2::Float(2000.0), "every link reaches the same controller");
+    }
+}
