@@ -306,8 +306,8 @@ fn sim_online_reference_and_move_with_live_position() {
 fn sim_target_outside_the_traverse_area_is_error_65() {
     let sim = pac_sim();
     let link = sim.link("pac");
-    ok(&["--link", link, "pac-online"]);
-    ok(&["--link", link, "pac-no-ref", "1"]);
+    ok(&["--link", link, "--json", "pac-online"]);
+    ok(&["--link", link, "--json", "pac-no-ref", "1"]);
     let max = ok(&["--link", link, "--json", "pac-axis", "1"])["traverse_max"].as_f64().unwrap();
     let beyond = format!("{}", max + 100.0);
     let r = run(&["--link", link, "pac-move", "1", &beyond]);
