@@ -261,8 +261,16 @@ fn pac_sim() -> Sim {
     Sim::start(&["--pac", "pty-serial"], 1)
 }
 
+/// The simulator shares two cores with the other tests: a generous answer
+/// timeout keeps a busy machine from turning into exit 4.
+fn srun(args: &[&str]) -> common::Run {
+    let mut all = vec!["--timeout", "1000"];
+    all.extend_from_slice(args);
+    run(&all)
+}
+
 fn ok(args: &[&str]) -> serde_json::Value {
-    let r = run(args);
+    let r = srun(args);
     assert_eq!(r.code, 0, "{args:?}: {}", r.stderr);
     r.json()
 }
@@ -282,7 +290,7 @@ fn sim_online_reference_and_move_with_live_position() {
     assert_eq!(ok(&["--link", link, "--json", "pac-online"])["status"], 31);
     let r = ok(&["--link", link, "--json", "pac-ref", "2", "--wait"]);
     assert_eq!(r["done"], true);
-    let r = run(&["--link", link, "--json", "pac-move", "2", "200", "--wait", "--progress-json"]);
+    let r = srun(&["--link", link, "--json", "pac-move", "2", "200", "--wait", "--progress-json"]);
     assert_eq!(r.code, 0, "{}", r.stderr);
     let end = r.json();
     assert!((end["position"].as_f64().unwrap() - 200.0).abs() < 1e-3, "{end}");
@@ -310,9 +318,9 @@ fn sim_target_outside_the_traverse_area_is_error_65() {
     ok(&["--link", link, "--json", "pac-no-ref", "1"]);
     let max = ok(&["--link", link, "--json", "pac-axis", "1"])["traverse_max"].as_f64().unwrap();
     let beyond = format!("{}", max + 100.0);
-    let r = run(&["--link", link, "pac-move", "1", &beyond]);
+    let r = srun(&["--link", link, "pac-move", "1", &beyond]);
     assert_eq!(r.code, 2, "checked locally first: {}", r.stderr);
-    let r = run(&["--link", link, "pac-move", "1", &beyond, "--force"]);
+    let r = srun(&["--link", link, "pac-move", "1", &beyond, "--force"]);
     assert_eq!(r.code, 5, "{}", r.stderr);
     assert!(r.stderr.contains("(65)") && r.stderr.contains("position outside range"), "{}", r.stderr);
 }
@@ -322,7 +330,7 @@ fn sim_mode_refusal_registers_flags_and_check_rules() {
     let sim = pac_sim();
     let link = sim.link("pac");
     // Home position: a move is refused before anything is sent.
-    let r = run(&["--link", link, "pac-move", "1", "10"]);
+    let r = srun(&["--link", link, "pac-move", "1", "10"]);
     assert_eq!(r.code, 2, "{}", r.stderr);
     assert!(r.stderr.contains("not valid in home position"), "{}", r.stderr);
     assert_eq!(ok(&["--link", link, "--json", "pac-reg", "N5", "12345"])["value"], 12345.0);
@@ -344,9 +352,48 @@ fn sim_mode_refusal_registers_flags_and_check_rules() {
 
 #[test]
 fn in_process_sim_answers_pac_state() {
-    let r = run(&["--link", "sim", "--json", "pac-state"]);
+    let r = srun(&["--link", "sim", "--json", "pac-state"]);
     assert_eq!(r.code, 0, "{}", r.stderr);
     assert_eq!(r.json()["status"], 1);
     assert!(r.json()["status_text"].as_str().unwrap().contains("home"));
     assert_eq!(r.json()["error"], 0);
+}
+
+/// Every example of docs/json-pac.md parses, and replaying them in order
+/// against a fresh simulator gives documents with the same keys (values
+/// such as times and positions may differ).
+#[test]
+fn documented_json_matches_real_output() {
+    fn keys(v: &serde_json::Value, prefix: &str, out: &mut Vec<String>) {
+        if let Some(m) = v.as_object() {
+            for (k, x) in m {
+                let p = format!("{prefix}{k}");
+                out.push(p.clone());
+                keys(x, &format!("{p}."), out);
+            }
+        }
+    }
+    let doc = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/docs/json-pac.md")).unwrap();
+    let mut examples = Vec::new();
+    let mut lines = doc.lines().peekable();
+    while let Some(line) = lines.next() {
+        if let Some(cmd) = line.strip_prefix("$ axisctl --link sim --json ") {
+            assert_eq!(lines.next(), Some("```json"), "{cmd}");
+            let body: Vec<&str> = lines.by_ref().take_while(|l| *l != "```").collect();
+            let v: serde_json::Value = serde_json::from_str(&body.join("\n")).unwrap_or_else(|e| panic!("{cmd}: {e}"));
+            examples.push((cmd.to_string(), v));
+        }
+    }
+    assert!(examples.len() >= 30, "{} examples", examples.len());
+    let sim = pac_sim();
+    let link = sim.link("pac");
+    for (cmd, documented) in &examples {
+        let mut args = vec!["--link", link, "--json"];
+        args.extend(cmd.split_whitespace());
+        let real = ok(&args);
+        let (mut a, mut b) = (Vec::new(), Vec::new());
+        keys(documented, "", &mut a);
+        keys(&real, "", &mut b);
+        assert_eq!(a, b, "{cmd}: documented {documented} real {real}");
+    }
 }
