@@ -48,6 +48,20 @@ fn same_shape(doc: &Value, real: &Value, path: &str) -> Result<(), String> {
     }
 }
 
+/// A file with this line runs its examples in order on one served
+/// simulator, so that state carries over (online mode, a referenced axis);
+/// otherwise each example runs on a fresh in-process bench.
+const SERVED: &str = "<!-- examples run in order on one served simulator -->";
+
+/// The served link of the family a command belongs to.
+fn family_link<'a>(sim: &'a common::Sim, args: &[&str]) -> &'a str {
+    match args.iter().find(|a| !a.starts_with('-') && **a != "sim") {
+        Some(c) if c.starts_with("pac-") => sim.link("pac"),
+        Some(c) if c.starts_with("cdios-") => sim.link("cdios"),
+        _ => sim.link("powercube"),
+    }
+}
+
 #[test]
 fn every_documented_example_matches_real_output() {
     let mut checked = 0;
@@ -57,9 +71,15 @@ fn every_documented_example_matches_real_output() {
         if !(name.starts_with("json") && name.ends_with(".md")) {
             continue;
         }
-        for (cmd, doc) in examples(&std::fs::read_to_string(&path).unwrap()) {
-            let args: Vec<&str> = cmd.split_whitespace().collect();
+        let text = std::fs::read_to_string(&path).unwrap();
+        let sim = text.contains(SERVED).then(|| common::Sim::start(&[], 3));
+        for (cmd, doc) in examples(&text) {
+            let mut args: Vec<&str> = cmd.split_whitespace().collect();
             assert!(args.contains(&"--json"), "{name}: example without --json: {cmd}");
+            if let Some(sim) = &sim {
+                let link = family_link(sim, &args);
+                args.iter_mut().filter(|a| **a == "sim").for_each(|a| *a = link);
+            }
             let r = common::run(&args);
             assert_eq!(r.code, 0, "{name}: `axisctl {cmd}` failed: {}", r.stderr);
             let doc: Value = serde_json::from_str(&doc).unwrap_or_else(|e| panic!("{name}: bad JSON for {cmd}: {e}"));

@@ -39,7 +39,7 @@ pub fn run(ctx: &Ctx, cmd: Command) -> anyhow::Result<()> {
         Command::SetConfig { module: m, changes, raw } => set_config(ctx, module(m.module), &changes, raw.as_deref()),
         Command::Dio { module: m, out } => dio(ctx, module(m.module), out.as_deref()),
         Command::Watchdog { action } => watchdog(ctx, action),
-        Command::Decode { .. } | Command::Sim(_) | Command::Monitor(_) | Command::Cdios(_) => {
+        Command::Decode { .. } | Command::Sim(_) | Command::Monitor(_) | Command::Cdios(_) | Command::Pac(_) => {
             unreachable!("dispatched elsewhere")
         }
     }
