@@ -168,7 +168,8 @@ fi
 say "booting $(basename "$boot") under qemu (tcg)"
 tboot=$(date +%s.%N)
 rc=0
-timeout 600 qemu-system-x86_64 -accel tcg -nographic -no-reboot -m 512 -smp 2 -nic none \
+# A hung guest ends here rather than in the CI job timeout.
+timeout 300 qemu-system-x86_64 -accel tcg -nographic -no-reboot -m 512 -smp 2 -nic none \
     -kernel "$boot" -initrd "$work/initramfs.cpio" \
     -append "console=ttyS0 panic=-1 quiet" \
     -serial mon:stdio -serial "file:$work/results.txt" \
@@ -192,6 +193,7 @@ if [ ! -f "$out/.done" ]; then
 fi
 if [ -f "$out/guest-error.txt" ]; then
     tr -d '\r' <"$work/console.log" | tail -20 >&2
+    cat "$out/guest-stderr.txt" >&2 2>/dev/null || true
     die "in the guest: $(cat "$out/guest-error.txt")"
 fi
 
