@@ -169,6 +169,14 @@ impl PowerCube {
         reqs: &[(ModuleId, Request)],
     ) -> Result<Vec<Result<Response, SessionError>>, SessionError> {
         let mut answers: Vec<Option<Result<Response, SessionError>>> = (0..reqs.len()).map(|_| None).collect();
+        // Frames queued before these requests go out cannot answer them: a late answer to an
+        // exchange that timed out would otherwise be taken for the answer to the next request
+        // of the same kind, and every later read would return the value one poll behind.
+        loop {
+            let Transport::Can(link) = &mut self.transport else { unreachable!() };
+            let Some(frame) = link.recv(Duration::ZERO)? else { break };
+            self.trace(|| TraceEvent::Received(format!("{frame:<22} ignored (queued before the request)")));
+        }
         for (m, r) in reqs {
             let frame = pc_can::request_frame(*m, r);
             self.trace(|| TraceEvent::Sent(format!("{frame:<22} {} to module {m}", describe(r))));
@@ -384,4 +392,29 @@ pub fn describe(req: &Request) -> String {
 
 fn hex(bytes: &[u8]) -> String {
     bytes.iter().map(|b| format!("{b:02x}")).collect::<Vec<_>>().join(" ")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::clock::VirtualClock;
+    use crate::proto::powercube::table::{ids, param};
+    use crate::proto::CanFrame;
+    use crate::sim::bench::in_process;
+
+    // Seen on a real kernel's vcan under qemu (scripts/qemu-socketcan.sh): a poll's ActPos
+    // answer came after the timeout, the retry took it, and the retry's own answer stayed
+    // queued, so every later read returned the previous poll's position.
+    #[test]
+    fn an_answer_queued_before_the_request_is_not_taken_for_its_answer() {
+        let clock: Arc<dyn Clock> = Arc::new(VirtualClock::new());
+        let bus = in_process(Arc::clone(&clock));
+        let mut pc = PowerCube::over_can(Box::new(bus.open())).with_clock(Arc::clone(&clock));
+        let m = ModuleId::new(3).unwrap();
+        let act_pos = param(ids::ACT_POS).unwrap();
+        // A late ActPos answer from an older exchange: 0.75, while module 3 stands at 0.
+        let stale = CanFrame::new(0x0A3, &[0x0A, ids::ACT_POS, 0x00, 0x00, 0x40, 0x3F]).unwrap();
+        bus.open().send(&stale).unwrap();
+        assert_eq!(pc.get(m, act_pos).unwrap(), Value::Float(0.0));
+    }
 }
