@@ -22,6 +22,8 @@ use crate::proto::DecodeError;
 pub const CAN_TIMEOUT: Duration = Duration::from_millis(100);
 /// Default RS232 timeout before wire time is added (the vendor library's).
 pub const RS232_BASE_TIMEOUT: Duration = Duration::from_millis(30);
+/// Most stale frames dropped before a CAN request.
+const MAX_DRAIN: usize = 256;
 /// Longest RS232 frame on the wire: STX, ETX and 11 bytes that may all need DLE.
 const RS232_MAX_FRAME: u32 = 24;
 
@@ -172,7 +174,8 @@ impl PowerCube {
         // Frames queued before these requests go out cannot answer them: a late answer to an
         // exchange that timed out would otherwise be taken for the answer to the next request
         // of the same kind, and every later read would return the value one poll behind.
-        loop {
+        // Bounded: a bus that never falls silent must not starve the request.
+        for _ in 0..MAX_DRAIN {
             let Transport::Can(link) = &mut self.transport else { unreachable!() };
             let Some(frame) = link.recv(Duration::ZERO)? else { break };
             self.trace(|| TraceEvent::Received(format!("{frame:<22} ignored (queued before the request)")));
