@@ -61,9 +61,10 @@ fn pac(c: &mut Criterion) {
             out.len()
         })
     });
-    let ack = Ack { quit: 0, be: true, status: 31, error: 0, q_par: Par2::Float(2000.5), check_rule: CheckRule::default() }
-        .encode()
-        .unwrap();
+    let ack =
+        Ack { quit: 0, be: true, status: 31, error: 0, q_par: Par2::Float(2000.5), check_rule: CheckRule::default() }
+            .encode()
+            .unwrap();
     let mut dec = AckDecoder::new();
     c.bench_function("pac/ack_decode", |b| {
         b.iter(|| {

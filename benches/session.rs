@@ -67,9 +67,10 @@ fn powercube(c: &mut Criterion) {
 }
 
 fn pac(c: &mut Criterion) {
-    let ack = Ack { quit: 0, be: true, status: 31, error: 0, q_par: Par2::Float(2000.5), check_rule: CheckRule::default() }
-        .encode()
-        .unwrap();
+    let ack =
+        Ack { quit: 0, be: true, status: 31, error: 0, q_par: Par2::Float(2000.5), check_rule: CheckRule::default() }
+            .encode()
+            .unwrap();
     let link = MemByteLink::new(Box::new(ByteResponder(ack)), clock());
     let mut pac = Pac::new(Box::new(link), 9600, SerialFormat::F7N1);
     let cmd = PacCommand::new(0x190C, 3, Par2::Float(0.0));

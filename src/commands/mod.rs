@@ -18,6 +18,7 @@ use axisctl::link::{self, LinkSpec};
 use axisctl::session::pac::Pac;
 use axisctl::session::powercube::PowerCube;
 use axisctl::session::{ErrorKind, RetryPolicy, TraceEvent};
+use axisctl::sim::bench::{Bench, WireSpeed};
 
 use crate::cli::{Cli, Command, Global};
 use crate::output::Style;
@@ -133,7 +134,7 @@ impl Ctx {
                 Pac::new(self.logged_bytes(link::open_bytes(path, baud, format)?)?, baud, format)
             }
             LinkSpec::Sim => {
-                let bench = axisctl::sim::bench::Bench::contract(Arc::clone(&self.clock));
+                let bench = self.sim_bench()?;
                 let l: Box<dyn link::ByteLink> = Box::new(bench.pac_link(Arc::clone(&self.clock)));
                 Pac::new(self.logged_bytes(l)?, 9600, link::SerialFormat::F7N1).with_clock(Arc::clone(&self.clock))
             }
@@ -156,7 +157,7 @@ impl Ctx {
     pub fn can_link(&self) -> anyhow::Result<Box<dyn link::CanLink>> {
         let spec = self.link()?;
         let l: Box<dyn link::CanLink> = match spec {
-            LinkSpec::Sim => Box::new(axisctl::sim::bench::in_process(Arc::clone(&self.clock)).open()),
+            LinkSpec::Sim => Box::new(self.sim_bench()?.bus.open()),
             LinkSpec::Serial { .. } => {
                 return Err(usage(format!(
                     "{spec} is a serial link; this command needs CAN (socketcan:, slcan: or sim)"
@@ -168,6 +169,18 @@ impl Ctx {
             Some(path) => Box::new(LoggedCanLink::new(l, TrafficLog::append(path, &log_iface(spec))?)),
             None => l,
         })
+    }
+
+    /// The in-process bench behind `--link sim`, at wire speed if
+    /// `AXISCTL_SIM_WIRE_SPEED` asks for it.
+    pub fn sim_bench(&self) -> anyhow::Result<Bench> {
+        let mut bench = Bench::contract(Arc::clone(&self.clock));
+        let wire = WireSpeed::from_env().map_err(usage)?;
+        if wire.is_some() {
+            axisctl::sim::serve::precise_timers();
+        }
+        bench.set_wire_speed(wire);
+        Ok(bench)
     }
 
     fn logged_bytes(&self, l: Box<dyn link::ByteLink>) -> anyhow::Result<Box<dyn link::ByteLink>> {

@@ -90,6 +90,7 @@ pub fn run(ctx: &Ctx, args: &SimArgs) -> anyhow::Result<()> {
     let bench = Bench::new(&cfg, Arc::clone(&ctx.clock));
     if args.wire_speed {
         bench.bus.set_bitrate(Some(args.bitrate));
+        serve::precise_timers();
     }
     let pace = |format| args.wire_speed.then(|| serve::Pace::serial(args.baud, format));
     let stop = Arc::new(AtomicBool::new(false));

@@ -145,6 +145,11 @@ impl<L: CanLink> CanLink for LoggedCanLink<L> {
         self.log.can_frame(frame)
     }
 
+    fn send_many(&mut self, frames: &[CanFrame]) -> Result<(), LinkError> {
+        self.inner.send_many(frames)?;
+        frames.iter().try_for_each(|f| self.log.can_frame(f))
+    }
+
     fn recv(&mut self, timeout: Duration) -> Result<Option<CanFrame>, LinkError> {
         let got = self.inner.recv(timeout)?;
         if let Some(f) = &got {

@@ -162,6 +162,15 @@ pub struct MemCanLink {
     index: usize,
 }
 
+impl MemCanLink {
+    /// How long until the frame now on the bus ends, at most `max`: a
+    /// serving loop that waits on something else wakes for it in time.
+    pub fn until_next_due(&self, max: Duration) -> Duration {
+        let next = self.bus.lock().in_flight.front().map(|f| f.done);
+        next.map_or(max, |n| n.saturating_duration_since(self.bus.clock.now()).min(max))
+    }
+}
+
 /// Granularity of waiting on real time; frames from other threads' clients
 /// are picked up at most this late.
 const WAIT_SLICE: Duration = Duration::from_millis(1);
@@ -216,33 +225,85 @@ impl<T: ByteDevice> ByteDevice for Arc<Mutex<T>> {
 
 /// An in-memory serial line to one [`ByteDevice`], on real or virtual time:
 /// what is written reaches the device at once, its answers queue until read.
+/// With [`MemByteLink::set_char_time`] the line runs at a baud rate instead:
+/// the device sees a write once its last character has arrived, and each
+/// answer character becomes readable one character time after the previous.
 pub struct MemByteLink {
     device: Box<dyn ByteDevice>,
     clock: Arc<dyn Clock>,
-    rx: VecDeque<u8>,
+    /// Answer bytes and when each has arrived.
+    rx: VecDeque<(Instant, u8)>,
+    /// Writes on their way to the device, with when their last character arrives.
+    tx: VecDeque<(Instant, Vec<u8>)>,
+    char_time: Duration,
+    tx_free: Instant,
+    rx_free: Instant,
     scratch: Vec<u8>,
 }
 
 impl MemByteLink {
     pub fn new(device: Box<dyn ByteDevice>, clock: Arc<dyn Clock>) -> Self {
-        Self { device, clock, rx: VecDeque::new(), scratch: Vec::new() }
+        let now = clock.now();
+        Self {
+            device,
+            clock,
+            rx: VecDeque::new(),
+            tx: VecDeque::new(),
+            char_time: Duration::ZERO,
+            tx_free: now,
+            rx_free: now,
+            scratch: Vec::new(),
+        }
+    }
+
+    /// Emulates the line's speed: `bits_per_char / baud` per character
+    /// ([`crate::link::SerialFormat::bits_per_char`]); zero delivers at once.
+    pub fn set_char_time(&mut self, char_time: Duration) {
+        self.char_time = char_time;
     }
 
     /// Answer bytes received and not read yet.
     pub fn pending(&self) -> usize {
-        self.rx.len()
+        let now = self.clock.now();
+        self.rx.iter().take_while(|(at, _)| *at <= now).count()
     }
 
-    fn collect(&mut self) {
-        self.rx.extend(self.scratch.drain(..));
+    /// Hands the device what has arrived by `now` and lets it run; its answer
+    /// characters leave one after the other from the end of the request.
+    fn pump(&mut self, now: Instant) {
+        while self.tx.front().is_some_and(|(due, _)| *due <= now) {
+            let (due, bytes) = self.tx.pop_front().expect("checked");
+            self.device.on_bytes(now, &bytes, &mut self.scratch);
+            self.queue_answer(due);
+        }
+        self.device.poll(now, &mut self.scratch);
+        self.queue_answer(now);
+    }
+
+    fn queue_answer(&mut self, from: Instant) {
+        let mut at = self.rx_free.max(from);
+        for b in self.scratch.drain(..) {
+            at += self.char_time;
+            self.rx.push_back((at, b));
+        }
+        self.rx_free = at;
+    }
+
+    /// When the next thing on the line happens, if anything is on its way.
+    fn next_due(&self) -> Option<Instant> {
+        let tx = self.tx.front().map(|(t, _)| *t);
+        let rx = self.rx.front().map(|(t, _)| *t);
+        tx.into_iter().chain(rx).min()
     }
 }
 
 impl ByteLink for MemByteLink {
     fn write_all(&mut self, bytes: &[u8]) -> Result<(), LinkError> {
         let now = self.clock.now();
-        self.device.on_bytes(now, bytes, &mut self.scratch);
-        self.collect();
+        let due = self.tx_free.max(now) + self.char_time * bytes.len() as u32;
+        self.tx_free = due;
+        self.tx.push_back((due, bytes.to_vec()));
+        self.pump(now);
         Ok(())
     }
 
@@ -253,27 +314,29 @@ impl ByteLink for MemByteLink {
         let deadline = self.clock.now() + timeout;
         loop {
             let now = self.clock.now();
-            self.device.poll(now, &mut self.scratch);
-            self.collect();
-            if !self.rx.is_empty() {
-                let n = buf.len().min(self.rx.len());
-                for (dst, src) in buf.iter_mut().zip(self.rx.drain(..n)) {
-                    *dst = src;
-                }
+            self.pump(now);
+            let mut n = 0;
+            while n < buf.len() && self.rx.front().is_some_and(|(at, _)| *at <= now) {
+                buf[n] = self.rx.pop_front().expect("checked").1;
+                n += 1;
+            }
+            if n > 0 {
                 return Ok(n);
             }
             if now >= deadline {
                 return Ok(0);
             }
-            self.clock.sleep(WAIT_SLICE.min(deadline - now));
+            let wake = self.next_due().map_or(deadline, |t| t.clamp(now, deadline));
+            self.clock.sleep((wake - now).clamp(Duration::from_micros(1), WAIT_SLICE));
         }
     }
 
     fn clear_input(&mut self) -> Result<(), LinkError> {
         let now = self.clock.now();
-        self.device.poll(now, &mut self.scratch);
-        self.scratch.clear();
-        self.rx.clear();
+        self.pump(now);
+        while self.rx.front().is_some_and(|(at, _)| *at <= now) {
+            self.rx.pop_front();
+        }
         Ok(())
     }
 }
@@ -374,5 +437,42 @@ mod tests {
         link.clear_input().unwrap();
         assert_eq!(link.read(&mut buf, Duration::ZERO).unwrap(), 0, "clear_input drops unread answers");
         assert!(dev.lock().unwrap().late_sent, "the device stays inspectable through the shared handle");
+    }
+
+    #[test]
+    fn paced_byte_link_takes_the_wire_time_both_ways() {
+        let clock = Arc::new(VirtualClock::new());
+        let dev = Arc::new(Mutex::new(Plus { first: None, late_sent: false }));
+        let mut link = MemByteLink::new(Box::new(Arc::clone(&dev)), clock.clone());
+        link.set_char_time(Duration::from_millis(1));
+        let t0 = clock.now();
+        link.write_all(&[1, 2, 3]).unwrap();
+        assert_eq!(link.pending(), 0, "nothing has arrived yet");
+        assert!(dev.lock().unwrap().first.is_none(), "the device has not seen the request yet");
+        let mut buf = [0u8; 8];
+        let mut got = Vec::new();
+        let mut arrivals = Vec::new();
+        while got.len() < 3 {
+            let n = link.read(&mut buf, Duration::from_millis(100)).unwrap();
+            got.extend_from_slice(&buf[..n]);
+            arrivals.push(clock.now() - t0);
+        }
+        assert_eq!(got, [2, 3, 4]);
+        // The request's 3 characters take 3 ms; the answer's come 1 ms apart after that.
+        let ms = Duration::from_millis;
+        assert_eq!(arrivals, [ms(4), ms(5), ms(6)]);
+        assert_eq!(dev.lock().unwrap().first, Some(t0 + ms(3)), "the device sees the request once it is in");
+        // Back-to-back writes queue on the line.
+        link.write_all(&[7]).unwrap();
+        link.write_all(&[8]).unwrap();
+        let t1 = clock.now();
+        let mut got = Vec::new();
+        while got.len() < 2 {
+            let n = link.read(&mut buf, Duration::from_millis(100)).unwrap();
+            got.extend_from_slice(&buf[..n]);
+        }
+        assert_eq!(got, [8, 9]);
+        // Full duplex: the first answer leaves while the second request arrives.
+        assert_eq!(clock.now() - t1, ms(3));
     }
 }

@@ -31,6 +31,11 @@ pub enum LinkError {
 /// Moves CAN frames.
 pub trait CanLink: Send {
     fn send(&mut self, frame: &CanFrame) -> Result<(), LinkError>;
+    /// Sends frames in order. Links that can hand them over at once (one
+    /// write to an slcan adapter) do, so a pipelined burst leaves together.
+    fn send_many(&mut self, frames: &[CanFrame]) -> Result<(), LinkError> {
+        frames.iter().try_for_each(|f| self.send(f))
+    }
     /// The next frame, or `None` once `timeout` has passed without one.
     fn recv(&mut self, timeout: Duration) -> Result<Option<CanFrame>, LinkError>;
 }
@@ -73,6 +78,9 @@ pub fn open_bytes(path: &str, baud: u32, format: SerialFormat) -> Result<Box<dyn
 impl<T: CanLink + ?Sized> CanLink for Box<T> {
     fn send(&mut self, frame: &CanFrame) -> Result<(), LinkError> {
         (**self).send(frame)
+    }
+    fn send_many(&mut self, frames: &[CanFrame]) -> Result<(), LinkError> {
+        (**self).send_many(frames)
     }
     fn recv(&mut self, timeout: Duration) -> Result<Option<CanFrame>, LinkError> {
         (**self).recv(timeout)

@@ -35,6 +35,8 @@ pub struct SlcanLink<B: ByteLink> {
     pending: VecDeque<CanFrame>,
     decode_errors: u64,
     adapter_errors: u64,
+    /// Transmit lines being written, kept to spare an allocation per frame.
+    out: Vec<u8>,
 }
 
 impl<B: ByteLink> std::fmt::Debug for SlcanLink<B> {
@@ -64,6 +66,7 @@ impl<B: ByteLink> SlcanLink<B> {
             pending: VecDeque::new(),
             decode_errors: 0,
             adapter_errors: 0,
+            out: Vec::new(),
         };
         link.io.clear_input()?;
         link.command(Command::Close)?;
@@ -143,12 +146,22 @@ impl<B: ByteLink> SlcanLink<B> {
 
 impl<B: ByteLink> CanLink for SlcanLink<B> {
     fn send(&mut self, frame: &CanFrame) -> Result<(), LinkError> {
-        self.command(Command::Transmit(*frame))?;
+        self.send_many(std::slice::from_ref(frame))
+    }
+
+    fn send_many(&mut self, frames: &[CanFrame]) -> Result<(), LinkError> {
+        self.out.clear();
+        for f in frames {
+            Command::Transmit(*f).encode(&mut self.out);
+        }
+        self.io.write_all(&self.out)?;
         if self.acks {
-            if self.pending.len() == MAX_PENDING {
-                self.pending.pop_front();
+            for f in frames {
+                if self.pending.len() == MAX_PENDING {
+                    self.pending.pop_front();
+                }
+                self.pending.push_back(*f);
             }
-            self.pending.push_back(*frame);
         }
         Ok(())
     }
@@ -303,6 +316,23 @@ mod tests {
     #[test]
     fn exchanges_frames_with_a_silent_adapter() {
         exchange_for(AckStyle::Silent);
+    }
+
+    #[test]
+    fn a_burst_goes_out_in_order_and_every_answer_comes_back() {
+        let server = Server::start(AckStyle::Lawicel, ack_on_a0);
+        let mut link = open(&server.path, 1_000_000).unwrap();
+        let burst: Vec<_> = (0..7u8).map(|i| CanFrame::new(0x0E3, &[0x0A, 0x3C + i]).unwrap()).collect();
+        link.send_many(&burst).unwrap();
+        for f in &burst {
+            assert_eq!(server.seen.recv_timeout(Duration::from_secs(1)).unwrap(), *f);
+        }
+        for f in &burst {
+            assert_eq!(link.recv(Duration::from_secs(2)).unwrap(), Some(CanFrame::new(0x0A3, f.data()).unwrap()));
+        }
+        assert!(link.pending.is_empty(), "every transmit was acknowledged: {:?}", link.pending);
+        drop(link);
+        server.stop();
     }
 
     #[test]

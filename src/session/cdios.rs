@@ -219,8 +219,7 @@ impl Cdios {
 
     fn attempt(&mut self, node: NodeId, address: Address, data: &[u8; 8]) -> Result<Option<Answer>, Failure> {
         let frame = transport::command_frame(node, data);
-        let what = describe(data);
-        self.trace(|| TraceEvent::Sent(format!("{frame:<22} {what} to {}", target(node, address))));
+        self.trace(|| TraceEvent::Sent(format!("{frame:<22} {} to {}", describe(data), target(node, address))));
         self.link.send(&frame)?;
         let def = table::command_for(data[0], data[2]);
         let always = def.is_none_or(|d| d.confirm == Confirm::Always);
@@ -236,6 +235,7 @@ impl Cdios {
             let now = self.clock.now();
             if now >= deadline {
                 if need_reply {
+                    let what = describe(data);
                     return Err(SessionError::Timeout { target: target(node, address), what, timeout }.into());
                 }
                 self.trace(|| TraceEvent::Note("no error within the window (confirmations are off)".into()));

@@ -16,7 +16,7 @@ use crate::proto::powercube::can::{self as pc_can, Broadcast};
 use crate::proto::powercube::rs232::{self, Direction};
 use crate::proto::powercube::table::{ParamDef, ParamType};
 use crate::proto::powercube::{frame::Value, ModuleId, Request, Response};
-use crate::proto::DecodeError;
+use crate::proto::{CanFrame, DecodeError};
 
 /// Default CAN answer timeout (the vendor library's).
 pub const CAN_TIMEOUT: Duration = Duration::from_millis(100);
@@ -41,6 +41,8 @@ pub struct PowerCube {
     /// RS232: give up when no answer byte has come this long after the
     /// request has left (absent modules never answer; present ones answer at once).
     answer_start: Option<Duration>,
+    /// Request frames of the CAN burst being sent, kept to spare an allocation per exchange.
+    frames: Vec<CanFrame>,
 }
 
 impl PowerCube {
@@ -52,6 +54,7 @@ impl PowerCube {
             tracer: None,
             clock: Arc::new(SystemClock),
             answer_start: None,
+            frames: Vec::new(),
         }
     }
 
@@ -66,6 +69,7 @@ impl PowerCube {
             tracer: None,
             clock: Arc::new(SystemClock),
             answer_start: None,
+            frames: Vec::new(),
         }
     }
 
@@ -139,8 +143,19 @@ impl PowerCube {
     }
 
     fn transact_once(&mut self, module: ModuleId, req: &Request) -> Result<Response, SessionError> {
-        let mut out = self.transact_many(&[(module, *req)])?;
-        out.pop().expect("one answer per request")
+        match self.transport {
+            Transport::Can(_) => {
+                let mut answer = [None];
+                self.can_exchange(&[(module, *req)], &mut answer)?;
+                let [answer] = answer;
+                answer.unwrap_or_else(|| Err(self.timeout_error(module, req)))
+            }
+            Transport::Rs232 { .. } => self.rs232_transact(module, req),
+        }
+    }
+
+    fn timeout_error(&self, module: ModuleId, req: &Request) -> SessionError {
+        SessionError::Timeout { target: format!("module {module}"), what: describe(req), timeout: self.timeout }
     }
 
     /// Sends every request, then collects the answers within one timeout
@@ -152,7 +167,15 @@ impl PowerCube {
         reqs: &[(ModuleId, Request)],
     ) -> Result<Vec<Result<Response, SessionError>>, SessionError> {
         match self.transport {
-            Transport::Can(_) => self.can_transact_many(reqs),
+            Transport::Can(_) => {
+                let mut answers: Vec<_> = reqs.iter().map(|_| None).collect();
+                self.can_exchange(reqs, &mut answers)?;
+                Ok(answers
+                    .into_iter()
+                    .zip(reqs)
+                    .map(|(a, (m, r))| a.unwrap_or_else(|| Err(self.timeout_error(*m, r))))
+                    .collect())
+            }
             Transport::Rs232 { .. } => {
                 let mut out = Vec::with_capacity(reqs.len());
                 for (m, r) in reqs {
@@ -166,26 +189,35 @@ impl PowerCube {
         }
     }
 
-    fn can_transact_many(
+    /// The CAN exchange: `answers[i]` is left `None` for a request not answered in time.
+    fn can_exchange(
         &mut self,
         reqs: &[(ModuleId, Request)],
-    ) -> Result<Vec<Result<Response, SessionError>>, SessionError> {
-        let mut answers: Vec<Option<Result<Response, SessionError>>> = (0..reqs.len()).map(|_| None).collect();
+        answers: &mut [Option<Result<Response, SessionError>>],
+    ) -> Result<(), SessionError> {
+        let Transport::Can(link) = &mut self.transport else { unreachable!("CAN only") };
         // Frames queued before these requests go out cannot answer them: a late answer to an
         // exchange that timed out would otherwise be taken for the answer to the next request
         // of the same kind, and every later read would return the value one poll behind.
         // Bounded: a bus that never falls silent must not starve the request.
         for _ in 0..MAX_DRAIN {
-            let Transport::Can(link) = &mut self.transport else { unreachable!() };
             let Some(frame) = link.recv(Duration::ZERO)? else { break };
-            self.trace(|| TraceEvent::Received(format!("{frame:<22} ignored (queued before the request)")));
+            if let Some(t) = self.tracer.as_mut() {
+                t(TraceEvent::Received(format!("{frame:<22} ignored (queued before the request)")));
+            }
         }
-        for (m, r) in reqs {
-            let frame = pc_can::request_frame(*m, r);
-            self.trace(|| TraceEvent::Sent(format!("{frame:<22} {} to module {m}", describe(r))));
-            let Transport::Can(link) = &mut self.transport else { unreachable!() };
-            link.send(&frame)?;
+        let mut frames = std::mem::take(&mut self.frames);
+        frames.clear();
+        frames.extend(reqs.iter().map(|(m, r)| pc_can::request_frame(*m, r)));
+        if let Some(t) = self.tracer.as_mut() {
+            for (frame, (m, r)) in frames.iter().zip(reqs) {
+                t(TraceEvent::Sent(format!("{frame:<22} {} to module {m}", describe(r))));
+            }
         }
+        // The whole burst in one go: on an slcan adapter that is one write.
+        let sent = link.send_many(&frames);
+        self.frames = frames;
+        sent?;
         let deadline = self.clock.now() + self.timeout;
         let mut pending = reqs.len();
         while pending > 0 {
@@ -193,7 +225,6 @@ impl PowerCube {
             if now >= deadline {
                 break;
             }
-            let Transport::Can(link) = &mut self.transport else { unreachable!() };
             let Some(frame) = link.recv(deadline - now)? else { break };
             let mut matched = false;
             for (i, (m, r)) in reqs.iter().enumerate() {
@@ -218,20 +249,11 @@ impl PowerCube {
                     break;
                 }
             }
-            self.trace(|| {
-                TraceEvent::Received(format!("{frame:<22} {}", if matched { "ack" } else { "ignored (not ours)" }))
-            });
+            if let Some(t) = self.tracer.as_mut() {
+                t(TraceEvent::Received(format!("{frame:<22} {}", if matched { "ack" } else { "ignored (not ours)" })));
+            }
         }
-        let timeout = self.timeout;
-        Ok(answers
-            .into_iter()
-            .zip(reqs)
-            .map(|(a, (m, r))| {
-                a.unwrap_or_else(|| {
-                    Err(SessionError::Timeout { target: format!("module {m}"), what: describe(r), timeout })
-                })
-            })
-            .collect())
+        Ok(())
     }
 
     fn rs232_transact(&mut self, module: ModuleId, req: &Request) -> Result<Response, SessionError> {
@@ -258,10 +280,8 @@ impl PowerCube {
                         let mismatch = frame.declared_len != frame.payload.len() as u8;
                         match Response::decode(frame.payload.as_slice()) {
                             Ok(resp) if req.matches(&resp) => {
-                                let text = format!(
-                                    "{:?}{}",
-                                    frame.payload,
-                                    if mismatch {
+                                if let Some(t) = self.tracer.as_mut() {
+                                    let mismatch = if mismatch {
                                         format!(
                                             " (TELID says {} bytes, {} framed)",
                                             frame.declared_len,
@@ -269,10 +289,8 @@ impl PowerCube {
                                         )
                                     } else {
                                         String::new()
-                                    }
-                                );
-                                if let Some(t) = self.tracer.as_mut() {
-                                    t(TraceEvent::Received(format!("{text} ack")));
+                                    };
+                                    t(TraceEvent::Received(format!("{:?}{mismatch} ack", frame.payload)));
                                 }
                                 return Ok(resp);
                             }
@@ -402,7 +420,6 @@ mod tests {
     use super::*;
     use crate::clock::VirtualClock;
     use crate::proto::powercube::table::{ids, param};
-    use crate::proto::CanFrame;
     use crate::sim::bench::in_process;
 
     // Seen on a real kernel's vcan under qemu (scripts/qemu-socketcan.sh): a poll's ActPos

@@ -5,7 +5,7 @@
 //! `axisctl sim`'s served links.
 
 use std::sync::{Arc, Mutex, MutexGuard};
-use std::time::Instant;
+use std::time::{Duration, Instant};
 
 use super::cdios::CdiosNode;
 use super::pac::PacController;
@@ -78,12 +78,60 @@ impl CanDevice for SharedCdios {
     }
 }
 
+/// Line speeds of the in-process bench (`AXISCTL_SIM_WIRE_SPEED`), so that
+/// `--link sim` runs at the physical limit as `axisctl sim --wire-speed` does.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct WireSpeed {
+    /// The PA-CONTROL's serial line (7N1).
+    pub baud: u32,
+    /// The CAN bus.
+    pub bitrate: u32,
+}
+
+impl Default for WireSpeed {
+    fn default() -> Self {
+        Self { baud: 9600, bitrate: 1_000_000 }
+    }
+}
+
+impl WireSpeed {
+    pub const ENV: &'static str = "AXISCTL_SIM_WIRE_SPEED";
+
+    /// Empty or `0`: off. `1`: 9600 baud and 1 Mbit/s. `baud=N,bitrate=N`:
+    /// either or both (the other at its default).
+    pub fn parse(text: &str) -> Result<Option<Self>, String> {
+        let text = text.trim();
+        match text {
+            "" | "0" => return Ok(None),
+            "1" => return Ok(Some(Self::default())),
+            _ => {}
+        }
+        let mut ws = Self::default();
+        for pair in text.split(',').map(str::trim) {
+            let bad = || format!("{}={text:?}: expected 0, 1 or baud=N,bitrate=N", Self::ENV);
+            let (k, v) = pair.split_once('=').ok_or_else(bad)?;
+            let v: u32 = v.trim().parse().ok().filter(|v| *v > 0).ok_or_else(bad)?;
+            match k.trim() {
+                "baud" => ws.baud = v,
+                "bitrate" => ws.bitrate = v,
+                _ => return Err(bad()),
+            }
+        }
+        Ok(Some(ws))
+    }
+
+    pub fn from_env() -> Result<Option<Self>, String> {
+        std::env::var(Self::ENV).map_or(Ok(None), |v| Self::parse(&v))
+    }
+}
+
 pub struct Bench {
     pub bus: MemBus,
     pub powercube: Shared<PowerCubeBus>,
     pub cdios: Shared<CdiosNode>,
     /// The PA-CONTROL, reached over [`Bench::pac_link`] or a served pty.
     pub pac: Shared<PacController>,
+    wire: Option<WireSpeed>,
 }
 
 impl Bench {
@@ -96,13 +144,24 @@ impl Bench {
         let cdios = Arc::new(Mutex::new(CdiosNode::new(node, &cfg.cdios_modules, now)));
         bus.attach(Box::new(SharedCdios(Arc::clone(&cdios))));
         let pac = Arc::new(Mutex::new(PacController::new(cfg.axes, now)));
-        Self { bus, powercube, cdios, pac }
+        Self { bus, powercube, cdios, pac, wire: None }
+    }
+
+    /// Runs the bus and the links opened from now on at `wire` speeds (`None`: instantly).
+    pub fn set_wire_speed(&mut self, wire: Option<WireSpeed>) {
+        self.bus.set_bitrate(wire.map(|w| w.bitrate));
+        self.wire = wire;
     }
 
     /// A serial line to the PA-CONTROL (the in-process `--link sim`); every
     /// link opened here talks to the same controller.
     pub fn pac_link(&self, clock: Arc<dyn Clock>) -> MemByteLink {
-        MemByteLink::new(Box::new(Arc::clone(&self.pac)), clock)
+        let mut link = MemByteLink::new(Box::new(Arc::clone(&self.pac)), clock);
+        if let Some(w) = self.wire {
+            let bits = crate::link::SerialFormat::F7N1.bits_per_char();
+            link.set_char_time(Duration::from_secs(bits.into()) / w.baud);
+        }
+        link
     }
 
     pub fn contract(clock: Arc<dyn Clock>) -> Self {
@@ -117,8 +176,6 @@ pub fn in_process(clock: Arc<dyn Clock>) -> MemBus {
 
 #[cfg(test)]
 mod tests {
-    use std::time::Duration;
-
     use super::*;
     use crate::clock::VirtualClock;
     use crate::link::ByteLink;
@@ -156,5 +213,44 @@ mod tests {
         let mut other = bench.pac_link(clock);
         let pos = transact(&mut other, &Command::new(0x190C, 3, Par2::Float(0.0)).encode().unwrap());
         assert_eq!(pos.q_par, Par2::Float(2000.0), "every link reaches the same controller");
+    }
+
+    #[test]
+    fn wire_speed_from_its_variable() {
+        assert_eq!(WireSpeed::parse(""), Ok(None));
+        assert_eq!(WireSpeed::parse("0"), Ok(None));
+        assert_eq!(WireSpeed::parse("1"), Ok(Some(WireSpeed { baud: 9600, bitrate: 1_000_000 })));
+        assert_eq!(WireSpeed::parse("baud=19200"), Ok(Some(WireSpeed { baud: 19200, bitrate: 1_000_000 })));
+        assert_eq!(
+            WireSpeed::parse("bitrate=500000, baud=38400"),
+            Ok(Some(WireSpeed { baud: 38400, bitrate: 500_000 }))
+        );
+        for bad in ["yes", "baud=0", "baud=x", "speed=1", "baud"] {
+            assert!(WireSpeed::parse(bad).unwrap_err().contains(WireSpeed::ENV), "{bad}");
+        }
+    }
+
+    // 0x190C get-actual-pos on the in-process line at 9600 baud 7N1: the
+    // command's and the acknowledge's characters at 9 bits each.
+    #[test]
+    fn pac_link_at_wire_speed_takes_the_characters_time() {
+        let clock = Arc::new(VirtualClock::new());
+        let mut bench = Bench::contract(clock.clone());
+        bench.set_wire_speed(Some(WireSpeed::default()));
+        let mut link = bench.pac_link(clock.clone());
+        let request = Command::new(0x190C, 3, Par2::Float(0.0)).encode().unwrap();
+        let t0 = clock.now();
+        link.write_all(&request).unwrap();
+        let mut answer = Vec::new();
+        let mut buf = [0u8; 64];
+        while answer.last() != Some(&0x04) {
+            let n = link.read(&mut buf, Duration::from_millis(200)).unwrap();
+            assert!(n > 0, "no acknowledge");
+            answer.extend_from_slice(&buf[..n]);
+        }
+        let chars = (request.len() + answer.len()) as u32;
+        let wire = Duration::from_secs(9) * chars / 9600;
+        let took = clock.now() - t0;
+        assert!(took >= wire && took <= wire + Duration::from_micros(chars.into()), "{took:?} for {chars} chars");
     }
 }
