@@ -144,17 +144,16 @@ fn parse_ids(text: &str) -> anyhow::Result<Vec<ModuleId>> {
     Ok(out)
 }
 
-/// How long after a scan request's last byte an RS232 answer must start.
+/// How long after a scan request's last byte an RS232 answer must start
+/// (at least; a longer --timeout makes the scan proportionally patient).
 const SCAN_ANSWER_START: Duration = Duration::from_millis(8);
 
 fn scan(ctx: &Ctx, ids_text: &str) -> anyhow::Result<()> {
     let ids = parse_ids(ids_text)?;
     let mut pc = ctx.powercube()?;
-    if ctx.timeout.is_none() {
-        // An absent module never answers; a present one starts answering right
-        // after the request, so a scan need not wait the whole timeout per id.
-        pc.set_answer_start_timeout(Some(SCAN_ANSWER_START));
-    }
+    // An absent module never answers; a present one starts answering right
+    // after the request, so a scan need not wait the whole timeout per id.
+    pc.set_answer_start_timeout(Some(SCAN_ANSWER_START.max(pc.timeout() / 8)));
     let probes: Vec<_> = ids.iter().map(|m| (*m, Request::GetExtended { param: ids::DEF_CUBE_VERSION })).collect();
     let answers = pc.transact_many(&probes)?;
     let mut found = Vec::new();
