@@ -212,6 +212,8 @@ pub enum Command {
     Sim(SimArgs),
     /// Passive, decoded bus monitor on any CAN link, or replay of a candump log
     Monitor(MonitorArgs),
+    /// Live dashboard of every device on the links (try: --link sim dashboard)
+    Dashboard(crate::cli_dashboard::DashboardArgs),
 }
 
 #[derive(Debug, Subcommand)]
