@@ -201,7 +201,7 @@ pub enum Command {
         #[command(subcommand)]
         action: WatchdogAction,
     },
-    /// Decode a raw word offline: cube-state, short-state, config, setup, dio, dio-setup, profibus-state, profibus-image
+    /// Decode a raw word offline: cube-state, short-state, config, setup, dio, dio-setup, profibus-state, profibus-image, cdios-status, cdios-error
     Decode {
         /// What the value is
         kind: String,
@@ -212,6 +212,8 @@ pub enum Command {
     Sim(SimArgs),
     /// Passive, decoded bus monitor on any CAN link, or replay of a candump log
     Monitor(MonitorArgs),
+    #[command(flatten)]
+    Cdios(crate::cli_cdios::CdiosCommand),
     /// Live dashboard of every device on the links (try: --link sim dashboard)
     Dashboard(crate::cli_dashboard::DashboardArgs),
 }
@@ -259,6 +261,15 @@ pub struct SimArgs {
     /// Cdios 6168 module ids
     #[arg(long, value_name = "LIST", default_value = "0,1")]
     pub cdios_modules: String,
+    /// Run the simulated lines at their real speed: serial at --baud, CAN at --bitrate
+    #[arg(long)]
+    pub wire_speed: bool,
+    /// Baud rate of the served serial lines (with --wire-speed)
+    #[arg(long, default_value_t = 9600)]
+    pub baud: u32,
+    /// CAN bitrate of the simulated bus (with --wire-speed)
+    #[arg(long, default_value_t = 1_000_000)]
+    pub bitrate: u32,
 }
 
 #[derive(Debug, Args)]

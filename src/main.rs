@@ -3,6 +3,7 @@ use std::process::ExitCode;
 use clap::Parser;
 
 mod cli;
+mod cli_cdios;
 mod cli_dashboard;
 mod commands;
 mod output;

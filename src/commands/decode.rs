@@ -11,10 +11,19 @@ use crate::output;
 const PROFIBUS_IMAGE: &str = "profibus-image";
 
 fn kinds() -> String {
-    flags::WORDS.iter().map(|w| w.kind).chain([PROFIBUS_IMAGE]).collect::<Vec<_>>().join(", ")
+    flags::WORDS
+        .iter()
+        .map(|w| w.kind)
+        .chain([PROFIBUS_IMAGE])
+        .chain(super::cdios::DECODE_KINDS.iter().copied())
+        .collect::<Vec<_>>()
+        .join(", ")
 }
 
 pub fn run(ctx: &Ctx, kind: &str, value: &str) -> anyhow::Result<()> {
+    if let Some(r) = super::cdios::decode_kind(ctx, kind, value) {
+        return r;
+    }
     if kind.eq_ignore_ascii_case(PROFIBUS_IMAGE) {
         return profibus_image(ctx, value);
     }

@@ -1,6 +1,7 @@
 //! The subcommands. Each resolves what the user typed, validates it before
 //! anything is sent, talks to the device through a session and prints.
 
+mod cdios;
 mod dashboard;
 mod decode;
 mod monitor;
@@ -172,6 +173,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Decode { kind, value } => decode::run(&ctx, &kind, &value),
         Command::Sim(args) => sim::run(&ctx, &args),
         Command::Monitor(args) => monitor::run(&ctx, &args),
+        Command::Cdios(c) => cdios::run(&ctx, c),
         Command::Dashboard(args) => dashboard::run(&ctx, &args),
         other => powercube::run(&ctx, other),
     }

@@ -40,7 +40,7 @@ pub fn run(ctx: &Ctx, cmd: Command) -> anyhow::Result<()> {
         Command::SetConfig { module: m, changes, raw } => set_config(ctx, module(m.module), &changes, raw.as_deref()),
         Command::Dio { module: m, out } => dio(ctx, module(m.module), out.as_deref()),
         Command::Watchdog { action } => watchdog(ctx, action),
-        Command::Decode { .. } | Command::Sim(_) | Command::Monitor(_) | Command::Dashboard(_) => {
+        Command::Decode { .. } | Command::Sim(_) | Command::Monitor(_) | Command::Cdios(_) | Command::Dashboard(_) => {
             unreachable!("dispatched elsewhere")
         }
     }
@@ -145,15 +145,16 @@ pub(crate) fn parse_ids(text: &str) -> anyhow::Result<Vec<ModuleId>> {
     Ok(out)
 }
 
+/// How long after a scan request's last byte an RS232 answer must start.
+const SCAN_ANSWER_START: Duration = Duration::from_millis(8);
+
 fn scan(ctx: &Ctx, ids_text: &str) -> anyhow::Result<()> {
     let ids = parse_ids(ids_text)?;
     let mut pc = ctx.powercube()?;
     if ctx.timeout.is_none() {
-        if let Some(baud) = pc.rs232_baud() {
-            // An absent module never answers; a present one answers right after
-            // the request, so a scan need not wait the full transaction timeout.
-            pc.set_timeout(Duration::from_millis(5) + axisctl::session::powercube::rs232_wire_time(baud, 24 + 16));
-        }
+        // An absent module never answers; a present one starts answering right
+        // after the request, so a scan need not wait the whole timeout per id.
+        pc.set_answer_start_timeout(Some(SCAN_ANSWER_START));
     }
     let probes: Vec<_> = ids.iter().map(|m| (*m, Request::GetExtended { param: ids::DEF_CUBE_VERSION })).collect();
     let answers = pc.transact_many(&probes)?;

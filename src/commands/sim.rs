@@ -52,18 +52,39 @@ pub fn run(ctx: &Ctx, args: &SimArgs) -> anyhow::Result<()> {
         return Err(usage("--modules: PowerCube ids are 1..31"));
     }
     let linear = parse_list(&args.linear, "--linear", 31)?;
-    let cfg = BenchConfig { modules, linear };
+    if !(1..=127).contains(&args.node) {
+        return Err(usage(format!("--node {}: Cdios node ids are 1..127", args.node)));
+    }
+    let cdios_modules = parse_list(&args.cdios_modules, "--cdios-modules", 15)?;
+    let cfg = BenchConfig { modules, linear, node: args.node, cdios_modules };
     let only_some = args.powercube.is_some() || args.pac.is_some() || args.cdios.is_some();
-    let powercube_where = match &args.powercube {
-        Some(w) => Some(parse_where(w, "powercube")?),
-        None if !only_some => Some(Where::PtySlcan),
-        None => None,
-    };
-    if args.pac.is_some() || args.cdios.is_some() {
-        return Err(usage("the PA-CONTROL and Cdios simulators are not served yet"));
+    // What is served where: with no family option, PowerCube and Cdios share one slcan bus.
+    let mut served: Vec<(Where, Vec<&str>)> = Vec::new();
+    match (&args.powercube, &args.cdios) {
+        (None, None) if !only_some => served.push((Where::PtySlcan, vec!["powercube", "cdios"])),
+        (pc, cd) => {
+            if let Some(w) = pc {
+                served.push((parse_where(w, "powercube")?, vec!["powercube"]));
+            }
+            if let Some(w) = cd {
+                match parse_where(w, "cdios")? {
+                    Where::PtySerial => {
+                        return Err(usage("--cdios pty-serial: Cdios is CAN only (pty-slcan or socketcan:IFACE)"))
+                    }
+                    w => served.push((w, vec!["cdios"])),
+                }
+            }
+        }
+    }
+    if args.pac.is_some() {
+        return Err(usage("the PA-CONTROL simulator is not served yet"));
     }
 
     let bench = Bench::new(&cfg, Arc::clone(&ctx.clock));
+    if args.wire_speed {
+        bench.bus.set_bitrate(Some(args.bitrate));
+    }
+    let pace = |format| args.wire_speed.then(|| serve::Pace::serial(args.baud, format));
     let stop = Arc::new(AtomicBool::new(false));
     {
         let stop = Arc::clone(&stop);
@@ -71,24 +92,26 @@ pub fn run(ctx: &Ctx, args: &SimArgs) -> anyhow::Result<()> {
             .context("installing the SIGINT/SIGTERM handler")?;
     }
     let mut threads = Vec::new();
-    if let Some(w) = powercube_where {
+    for (w, families) in served {
+        let announce_all = |link: &str| families.iter().for_each(|f| announce(f, link));
         match w {
             Where::PtySerial => {
                 let (master, path) = link::pty::open_pair()?;
-                announce("powercube", &format!("serial:{path}?baud=9600&format=8N1"));
+                announce_all(&format!("serial:{path}?baud={}&format=8N1", args.baud));
                 let (pc, clock, stop) = (Arc::clone(&bench.powercube), Arc::clone(&ctx.clock), Arc::clone(&stop));
-                threads.push(std::thread::spawn(move || serve::rs232(Box::new(master), pc, clock, &stop)));
+                let pace = pace(link::SerialFormat::F8N1);
+                threads.push(std::thread::spawn(move || serve::rs232(Box::new(master), pc, clock, &stop, pace)));
             }
             Where::PtySlcan => {
                 let (master, path) = link::pty::open_pair()?;
-                announce("powercube", &format!("slcan:{path}"));
+                announce_all(&format!("slcan:{path}"));
                 let (client, stop) = (bench.bus.open(), Arc::clone(&stop));
                 threads.push(std::thread::spawn(move || serve::slcan(Box::new(master), client, &stop)));
             }
             Where::SocketCan(iface) => {
                 let spec = LinkSpec::SocketCan { iface: iface.clone() };
                 let ext = link::open_can(&spec).with_context(|| format!("opening {spec}"))?;
-                announce("powercube", &spec.to_string());
+                announce_all(&spec.to_string());
                 let (client, stop) = (bench.bus.open(), Arc::clone(&stop));
                 threads.push(std::thread::spawn(move || serve::bridge(ext, client, &stop)));
             }

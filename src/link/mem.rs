@@ -28,33 +28,74 @@ pub trait Fault: Send {
     fn device_frame(&mut self, frame: CanFrame) -> Vec<CanFrame>;
 }
 
+/// A frame on its way: it occupies the bus until `done`, then every other
+/// node sees it.
+struct InFlight {
+    done: Instant,
+    frame: CanFrame,
+    /// The client that sent it (it does not receive its own frame), or `None`
+    /// for a device.
+    from: Option<usize>,
+}
+
 struct Inner {
     devices: Vec<Box<dyn CanDevice>>,
     queues: Vec<VecDeque<CanFrame>>,
     fault: Option<Box<dyn Fault>>,
     scratch: Vec<CanFrame>,
+    /// Bit time when the wire speed is emulated; frames then take their real
+    /// length on the bus, one after the other.
+    bit_time: Option<Duration>,
+    busy_until: Option<Instant>,
+    /// Ends are non-decreasing: the bus carries one frame at a time.
+    in_flight: VecDeque<InFlight>,
 }
 
 impl Inner {
-    fn deliver_from_devices(&mut self) {
+    fn schedule(&mut self, now: Instant, frame: CanFrame, from: Option<usize>) {
+        let start = self.busy_until.map_or(now, |b| b.max(now));
+        let done = start + self.bit_time.map_or(Duration::ZERO, |t| t * frame.wire_bits());
+        self.busy_until = Some(done);
+        self.in_flight.push_back(InFlight { done, frame, from });
+    }
+
+    /// Frames devices produced at `at` go on the bus after fault injection.
+    fn schedule_device_frames(&mut self, at: Instant) {
         let mut frames = std::mem::take(&mut self.scratch);
         if let Some(fault) = self.fault.as_mut() {
             frames = frames.into_iter().flat_map(|f| fault.device_frame(f)).collect();
         }
-        for q in &mut self.queues {
-            q.extend(frames.iter().copied());
+        for f in frames.drain(..) {
+            self.schedule(at, f, None);
         }
-        frames.clear();
         self.scratch = frames;
     }
 
-    fn poll_devices(&mut self, now: Instant) {
+    /// Delivers every frame whose transmission has ended by `now`, lets the
+    /// devices answer, and polls them for frames of their own.
+    fn pump(&mut self, now: Instant) {
         let mut out = std::mem::take(&mut self.scratch);
         for d in &mut self.devices {
             d.poll(now, &mut out);
         }
         self.scratch = out;
-        self.deliver_from_devices();
+        self.schedule_device_frames(now);
+        while self.in_flight.front().is_some_and(|f| f.done <= now) {
+            let InFlight { done, frame, from } = self.in_flight.pop_front().expect("checked");
+            for (i, q) in self.queues.iter_mut().enumerate() {
+                if Some(i) != from {
+                    q.push_back(frame);
+                }
+            }
+            if from.is_some() {
+                let mut out = std::mem::take(&mut self.scratch);
+                for d in &mut self.devices {
+                    d.on_frame(done, &frame, &mut out);
+                }
+                self.scratch = out;
+                self.schedule_device_frames(done);
+            }
+        }
     }
 }
 
@@ -67,7 +108,15 @@ pub struct MemBus {
 
 impl MemBus {
     pub fn new(clock: Arc<dyn Clock>) -> Self {
-        let inner = Inner { devices: Vec::new(), queues: Vec::new(), fault: None, scratch: Vec::new() };
+        let inner = Inner {
+            devices: Vec::new(),
+            queues: Vec::new(),
+            fault: None,
+            scratch: Vec::new(),
+            bit_time: None,
+            busy_until: None,
+            in_flight: VecDeque::new(),
+        };
         Self { inner: Arc::new(Mutex::new(inner)), clock }
     }
 
@@ -81,6 +130,13 @@ impl MemBus {
 
     pub fn set_fault(&self, fault: Option<Box<dyn Fault>>) {
         self.lock().fault = fault;
+    }
+
+    /// Emulates a bus at `bitrate`: every frame takes its length in bits,
+    /// stuff bits included ([`CanFrame::wire_bits`]), and frames queue for
+    /// the bus. `None` delivers at once.
+    pub fn set_bitrate(&self, bitrate: Option<u32>) {
+        self.lock().bit_time = bitrate.map(|b| Duration::from_secs(1) / b.max(1));
     }
 
     /// A new client link on this bus.
@@ -113,19 +169,9 @@ const WAIT_SLICE: Duration = Duration::from_millis(1);
 impl CanLink for MemCanLink {
     fn send(&mut self, frame: &CanFrame) -> Result<(), LinkError> {
         let now = self.bus.clock.now();
-        let mut guard = self.bus.lock();
-        let inner = &mut *guard;
-        for (i, q) in inner.queues.iter_mut().enumerate() {
-            if i != self.index {
-                q.push_back(*frame);
-            }
-        }
-        let mut out = std::mem::take(&mut inner.scratch);
-        for d in &mut inner.devices {
-            d.on_frame(now, frame, &mut out);
-        }
-        inner.scratch = out;
-        inner.deliver_from_devices();
+        let mut inner = self.bus.lock();
+        inner.schedule(now, *frame, Some(self.index));
+        inner.pump(now);
         Ok(())
     }
 
@@ -133,17 +179,19 @@ impl CanLink for MemCanLink {
         let deadline = self.bus.clock.now() + timeout;
         loop {
             let now = self.bus.clock.now();
-            {
+            let next = {
                 let mut inner = self.bus.lock();
-                inner.poll_devices(now);
+                inner.pump(now);
                 if let Some(f) = inner.queues[self.index].pop_front() {
                     return Ok(Some(f));
                 }
-            }
+                inner.in_flight.front().map(|f| f.done)
+            };
             if now >= deadline {
                 return Ok(None);
             }
-            self.bus.clock.sleep(WAIT_SLICE.min(deadline - now));
+            let wake = next.map_or(deadline, |n| n.clamp(now, deadline));
+            self.bus.clock.sleep((wake - now).clamp(Duration::from_micros(1), WAIT_SLICE));
         }
     }
 }
@@ -176,5 +224,26 @@ mod tests {
         let t0 = clock.now();
         assert_eq!(a.recv(Duration::from_millis(100)).unwrap(), None);
         assert_eq!(clock.now() - t0, Duration::from_millis(100), "a timeout takes exactly the timeout, virtually");
+    }
+
+    #[test]
+    fn emulated_bitrate_serialises_frames() {
+        let clock = Arc::new(VirtualClock::new());
+        let bus = MemBus::new(clock.clone());
+        bus.attach(Box::new(Echo));
+        bus.set_bitrate(Some(1_000_000));
+        let mut a = bus.open();
+        let req = CanFrame::new(0x10, &[1, 2, 3, 4, 5, 6, 7, 8]).unwrap();
+        let t0 = clock.now();
+        a.send(&req).unwrap();
+        a.send(&req).unwrap();
+        let first = a.recv(Duration::from_millis(10)).unwrap().unwrap();
+        assert_eq!(first.id(), 0x11);
+        // Request 1, then request 2 and answer 1 compete: the bus is FIFO here.
+        let bits = req.wire_bits() + req.wire_bits() + first.wire_bits();
+        let took = clock.now() - t0;
+        assert!(took >= Duration::from_micros(bits.into()), "{took:?} < {bits} bit times");
+        assert!(took < Duration::from_micros(u64::from(bits) + 5), "{took:?}");
+        assert_eq!(a.recv(Duration::from_millis(10)).unwrap().unwrap().id(), 0x11);
     }
 }

@@ -189,6 +189,12 @@ impl<B: ByteLink> Drop for SlcanLink<B> {
     fn drop(&mut self) {
         // Leave the adapter closed, as slcand does; the link may already be gone.
         let _ = self.command(Command::Close);
+        // Wait for the answer: a tty closed with a reply still to come hands
+        // that reply to the next program opening it (seen on ptys), which
+        // then reads it as the answer to its own first command.
+        if self.acks {
+            let _ = self.wait_reply(PROBE);
+        }
     }
 }
 

@@ -121,3 +121,86 @@ mod tests {
         }
     }
 }
+
+/// Bits after the CRC sequence: CRC delimiter, ACK slot and delimiter, end of
+/// frame (7) and intermission (3). None of them is stuffed.
+const TRAILER_BITS: u32 = 13;
+
+impl CanFrame {
+    /// The frame's length on the wire in bits, stuff bits included, with
+    /// the 3-bit intermission: what the bus is busy for (ISO 11898-1).
+    pub fn wire_bits(&self) -> u32 {
+        fn push(bits: &mut Vec<bool>, v: u32, n: u32) {
+            bits.extend((0..n).rev().map(|i| v >> i & 1 == 1));
+        }
+        let mut bits: Vec<bool> = Vec::with_capacity(64 + 8 * self.dlc());
+        let b = &mut bits;
+        push(b, 0, 1); // SOF
+        if self.extended {
+            push(b, self.id >> 18, 11);
+            push(b, 0b11, 2); // SRR, IDE
+            push(b, self.id & 0x3_FFFF, 18);
+            push(b, 0b000, 3); // RTR, r1, r0
+        } else {
+            push(b, self.id, 11);
+            push(b, 0b000, 3); // RTR, IDE, r0
+        }
+        push(b, self.len.into(), 4);
+        for byte in self.data() {
+            push(b, (*byte).into(), 8);
+        }
+        let crc = bits.iter().fold(0u16, |crc, &bit| {
+            let top = (crc >> 14) & 1 == 1;
+            let crc = (crc << 1) & 0x7FFF;
+            if top != bit {
+                crc ^ 0x4599
+            } else {
+                crc
+            }
+        });
+        push(&mut bits, crc.into(), 15);
+        let mut stuffed = 0;
+        let mut run = 0;
+        let mut last = None;
+        for &b in &bits {
+            if Some(b) == last {
+                run += 1;
+            } else {
+                run = 1;
+                last = Some(b);
+            }
+            if run == 5 {
+                stuffed += 1;
+                // The stuff bit is the complement and starts a new run.
+                last = Some(!b);
+                run = 1;
+            }
+        }
+        bits.len() as u32 + stuffed + TRAILER_BITS
+    }
+}
+
+#[cfg(test)]
+mod wire_tests {
+    use super::*;
+
+    #[test]
+    fn wire_bits_match_the_standard_frame_layout() {
+        // 44 + 8n unstuffed bits up to the CRC delimiter... plus trailer: 47 + 8n
+        // without stuffing. An all-zero frame stuffs heavily.
+        let f = CanFrame::new(0x555, &[0x55; 8]).unwrap();
+        assert!(f.wire_bits() >= 47 + 64, "{}", f.wire_bits());
+        assert!(f.wire_bits() <= 47 + 64 + 24, "{}", f.wire_bits());
+        let zeros = CanFrame::new(0, &[0; 8]).unwrap();
+        assert!(zeros.wire_bits() > f.wire_bits(), "zeros need stuff bits");
+        // The longest classic frame is 135 bits with intermission (worst-case stuffing + IFS).
+        for id in [0u32, 0x7FF, 0x0F1, 0x100] {
+            for d in [[0u8; 8], [0xFF; 8], [0x0F; 8]] {
+                let b = CanFrame::new(id, &d).unwrap().wire_bits();
+                assert!((111..=135).contains(&b), "{id:#x} {d:?}: {b}");
+            }
+        }
+        let e = CanFrame::new_extended(0x1234_5678, &[1, 2]).unwrap();
+        assert!(e.wire_bits() >= 67 + 16, "{}", e.wire_bits());
+    }
+}

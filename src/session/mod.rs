@@ -7,6 +7,7 @@
 //!
 //! [`Request::matches`]: crate::proto::powercube::Request::matches
 
+pub mod cdios;
 pub mod powercube;
 
 use std::time::Duration;

@@ -36,6 +36,9 @@ pub struct PowerCube {
     retry: RetryPolicy,
     tracer: Option<Tracer>,
     clock: Arc<dyn Clock>,
+    /// RS232: give up when no answer byte has come this long after the
+    /// request has left (absent modules never answer; present ones answer at once).
+    answer_start: Option<Duration>,
 }
 
 impl PowerCube {
@@ -46,6 +49,7 @@ impl PowerCube {
             retry: RetryPolicy::default(),
             tracer: None,
             clock: Arc::new(SystemClock),
+            answer_start: None,
         }
     }
 
@@ -59,6 +63,7 @@ impl PowerCube {
             retry: RetryPolicy::default(),
             tracer: None,
             clock: Arc::new(SystemClock),
+            answer_start: None,
         }
     }
 
@@ -78,6 +83,13 @@ impl PowerCube {
 
     pub fn timeout(&self) -> Duration {
         self.timeout
+    }
+
+    /// RS232 only: time out early when the answer has not started this long
+    /// after the request's last byte left (scans use it: an absent id costs
+    /// the request's wire time plus this, not the whole timeout).
+    pub fn set_answer_start_timeout(&mut self, t: Option<Duration>) {
+        self.answer_start = t;
     }
 
     pub fn set_retry(&mut self, retry: RetryPolicy) {
@@ -218,12 +230,15 @@ impl PowerCube {
         let timeout = self.timeout;
         let target = || format!("module {module}");
         let clock = Arc::clone(&self.clock);
-        let Transport::Rs232 { link, decoder, .. } = &mut self.transport else { unreachable!() };
+        let Transport::Rs232 { link, decoder, baud } = &mut self.transport else { unreachable!() };
         // Half-duplex: whatever is still in the buffers belongs to an older exchange.
         link.clear_input()?;
         *decoder = rs232::Decoder::new();
         link.write_all(&bytes)?;
-        let deadline = clock.now() + timeout;
+        let sent = clock.now();
+        let mut deadline = sent + timeout;
+        let mut started = false;
+        let start_deadline = self.answer_start.map(|t| sent + rs232_wire_time(*baud, bytes.len() as u32) + t);
         let mut buf = [0u8; 64];
         loop {
             while let Some(item) = decoder.next_frame() {
@@ -265,10 +280,17 @@ impl PowerCube {
                 }
             }
             let now = clock.now();
+            if let Some(sd) = start_deadline.filter(|_| !started) {
+                deadline = deadline.min(sd);
+            }
             if now >= deadline {
                 return Err(SessionError::Timeout { target: target(), what: describe(req), timeout });
             }
             let n = link.read(&mut buf, deadline - now)?;
+            if n > 0 && !started {
+                started = true;
+                deadline = sent + timeout;
+            }
             decoder.push(&buf[..n]);
         }
     }

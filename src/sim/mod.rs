@@ -3,5 +3,6 @@
 //! time. [`bench`] puts them on one bus; `axisctl sim` serves it on ptys.
 
 pub mod bench;
+pub mod cdios;
 pub mod powercube;
 pub mod serve;

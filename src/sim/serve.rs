@@ -4,39 +4,91 @@
 
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
-use std::time::Duration;
+use std::time::{Duration, Instant};
 
 use super::bench::{lock, Shared};
 use super::powercube::PowerCubeBus;
 use crate::clock::Clock;
 use crate::link::mem::MemCanLink;
-use crate::link::{ByteLink, CanLink, LinkError};
+use crate::link::{ByteLink, CanLink, LinkError, SerialFormat};
 use crate::proto::slcan::{AckStyle, Adapter};
 
 /// How long a serving loop blocks before it looks at the bus again.
 const TICK: Duration = Duration::from_millis(1);
 
-/// PowerCube RS232 on a byte link: answers as a chain of modules would.
-pub fn rs232(
+/// Character timing of an emulated serial line.
+#[derive(Debug, Clone, Copy)]
+pub struct Pace {
+    pub char_time: Duration,
+}
+
+impl Pace {
+    pub fn serial(baud: u32, format: SerialFormat) -> Self {
+        Self { char_time: Duration::from_secs(format.bits_per_char().into()) / baud.max(1) }
+    }
+}
+
+/// A device at the far end of a serial line: bytes in, answer bytes out.
+pub type ByteHandler<'a> = dyn FnMut(Instant, &[u8], &mut Vec<u8>) + 'a;
+
+/// Serves a byte device on `link`. With `pace`, the line runs at its real
+/// speed: a request is handled once its last character has arrived, and the
+/// answer leaves one character time after another.
+pub fn bytes(
     mut link: Box<dyn ByteLink>,
-    bus: Shared<PowerCubeBus>,
-    clock: Arc<dyn Clock>,
+    device: &mut ByteHandler<'_>,
+    clock: &dyn Clock,
     stop: &AtomicBool,
+    pace: Option<Pace>,
 ) -> Result<(), LinkError> {
     let mut buf = [0u8; 256];
     let mut out = Vec::new();
+    let mut rx_free = clock.now();
+    let mut tx_free = clock.now();
     while !stop.load(Ordering::Relaxed) {
         let n = link.read(&mut buf, Duration::from_millis(20))?;
         if n == 0 {
             continue;
         }
-        lock(&bus).handle_rs232(clock.now(), &buf[..n], &mut out);
-        if !out.is_empty() {
-            link.write_all(&out)?;
-            out.clear();
+        let mut at = clock.now();
+        if let Some(p) = pace {
+            at = at.max(rx_free) + p.char_time * n as u32;
+            rx_free = at;
+            sleep_until(clock, at);
         }
+        device(at, &buf[..n], &mut out);
+        match pace {
+            None => link.write_all(&out)?,
+            Some(p) => {
+                for b in &out {
+                    tx_free = tx_free.max(clock.now()) + p.char_time;
+                    sleep_until(clock, tx_free);
+                    link.write_all(std::slice::from_ref(b))?;
+                }
+            }
+        }
+        out.clear();
     }
     Ok(())
+}
+
+fn sleep_until(clock: &dyn Clock, t: Instant) {
+    let now = clock.now();
+    if t > now {
+        clock.sleep(t - now);
+    }
+}
+
+/// PowerCube RS232 on a byte link: answers as a chain of modules would.
+pub fn rs232(
+    link: Box<dyn ByteLink>,
+    bus: Shared<PowerCubeBus>,
+    clock: Arc<dyn Clock>,
+    stop: &AtomicBool,
+    pace: Option<Pace>,
+) -> Result<(), LinkError> {
+    let mut device = |now, bytes: &[u8], out: &mut Vec<u8>| lock(&bus).handle_rs232(now, bytes, out);
+    self::bytes(link, &mut device, clock.as_ref(), stop, pace)
 }
 
 /// An slcan adapter on a byte link, with `client` as its view of the bus.

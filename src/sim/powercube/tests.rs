@@ -93,8 +93,12 @@ impl Bench {
         self.bus.module(m).unwrap().get(param).unwrap()
     }
 
+    /// The exact widened value: these tests compare against f32 arithmetic.
     fn getf(&self, m: u8, param: u8) -> f64 {
-        self.get(m, param).as_f64().unwrap()
+        match self.get(m, param) {
+            Value::Float(v) => f64::from(v),
+            other => other.as_f64().unwrap(),
+        }
     }
 
     /// Homes module `m` and waits until it is done.
