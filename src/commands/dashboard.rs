@@ -11,8 +11,11 @@ use std::sync::Arc;
 
 use axisctl::link::log::{log_iface, LoggedCanLink, TrafficLog};
 use axisctl::link::{self, CanLink, LinkSpec};
+use axisctl::proto::cdios::{ModuleId as CdiosModule, NodeId};
+use axisctl::session::cdios::Cdios;
 use axisctl::session::powercube::PowerCube;
 use axisctl::sim::bench::Bench;
+use axisctl::tui::cdios::CdiosSource;
 use axisctl::tui::powercube::CubeSource;
 use axisctl::tui::source::{DeviceSource, Family, SharedCan};
 use axisctl::tui::worker::{MAX_RATE, MIN_RATE};
@@ -83,6 +86,25 @@ fn parse_cube_modules(args: &DashboardArgs) -> anyhow::Result<Option<Vec<axisctl
     args.modules.as_deref().map(super::powercube::parse_ids).transpose()
 }
 
+fn parse_cdios_modules(args: &DashboardArgs) -> anyhow::Result<Option<Vec<CdiosModule>>> {
+    let Some(text) = args.cdios_modules.as_deref() else { return Ok(None) };
+    let mut out = Vec::new();
+    for part in text.split(',').map(str::trim).filter(|p| !p.is_empty()) {
+        let m = part
+            .parse::<u8>()
+            .ok()
+            .and_then(CdiosModule::new)
+            .ok_or_else(|| usage(format!("{part:?} in --cdios-modules is not a module id 0..15")))?;
+        if !out.contains(&m) {
+            out.push(m);
+        }
+    }
+    if out.is_empty() {
+        return Err(usage("--cdios-modules lists no module"));
+    }
+    Ok(Some(out))
+}
+
 fn powercube_on(ctx: &Ctx, pc: PowerCube, args: &DashboardArgs) -> anyhow::Result<Box<dyn DeviceSource>> {
     let mut pc = pc.with_clock(Arc::clone(&ctx.clock));
     if let Some(t) = ctx.timeout {
@@ -103,7 +125,15 @@ fn can_sources(
     for f in families {
         match f {
             Family::PowerCube => out.push(powercube_on(ctx, PowerCube::over_can(Box::new(link.clone())), args)?),
-            Family::Cdios => {}
+            Family::Cdios => {
+                let mut s = Cdios::new(Box::new(link.clone())).with_clock(Arc::clone(&ctx.clock));
+                if let Some(t) = ctx.timeout {
+                    s.set_timeout(t);
+                }
+                s.set_retry(ctx.retry);
+                let node = NodeId::new(args.node).expect("clap checks 1..=127");
+                out.push(Box::new(CdiosSource::new(s, node, parse_cdios_modules(args)?, ctx.retry)));
+            }
             Family::Pac => unreachable!("the PA-CONTROL is not on CAN"),
         }
     }
@@ -122,6 +152,7 @@ fn plan(ctx: &Ctx, args: &DashboardArgs) -> anyhow::Result<Vec<LinkPlan>> {
     let a = assign(ctx, args)?;
     // Checked before any link opens: a typo sends nothing.
     parse_cube_modules(args)?;
+    parse_cdios_modules(args)?;
     let uses_sim = [&a.cube, &a.pac, &a.cdios].iter().any(|s| **s == Some(LinkSpec::Sim));
     let bench = uses_sim.then(|| Bench::contract(Arc::clone(&ctx.clock)));
     let mut plans = Vec::new();

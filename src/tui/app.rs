@@ -449,9 +449,15 @@ impl App {
     fn check_target(&self, d: &DeviceView, text: &str) -> Result<f64, String> {
         let pos: f64 = text.trim().parse().map_err(|_| format!("{text:?} is not a number; nothing was sent"))?;
         limits::check_finite("target position", pos).map_err(|e| e.to_string())?;
-        if let (DeviceKey::Cube(m), Some(Snapshot::Cube(c))) = (&d.key, &d.snap) {
-            let m = ModuleId::new(*m).ok_or("bad module id")?;
-            c.limits.check_pos(pos, m).map_err(|e| e.to_string())?;
+        match (&d.key, &d.snap) {
+            (DeviceKey::Cube(m), Some(Snapshot::Cube(c))) => {
+                let m = ModuleId::new(*m).ok_or("bad module id")?;
+                c.limits.check_pos(pos, m).map_err(|e| e.to_string())?;
+            }
+            (DeviceKey::Cdios { .. }, _) => {
+                super::cdios::check_position("goto", pos)?;
+            }
+            _ => {}
         }
         Ok(pos)
     }

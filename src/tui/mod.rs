@@ -11,6 +11,7 @@
 //! panic hook when the UI thread panics.
 
 pub mod app;
+pub mod cdios;
 pub mod event;
 pub mod keys;
 pub mod powercube;

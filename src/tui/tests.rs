@@ -11,6 +11,7 @@ use ratatui::style::Color;
 use ratatui::Terminal;
 
 use super::app::{App, LinkView, Mode};
+use super::cdios::CdiosSource;
 use super::event::{Event, LinkEvent, ToWorker};
 use super::powercube::CubeSource;
 use super::source::{DeviceKey, DeviceSource, Family, SharedCan, Snapshot};
@@ -18,9 +19,12 @@ use super::ui;
 use super::worker::LinkWorker;
 use crate::clock::{Clock, VirtualClock};
 use crate::link::mem::Fault;
+use crate::proto::cdios::NodeId;
 use crate::proto::powercube::flags::state;
 use crate::proto::CanFrame;
+use crate::session::cdios::Cdios;
 use crate::session::powercube::PowerCube;
+use crate::session::RetryPolicy;
 use crate::sim::bench::{lock, Bench};
 
 /// Drops every frame the devices send: a link that stops answering.
@@ -47,8 +51,14 @@ impl Rig {
         let bench = Bench::contract(Arc::clone(&shared));
         let can = SharedCan::new(Box::new(bench.bus.open()));
         let cube: Box<dyn DeviceSource> =
-            Box::new(CubeSource::new(PowerCube::over_can(Box::new(can)).with_clock(Arc::clone(&shared)), None));
-        let sources = vec![cube];
+            Box::new(CubeSource::new(PowerCube::over_can(Box::new(can.clone())).with_clock(Arc::clone(&shared)), None));
+        let cdios: Box<dyn DeviceSource> = Box::new(CdiosSource::new(
+            Cdios::new(Box::new(can)).with_clock(Arc::clone(&shared)),
+            NodeId::new(1).unwrap(),
+            None,
+            RetryPolicy::default(),
+        ));
+        let sources = vec![cube, cdios];
         let links = vec![LinkView::new("sim CAN", sources.iter().map(|s| s.family()).collect(), 10.0)];
         let workers = vec![LinkWorker::new(0, sources, Arc::clone(&shared), 10.0)];
         let app = App::new(links, 10.0, clock.now());
@@ -326,6 +336,7 @@ fn snapshots_keep_their_family() {
     for d in &rig.app.devices {
         match (&d.key, &d.snap) {
             (DeviceKey::Cube(_), Some(Snapshot::Cube(_))) => assert_eq!(d.key.family(), Family::PowerCube),
+            (DeviceKey::Cdios { .. }, Some(Snapshot::Cdios(_))) => assert_eq!(d.key.family(), Family::Cdios),
             (k, s) => panic!("{k:?} has {s:?}"),
         }
     }

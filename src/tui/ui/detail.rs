@@ -38,8 +38,14 @@ pub fn draw(f: &mut Frame, app: &App, area: Rect) {
             .unwrap_or_else(|| "no data yet".into());
         top.push(Line::from(vec![
             Span::styled(" STALE ", YELLOW.add_modifier(Modifier::REVERSED | Modifier::BOLD)),
-            Span::styled(format!(" {age}: {why}"), YELLOW),
+            Span::styled(format!(" {age}; values below are old"), YELLOW),
         ]));
+        // The reason in full, on up to two lines.
+        let w = inner.width.max(10) as usize;
+        let chars: Vec<char> = why.chars().collect();
+        for chunk in chars.chunks(w).take(2) {
+            top.push(Line::styled(chunk.iter().collect::<String>(), YELLOW));
+        }
     }
     let Some(snap) = &d.snap else {
         if stale.is_none() {
@@ -166,11 +172,26 @@ fn cube(f: &mut Frame, v: &Values, c: &CubeSnap, mut top: Vec<Line<'static>>, ar
     let [values, flags] = Layout::vertical([Constraint::Length(top.len() as u16), Constraint::Min(3)]).areas(area);
     f.render_widget(Paragraph::new(top), values);
     let d = CUBE_STATE.decode(c.cube_state);
+    // Room for every flag: all of them, set ones marked; else the set ones.
+    let inner_w = flags.width.saturating_sub(2);
+    let room = (inner_w / 34).max(1) as usize * flags.height.saturating_sub(2) as usize;
+    let show_all = room >= CUBE_STATE.flags.len();
     let mut cells: Vec<(String, Style)> = CUBE_STATE
-        .set_flags(c.cube_state)
+        .flags
+        .iter()
+        .filter(|def| show_all || c.cube_state & def.mask != 0)
         .map(|def| {
+            let set = c.cube_state & def.mask != 0;
             let (style, word) = class_style(def.class);
-            (format!("{:<22} {word}", def.name), if v.stale { DIM } else { style })
+            let mark = if !show_all {
+                ""
+            } else if set {
+                "● "
+            } else {
+                "· "
+            };
+            let text = if set { format!("{mark}{:<22} {word}", def.name) } else { format!("{mark}{}", def.name) };
+            (text, if v.stale || !set { DIM } else { style })
         })
         .collect();
     if d.unknown_bits != 0 {
@@ -188,7 +209,7 @@ fn cube(f: &mut Frame, v: &Values, c: &CubeSnap, mut top: Vec<Line<'static>>, ar
         Span::styled(format!(" CubeState {:#010x} ", c.cube_state), v.style("state").add_modifier(Modifier::BOLD)),
         summary,
     ]);
-    flag_grid(f, flags, title, cells, 32);
+    flag_grid(f, flags, title, cells, 34);
 }
 
 /// Flags in as many columns of `col_w` as fit.
@@ -303,6 +324,13 @@ fn pac_axis(f: &mut Frame, v: &Values, a: &PacAxisSnap, mut top: Vec<Line<'stati
     flag_grid(f, flags, title, cells, 30);
 }
 
+fn title_again(c: &CdiosSnap, v: &Values) -> Line<'static> {
+    Line::styled(
+        format!(" Status bytes {:02x} {:02x} {:02x} {:02x} ", c.status[0], c.status[1], c.status[2], c.status[3]),
+        v.style("status").add_modifier(Modifier::BOLD),
+    )
+}
+
 pub fn cdios_word(c: &CdiosSnap) -> (String, Style) {
     let r = cdios_table::decode_status(c.status);
     if !r.errors.is_empty() {
@@ -310,7 +338,7 @@ pub fn cdios_word(c: &CdiosSnap) -> (String, Style) {
     } else if c.status[0] & 0x03 != 0 {
         ("moving".into(), GREEN)
     } else if c.status[2] & 0x80 == 0 {
-        ("disabled".into(), YELLOW)
+        ("off".into(), YELLOW)
     } else {
         ("ok".into(), GREEN)
     }
@@ -323,34 +351,57 @@ fn cdios(f: &mut Frame, v: &Values, c: &CdiosSnap, mut top: Vec<Line<'static>>, 
     top.push(v.line("RPM error", "rpm_error", format!("{:>10}", c.rpm_error), String::new()));
     let [values, flags] = Layout::vertical([Constraint::Length(top.len() as u16), Constraint::Min(6)]).areas(area);
     f.render_widget(Paragraph::new(top), values);
-    let block = Block::bordered()
-        .title(Line::styled(" Status bytes 1-4, bit 7..0 ", v.style("status").add_modifier(Modifier::BOLD)));
+    let title = Line::styled(
+        format!(" Status bytes {:02x} {:02x} {:02x} {:02x} ", c.status[0], c.status[1], c.status[2], c.status[3]),
+        v.style("status").add_modifier(Modifier::BOLD),
+    );
+    let style_of = |fl: &cdios_table::Flag, set: bool| {
+        if !set || v.stale {
+            DIM
+        } else if fl.class == Class::Error {
+            RED.add_modifier(Modifier::BOLD)
+        } else {
+            Style::new()
+        }
+    };
+    let all = cdios_table::STATUS_FLAGS;
+    let block = Block::bordered().title(title);
     let inner = block.inner(flags);
-    f.render_widget(block, flags);
-    let mut lines = Vec::new();
+    // Wide enough for the whole table: every bit, set ones bright, one
+    // column per byte. Otherwise the set bits, one per line.
+    if inner.width >= 4 * 33 && inner.height >= 9 {
+        f.render_widget(block, flags);
+        let mut lines =
+            vec![Line::styled((1..=4).map(|b| format!("{:<33}", format!("status {b}"))).collect::<String>(), BOLD)];
+        for bit in (0..8u8).rev() {
+            let mut spans = Vec::new();
+            for byte in 1..=4u8 {
+                let set = c.status[byte as usize - 1] & (1 << bit) != 0;
+                let mark = if set { "●" } else { "·" };
+                match all.iter().find(|fl| fl.byte == byte && fl.bit == bit) {
+                    Some(fl) => spans.push(Span::styled(format!("{bit} {mark} {:<29}", fl.name), style_of(fl, set))),
+                    None => spans
+                        .push(Span::styled(format!("{bit} {mark} {:<29}", "reserved"), if set { YELLOW } else { DIM })),
+                }
+            }
+            lines.push(Line::from(spans));
+        }
+        f.render_widget(Paragraph::new(lines), inner);
+        return;
+    }
+    let mut cells = Vec::new();
     for (i, b) in c.status.iter().enumerate() {
         let byte = i as u8 + 1;
-        let mut spans = vec![Span::styled(format!("S{byte} {b:08b} "), BOLD)];
-        let set: Vec<_> =
-            cdios_table::STATUS_FLAGS.iter().filter(|fl| fl.byte == byte && b & (1 << fl.bit) != 0).collect();
-        for fl in &set {
-            let style = if v.stale {
-                DIM
-            } else if fl.class == Class::Error {
-                RED.add_modifier(Modifier::BOLD)
-            } else {
-                Style::new()
-            };
-            spans.push(Span::styled(format!("{}:{} ", fl.bit, fl.name), style));
+        for bit in (0..8u8).rev().filter(|bit| b & (1 << bit) != 0) {
+            match all.iter().find(|fl| fl.byte == byte && fl.bit == bit) {
+                Some(fl) => cells.push((format!("S{byte}.{bit} {}", fl.name), style_of(fl, true))),
+                None => cells.push((format!("S{byte}.{bit} reserved bit set"), YELLOW)),
+            }
         }
-        let reserved = (0..8).filter(|bit| b & (1 << bit) != 0).filter(|bit| !set.iter().any(|fl| fl.bit == *bit));
-        for bit in reserved {
-            spans.push(Span::styled(format!("{bit}:reserved "), YELLOW));
-        }
-        if set.is_empty() && *b == 0 {
-            spans.push(Span::styled("-", DIM));
-        }
-        lines.push(Line::from(spans));
     }
-    f.render_widget(Paragraph::new(lines).wrap(ratatui::widgets::Wrap { trim: true }), inner);
+    if cells.is_empty() {
+        cells.push(("(no bits set)".into(), DIM));
+    }
+    let _ = block;
+    flag_grid(f, flags, title_again(c, v), cells, 36);
 }

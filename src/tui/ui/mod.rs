@@ -122,9 +122,22 @@ fn draw_list(f: &mut Frame, app: &App, area: Rect) {
 }
 
 fn draw_events(f: &mut Frame, app: &App, area: Rect) {
+    let inner_w = area.width.saturating_sub(2).max(1) as usize;
     let inner_h = area.height.saturating_sub(2) as usize;
     let end = app.events.len().saturating_sub(app.scroll);
-    let start = end.saturating_sub(inner_h);
+    // Newest at the bottom, long lines wrapped: take lines from the newest
+    // back until the pane is full.
+    let mut rows = 0;
+    let mut start = end;
+    while start > 0 {
+        let e = &app.events[start - 1];
+        let need = (8 + e.text.chars().count()).div_ceil(inner_w).max(1);
+        if rows + need > inner_h && rows > 0 {
+            break;
+        }
+        rows += need;
+        start -= 1;
+    }
     let lines: Vec<Line> = app
         .events
         .range(start..end)
@@ -141,8 +154,11 @@ fn draw_events(f: &mut Frame, app: &App, area: Rect) {
             ])
         })
         .collect();
+    let skip = rows.saturating_sub(inner_h);
     let title = if app.scroll > 0 { format!(" Events (↑{} — PgDn) ", app.scroll) } else { " Events ".into() };
-    f.render_widget(Paragraph::new(lines).block(Block::bordered().title(title)), area);
+    let p =
+        Paragraph::new(lines).wrap(Wrap { trim: false }).scroll((skip as u16, 0)).block(Block::bordered().title(title));
+    f.render_widget(p, area);
 }
 
 /// Per link: name, achieved / wanted rate, time per round, and the answer /
@@ -222,12 +238,16 @@ fn hint_line(app: &App, width: u16) -> Line<'static> {
             groups.push((key, word));
         }
     }
+    // What a newcomer needs first: halt-all, help, quit.
+    let first = |w: &str| w == "HALT ALL" || w == "help" || w == "quit";
+    let (mut ordered, rest): (Vec<_>, Vec<_>) = groups.into_iter().partition(|(_, w)| first(w));
+    ordered.extend(rest);
     let mut spans = Vec::new();
     let mut used = 0;
-    for (i, (k, w)) in groups.into_iter().enumerate() {
+    for (i, (k, w)) in ordered.into_iter().enumerate() {
         let len = k.chars().count() + w.chars().count() + 3;
         if used + len > width as usize {
-            break;
+            continue;
         }
         used += len;
         let key_style = if i == 0 { RED.add_modifier(Modifier::REVERSED | Modifier::BOLD) } else { BOLD };
