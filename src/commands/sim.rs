@@ -56,7 +56,10 @@ pub fn run(ctx: &Ctx, args: &SimArgs) -> anyhow::Result<()> {
         return Err(usage(format!("--node {}: Cdios node ids are 1..127", args.node)));
     }
     let cdios_modules = parse_list(&args.cdios_modules, "--cdios-modules", 15)?;
-    let cfg = BenchConfig { modules, linear, node: args.node, cdios_modules };
+    if !(1..=axisctl::proto::pac::table::MAX_AXES).contains(&args.axes) {
+        return Err(usage(format!("--axes: {} is not 1..={}", args.axes, axisctl::proto::pac::table::MAX_AXES)));
+    }
+    let cfg = BenchConfig { modules, linear, node: args.node, cdios_modules, axes: args.axes };
     let only_some = args.powercube.is_some() || args.pac.is_some() || args.cdios.is_some();
     // What is served where: with no family option, PowerCube and Cdios share one slcan bus.
     let mut served: Vec<(Where, Vec<&str>)> = Vec::new();
@@ -76,9 +79,13 @@ pub fn run(ctx: &Ctx, args: &SimArgs) -> anyhow::Result<()> {
             }
         }
     }
-    if args.pac.is_some() {
-        return Err(usage("the PA-CONTROL simulator is not served yet"));
-    }
+    // The PA-CONTROL has only its RS232 port.
+    let pac_where = match args.pac.as_deref() {
+        Some("pty-serial") => Some(Where::PtySerial),
+        Some(other) => return Err(usage(format!("--pac {other:?}: the PA-CONTROL is served on pty-serial only"))),
+        None if !only_some => Some(Where::PtySerial),
+        None => None,
+    };
 
     let bench = Bench::new(&cfg, Arc::clone(&ctx.clock));
     if args.wire_speed {
@@ -116,6 +123,13 @@ pub fn run(ctx: &Ctx, args: &SimArgs) -> anyhow::Result<()> {
                 threads.push(std::thread::spawn(move || serve::bridge(ext, client, &stop)));
             }
         }
+    }
+    if let Some(Where::PtySerial) = pac_where {
+        let (master, path) = link::pty::open_pair()?;
+        announce("pac", &format!("serial:{path}?baud={}&format=7N1", args.baud));
+        let (pac, clock, stop) = (Arc::clone(&bench.pac), Arc::clone(&ctx.clock), Arc::clone(&stop));
+        let pace = pace(link::SerialFormat::F7N1);
+        threads.push(std::thread::spawn(move || serve::pac(Box::new(master), pac, clock, &stop, pace)));
     }
     for t in threads {
         match t.join() {

@@ -9,7 +9,7 @@ use std::collections::VecDeque;
 use std::sync::{Arc, Mutex, MutexGuard};
 use std::time::{Duration, Instant};
 
-use super::{CanLink, LinkError};
+use super::{ByteLink, CanLink, LinkError};
 use crate::clock::Clock;
 use crate::proto::CanFrame;
 
@@ -196,6 +196,88 @@ impl CanLink for MemCanLink {
     }
 }
 
+/// A simulated device at the far end of a byte link (a serial port).
+pub trait ByteDevice: Send {
+    /// Bytes from the host, split anywhere; answers go to `out`.
+    fn on_bytes(&mut self, now: Instant, bytes: &[u8], out: &mut Vec<u8>);
+    /// Bytes the device sends on its own (or lets time pass) up to `now`.
+    fn poll(&mut self, _now: Instant, _out: &mut Vec<u8>) {}
+}
+
+/// A device shared with whoever inspects it (tests, the bench, a dashboard).
+impl<T: ByteDevice> ByteDevice for Arc<Mutex<T>> {
+    fn on_bytes(&mut self, now: Instant, bytes: &[u8], out: &mut Vec<u8>) {
+        self.lock().unwrap_or_else(|e| e.into_inner()).on_bytes(now, bytes, out);
+    }
+    fn poll(&mut self, now: Instant, out: &mut Vec<u8>) {
+        self.lock().unwrap_or_else(|e| e.into_inner()).poll(now, out);
+    }
+}
+
+/// An in-memory serial line to one [`ByteDevice`], on real or virtual time:
+/// what is written reaches the device at once, its answers queue until read.
+pub struct MemByteLink {
+    device: Box<dyn ByteDevice>,
+    clock: Arc<dyn Clock>,
+    rx: VecDeque<u8>,
+    scratch: Vec<u8>,
+}
+
+impl MemByteLink {
+    pub fn new(device: Box<dyn ByteDevice>, clock: Arc<dyn Clock>) -> Self {
+        Self { device, clock, rx: VecDeque::new(), scratch: Vec::new() }
+    }
+
+    /// Answer bytes received and not read yet.
+    pub fn pending(&self) -> usize {
+        self.rx.len()
+    }
+
+    fn collect(&mut self) {
+        self.rx.extend(self.scratch.drain(..));
+    }
+}
+
+impl ByteLink for MemByteLink {
+    fn write_all(&mut self, bytes: &[u8]) -> Result<(), LinkError> {
+        let now = self.clock.now();
+        self.device.on_bytes(now, bytes, &mut self.scratch);
+        self.collect();
+        Ok(())
+    }
+
+    fn read(&mut self, buf: &mut [u8], timeout: Duration) -> Result<usize, LinkError> {
+        if buf.is_empty() {
+            return Ok(0);
+        }
+        let deadline = self.clock.now() + timeout;
+        loop {
+            let now = self.clock.now();
+            self.device.poll(now, &mut self.scratch);
+            self.collect();
+            if !self.rx.is_empty() {
+                let n = buf.len().min(self.rx.len());
+                for (dst, src) in buf.iter_mut().zip(self.rx.drain(..n)) {
+                    *dst = src;
+                }
+                return Ok(n);
+            }
+            if now >= deadline {
+                return Ok(0);
+            }
+            self.clock.sleep(WAIT_SLICE.min(deadline - now));
+        }
+    }
+
+    fn clear_input(&mut self) -> Result<(), LinkError> {
+        let now = self.clock.now();
+        self.device.poll(now, &mut self.scratch);
+        self.scratch.clear();
+        self.rx.clear();
+        Ok(())
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -245,5 +327,52 @@ mod tests {
         assert!(took >= Duration::from_micros(bits.into()), "{took:?} < {bits} bit times");
         assert!(took < Duration::from_micros(u64::from(bits) + 5), "{took:?}");
         assert_eq!(a.recv(Duration::from_millis(10)).unwrap().unwrap().id(), 0x11);
+    }
+
+    /// Answers each byte `b` with `b + 1` at once, and with `0xEE` once
+    /// 50 ms have passed since the first byte.
+    struct Plus {
+        first: Option<Instant>,
+        late_sent: bool,
+    }
+    impl ByteDevice for Plus {
+        fn on_bytes(&mut self, now: Instant, bytes: &[u8], out: &mut Vec<u8>) {
+            self.first.get_or_insert(now);
+            out.extend(bytes.iter().map(|b| b.wrapping_add(1)));
+        }
+        fn poll(&mut self, now: Instant, out: &mut Vec<u8>) {
+            if let Some(t) = self.first {
+                if !self.late_sent && now - t >= Duration::from_millis(50) {
+                    self.late_sent = true;
+                    out.push(0xEE);
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn byte_link_feeds_the_device_and_queues_answers() {
+        let clock = Arc::new(VirtualClock::new());
+        let dev = Arc::new(Mutex::new(Plus { first: None, late_sent: false }));
+        let mut link = MemByteLink::new(Box::new(Arc::clone(&dev)), clock.clone());
+        let t0 = clock.now();
+        let mut buf = [0u8; 2];
+        assert_eq!(link.read(&mut buf, Duration::from_millis(10)).unwrap(), 0);
+        assert_eq!(clock.now() - t0, Duration::from_millis(10), "an empty read waits the timeout, virtually");
+        link.write_all(&[1, 2, 3]).unwrap();
+        assert_eq!(link.pending(), 3);
+        assert_eq!(link.read(&mut buf, Duration::ZERO).unwrap(), 2, "read stops at the buffer's size");
+        assert_eq!(buf, [2, 3]);
+        assert_eq!(link.read(&mut buf, Duration::ZERO).unwrap(), 1);
+        assert_eq!(buf[0], 4);
+        // The device's own output arrives while a read waits for it.
+        let t1 = clock.now();
+        assert_eq!(link.read(&mut buf, Duration::from_secs(1)).unwrap(), 1);
+        assert_eq!(buf[0], 0xEE);
+        assert_eq!(clock.now() - t1, Duration::from_millis(50), "the read returns as soon as the byte is due");
+        link.write_all(&[9]).unwrap();
+        link.clear_input().unwrap();
+        assert_eq!(link.read(&mut buf, Duration::ZERO).unwrap(), 0, "clear_input drops unread answers");
+        assert!(dev.lock().unwrap().late_sent, "the device stays inspectable through the shared handle");
     }
 }

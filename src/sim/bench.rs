@@ -1,15 +1,17 @@
 //! The simulated bench: the devices of `cli-contract.md` on one in-memory
 //! CAN bus (PowerCube modules 3, 5 and 17, 17 linear; Cdios node 1 with 6168
-//! modules 0 and 1; their CAN ids do not overlap), shared by the in-process
-//! `--link sim` and by `axisctl sim`'s served links.
+//! modules 0 and 1; their CAN ids do not overlap) and a PA-CONTROL with 3
+//! axes on its own serial line, shared by the in-process `--link sim` and by
+//! `axisctl sim`'s served links.
 
 use std::sync::{Arc, Mutex, MutexGuard};
 use std::time::Instant;
 
 use super::cdios::CdiosNode;
+use super::pac::PacController;
 use super::powercube::{ModuleKind, ModuleSpec, PowerCubeBus};
 use crate::clock::Clock;
-use crate::link::mem::{CanDevice, MemBus};
+use crate::link::mem::{CanDevice, MemBus, MemByteLink};
 use crate::proto::cdios::NodeId;
 use crate::proto::powercube::ModuleId;
 use crate::proto::CanFrame;
@@ -23,12 +25,14 @@ pub struct BenchConfig {
     pub node: u8,
     /// Cdios 6168 module ids (0..15).
     pub cdios_modules: Vec<u8>,
+    /// PA-CONTROL axes (1..=16).
+    pub axes: u8,
 }
 
 impl Default for BenchConfig {
     /// The contract's bench.
     fn default() -> Self {
-        Self { modules: vec![3, 5, 17], linear: vec![17], node: 1, cdios_modules: vec![0, 1] }
+        Self { modules: vec![3, 5, 17], linear: vec![17], node: 1, cdios_modules: vec![0, 1], axes: 3 }
     }
 }
 
@@ -78,6 +82,8 @@ pub struct Bench {
     pub bus: MemBus,
     pub powercube: Shared<PowerCubeBus>,
     pub cdios: Shared<CdiosNode>,
+    /// The PA-CONTROL, reached over [`Bench::pac_link`] or a served pty.
+    pub pac: Shared<PacController>,
 }
 
 impl Bench {
@@ -89,7 +95,14 @@ impl Bench {
         let node = NodeId::new(cfg.node).unwrap_or(NodeId::FACTORY);
         let cdios = Arc::new(Mutex::new(CdiosNode::new(node, &cfg.cdios_modules, now)));
         bus.attach(Box::new(SharedCdios(Arc::clone(&cdios))));
-        Self { bus, powercube, cdios }
+        let pac = Arc::new(Mutex::new(PacController::new(cfg.axes, now)));
+        Self { bus, powercube, cdios, pac }
+    }
+
+    /// A serial line to the PA-CONTROL (the in-process `--link sim`); every
+    /// link opened here talks to the same controller.
+    pub fn pac_link(&self, clock: Arc<dyn Clock>) -> MemByteLink {
+        MemByteLink::new(Box::new(Arc::clone(&self.pac)), clock)
     }
 
     pub fn contract(clock: Arc<dyn Clock>) -> Self {
@@ -100,4 +113,48 @@ impl Bench {
 /// The in-process bench behind `--link sim`.
 pub fn in_process(clock: Arc<dyn Clock>) -> MemBus {
     Bench::contract(clock).bus
+}
+
+#[cfg(test)]
+mod tests {
+    use std::time::Duration;
+
+    use super::*;
+    use crate::clock::VirtualClock;
+    use crate::link::ByteLink;
+    use crate::proto::pac::{AckDecoder, Command, Par2};
+
+    fn transact(link: &mut MemByteLink, bytes: &[u8]) -> crate::proto::pac::Ack {
+        link.write_all(bytes).unwrap();
+        let mut buf = [0u8; 256];
+        let n = link.read(&mut buf, Duration::from_millis(100)).unwrap();
+        let mut dec = AckDecoder::new();
+        dec.push(&buf[..n]);
+        dec.next().expect("an acknowledge").unwrap()
+    }
+
+    // The in-process `--link sim` path: a 0A87 move polled on virtual time.
+    #[test]
+    fn pac_link_reaches_the_shared_controller_on_virtual_time() {
+        let clock = Arc::new(VirtualClock::new());
+        let bench = Bench::contract(clock.clone());
+        let mut link = bench.pac_link(clock.clone());
+        assert_eq!(transact(&mut link, &Command::new(0x0603, 0, Par2::Int(0)).encode().unwrap()).status, 31);
+        transact(&mut link, &Command::new(0x0A96, 3, Par2::Float(0.0)).encode().unwrap());
+        let first = transact(&mut link, &Command::new(0x0A87, 3, Par2::Float(2000.0)).encode().unwrap());
+        assert!(!first.be);
+        let t0 = clock.now();
+        let mut polls = 0;
+        while !transact(&mut link, &[0x04]).be {
+            polls += 1;
+            clock.advance(Duration::from_millis(50));
+        }
+        // 2000 AE at 1000 AE/s and 2000 AE/s²: 2.5 s.
+        assert_eq!(clock.now() - t0, Duration::from_millis(2500));
+        assert_eq!(polls, 50);
+        assert_eq!(lock(&bench.pac).axis_position(3), Some(2000.0));
+        let mut other = bench.pac_link(clock);
+        let pos = transact(&mut other, &Command::new(0x190C, 3, Par2::Float(0.0)).encode().unwrap());
+        assert_eq!(pos.q_par, Par2::Float(2000.0), "every link reaches the same controller");
+    }
 }

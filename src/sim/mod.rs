@@ -4,5 +4,6 @@
 
 pub mod bench;
 pub mod cdios;
+pub mod pac;
 pub mod powercube;
 pub mod serve;

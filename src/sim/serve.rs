@@ -1,12 +1,14 @@
-//! Serving the bench on real links: a pty speaking PowerCube RS232, a pty
-//! behaving as an slcan adapter with the bus behind it, or a SocketCAN
-//! interface. These loops are the only I/O of the simulators.
+//! Serving the bench on real links: a pty speaking PowerCube RS232 or the
+//! PA-CONTROL protocol, a pty behaving as an slcan adapter with the bus
+//! behind it, or a SocketCAN interface. These loops are the only I/O of the
+//! simulators.
 
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use super::bench::{lock, Shared};
+use super::pac::PacController;
 use super::powercube::PowerCubeBus;
 use crate::clock::Clock;
 use crate::link::mem::MemCanLink;
@@ -47,11 +49,9 @@ pub fn bytes(
     let mut tx_free = clock.now();
     while !stop.load(Ordering::Relaxed) {
         let n = link.read(&mut buf, Duration::from_millis(20))?;
-        if n == 0 {
-            continue;
-        }
+        // Called on a quiet line too: time passes for whoever inspects the device.
         let mut at = clock.now();
-        if let Some(p) = pace {
+        if let Some(p) = pace.filter(|_| n > 0) {
             at = at.max(rx_free) + p.char_time * n as u32;
             rx_free = at;
             sleep_until(clock, at);
@@ -91,6 +91,18 @@ pub fn rs232(
     self::bytes(link, &mut device, clock.as_ref(), stop, pace)
 }
 
+/// The PA-CONTROL's RS232 online command port on a byte link.
+pub fn pac(
+    link: Box<dyn ByteLink>,
+    pac: Shared<PacController>,
+    clock: Arc<dyn Clock>,
+    stop: &AtomicBool,
+    pace: Option<Pace>,
+) -> Result<(), LinkError> {
+    let mut device = |now, bytes: &[u8], out: &mut Vec<u8>| lock(&pac).handle_bytes(now, bytes, out);
+    self::bytes(link, &mut device, clock.as_ref(), stop, pace)
+}
+
 /// An slcan adapter on a byte link, with `client` as its view of the bus.
 pub fn slcan(mut link: Box<dyn ByteLink>, mut client: MemCanLink, stop: &AtomicBool) -> Result<(), LinkError> {
     let mut adapter = Adapter::new(AckStyle::default());
@@ -122,4 +134,59 @@ pub fn bridge(mut ext: Box<dyn CanLink>, mut client: MemCanLink, stop: &AtomicBo
         }
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::clock::SystemClock;
+    use crate::link::serial::SerialLink;
+    use crate::link::{pty, SerialFormat};
+    use std::sync::Mutex;
+
+    fn hex(s: &str) -> Vec<u8> {
+        s.split_whitespace().map(|b| u8::from_str_radix(b, 16).unwrap()).collect()
+    }
+
+    /// Reads until `n` EOTs (the end of `n` acknowledges) or 2 s pass.
+    fn read_frames(link: &mut SerialLink, n: usize) -> Vec<u8> {
+        let mut got = Vec::new();
+        let deadline = std::time::Instant::now() + Duration::from_secs(2);
+        let mut buf = [0u8; 64];
+        while got.iter().filter(|b| **b == 0x04).count() < n && std::time::Instant::now() < deadline {
+            let k = link.read(&mut buf, Duration::from_millis(50)).unwrap();
+            got.extend_from_slice(&buf[..k]);
+        }
+        got
+    }
+
+    // Manual 3.4.3: start online mode over a real pty, as a client opens it
+    // (9600 baud 7N1), answered with the printed acknowledge.
+    #[test]
+    fn pac_over_a_pty() {
+        let (master, path) = pty::open_pair().unwrap();
+        let clock: Arc<dyn Clock> = Arc::new(SystemClock);
+        let controller = Arc::new(Mutex::new(PacController::new(3, clock.now())));
+        let stop = Arc::new(AtomicBool::new(false));
+        let server = {
+            let (c, clock, stop) = (Arc::clone(&controller), Arc::clone(&clock), Arc::clone(&stop));
+            std::thread::spawn(move || pac(Box::new(master), c, clock, &stop, None))
+        };
+        let mut client = SerialLink::open(&path, 9600, SerialFormat::F7N1).unwrap();
+        client.write_all(&hex("01 02 30 36 30 33 3B 30 3B 30 3B 30 03 31 34 04")).unwrap();
+        assert_eq!(read_frames(&mut client, 1), hex("01 02 30 3B 31 3B 33 31 3B 30 3B 30 3B 30 03 38 04"));
+        assert_eq!(lock(&controller).status(), 31);
+        // A poll repeats it; a register write comes back.
+        client.write_all(&[0x04]).unwrap();
+        client.write_all(b"\x01\x020906;5;0;12345\x030\x04").unwrap();
+        let got = read_frames(&mut client, 2);
+        assert_eq!(
+            got,
+            [&hex("01 02 30 3B 31 3B 33 31 3B 30 3B 30 3B 30 03 38 04")[..], b"\x01\x020;1;31;0;0;12345\x039\x04"]
+                .concat()
+        );
+        stop.store(true, Ordering::SeqCst);
+        server.join().unwrap().unwrap();
+        assert_eq!(lock(&controller).int_register(5), Some(12345));
+    }
 }

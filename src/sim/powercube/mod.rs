@@ -123,7 +123,7 @@
 mod defaults;
 mod module;
 mod params;
-mod traj;
+pub(super) mod traj;
 
 #[cfg(test)]
 mod tests;
