@@ -38,6 +38,9 @@ pub struct Global {
     /// How often a read is retried after a timeout (motion is never retried)
     #[arg(long, global = true, value_name = "N", default_value_t = 2)]
     pub retries: u32,
+    /// PA-CONTROL: send CHECK as the XOR including ETX (default: strictly between STX and ETX)
+    #[arg(long, global = true)]
+    pub pac_check_etx: bool,
 }
 
 #[derive(Debug, Args, Clone, Copy)]
@@ -216,6 +219,8 @@ pub enum Command {
     Cdios(crate::cli_cdios::CdiosCommand),
     /// Live dashboard of every device on the links (try: --link sim dashboard)
     Dashboard(crate::cli_dashboard::DashboardArgs),
+    #[command(flatten)]
+    Pac(crate::cli_pac::PacCommand),
 }
 
 #[derive(Debug, Subcommand)]

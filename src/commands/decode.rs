@@ -1,5 +1,6 @@
 //! `axisctl decode KIND VALUE`: take a raw word apart offline.
 
+use axisctl::proto::pac::profibus as pac_profibus;
 use axisctl::proto::powercube::flags::{self, ProfibusInput};
 use axisctl::proto::powercube::Response;
 use serde_json::json;
@@ -16,6 +17,7 @@ fn kinds() -> String {
         .map(|w| w.kind)
         .chain([PROFIBUS_IMAGE])
         .chain(super::cdios::DECODE_KINDS.iter().copied())
+        .chain(pac_profibus::WORDS.iter().map(|w| w.kind))
         .collect::<Vec<_>>()
         .join(", ")
 }
@@ -26,6 +28,9 @@ pub fn run(ctx: &Ctx, kind: &str, value: &str) -> anyhow::Result<()> {
     }
     if kind.eq_ignore_ascii_case(PROFIBUS_IMAGE) {
         return profibus_image(ctx, value);
+    }
+    if let Some(def) = pac_profibus::word(kind) {
+        return pac_word(ctx, def, value);
     }
     let word = flags::word(kind).ok_or_else(|| usage(format!("unknown kind {kind:?}; kinds: {}", kinds())))?;
     let raw = word.parse(value).map_err(|e| usage(e.to_string()))?;
@@ -89,5 +94,34 @@ fn profibus_image(ctx: &Ctx, value: &str) -> anyhow::Result<()> {
     println!("position    {} ticks", img.position_ticks);
     println!("short state {:#06x} {}", img.short_state, state.flags.join(" "));
     println!("ms          {}", img.ms);
+    Ok(())
+}
+
+/// A PA-CONTROL Profibus-DP / Interbus-S word or status date: a number
+/// (decimal, 0x hex, 0b binary) or, for the 8-byte CMD images, hex bytes as
+/// the manual prints them (`00 00 00 00 0E 01 00 13`).
+fn pac_word(ctx: &Ctx, def: &'static pac_profibus::WordDef, value: &str) -> anyhow::Result<()> {
+    let t = value.trim();
+    let raw = if def.bits == 64 && (t.contains(' ') || t.contains(':')) {
+        let bytes = parse_hex_bytes(t)?;
+        let arr: [u8; 8] =
+            bytes.try_into().map_err(|b: Vec<u8>| usage(format!("{} takes 8 bytes, got {}", def.kind, b.len())))?;
+        pac_profibus::image(arr)
+    } else {
+        let parsed = if let Some(h) = t.strip_prefix("0x").or_else(|| t.strip_prefix("0X")) {
+            u64::from_str_radix(h, 16)
+        } else if let Some(b) = t.strip_prefix("0b").or_else(|| t.strip_prefix("0B")) {
+            u64::from_str_radix(b, 2)
+        } else {
+            t.parse()
+        };
+        parsed.map_err(|_| usage(format!("{value:?} is not a number (decimal, 0x hex or 0b binary)")))?
+    };
+    let d = pac_profibus::decode_word(def, raw).map_err(|e| usage(e.to_string()))?;
+    if ctx.json {
+        output::json(&serde_json::to_value(&d)?);
+    } else {
+        print!("{d}");
+    }
     Ok(())
 }

@@ -5,6 +5,7 @@ mod cdios;
 mod dashboard;
 mod decode;
 mod monitor;
+mod pac;
 mod powercube;
 mod sim;
 
@@ -15,6 +16,7 @@ use std::time::Duration;
 use axisctl::clock::{Clock, SystemClock};
 use axisctl::link::log::{log_iface, LoggedByteLink, LoggedCanLink, TrafficLog};
 use axisctl::link::{self, LinkSpec};
+use axisctl::session::pac::Pac;
 use axisctl::session::powercube::PowerCube;
 use axisctl::session::{ErrorKind, RetryPolicy, TraceEvent};
 
@@ -72,6 +74,8 @@ pub struct Ctx {
     pub retry: RetryPolicy,
     pub style: Style,
     pub clock: Arc<dyn Clock>,
+    /// `--pac-check-etx`: PA-CONTROL CHECK including ETX.
+    pub pac_check_etx: bool,
 }
 
 impl Ctx {
@@ -86,6 +90,7 @@ impl Ctx {
             retry: RetryPolicy { read_retries: g.retries },
             style: Style::detect(),
             clock: Arc::new(SystemClock),
+            pac_check_etx: g.pac_check_etx,
         })
     }
 
@@ -115,6 +120,37 @@ impl Ctx {
             pc.set_tracer(Box::new(print_trace));
         }
         Ok(pc)
+    }
+
+    /// Opens a PA-CONTROL session: a `serial:` link (default 9600 7N1) or
+    /// the in-process simulated controller (`sim`).
+    pub fn pac(&self) -> anyhow::Result<Pac> {
+        use axisctl::proto::pac::CheckRule;
+        let spec = self.link()?;
+        let mut pac = match spec {
+            LinkSpec::Serial { path, baud, format } => {
+                let baud = baud.unwrap_or(9600);
+                let format = format.unwrap_or(link::SerialFormat::F7N1);
+                Pac::new(self.logged_bytes(link::open_bytes(path, baud, format)?)?, baud, format)
+            }
+            LinkSpec::Sim => {
+                let bench = axisctl::sim::bench::Bench::contract(Arc::clone(&self.clock));
+                let l: Box<dyn link::ByteLink> = Box::new(bench.pac_link(Arc::clone(&self.clock)));
+                Pac::new(self.logged_bytes(l)?, 9600, link::SerialFormat::F7N1).with_clock(Arc::clone(&self.clock))
+            }
+            _ => return Err(usage(format!("{spec} is a CAN link; the PA-CONTROL talks RS232 (serial:TTY or sim)"))),
+        };
+        if let Some(t) = self.timeout {
+            pac.set_timeout(t);
+        }
+        pac.set_retry(self.retry);
+        if self.pac_check_etx {
+            pac.set_check_rule(CheckRule::WithEtx);
+        }
+        if self.trace {
+            pac.set_tracer(Box::new(print_trace));
+        }
+        Ok(pac)
     }
 
     /// A CAN link (the in-process bench for `sim`), logged with `--log`.
@@ -175,6 +211,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Monitor(args) => monitor::run(&ctx, &args),
         Command::Cdios(c) => cdios::run(&ctx, c),
         Command::Dashboard(args) => dashboard::run(&ctx, &args),
+        Command::Pac(cmd) => pac::run(&ctx, cmd),
         other => powercube::run(&ctx, other),
     }
 }

@@ -40,9 +40,12 @@ pub fn run(ctx: &Ctx, cmd: Command) -> anyhow::Result<()> {
         Command::SetConfig { module: m, changes, raw } => set_config(ctx, module(m.module), &changes, raw.as_deref()),
         Command::Dio { module: m, out } => dio(ctx, module(m.module), out.as_deref()),
         Command::Watchdog { action } => watchdog(ctx, action),
-        Command::Decode { .. } | Command::Sim(_) | Command::Monitor(_) | Command::Cdios(_) | Command::Dashboard(_) => {
-            unreachable!("dispatched elsewhere")
-        }
+        Command::Decode { .. }
+        | Command::Sim(_)
+        | Command::Monitor(_)
+        | Command::Cdios(_)
+        | Command::Pac(_)
+        | Command::Dashboard(_) => unreachable!("dispatched elsewhere"),
     }
 }
 

@@ -1,0 +1,210 @@
+//! The PA-CONTROL subcommands, as typed (clap derive only). Flattened into
+//! [`crate::cli::Command`]; `commands::pac` gives them meaning.
+
+use clap::{Args, Subcommand};
+
+/// An axis number 1..16 (the controller's own count is checked when known).
+fn axis_parser() -> clap::builder::RangedI64ValueParser<u8> {
+    clap::value_parser!(u8).range(1..=16)
+}
+
+#[derive(Debug, Args, Clone, Copy)]
+pub struct AxisArg {
+    /// Axis number, 1..16
+    #[arg(value_name = "AXIS", value_parser = axis_parser())]
+    pub axis: u8,
+}
+
+#[derive(Debug, Args, Clone, Copy)]
+pub struct PacWait {
+    /// Wait until the axis stands still, showing the position live (Ctrl-C stops the axis)
+    #[arg(long)]
+    pub wait: bool,
+    /// Give up waiting after this many seconds (the axis is stopped)
+    #[arg(long, value_name = "S", default_value_t = 600.0, requires = "wait")]
+    pub wait_timeout: f64,
+    /// Poll interval while waiting, in ms
+    #[arg(long, value_name = "MS", default_value_t = 50, requires = "wait")]
+    pub poll: u64,
+    /// Stream one JSON line per poll on stderr: {"progress": {"axis", "position", "status", ...}}
+    #[arg(long, requires = "wait")]
+    pub progress_json: bool,
+}
+
+/// Read one parameter, its limits, or write it.
+#[derive(Debug, Args, Clone)]
+pub struct ParamAccess {
+    /// The new value (checked against the controller's min / max first)
+    #[arg(allow_negative_numbers = true, conflicts_with_all = ["min", "max"])]
+    pub value: Option<String>,
+    /// Read the parameter's minimum instead
+    #[arg(long, conflicts_with = "max")]
+    pub min: bool,
+    /// Read the parameter's maximum instead
+    #[arg(long)]
+    pub max: bool,
+}
+
+// clap derives each subcommand's name from its variant: the prefix is the
+// contract's `pac-` and has to be there.
+#[allow(clippy::enum_variant_names)]
+#[derive(Debug, Subcommand)]
+pub enum PacCommand {
+    /// PA-CONTROL: start online mode from home position (0603)
+    PacOnline,
+    /// PA-CONTROL: abort online mode, back to home position (0A81)
+    PacOffline,
+    /// PA-CONTROL: STOP automatic or online positioning (0600)
+    PacStop,
+    /// PA-CONTROL: start automatic mode from home position (0602)
+    PacAutoStart,
+    /// PA-CONTROL: abort automatic mode, back to home position (0A41)
+    PacAutoAbort,
+    /// PA-CONTROL: operating status and error number (190B)
+    PacState,
+    /// PA-CONTROL: the PA-CONTROL error number (1909)
+    PacError,
+    /// PA-CONTROL: reset a class 2 system error, home position only (0909)
+    PacResetError,
+    /// PA-CONTROL: move an axis (0A94 / 0A95; with --wait until it stands still)
+    PacMove {
+        #[command(flatten)]
+        axis: AxisArg,
+        /// Target position (distance with --relative), in the axis' unit
+        #[arg(allow_negative_numbers = true)]
+        pos: f64,
+        /// POS is a distance from the current position
+        #[arg(long)]
+        relative: bool,
+        /// Skip the check against the axis' traverse area read from the controller
+        #[arg(long)]
+        force: bool,
+        #[command(flatten)]
+        wait: PacWait,
+    },
+    /// PA-CONTROL: reference drive of an axis (0A84)
+    PacRef {
+        #[command(flatten)]
+        axis: AxisArg,
+        #[command(flatten)]
+        wait: PacWait,
+    },
+    /// PA-CONTROL: release an axis without a reference drive (0A83, no motion)
+    PacNoRef(AxisArg),
+    /// PA-CONTROL: set an axis' current position to zero (0A85)
+    PacZero(AxisArg),
+    /// PA-CONTROL: set an axis' current position to POS (0A86)
+    PacSetPos {
+        #[command(flatten)]
+        axis: AxisArg,
+        #[arg(allow_negative_numbers = true)]
+        pos: f64,
+    },
+    /// PA-CONTROL: set an axis' traverse speed for online mode (0A8D)
+    PacSpeed {
+        #[command(flatten)]
+        axis: AxisArg,
+        speed: f64,
+    },
+    /// PA-CONTROL: set an axis' acceleration for online mode (0A8E)
+    PacAccel {
+        #[command(flatten)]
+        axis: AxisArg,
+        accel: f64,
+    },
+    /// PA-CONTROL: stop an axis and wait for standstill (0A93; 0A9A with --no-wait)
+    PacStopAxis {
+        #[command(flatten)]
+        axis: AxisArg,
+        /// Return at once (0A9A) instead of waiting for standstill
+        #[arg(long)]
+        no_wait: bool,
+    },
+    /// PA-CONTROL: position, speed, status and extended status of an axis
+    PacAxis(AxisArg),
+    /// PA-CONTROL: every configured axis with position and status
+    PacAxes,
+    /// PA-CONTROL: switch an axis on (0A97)
+    PacAxisOn(AxisArg),
+    /// PA-CONTROL: switch an axis off (0A98)
+    PacAxisOff(AxisArg),
+    /// PA-CONTROL: measuring mode of an axis on (0AA0) or, with --off, off (0AA1)
+    PacMeasure {
+        #[command(flatten)]
+        axis: AxisArg,
+        #[arg(long)]
+        off: bool,
+    },
+    /// PA-CONTROL: limit switch monitoring of an axis (0 = all axes) on or off (0AA2)
+    PacLimitSwitch {
+        /// Axis number, or 0 for all axes
+        #[arg(value_parser = clap::value_parser!(u8).range(0..=16))]
+        axis: u8,
+        /// on or off
+        #[arg(value_parser = ["on", "off"])]
+        state: String,
+    },
+    /// PA-CONTROL: read an input (1900), or with --word the 16 inputs of its word (1901)
+    PacIn {
+        /// Input number, 1..1024
+        number: u16,
+        #[arg(long)]
+        word: bool,
+    },
+    /// PA-CONTROL: read an output (1902 / 1903), or set it (0902 / 0903 with --word)
+    PacOut {
+        /// Output number, 1..1024
+        number: u16,
+        /// 0 / 1, or the 16-bit word with --word (decimal, 0x hex or 0b binary)
+        value: Option<String>,
+        #[arg(long)]
+        word: bool,
+    },
+    /// PA-CONTROL: read a flag (1904 / 1905), set it (0904 / 0905), or read system flag SM (1934)
+    PacFlag {
+        /// Flag number, 1..1024 (system flag number with --system)
+        number: u16,
+        /// 0 / 1, or the 16-bit word with --word (decimal, 0x hex or 0b binary)
+        value: Option<String>,
+        #[arg(long, conflicts_with = "system")]
+        word: bool,
+        /// System flag SM (read only)
+        #[arg(long)]
+        system: bool,
+    },
+    /// PA-CONTROL: read or write a register: N5, R3 (integer / real), SN7 / SR2 (system, read only)
+    PacReg {
+        /// N<number>, R<number>, SN<number> or SR<number>
+        register: String,
+        /// New content
+        #[arg(allow_negative_numbers = true)]
+        value: Option<String>,
+    },
+    /// PA-CONTROL: read, write or show the limits of a system parameter (home position only)
+    PacSysParam {
+        /// Table name (e.g. number-of-axes) or number
+        param: String,
+        #[command(flatten)]
+        access: ParamAccess,
+    },
+    /// PA-CONTROL: read, write or show the limits of an axis parameter (home position only)
+    PacAxisParam {
+        #[command(flatten)]
+        axis: AxisArg,
+        /// Table name (e.g. acceleration) or number
+        param: String,
+        #[command(flatten)]
+        access: ParamAccess,
+    },
+    /// PA-CONTROL: send any command code: CODE (hex) PAR_1 [PAR_2]
+    PacRaw {
+        /// Command code, 4 hex digits (e.g. 190C) or the table name
+        code: String,
+        /// Command parameter (decimal)
+        #[arg(allow_negative_numbers = true)]
+        par1: i64,
+        /// Command date: integer, or float with a '.'; typed by the table for known codes
+        #[arg(allow_negative_numbers = true)]
+        par2: Option<String>,
+    },
+}

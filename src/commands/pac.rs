@@ -1,0 +1,847 @@
+//! PA-CONTROL commands (`pac-*`). Every command is built from its table row
+//! and validated before anything is sent: against the manual's ranges, the
+//! current operating mode (read with 190B when the command is not valid in
+//! every mode) and the controller's own limits where it reports them
+//! (traverse area 1913 / 1914, parameter min / max 17xx / 18xx).
+//!
+//! Moves: `pac-move` starts with 0A94 / 0A95, which answer BE = 1 at once,
+//! so the line stays free; `--wait` then reads 1910 (axis status) and 190C
+//! (position) every poll interval for the live display, and Ctrl-C sends
+//! 0A93 (stop axis) before exiting 130. Manual 5.2.6.6 says exactly this:
+//! "if other commands have to follow before the end of processing flag is
+//! transmitted, use 0A94". The 0A87 / 0A89 way (only polls until the move
+//! ends, the live position in each poll's Q_PAR, manual 3.4.3) is what
+//! `pac-raw 0A87 ...` does. The reference drive 0A84 has no start-and-return
+//! form: `pac-ref --wait` polls it and shows elapsed time; Ctrl-C abandons
+//! it and sends 0A93 anyway (see `Pac::abandon_and_stop`).
+
+use std::io::IsTerminal;
+use std::time::Duration;
+
+use axisctl::proto::pac::table::{self, CommandDef, ExtAxisStatus, Modes};
+use axisctl::proto::pac::validate::{self, Context as Limits};
+use axisctl::proto::pac::{Ack, CheckRule, Command, Par2};
+use axisctl::session::pac::{Done, Pac, PacError, Progress};
+use axisctl::session::SessionError;
+use serde_json::json;
+
+use super::{arm_interrupt, interrupted, usage, Ctx, DeviceFault, Interrupted};
+use crate::cli_pac::{PacCommand, PacWait, ParamAccess};
+use crate::output;
+
+/// A session plus what is known about the controller.
+struct Dev {
+    pac: Pac,
+    limits: Limits,
+}
+
+pub fn run(ctx: &Ctx, cmd: PacCommand) -> anyhow::Result<()> {
+    let mut d = Dev { pac: ctx.pac()?, limits: Limits::default() };
+    let d = &mut d;
+    match cmd {
+        PacCommand::PacOnline => simple(ctx, d, 0x0603, 0, None),
+        PacCommand::PacOffline => simple(ctx, d, 0x0A81, 0, None),
+        PacCommand::PacStop => simple(ctx, d, 0x0600, 0, None),
+        PacCommand::PacAutoStart => simple(ctx, d, 0x0602, 0, None),
+        PacCommand::PacAutoAbort => simple(ctx, d, 0x0A41, 0, None),
+        PacCommand::PacState => state(ctx, d),
+        PacCommand::PacError => error(ctx, d),
+        PacCommand::PacResetError => reset_error(ctx, d),
+        PacCommand::PacMove { axis, pos, relative, force, wait } => {
+            move_axis(ctx, d, axis.axis, pos, relative, force, wait)
+        }
+        PacCommand::PacRef { axis, wait } => reference(ctx, d, axis.axis, wait),
+        PacCommand::PacNoRef(a) => simple(ctx, d, 0x0A83, a.axis.into(), None),
+        PacCommand::PacZero(a) => simple(ctx, d, 0x0A85, a.axis.into(), None),
+        PacCommand::PacSetPos { axis, pos } => simple(ctx, d, 0x0A86, axis.axis.into(), Some(finite("POS", pos)?)),
+        PacCommand::PacSpeed { axis, speed } => {
+            simple(ctx, d, 0x0A8D, axis.axis.into(), Some(positive("speed", speed)?))
+        }
+        PacCommand::PacAccel { axis, accel } => {
+            simple(ctx, d, 0x0A8E, axis.axis.into(), Some(positive("acceleration", accel)?))
+        }
+        PacCommand::PacStopAxis { axis, no_wait } => {
+            simple(ctx, d, if no_wait { 0x0A9A } else { 0x0A93 }, axis.axis.into(), None)
+        }
+        PacCommand::PacAxis(a) => axis_info(ctx, d, a.axis),
+        PacCommand::PacAxes => axes(ctx, d),
+        PacCommand::PacAxisOn(a) => simple(ctx, d, 0x0A97, a.axis.into(), None),
+        PacCommand::PacAxisOff(a) => simple(ctx, d, 0x0A98, a.axis.into(), None),
+        PacCommand::PacMeasure { axis, off } => {
+            simple(ctx, d, if off { 0x0AA1 } else { 0x0AA0 }, axis.axis.into(), None)
+        }
+        PacCommand::PacLimitSwitch { axis, state } => {
+            simple(ctx, d, 0x0AA2, axis.into(), Some(if state == "on" { 1.0 } else { 0.0 }))
+        }
+        PacCommand::PacIn { number, word } => element(ctx, d, Element::Input, number, None, word),
+        PacCommand::PacOut { number, value, word } => element(ctx, d, Element::Output, number, value, word),
+        PacCommand::PacFlag { number, value, word, system } => {
+            if system {
+                if value.is_some() {
+                    return Err(usage("system flags SM are read only"));
+                }
+                element(ctx, d, Element::SystemFlag, number, None, false)
+            } else {
+                element(ctx, d, Element::Flag, number, value, word)
+            }
+        }
+        PacCommand::PacReg { register, value } => reg(ctx, d, &register, value.as_deref()),
+        PacCommand::PacSysParam { param, access } => sys_param(ctx, d, &param, &access),
+        PacCommand::PacAxisParam { axis, param, access } => axis_param(ctx, d, axis.axis, &param, &access),
+        PacCommand::PacRaw { code, par1, par2 } => raw(ctx, d, &code, par1, par2.as_deref()),
+    }
+}
+
+// ---------------------------------------------------------------------------
+// Plumbing
+
+fn def(code: u16) -> &'static CommandDef {
+    table::command(code).expect("codes used here are in the table")
+}
+
+fn finite(what: &str, v: f64) -> anyhow::Result<f64> {
+    if v.is_finite() {
+        Ok(v)
+    } else {
+        Err(usage(format!("{what} {v} is not a finite number")))
+    }
+}
+
+/// Speeds and accelerations: the controller's min / max (axis parameters
+/// 1 / 6) can only be read in home position, where 0A8D / 0A8E are not
+/// valid, so beyond "positive" the controller checks them (0x29).
+fn positive(what: &str, v: f64) -> anyhow::Result<f64> {
+    if finite(what, v)? > 0.0 {
+        Ok(v)
+    } else {
+        Err(usage(format!("{what} {v} must be greater than 0")))
+    }
+}
+
+/// Session errors keep their exit code; local refusals are usage errors.
+fn pac_err(e: PacError) -> anyhow::Error {
+    match e {
+        PacError::Session(s) => anyhow::Error::new(s),
+        PacError::Abandoned { .. } => Interrupted(format!(": {e}")).into(),
+        other => usage(other.to_string()),
+    }
+}
+
+impl Dev {
+    /// The operating status, read once (190B, valid in every mode) and then
+    /// followed through every acknowledge.
+    fn status(&mut self) -> anyhow::Result<u16> {
+        if let Some(s) = self.pac.last_status() {
+            return Ok(s);
+        }
+        let done = self.pac.transact(&Command::new(0x190B, 0, Par2::Int(0))).map_err(pac_err)?;
+        Ok(done.ack.status)
+    }
+
+    /// Builds and validates the command (table ranges, mode, known limits): exit 2.
+    /// The mode is read first (190B) unless the command is valid in every
+    /// mode or is itself an operating-mode change (5.2.1, 0A41, 0A81): those
+    /// go out as exactly one frame and the controller's QUIT says if the
+    /// mode was wrong.
+    fn build(&mut self, code: u16, par1: i64, value: Option<f64>) -> anyhow::Result<Command> {
+        let def = def(code);
+        let mode_change = matches!(code, 0x0600 | 0x0602 | 0x0603 | 0x0A41 | 0x0A81);
+        self.limits.status = if def.modes.contains_all() || mode_change { None } else { Some(self.status()?) };
+        validate::build(def, par1, value, &self.limits).map_err(|e| usage(format!("{e}; nothing was sent")))
+    }
+
+    fn send(&mut self, code: u16, par1: i64, value: Option<f64>) -> anyhow::Result<Done> {
+        let cmd = self.build(code, par1, value)?;
+        self.pac.transact(&cmd).map_err(pac_err)
+    }
+
+    fn read_f64(&mut self, code: u16, par1: i64) -> anyhow::Result<f64> {
+        Ok(self.send(code, par1, None)?.ack.q_par.as_f64())
+    }
+
+    fn read_i64(&mut self, code: u16, par1: i64) -> anyhow::Result<i64> {
+        let ack = self.send(code, par1, None)?.ack;
+        ack.q_par.as_i64().ok_or_else(|| {
+            anyhow::Error::new(SessionError::Malformed {
+                target: "PA-CONTROL".into(),
+                source: axisctl::proto::DecodeError::Malformed(format!(
+                    "{code:04X} answered {} where an integer was expected",
+                    ack.q_par
+                )),
+            })
+        })
+    }
+}
+
+trait ModesExt {
+    fn contains_all(self) -> bool;
+}
+
+impl ModesExt for Modes {
+    fn contains_all(self) -> bool {
+        table::Mode::ALL.iter().all(|m| self.contains(*m))
+    }
+}
+
+fn status_json(ack: &Ack) -> serde_json::Value {
+    json!({"status": ack.status, "status_text": table::operating_status_text(ack.status), "error": ack.error})
+}
+
+fn check_rule_name(r: CheckRule) -> &'static str {
+    match r {
+        CheckRule::Strict => "strict",
+        CheckRule::WithEtx => "with-etx",
+        CheckRule::Omitted => "omitted",
+    }
+}
+
+// ---------------------------------------------------------------------------
+// Commands
+
+/// One command, its acknowledge; motion-free or finishing by itself.
+fn simple(ctx: &Ctx, d: &mut Dev, code: u16, par1: i64, value: Option<f64>) -> anyhow::Result<()> {
+    let done = d.send(code, par1, value)?;
+    let def = def(code);
+    let ack = done.ack;
+    let ack_value = match def.ack {
+        table::AckKind::None => None,
+        _ => Some(ack.q_par.as_f64()),
+    };
+    if ctx.json {
+        let mut doc = json!({"command": def.code_hex(), "name": def.name, "par1": par1});
+        if let Some(v) = value {
+            doc["par2"] = json!(v);
+        }
+        if let Some(v) = ack_value {
+            doc["ack_value"] = json!(v);
+        }
+        merge(&mut doc, status_json(&ack));
+        output::json(&doc);
+    } else {
+        let mut line = format!("{} ({}) done", def.name, def.code_hex());
+        if let Some(v) = ack_value {
+            line.push_str(&format!(", acknowledge date {v}"));
+        }
+        line.push_str(&format!(": status {} {}", ack.status, table::operating_status_text(ack.status)));
+        if ack.error != 0 {
+            line.push_str(&format!(", {}", ctx.style.error(&format!("PA-CONTROL error {}", ack.error))));
+        }
+        println!("{line}");
+    }
+    Ok(())
+}
+
+fn merge(doc: &mut serde_json::Value, more: serde_json::Value) {
+    if let (Some(a), serde_json::Value::Object(b)) = (doc.as_object_mut(), more) {
+        a.extend(b);
+    }
+}
+
+fn state(ctx: &Ctx, d: &mut Dev) -> anyhow::Result<()> {
+    let ack = d.send(0x190B, 0, None)?.ack;
+    let mode = table::mode_of_status(ack.status).map(|m| m.name());
+    if ctx.json {
+        let mut doc = status_json(&ack);
+        doc["mode"] = json!(mode);
+        output::json(&doc);
+    } else {
+        println!("status {} {} ({} mode)", ack.status, table::operating_status_text(ack.status), mode.unwrap_or("?"));
+        if ack.error != 0 {
+            println!("{}", ctx.style.error(&format!("PA-CONTROL error {} (see pac-error)", ack.error)));
+        }
+    }
+    Ok(())
+}
+
+fn error(ctx: &Ctx, d: &mut Dev) -> anyhow::Result<()> {
+    let ack = d.send(0x1909, 0, None)?.ack;
+    let number = ack.q_par.as_i64().unwrap_or(i64::from(ack.error));
+    if ctx.json {
+        let mut doc = status_json(&ack);
+        doc["error"] = json!(number);
+        output::json(&doc);
+    } else if number == 0 {
+        println!("no PA-CONTROL error");
+    } else {
+        println!("{}", ctx.style.error(&format!("PA-CONTROL error E{number}")));
+    }
+    Ok(())
+}
+
+fn reset_error(ctx: &Ctx, d: &mut Dev) -> anyhow::Result<()> {
+    let ack = d.send(0x0909, 0, None)?.ack;
+    // 5.2.4.15: the acknowledge date is the error number if it could not be reset.
+    let left = ack.q_par.as_i64().unwrap_or(0);
+    if ctx.json {
+        let mut doc = status_json(&ack);
+        doc["reset"] = json!(left == 0);
+        doc["remaining_error"] = json!(left);
+        output::json(&doc);
+    } else if left == 0 {
+        println!("error reset");
+    } else {
+        println!("{}", ctx.style.error(&format!("error E{left} could not be reset")));
+    }
+    if left != 0 {
+        return Err(DeviceFault(format!("PA-CONTROL error E{left} could not be reset")).into());
+    }
+    Ok(())
+}
+
+/// Live progress of a wait: a spinner on a terminal, JSON lines on request.
+struct Reporter {
+    bar: Option<indicatif::ProgressBar>,
+    json: bool,
+}
+
+impl Reporter {
+    fn new(ctx: &Ctx, wait: &PacWait) -> Self {
+        let bar = (!ctx.json && std::io::stderr().is_terminal()).then(|| {
+            let bar = indicatif::ProgressBar::new_spinner();
+            bar.set_style(
+                indicatif::ProgressStyle::with_template("{spinner} [{elapsed_precise}] {msg}")
+                    .unwrap_or_else(|_| indicatif::ProgressStyle::default_spinner()),
+            );
+            bar
+        });
+        Self { bar, json: wait.progress_json }
+    }
+
+    fn report(&self, doc: serde_json::Value, text: String) {
+        if let Some(bar) = &self.bar {
+            bar.set_message(text);
+            bar.tick();
+        }
+        if self.json {
+            eprintln!("{}", json!({ "progress": doc }));
+        }
+    }
+
+    fn finish(self) {
+        if let Some(bar) = self.bar {
+            bar.finish_and_clear();
+        }
+    }
+}
+
+/// Stops the axis (0A93, polled to standstill), even past an unfinished command.
+fn stop_axis(d: &mut Dev, axis: u8) -> Result<f64, String> {
+    let stop = Command::new(0x0A93, axis.into(), Par2::Float(0.0));
+    d.pac.abandon_and_stop(&stop).map(|done| done.ack.q_par.as_f64()).map_err(|e| e.to_string())
+}
+
+fn interrupted_after_stop(d: &mut Dev, axis: u8) -> anyhow::Error {
+    match stop_axis(d, axis) {
+        Ok(pos) => Interrupted(format!(": axis {axis} stopped at {pos}")).into(),
+        Err(e) => Interrupted(format!(": STOP OF AXIS {axis} FAILED: {e}")).into(),
+    }
+}
+
+fn move_axis(
+    ctx: &Ctx,
+    d: &mut Dev,
+    axis: u8,
+    pos: f64,
+    relative: bool,
+    force: bool,
+    wait: PacWait,
+) -> anyhow::Result<()> {
+    let pos = finite("POS", pos)?;
+    let code = if relative { 0x0A95 } else { 0x0A94 };
+    // Mode and table ranges first: nothing is read from a controller that
+    // could not move anyway.
+    d.build(code, axis.into(), Some(pos))?;
+    let target = if relative { d.read_f64(0x190C, axis.into())? + pos } else { pos };
+    if !force {
+        let min = d.read_f64(0x1913, axis.into())?;
+        let max = d.read_f64(0x1914, axis.into())?;
+        if target < min || target > max {
+            return Err(usage(format!(
+                "target position {target} is outside axis {axis}'s traverse area {min}..={max} \
+                 (1913 / 1914); nothing was sent (use --force to let the controller check)"
+            )));
+        }
+    }
+    let started = d.send(code, axis.into(), Some(pos))?;
+    let start_position = started.ack.q_par.as_f64();
+    if !wait.wait {
+        if ctx.json {
+            let mut doc = json!({"axis": axis, "command": def(code).code_hex(), "target": target,
+                                 "start_position": start_position, "done": false});
+            merge(&mut doc, status_json(&started.ack));
+            output::json(&doc);
+        } else {
+            println!("axis {axis}: moving from {start_position} to {target} ({} started)", def(code).code_hex());
+        }
+        return Ok(());
+    }
+    arm_interrupt()?;
+    let clock = std::sync::Arc::clone(d.pac.clock());
+    let t0 = clock.now();
+    let limit = Duration::from_secs_f64(wait.wait_timeout.max(0.0));
+    let poll = Duration::from_millis(wait.poll);
+    let reporter = Reporter::new(ctx, &wait);
+    let mut seen_moving = false;
+    let result = loop {
+        if interrupted() {
+            break Err(interrupted_after_stop(d, axis));
+        }
+        let status = d.read_i64(0x1910, axis.into())? as u64;
+        let position = d.read_f64(0x190C, axis.into())?;
+        let elapsed = clock.now() - t0;
+        reporter.report(
+            json!({"axis": axis, "position": position, "status": status, "elapsed_ms": elapsed.as_millis() as u64}),
+            format!("axis {axis} -> {target}: position {position:.3}  {}", table::axis_status_text(status)),
+        );
+        match status {
+            1 => seen_moving = true,
+            // A controller may report "in position" for a moment before the
+            // move shows as started; a short grace covers that.
+            0 if seen_moving || (position - target).abs() <= 1e-6 * target.abs().max(1.0) || elapsed >= poll * 4 => {
+                break Ok((position, status, elapsed))
+            }
+            0 => {}
+            other => {
+                let _ = d.pac.transact(&Command::new(0x1909, 0, Par2::Int(0)));
+                break Err(DeviceFault(format!(
+                    "axis {axis} ended the move at {position} with status {other} ({}), target {target}",
+                    table::axis_status_text(other)
+                ))
+                .into());
+            }
+        }
+        if elapsed >= limit {
+            let stopped = stop_axis(d, axis);
+            break Err(anyhow::Error::new(SessionError::Timeout {
+                target: format!("PA-CONTROL axis {axis}"),
+                what: format!(
+                    "the end of the move ({})",
+                    match stopped {
+                        Ok(p) => format!("axis stopped at {p}"),
+                        Err(e) => format!("STOP FAILED: {e}"),
+                    }
+                ),
+                timeout: limit,
+            }));
+        }
+        clock.sleep(poll);
+    };
+    reporter.finish();
+    let (position, status, elapsed) = result?;
+    if ctx.json {
+        output::json(&json!({"axis": axis, "command": def(code).code_hex(), "target": target,
+            "start_position": start_position, "position": position, "status": status,
+            "status_text": table::axis_status_text(status), "done": true,
+            "elapsed_ms": elapsed.as_millis() as u64}));
+    } else {
+        println!(
+            "axis {axis}: at {position} after {:.2} s ({})",
+            elapsed.as_secs_f64(),
+            table::axis_status_text(status)
+        );
+    }
+    Ok(())
+}
+
+fn reference(ctx: &Ctx, d: &mut Dev, axis: u8, wait: PacWait) -> anyhow::Result<()> {
+    let cmd = d.build(0x0A84, axis.into(), None)?;
+    if !wait.wait {
+        // No start-and-return form exists: the drive runs on and the
+        // controller answers only polls until it ends.
+        let step = d.pac.start(&cmd).map_err(pac_err)?;
+        let (ack, done) = match step {
+            axisctl::proto::pac::session::Step::Done(a) => (a, true),
+            axisctl::proto::pac::session::Step::NeedPoll { last, .. } => (last, false),
+        };
+        if ctx.json {
+            let mut doc = json!({"axis": axis, "command": "0A84", "done": done});
+            merge(&mut doc, status_json(&ack));
+            output::json(&doc);
+        } else if done {
+            println!("axis {axis}: reference drive done");
+        } else {
+            println!(
+                "axis {axis}: reference drive started; until it ends the controller accepts only polls \
+                 (use --wait to follow it)"
+            );
+        }
+        return Ok(());
+    }
+    arm_interrupt()?;
+    d.pac.set_poll_interval(Duration::from_millis(wait.poll));
+    d.pac.set_busy_timeout(Duration::from_secs_f64(wait.wait_timeout.max(0.0)));
+    let reporter = Reporter::new(ctx, &wait);
+    let result = d.pac.transact_with(&cmd, &mut |p: &Progress| {
+        // 0A84's acknowledge date has no meaning (5.2.6.3): only time shows.
+        reporter.report(
+            json!({"axis": axis, "polls": p.polls, "done": p.ack.be, "status": p.ack.status,
+                   "elapsed_ms": p.elapsed.as_millis() as u64}),
+            format!("axis {axis}: reference drive, {} poll(s)", p.polls),
+        );
+        !interrupted()
+    });
+    reporter.finish();
+    let done = match result {
+        Ok(done) => done,
+        Err(PacError::Abandoned { .. }) => return Err(interrupted_after_stop(d, axis)),
+        Err(e @ PacError::Session(SessionError::Timeout { .. })) if d.pac.busy_command().is_some() => {
+            let note = match stop_axis(d, axis) {
+                Ok(p) => format!("axis {axis} stopped at {p}"),
+                Err(s) => format!("STOP OF AXIS {axis} FAILED: {s}"),
+            };
+            return Err(pac_err(e).context(note));
+        }
+        Err(e) => return Err(pac_err(e)),
+    };
+    let position = d.read_f64(0x190C, axis.into())?;
+    if ctx.json {
+        let mut doc = json!({"axis": axis, "command": "0A84", "done": true, "position": position,
+                             "polls": done.polls, "elapsed_ms": done.elapsed.as_millis() as u64});
+        merge(&mut doc, status_json(&done.ack));
+        output::json(&doc);
+    } else {
+        println!("axis {axis}: referenced, at {position} after {:.2} s", done.elapsed.as_secs_f64());
+    }
+    Ok(())
+}
+
+/// Everything 1910 / 1921 / 190C / 190D / 1913 / 1914 say about an axis.
+fn axis_json(d: &mut Dev, axis: u8) -> anyhow::Result<serde_json::Value> {
+    let a = i64::from(axis);
+    let position = d.read_f64(0x190C, a)?;
+    let speed = d.read_f64(0x190D, a)?;
+    let status = d.read_i64(0x1910, a)? as u64;
+    let ext_raw = d.read_i64(0x1921, a)? as u32;
+    let min = d.read_f64(0x1913, a)?;
+    let max = d.read_f64(0x1914, a)?;
+    let ext = ExtAxisStatus::decode(ext_raw);
+    Ok(json!({"axis": axis, "position": position, "speed": speed, "status": status,
+              "status_text": table::axis_status_text(status),
+              "extended_status": {"raw": ext_raw, "power_pack_ready": ext.power_pack_ready,
+                  "positive_limit_activated": ext.positive_limit_activated,
+                  "negative_limit_activated": ext.negative_limit_activated,
+                  "axis_status": ext.axis_status, "axis_status_text": ext.axis_status_text},
+              "traverse_min": min, "traverse_max": max}))
+}
+
+fn axis_info(ctx: &Ctx, d: &mut Dev, axis: u8) -> anyhow::Result<()> {
+    let doc = axis_json(d, axis)?;
+    if ctx.json {
+        output::json(&doc);
+        return Ok(());
+    }
+    let e = &doc["extended_status"];
+    let yes = |v: &serde_json::Value| if v.as_bool() == Some(true) { "yes" } else { "no" };
+    let rows = vec![
+        vec!["axis".into(), axis.to_string()],
+        vec!["position".into(), doc["position"].to_string()],
+        vec!["speed".into(), doc["speed"].to_string()],
+        vec!["status".into(), format!("{} {}", doc["status"], doc["status_text"].as_str().unwrap_or(""))],
+        vec!["traverse area".into(), format!("{} ..= {}", doc["traverse_min"], doc["traverse_max"])],
+        vec!["power pack ready".into(), yes(&e["power_pack_ready"]).into()],
+        vec!["+ limit switch activated".into(), yes(&e["positive_limit_activated"]).into()],
+        vec!["- limit switch activated".into(), yes(&e["negative_limit_activated"]).into()],
+        vec!["extended status".into(), format!("{:#010x}", e["raw"].as_u64().unwrap_or(0))],
+    ];
+    output::table(&rows, crate::output::Style { color: false });
+    Ok(())
+}
+
+/// The configured axes: system parameter 2 in home position (the only mode
+/// that reads parameters), else 1910 on 1, 2, ... until "axis number
+/// unknown" (0x20).
+fn configured_axes(d: &mut Dev) -> anyhow::Result<u8> {
+    if d.status()? == 1 {
+        if let Ok(n) = d.read_i64(0x1700, 2) {
+            return Ok(n.clamp(0, i64::from(table::MAX_AXES)) as u8);
+        }
+    }
+    let mut n = 0;
+    for axis in 1..=table::MAX_AXES {
+        match d.pac.transact(&Command::new(0x1910, axis.into(), Par2::Int(0))) {
+            Ok(_) => n = axis,
+            Err(PacError::Session(SessionError::Device { .. })) if d.pac.last_quit() == Some(0x20) => break,
+            Err(e) => return Err(pac_err(e)),
+        }
+    }
+    Ok(n)
+}
+
+fn axes(ctx: &Ctx, d: &mut Dev) -> anyhow::Result<()> {
+    let n = configured_axes(d)?;
+    let moving = d.read_i64(0x1911, 0)? as u64;
+    let mut list = Vec::new();
+    for axis in 1..=n {
+        let a = i64::from(axis);
+        let position = d.read_f64(0x190C, a)?;
+        let status = d.read_i64(0x1910, a)? as u64;
+        list.push(json!({"axis": axis, "position": position, "status": status,
+                         "status_text": table::axis_status_text(status)}));
+    }
+    if ctx.json {
+        output::json(&json!({"axes": list, "moving": table::moving_axes(moving)}));
+        return Ok(());
+    }
+    let mut rows = vec![["AXIS", "POSITION", "STATUS"].map(String::from).to_vec()];
+    for a in &list {
+        rows.push(vec![
+            a["axis"].to_string(),
+            a["position"].to_string(),
+            format!("{} {}", a["status"], a["status_text"].as_str().unwrap_or("")),
+        ]);
+    }
+    output::table(&rows, ctx.style);
+    Ok(())
+}
+
+#[derive(Clone, Copy, PartialEq)]
+enum Element {
+    Input,
+    Output,
+    Flag,
+    SystemFlag,
+}
+
+impl Element {
+    fn key(self) -> &'static str {
+        match self {
+            Self::Input => "input",
+            Self::Output => "output",
+            Self::Flag => "flag",
+            Self::SystemFlag => "system_flag",
+        }
+    }
+
+    /// (read single, read word, write single, write word)
+    fn codes(self) -> (u16, Option<u16>, Option<u16>, Option<u16>) {
+        match self {
+            Self::Input => (0x1900, Some(0x1901), None, None),
+            Self::Output => (0x1902, Some(0x1903), Some(0x0902), Some(0x0903)),
+            Self::Flag => (0x1904, Some(0x1905), Some(0x0904), Some(0x0905)),
+            Self::SystemFlag => (0x1934, None, None, None),
+        }
+    }
+}
+
+/// Decimal, 0x hex or 0b binary.
+fn parse_uint(text: &str) -> anyhow::Result<u64> {
+    let t = text.trim();
+    let r = if let Some(h) = t.strip_prefix("0x").or_else(|| t.strip_prefix("0X")) {
+        u64::from_str_radix(h, 16)
+    } else if let Some(b) = t.strip_prefix("0b").or_else(|| t.strip_prefix("0B")) {
+        u64::from_str_radix(b, 2)
+    } else {
+        t.parse()
+    };
+    r.map_err(|_| usage(format!("{text:?} is not a number (decimal, 0x hex or 0b binary)")))
+}
+
+fn element(ctx: &Ctx, d: &mut Dev, el: Element, number: u16, value: Option<String>, word: bool) -> anyhow::Result<()> {
+    let (read1, readw, write1, writew) = el.codes();
+    let n = i64::from(number);
+    let key = el.key();
+    if let Some(text) = value {
+        let code = if word { writew } else { write1 }
+            .ok_or_else(|| usage(format!("{key}s cannot be set over the online interface")))?;
+        let v = parse_uint(&text)?;
+        d.send(code, n, Some(v as f64))?;
+    }
+    if word {
+        let code = readw.ok_or_else(|| usage(format!("{key}s have no word read")))?;
+        let w = d.read_i64(code, n)? as u16;
+        let members = table::word_members(number, w);
+        if ctx.json {
+            output::json(&json!({key: number, "word": w, "set": members}));
+        } else {
+            let first = (number.max(1) - 1) / 16 * 16 + 1;
+            println!("{key}s {first}..{}: {w:#06x} {w:016b}  set: {members:?}", first + 15);
+        }
+    } else {
+        let v = d.read_i64(read1, n)?;
+        if ctx.json {
+            output::json(&json!({key: number, "state": v}));
+        } else {
+            println!("{key} {number}: {v}");
+        }
+    }
+    Ok(())
+}
+
+fn reg(ctx: &Ctx, d: &mut Dev, register: &str, value: Option<&str>) -> anyhow::Result<()> {
+    let upper = register.to_ascii_uppercase();
+    let (kind, digits) = ["SN", "SR", "N", "R"]
+        .iter()
+        .find_map(|p| upper.strip_prefix(p).map(|rest| (*p, rest)))
+        .ok_or_else(|| usage(format!("{register:?}: expected N<number>, R<number>, SN<number> or SR<number>")))?;
+    let number: i64 = digits.parse().map_err(|_| usage(format!("{register:?}: bad register number")))?;
+    let (read, write, float) = match kind {
+        "N" => (0x1906, Some(0x0906), false),
+        "R" => (0x1907, Some(0x0907), true),
+        "SN" => (0x1935, None, false),
+        _ => (0x1937, None, true),
+    };
+    if let Some(text) = value {
+        let code = write.ok_or_else(|| usage("system registers SN / SR are read only"))?;
+        let v: f64 = text.trim().parse().map_err(|_| usage(format!("{text:?} is not a number")))?;
+        d.send(code, number, Some(finite("value", v)?))?;
+    }
+    let ack = d.send(read, number, None)?.ack;
+    let name = format!("{kind}{number}");
+    if ctx.json {
+        output::json(
+            &json!({"register": name, "type": if float { "float" } else { "int" }, "value": ack.q_par.as_f64()}),
+        );
+    } else {
+        println!("{name} = {}", ack.q_par);
+    }
+    Ok(())
+}
+
+fn parse_value(text: &str) -> anyhow::Result<f64> {
+    let v: f64 = text.trim().parse().map_err(|_| usage(format!("{text:?} is not a number")))?;
+    finite("value", v)
+}
+
+fn sys_param(ctx: &Ctx, d: &mut Dev, name: &str, access: &ParamAccess) -> anyhow::Result<()> {
+    let p = table::system_param_by_name(name).ok_or_else(|| {
+        let names: Vec<_> = table::SYSTEM_PARAMS.iter().filter(|p| !p.unused).map(|p| p.name).collect();
+        usage(format!("unknown system parameter {name:?}; known: {}", names.join(", ")))
+    })?;
+    let n = i64::from(p.number);
+    let (what, value) = if access.min {
+        ("min", d.read_i64(0x1702, n)?)
+    } else if access.max {
+        ("max", d.read_i64(0x1701, n)?)
+    } else {
+        if let Some(text) = &access.value {
+            let v = parse_value(text)?;
+            // The controller's own limits, then the table's checks.
+            let (min, max) = (d.read_i64(0x1702, n)?, d.read_i64(0x1701, n)?);
+            d.limits.system_param_limits.insert(n, (min, max));
+            d.send(0x0700, n, Some(v))?;
+        }
+        ("value", d.read_i64(0x1700, n)?)
+    };
+    if ctx.json {
+        output::json(&json!({"param": p.number, "name": p.name, what: value}));
+    } else {
+        println!("system parameter {} ({}) {what}: {value}", p.number, p.manual_name);
+    }
+    Ok(())
+}
+
+fn axis_param(ctx: &Ctx, d: &mut Dev, axis: u8, name: &str, access: &ParamAccess) -> anyhow::Result<()> {
+    let p = table::axis_param_by_name(name).ok_or_else(|| {
+        usage(format!("unknown axis parameter {name:?}; see `axisctl pac-axis-param --help` or the manual 5.2.3"))
+    })?;
+    let par1 = table::axis_param_par1(axis, p.number);
+    let (what, value) = if access.min {
+        ("min", d.read_f64(0x1802, par1)?)
+    } else if access.max {
+        ("max", d.read_f64(0x1801, par1)?)
+    } else {
+        if let Some(text) = &access.value {
+            let v = parse_value(text)?;
+            let (min, max) = (d.read_f64(0x1802, par1)?, d.read_f64(0x1801, par1)?);
+            d.limits.axis_param_limits.insert(par1, (min, max));
+            d.send(0x0800, par1, Some(v))?;
+        }
+        ("value", d.read_f64(0x1800, par1)?)
+    };
+    if ctx.json {
+        output::json(&json!({"axis": axis, "param": p.number, "name": p.name, "unit": p.unit, what: value}));
+    } else {
+        println!("axis {axis} parameter {} ({}) {what}: {value} {}", p.number, p.manual_name, p.unit);
+    }
+    Ok(())
+}
+
+fn raw(ctx: &Ctx, d: &mut Dev, code_text: &str, par1: i64, par2: Option<&str>) -> anyhow::Result<()> {
+    let known = table::command_by_name(code_text);
+    let cmd = match known {
+        Some(def) => {
+            let v = par2.map(parse_value).transpose()?;
+            d.build(def.code, par1, v)?
+        }
+        None => {
+            let hex = code_text.trim_start_matches("0x").trim_start_matches("0X");
+            let code = u16::from_str_radix(hex, 16)
+                .ok()
+                .filter(|_| hex.len() == 4)
+                .ok_or_else(|| usage(format!("{code_text:?} is neither a command name nor a 4-digit hex code")))?;
+            let par2 = match par2 {
+                None => Par2::Int(0),
+                Some(t) if t.contains('.') => Par2::Float(parse_value(t)?),
+                Some(t) => Par2::Int(t.trim().parse().map_err(|_| usage(format!("{t:?} is not an integer")))?),
+            };
+            Command::new(code, par1, par2)
+        }
+    };
+    let def = known;
+    let stoppable_axis = def
+        .filter(|d| d.motion && d.is_start_and_wait() && d.par1 == table::Par1Kind::Axis)
+        .and_then(|_| u8::try_from(par1).ok());
+    if stoppable_axis.is_some() {
+        arm_interrupt()?;
+    }
+    let show = !ctx.json && std::io::stderr().is_terminal();
+    let result = d.pac.transact_with(&cmd, &mut |p: &Progress| {
+        if show && !p.ack.be {
+            eprint!("\r  BE 0, poll {}: Q_PAR {}   ", p.polls, p.ack.q_par);
+        }
+        stoppable_axis.is_none() || !interrupted()
+    });
+    if show {
+        eprint!("\r\x1b[K");
+    }
+    let done = match result {
+        Ok(done) => done,
+        Err(PacError::Abandoned { .. }) => {
+            return Err(interrupted_after_stop(d, stoppable_axis.expect("only stoppable commands abandon")))
+        }
+        Err(e) => return Err(pac_err(e)),
+    };
+    let ack = done.ack;
+    if ctx.json {
+        let mut doc = json!({"command": format!("{:04X}", cmd.code), "name": def.map(|d| d.name), "par1": cmd.par1,
+            "par2": cmd.par2.as_f64(), "quit": ack.quit, "be": ack.be, "typ": ack.q_par.typ(),
+            "q_par": ack.q_par.as_f64(), "polls": done.polls, "check_rule": check_rule_name(ack.check_rule)});
+        merge(&mut doc, status_json(&ack));
+        output::json(&doc);
+    } else {
+        println!(
+            "{:04X} {}: QUIT {} BE {} STATUS {} ({}) ERROR {} Q_PAR {}{}",
+            cmd.code,
+            def.map_or("(unknown code)", |d| d.name),
+            ack.quit,
+            u8::from(ack.be),
+            ack.status,
+            table::operating_status_text(ack.status),
+            ack.error,
+            ack.q_par,
+            if done.polls > 0 { format!(" after {} poll(s)", done.polls) } else { String::new() }
+        );
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn uint_forms() {
+        assert_eq!(parse_uint("0x3E11").unwrap(), 15889);
+        assert_eq!(parse_uint("0b101").unwrap(), 5);
+        assert_eq!(parse_uint("17906").unwrap(), 17906);
+        assert!(parse_uint("x").is_err());
+    }
+
+    #[test]
+    fn modes_all() {
+        assert!(Modes::ALL.contains_all());
+        assert!(!Modes::ONLINE.contains_all());
+        assert!(def(0x190B).modes.contains_all());
+        assert!(!def(0x0A94).modes.contains_all());
+    }
+}

@@ -1,0 +1,696 @@
+//! The PA-CONTROL session: one command, its acknowledge, and the polls a
+//! command with BE = 0 needs, over a serial [`ByteLink`] (manual 3.3).
+//!
+//! - The line is half-duplex and acknowledges do not name the command they
+//!   answer, so stale input is dropped before each command and the first
+//!   acknowledge after it is taken as its answer.
+//! - While an acknowledge says BE = 0 the session polls with a lone EOT every
+//!   [`Pac::set_poll_interval`] until BE = 1 or the overall busy timeout
+//!   ([`Pac::set_busy_timeout`], generous by default: moves and reference
+//!   drives take minutes).
+//! - While a command is unfinished (0A87 / 0A89 / 0A84 / 0A93 answering
+//!   BE = 0) nothing but polls is sent: [`Pac::transact`] refuses with
+//!   [`PacError::Busy`] (the rule of manual 5.2.6.6, enforced with
+//!   [`Transaction::allows`]). The one way past it is
+//!   [`Pac::abandon_and_stop`], for Ctrl-C during a wait.
+//! - The live position of a 0A87 / 0A89 move is the Q_PAR of each poll's
+//!   acknowledge (manual 3.4.3); the observer passed to
+//!   [`Pac::transact_with`] sees every acknowledge between polls. Moves that
+//!   must stay interruptible use 0A94 / 0A95 instead and read 190C / 1910
+//!   (the line stays free for a stop): see `pac-move --wait`.
+//! - QUIT != 0 is [`SessionError::Device`] with the manual 6.5 number, hex and
+//!   decimal, and its text.
+//! - Reads (every 1xxx code: get / send) are retried per the [`RetryPolicy`];
+//!   nothing else is, least of all motion.
+//! - CHECK is sent per [`CheckRule::Strict`] unless told to include ETX;
+//!   acknowledges are accepted under either rule and the trace says which.
+
+use std::sync::Arc;
+use std::time::Duration;
+
+use super::{RetryPolicy, SessionError, TraceEvent, Tracer};
+use crate::clock::{Clock, SystemClock};
+use crate::link::{ByteLink, SerialFormat};
+use crate::proto::pac::frame::{EncodeOptions, FrameError, SOH};
+use crate::proto::pac::session::{Outgoing, Step, Transaction, TransactionError, DEFAULT_POLL_INTERVAL};
+use crate::proto::pac::table;
+use crate::proto::pac::{Ack, AckDecoder, CheckRule, Command};
+use crate::proto::DecodeError;
+
+/// Base answer timeout before wire time is added (as for PowerCube RS232;
+/// the controller answers within its < 10 ms action loop, manual 2.3.4).
+pub const BASE_TIMEOUT: Duration = Duration::from_millis(30);
+/// Longest acknowledge we budget wire time for: SOH STX, six fields with a
+/// float of 10 integer digits and 4 decimals, ETX, 3 CHECK digits, EOT.
+const MAX_ACK_CHARS: u32 = 48;
+/// Overall limit for a command answering BE = 0 (moves, reference drives).
+pub const DEFAULT_BUSY_TIMEOUT: Duration = Duration::from_secs(600);
+
+/// Who the errors name.
+const TARGET: &str = "PA-CONTROL";
+
+/// What went wrong in a PA-CONTROL exchange.
+#[derive(Debug, thiserror::Error)]
+pub enum PacError {
+    #[error(transparent)]
+    Session(#[from] SessionError),
+    /// Refused locally: an earlier command is unfinished and only polls may
+    /// be sent (manual 5.2.6.6). Nothing was sent.
+    #[error("command {busy:04X} is still being processed (BE = 0): only polls may be sent until it ends, so {refused:04X} was not sent")]
+    Busy { busy: u16, refused: u16 },
+    /// The observer asked to stop waiting; the command is still unfinished
+    /// on the controller (see [`Pac::abandon_and_stop`]).
+    #[error("stopped waiting for {code:04X} after {polls} poll(s)")]
+    Abandoned { code: u16, polls: u32, last: Ack },
+    /// The command could not be written (a non-finite PAR_2).
+    #[error("cannot encode the command: {0}")]
+    Encode(String),
+}
+
+impl PacError {
+    pub fn kind(&self) -> super::ErrorKind {
+        match self {
+            Self::Session(e) => e.kind(),
+            Self::Busy { .. } | Self::Encode(_) => super::ErrorKind::Usage,
+            Self::Abandoned { .. } => super::ErrorKind::Interrupted,
+        }
+    }
+}
+
+/// What the observer of [`Pac::transact_with`] sees after each acknowledge.
+#[derive(Debug, Clone, Copy)]
+pub struct Progress {
+    pub command: Command,
+    pub ack: Ack,
+    /// Polls sent so far.
+    pub polls: u32,
+    pub elapsed: Duration,
+}
+
+/// The final acknowledge of a command and what it took.
+#[derive(Debug, Clone, Copy)]
+pub struct Done {
+    pub ack: Ack,
+    pub polls: u32,
+    pub elapsed: Duration,
+}
+
+pub struct Pac {
+    link: Box<dyn ByteLink>,
+    decoder: AckDecoder,
+    options: EncodeOptions,
+    bits_per_char: u32,
+    baud: u32,
+    timeout: Option<Duration>,
+    poll_interval: Duration,
+    busy_timeout: Duration,
+    retry: RetryPolicy,
+    tracer: Option<Tracer>,
+    clock: Arc<dyn Clock>,
+    /// A command left unfinished (BE = 0) by an abandoned wait or [`Pac::start`].
+    busy: Option<Transaction>,
+    last_status: Option<u16>,
+    last_quit: Option<u16>,
+    last_check: Option<CheckRule>,
+}
+
+/// Every read code is 1xxx (get / send, manual 5.1); writes and actions are 0xxx.
+pub fn is_read(code: u16) -> bool {
+    code >> 12 == 1
+}
+
+impl Pac {
+    /// `baud` and `format` set the default timeout (30 ms plus wire time).
+    pub fn new(link: Box<dyn ByteLink>, baud: u32, format: SerialFormat) -> Self {
+        Self {
+            link,
+            decoder: AckDecoder::new(),
+            options: EncodeOptions::default(),
+            bits_per_char: format.bits_per_char(),
+            baud: baud.max(1),
+            timeout: None,
+            poll_interval: DEFAULT_POLL_INTERVAL,
+            busy_timeout: DEFAULT_BUSY_TIMEOUT,
+            retry: RetryPolicy::default(),
+            tracer: None,
+            clock: Arc::new(SystemClock),
+            busy: None,
+            last_status: None,
+            last_quit: None,
+            last_check: None,
+        }
+    }
+
+    /// The clock deadlines and poll intervals are measured on.
+    pub fn with_clock(mut self, clock: Arc<dyn Clock>) -> Self {
+        self.clock = clock;
+        self
+    }
+
+    pub fn clock(&self) -> &Arc<dyn Clock> {
+        &self.clock
+    }
+
+    /// A fixed answer timeout instead of 30 ms plus wire time.
+    pub fn set_timeout(&mut self, timeout: Duration) {
+        self.timeout = Some(timeout);
+    }
+
+    pub fn set_poll_interval(&mut self, interval: Duration) {
+        self.poll_interval = interval;
+    }
+
+    pub fn poll_interval(&self) -> Duration {
+        self.poll_interval
+    }
+
+    /// Overall limit for a command that answers BE = 0.
+    pub fn set_busy_timeout(&mut self, timeout: Duration) {
+        self.busy_timeout = timeout;
+    }
+
+    pub fn set_retry(&mut self, retry: RetryPolicy) {
+        self.retry = retry;
+    }
+
+    pub fn set_tracer(&mut self, tracer: Tracer) {
+        self.tracer = Some(tracer);
+    }
+
+    /// Which rule the CHECK of sent commands follows (received ones may
+    /// follow either).
+    pub fn set_check_rule(&mut self, rule: CheckRule) {
+        self.options.check_rule = rule;
+    }
+
+    /// STATUS of the latest acknowledge.
+    pub fn last_status(&self) -> Option<u16> {
+        self.last_status
+    }
+
+    /// QUIT of the latest acknowledge (0: accepted).
+    pub fn last_quit(&self) -> Option<u16> {
+        self.last_quit
+    }
+
+    /// The CHECK rule the latest acknowledge matched.
+    pub fn last_check_rule(&self) -> Option<CheckRule> {
+        self.last_check
+    }
+
+    /// The unfinished command, if one answered BE = 0 and was not seen to its end.
+    pub fn busy_command(&self) -> Option<&Command> {
+        self.busy.as_ref().map(Transaction::command)
+    }
+
+    /// The answer timeout for a frame of `request_len` characters.
+    pub fn answer_timeout(&self, request_len: usize) -> Duration {
+        self.timeout.unwrap_or_else(|| {
+            let chars = request_len as u64 + u64::from(MAX_ACK_CHARS);
+            BASE_TIMEOUT
+                + Duration::from_micros(chars * u64::from(self.bits_per_char) * 1_000_000 / u64::from(self.baud))
+        })
+    }
+
+    fn trace(&mut self, ev: impl FnOnce() -> TraceEvent) {
+        if let Some(t) = self.tracer.as_mut() {
+            t(ev());
+        }
+    }
+
+    /// Sends `cmd` and waits until it is finished (BE = 1), polling while
+    /// BE = 0. Reads are retried; nothing else is.
+    pub fn transact(&mut self, cmd: &Command) -> Result<Done, PacError> {
+        self.transact_with(cmd, &mut |_| true)
+    }
+
+    /// As [`transact`](Self::transact); `observe` sees every acknowledge and
+    /// returns `false` to stop waiting ([`PacError::Abandoned`]; the command
+    /// stays unfinished on the controller and in this session).
+    pub fn transact_with(
+        &mut self,
+        cmd: &Command,
+        observe: &mut dyn FnMut(&Progress) -> bool,
+    ) -> Result<Done, PacError> {
+        let attempts = if is_read(cmd.code) { 1 + self.retry.read_retries } else { 1 };
+        let mut last = None;
+        for attempt in 0..attempts {
+            if attempt > 0 {
+                self.trace(|| TraceEvent::Note(format!("retrying read ({attempt}/{})", attempts - 1)));
+            }
+            match self.run(cmd, observe) {
+                Ok(done) => return Ok(done),
+                Err(PacError::Session(e @ (SessionError::Timeout { .. } | SessionError::Malformed { .. }))) => {
+                    last = Some(e)
+                }
+                Err(e) => return Err(e),
+            }
+        }
+        Err(last.expect("at least one attempt").into())
+    }
+
+    /// Sends `cmd` and returns its first acknowledge. If that says BE = 0 the
+    /// command stays unfinished: [`poll`](Self::poll) follows it, any other
+    /// command is refused. Never retried.
+    pub fn start(&mut self, cmd: &Command) -> Result<Step, PacError> {
+        let mut t = self.begin(cmd)?;
+        let ack = self.await_ack(t.command())?;
+        let step = self.handle(&mut t, ack)?;
+        if let Step::NeedPoll { .. } = step {
+            self.busy = Some(t);
+        }
+        Ok(step)
+    }
+
+    /// Polls the unfinished command once (EOT) and returns the fresh acknowledge.
+    pub fn poll(&mut self) -> Result<Step, PacError> {
+        let Some(mut t) = self.busy.take() else {
+            return Err(SessionError::Device {
+                target: TARGET.into(),
+                what: "a poll".into(),
+                reason: "no command is being processed".into(),
+            }
+            .into());
+        };
+        let ack = self.send_poll(&mut t)?;
+        let step = self.handle(&mut t, ack)?;
+        if let Step::NeedPoll { .. } = step {
+            self.busy = Some(t);
+        }
+        Ok(step)
+    }
+
+    /// Ctrl-C while a command is unfinished: gives up its acknowledge and
+    /// sends `stop` anyway (0A93 abort-move-axis, polled to standstill).
+    /// This is the one deliberate exception to "only polls while BE = 0":
+    /// the rule keeps the master from losing the running command's answer,
+    /// and here losing it is the point. Without an unfinished command it is
+    /// an ordinary [`transact`](Self::transact).
+    pub fn abandon_and_stop(&mut self, stop: &Command) -> Result<Done, PacError> {
+        if let Some(t) = self.busy.take() {
+            let code = t.command().code;
+            self.trace(|| TraceEvent::Note(format!("abandoning unfinished {code:04X} to send {:04X}", stop.code)));
+        }
+        self.transact(stop)
+    }
+
+    fn begin(&mut self, cmd: &Command) -> Result<Transaction, PacError> {
+        if let Some(t) = &self.busy {
+            if !t.allows(Outgoing::Command(cmd)) {
+                return Err(PacError::Busy { busy: t.command().code, refused: cmd.code });
+            }
+        }
+        let t = Transaction::with_options(*cmd, self.options).poll_interval(self.poll_interval);
+        let bytes = t.request().map_err(|e| PacError::Encode(e.to_string()))?;
+        self.trace(|| TraceEvent::Sent(format!("{}  {}", printable(&bytes), describe(cmd))));
+        // Half-duplex: anything still buffered belongs to an older exchange.
+        self.link.clear_input().map_err(SessionError::from)?;
+        self.decoder.clear();
+        self.link.write_all(&bytes).map_err(SessionError::from)?;
+        Ok(t)
+    }
+
+    fn send_poll(&mut self, t: &mut Transaction) -> Result<Ack, PacError> {
+        let bytes = t.poll();
+        let polls = t.polls();
+        self.trace(|| TraceEvent::Sent(format!("{}  poll {polls}", printable(&bytes))));
+        self.link.clear_input().map_err(SessionError::from)?;
+        self.decoder.clear();
+        self.link.write_all(&bytes).map_err(SessionError::from)?;
+        self.await_ack(t.command())
+    }
+
+    fn handle(&mut self, t: &mut Transaction, ack: Ack) -> Result<Step, PacError> {
+        self.last_status = Some(ack.status);
+        self.last_quit = Some(ack.quit);
+        self.last_check = Some(ack.check_rule);
+        match t.handle_ack(ack) {
+            Ok(step) => Ok(step),
+            Err(TransactionError::Device(d)) => Err(SessionError::Device {
+                target: TARGET.into(),
+                what: describe(t.command()),
+                reason: format!("command error 0x{:02X} ({}): {}", d.quit, d.quit, d.text),
+            }
+            .into()),
+            Err(TransactionError::AlreadyDone) => Err(SessionError::Malformed {
+                target: TARGET.into(),
+                source: DecodeError::Malformed("acknowledge after the command had finished".into()),
+            }
+            .into()),
+        }
+    }
+
+    fn run(&mut self, cmd: &Command, observe: &mut dyn FnMut(&Progress) -> bool) -> Result<Done, PacError> {
+        let start = self.clock.now();
+        let mut t = self.begin(cmd)?;
+        let mut ack = self.await_ack(cmd)?;
+        loop {
+            let step = self.handle(&mut t, ack)?;
+            let elapsed = self.clock.now() - start;
+            let last = match step {
+                Step::Done(ack) => {
+                    observe(&Progress { command: *cmd, ack, polls: t.polls(), elapsed });
+                    return Ok(Done { ack, polls: t.polls(), elapsed });
+                }
+                Step::NeedPoll { last, .. } => last,
+            };
+            if !observe(&Progress { command: *cmd, ack: last, polls: t.polls(), elapsed }) {
+                let polls = t.polls();
+                self.busy = Some(t);
+                return Err(PacError::Abandoned { code: cmd.code, polls, last });
+            }
+            if elapsed >= self.busy_timeout {
+                self.busy = Some(t);
+                return Err(SessionError::Timeout {
+                    target: TARGET.into(),
+                    what: format!("the end of {} (still BE = 0)", describe(cmd)),
+                    timeout: self.busy_timeout,
+                }
+                .into());
+            }
+            self.clock.sleep(self.poll_interval);
+            ack = match self.send_poll(&mut t) {
+                Ok(a) => a,
+                Err(e) => {
+                    // The command is still running: keep it so nothing but
+                    // polls (or an explicit stop) follows.
+                    self.busy = Some(t);
+                    return Err(e);
+                }
+            };
+        }
+    }
+
+    /// The first acknowledge within the answer timeout. Bytes outside frames
+    /// are skipped (traced); a frame with a bad CHECK or bad fields is malformed.
+    fn await_ack(&mut self, cmd: &Command) -> Result<Ack, PacError> {
+        let timeout = self.answer_timeout(24);
+        let deadline = self.clock.now() + timeout;
+        let mut buf = [0u8; 128];
+        loop {
+            while let Some(item) = self.decoder.next() {
+                match item {
+                    Ok(ack) => {
+                        self.trace(|| TraceEvent::Received(describe_ack(&ack)));
+                        return Ok(ack);
+                    }
+                    Err(e @ FrameError::Garbage { .. }) => self.trace(|| TraceEvent::Note(format!("skipped: {e}"))),
+                    Err(e) => {
+                        self.trace(|| TraceEvent::Received(format!("bad frame: {e}")));
+                        return Err(SessionError::Malformed {
+                            target: TARGET.into(),
+                            source: DecodeError::Malformed(e.to_string()),
+                        }
+                        .into());
+                    }
+                }
+            }
+            let now = self.clock.now();
+            if now >= deadline {
+                if self.decoder.buffered() > 0 {
+                    let n = self.decoder.buffered();
+                    self.trace(|| TraceEvent::Note(format!("{n} byte(s) of an incomplete frame at the timeout")));
+                }
+                return Err(SessionError::Timeout { target: TARGET.into(), what: describe(cmd), timeout }.into());
+            }
+            let n = self.link.read(&mut buf, deadline - now).map_err(SessionError::from)?;
+            self.decoder.push(&buf[..n]);
+        }
+    }
+}
+
+/// `0A87 pos-axis-absolut PAR_1 2 PAR_2 5552.0`, for traces and errors.
+pub fn describe(cmd: &Command) -> String {
+    match table::command(cmd.code) {
+        Some(d) => format!("{:04X} {} ({} {})", cmd.code, d.name, cmd.par1, cmd.par2),
+        None => format!("{:04X} (unknown code) ({} {})", cmd.code, cmd.par1, cmd.par2),
+    }
+}
+
+/// One acknowledge, decoded, with the CHECK rule it matched.
+pub fn describe_ack(ack: &Ack) -> String {
+    let check = match ack.check_rule {
+        CheckRule::Strict => "CHECK without ETX",
+        CheckRule::WithEtx => "CHECK with ETX",
+        CheckRule::Omitted => "CHECK omitted (0)",
+    };
+    let frame = ack.encode().map(|b| printable(&b)).unwrap_or_default();
+    format!(
+        "{frame}  QUIT {} BE {} STATUS {} ({}) ERROR {} Q_PAR {}  [{check}]",
+        ack.quit,
+        u8::from(ack.be),
+        ack.status,
+        table::operating_status_text(ack.status),
+        ack.error,
+        ack.q_par
+    )
+}
+
+/// Control characters by name, the rest as text: `<SOH><STX>0603;0;0;0<ETX>14<EOT>`.
+pub fn printable(bytes: &[u8]) -> String {
+    let mut s = String::new();
+    for &b in bytes {
+        match b {
+            SOH => s.push_str("<SOH>"),
+            0x02 => s.push_str("<STX>"),
+            0x03 => s.push_str("<ETX>"),
+            0x04 => s.push_str("<EOT>"),
+            0x20..=0x7e => s.push(b as char),
+            _ => s.push_str(&format!("<{b:02x}>")),
+        }
+    }
+    s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::clock::VirtualClock;
+    use crate::link::LinkError;
+    use crate::proto::pac::Par2;
+    use std::collections::VecDeque;
+    use std::sync::Mutex;
+
+    /// A scripted line: each write is recorded and answered with the next
+    /// scripted reply (`None`: silence).
+    #[derive(Clone, Default)]
+    struct Script {
+        written: Arc<Mutex<Vec<Vec<u8>>>>,
+        replies: Arc<Mutex<VecDeque<Option<Vec<u8>>>>>,
+        pending: Arc<Mutex<Vec<u8>>>,
+    }
+
+    struct ScriptLink {
+        s: Script,
+        clock: VirtualClock,
+    }
+
+    impl ByteLink for ScriptLink {
+        fn write_all(&mut self, bytes: &[u8]) -> Result<(), LinkError> {
+            self.s.written.lock().unwrap().push(bytes.to_vec());
+            if let Some(Some(r)) = self.s.replies.lock().unwrap().pop_front() {
+                self.s.pending.lock().unwrap().extend(r);
+            }
+            Ok(())
+        }
+        fn read(&mut self, buf: &mut [u8], timeout: Duration) -> Result<usize, LinkError> {
+            let mut p = self.s.pending.lock().unwrap();
+            if p.is_empty() {
+                self.clock.advance(timeout);
+                return Ok(0);
+            }
+            let n = p.len().min(buf.len());
+            buf[..n].copy_from_slice(&p[..n]);
+            p.drain(..n);
+            Ok(n)
+        }
+        fn clear_input(&mut self) -> Result<(), LinkError> {
+            self.s.pending.lock().unwrap().clear();
+            Ok(())
+        }
+    }
+
+    fn hex(s: &str) -> Vec<u8> {
+        s.split_whitespace().map(|b| u8::from_str_radix(b, 16).unwrap()).collect()
+    }
+
+    fn ack(quit: u16, be: bool, status: u16, q_par: Par2, rule: CheckRule) -> Vec<u8> {
+        Ack { quit, be, status, error: 0, q_par, check_rule: rule }.encode().unwrap()
+    }
+
+    fn session(replies: Vec<Option<Vec<u8>>>) -> (Pac, Script, VirtualClock) {
+        let clock = VirtualClock::new();
+        let s = Script { replies: Arc::new(Mutex::new(replies.into())), ..Default::default() };
+        let link = ScriptLink { s: s.clone(), clock: clock.clone() };
+        let pac = Pac::new(Box::new(link), 9600, SerialFormat::F7N1).with_clock(Arc::new(clock.clone()));
+        (pac, s, clock)
+    }
+
+    fn written(s: &Script) -> Vec<Vec<u8>> {
+        s.written.lock().unwrap().clone()
+    }
+
+    // Manual 3.4.3: start online, then 0A87 to 5552.0 with three polls whose
+    // acknowledges carry the live position; the observer sees each of them.
+    #[test]
+    fn manual_3_4_3_through_the_session() {
+        let replies = [
+            "01 02 30 3B 31 3B 33 31 3B 30 3B 30 3B 30 03 38 04",
+            "01 02 30 3B 30 3B 33 31 3B 30 3B 31 3B 31 32 35 35 2E 30 30 30 03 33 38 04",
+            "01 02 30 3B 30 3B 33 31 3B 30 3B 31 3B 31 35 31 36 2E 39 35 30 03 34 32 04",
+            "01 02 30 3B 30 3B 33 31 3B 30 3B 31 3B 32 36 33 34 2E 37 35 30 03 33 36 04",
+            "01 02 30 3B 31 3B 33 31 3B 30 3B 31 3B 35 35 35 32 2E 30 30 30 03 33 35 04",
+        ];
+        let (mut pac, s, clock) = session(replies.iter().map(|r| Some(hex(r))).collect());
+        let done = pac.transact(&Command::new(0x0603, 0, Par2::Int(0))).unwrap();
+        assert_eq!(done.ack.status, 31);
+        // "0;1;31;0;0;0" XORs to 8 without ETX.
+        assert_eq!(pac.last_check_rule(), Some(CheckRule::Strict));
+        let t0 = clock.now();
+        let mut seen = Vec::new();
+        let done = pac
+            .transact_with(&Command::new(0x0A87, 2, Par2::Float(5552.0)), &mut |p| {
+                seen.push((p.ack.q_par.as_f64(), p.ack.be, p.polls));
+                true
+            })
+            .unwrap();
+        assert_eq!(done.ack.q_par, Par2::Float(5552.0));
+        assert_eq!(done.polls, 3);
+        assert_eq!(
+            seen,
+            [(1255.0, false, 0), (1516.95, false, 1), (2634.75, false, 2), (5552.0, true, 3)],
+            "every acknowledge reaches the observer"
+        );
+        assert!(clock.now() - t0 >= DEFAULT_POLL_INTERVAL * 3, "polls are spaced by the interval");
+        let w = written(&s);
+        assert_eq!(w[0], hex("01 02 30 36 30 33 3B 30 3B 30 3B 30 03 31 34 04"));
+        assert_eq!(w[1], b"\x01\x020A87;2;1;5552.0\x0395\x04");
+        assert_eq!(&w[2..], [vec![0x04], vec![0x04], vec![0x04]]);
+        assert!(pac.busy_command().is_none());
+    }
+
+    #[test]
+    fn quit_becomes_a_device_error_with_hex_decimal_and_text() {
+        let (mut pac, _, _) = session(vec![Some(ack(0x41, true, 31, Par2::Float(0.0), CheckRule::Strict))]);
+        let err = pac.transact(&Command::new(0x0A94, 2, Par2::Float(99999.0))).unwrap_err();
+        let PacError::Session(e @ SessionError::Device { .. }) = &err else { panic!("{err:?}") };
+        assert_eq!(e.kind(), crate::session::ErrorKind::Device);
+        let text = e.to_string();
+        assert!(text.contains("0x41 (65): position outside range"), "{text}");
+        assert!(text.contains("0A94"), "{text}");
+    }
+
+    #[test]
+    fn only_polls_while_busy_and_abandon_and_stop() {
+        let replies = vec![
+            Some(ack(0, false, 31, Par2::Float(0.0), CheckRule::WithEtx)),
+            Some(ack(0, false, 31, Par2::Float(10.0), CheckRule::WithEtx)),
+            // 0A93: BE = 0, then standstill.
+            Some(ack(0, false, 31, Par2::Float(12.0), CheckRule::WithEtx)),
+            Some(ack(0, true, 31, Par2::Float(13.5), CheckRule::WithEtx)),
+        ];
+        let (mut pac, s, _) = session(replies);
+        let mv = Command::new(0x0A87, 1, Par2::Float(100.0));
+        let mut n = 0;
+        let err = pac
+            .transact_with(&mv, &mut |_| {
+                n += 1;
+                n < 2
+            })
+            .unwrap_err();
+        assert!(matches!(err, PacError::Abandoned { code: 0x0A87, polls: 1, .. }), "{err:?}");
+        assert_eq!(pac.busy_command(), Some(&mv));
+        let before = written(&s).len();
+        // Anything but a poll is refused locally, nothing is written.
+        let read = Command::new(0x190C, 1, Par2::Float(0.0));
+        let err = pac.transact(&read).unwrap_err();
+        assert!(matches!(err, PacError::Busy { busy: 0x0A87, refused: 0x190C }), "{err:?}");
+        assert_eq!(err.kind(), crate::session::ErrorKind::Usage);
+        assert_eq!(written(&s).len(), before);
+        let stop = Command::new(0x0A93, 1, Par2::Float(0.0));
+        let done = pac.abandon_and_stop(&stop).unwrap();
+        assert_eq!(done.ack.q_par, Par2::Float(13.5));
+        assert!(pac.busy_command().is_none());
+        let w = written(&s);
+        assert_eq!(w[before], stop.encode().unwrap());
+        assert_eq!(w[before + 1], [0x04]);
+    }
+
+    #[test]
+    fn start_then_poll() {
+        let replies = vec![
+            Some(ack(0, false, 31, Par2::Int(0), CheckRule::Strict)),
+            Some(ack(0, true, 31, Par2::Int(0), CheckRule::Strict)),
+        ];
+        let (mut pac, _, _) = session(replies);
+        let r = Command::new(0x0A84, 2, Par2::Int(0));
+        assert!(matches!(pac.start(&r).unwrap(), Step::NeedPoll { .. }));
+        assert!(matches!(pac.transact(&Command::new(0x190B, 0, Par2::Int(0))), Err(PacError::Busy { .. })));
+        assert!(matches!(pac.poll().unwrap(), Step::Done(_)));
+        assert!(pac.busy_command().is_none());
+        assert!(pac.poll().is_err(), "nothing left to poll");
+    }
+
+    #[test]
+    fn reads_are_retried_motion_is_not() {
+        let ok = ack(0, true, 31, Par2::Float(5.0), CheckRule::Strict);
+        let (mut pac, s, _) = session(vec![None, Some(ok.clone())]);
+        let done = pac.transact(&Command::new(0x190C, 1, Par2::Float(0.0))).unwrap();
+        assert_eq!(done.ack.q_par, Par2::Float(5.0));
+        assert_eq!(written(&s).len(), 2);
+
+        let (mut pac, s, _) = session(vec![None, Some(ok)]);
+        let err = pac.transact(&Command::new(0x0A94, 1, Par2::Float(5.0))).unwrap_err();
+        assert!(matches!(err, PacError::Session(SessionError::Timeout { .. })), "{err:?}");
+        assert_eq!(written(&s).len(), 1, "a move is sent once");
+    }
+
+    #[test]
+    fn bad_check_is_malformed_and_garbage_is_skipped() {
+        let mut bad = ack(0, true, 31, Par2::Int(7), CheckRule::Strict);
+        let n = bad.len();
+        bad[n - 2] = b'9';
+        bad[n - 3] = b'9';
+        let (mut pac, _, _) = session(vec![Some(bad)]);
+        pac.set_retry(RetryPolicy { read_retries: 0 });
+        let err = pac.transact(&Command::new(0x1906, 1, Par2::Int(0))).unwrap_err();
+        assert_eq!(err.kind(), crate::session::ErrorKind::Malformed, "{err:?}");
+
+        let mut noisy = b"\xff\x00junk".to_vec();
+        noisy.extend(ack(0, true, 31, Par2::Int(7), CheckRule::Strict));
+        let (mut pac, _, _) = session(vec![Some(noisy)]);
+        assert_eq!(pac.transact(&Command::new(0x1906, 1, Par2::Int(0))).unwrap().ack.q_par, Par2::Int(7));
+        assert_eq!(pac.last_check_rule(), Some(CheckRule::Strict));
+    }
+
+    #[test]
+    fn check_rule_option_and_busy_timeout() {
+        let replies = (0..100).map(|_| Some(ack(0, false, 31, Par2::Int(0), CheckRule::Strict))).collect();
+        let (mut pac, s, _) = session(replies);
+        pac.set_check_rule(CheckRule::WithEtx);
+        pac.set_busy_timeout(Duration::from_millis(500));
+        let err = pac.transact(&Command::new(0x0A84, 3, Par2::Int(0))).unwrap_err();
+        assert_eq!(err.kind(), crate::session::ErrorKind::Timeout, "{err:?}");
+        assert_eq!(written(&s)[0], b"\x01\x020A84;3;0;0\x03118\x04");
+        assert!(pac.busy_command().is_some(), "the reference drive is still running");
+    }
+
+    #[test]
+    fn default_timeout_adds_wire_time() {
+        let (pac, _, _) = session(vec![]);
+        // 24 + 48 characters at 9 bits and 9600 baud: 67.5 ms.
+        assert_eq!(pac.answer_timeout(24), Duration::from_micros(30_000 + 67_500));
+    }
+
+    proptest::proptest! {
+        // Whatever the line delivers, the session answers with a value or a
+        // typed error, never a panic; bytes without a frame are a timeout.
+        #[test]
+        fn random_answers_never_panic(reply in proptest::collection::vec(proptest::prelude::any::<u8>(), 0..200)) {
+            let (mut pac, _, _) = session(vec![Some(reply.clone()), Some(reply.clone()), Some(reply)]);
+            pac.set_busy_timeout(Duration::from_millis(200));
+            let _ = pac.transact(&Command::new(0x190C, 1, Par2::Float(0.0)));
+            let _ = pac.transact(&Command::new(0x0A94, 1, Par2::Float(1.0)));
+        }
+    }
+}
