@@ -13,9 +13,11 @@ use axisctl::link::log::{log_iface, LoggedCanLink, TrafficLog};
 use axisctl::link::{self, CanLink, LinkSpec};
 use axisctl::proto::cdios::{ModuleId as CdiosModule, NodeId};
 use axisctl::session::cdios::Cdios;
+use axisctl::session::pac::Pac;
 use axisctl::session::powercube::PowerCube;
 use axisctl::sim::bench::Bench;
 use axisctl::tui::cdios::CdiosSource;
+use axisctl::tui::pac::PacSource;
 use axisctl::tui::powercube::CubeSource;
 use axisctl::tui::source::{DeviceSource, Family, SharedCan};
 use axisctl::tui::worker::{MAX_RATE, MIN_RATE};
@@ -105,6 +107,25 @@ fn parse_cdios_modules(args: &DashboardArgs) -> anyhow::Result<Option<Vec<CdiosM
     Ok(Some(out))
 }
 
+fn parse_axes(args: &DashboardArgs) -> anyhow::Result<Option<Vec<u8>>> {
+    let Some(text) = args.axes.as_deref() else { return Ok(None) };
+    let mut out = Vec::new();
+    for part in text.split(',').map(str::trim).filter(|p| !p.is_empty()) {
+        let a = part
+            .parse::<u8>()
+            .ok()
+            .filter(|a| (1..=axisctl::proto::pac::table::MAX_AXES).contains(a))
+            .ok_or_else(|| usage(format!("{part:?} in --axes is not an axis 1..16")))?;
+        if !out.contains(&a) {
+            out.push(a);
+        }
+    }
+    if out.is_empty() {
+        return Err(usage("--axes lists no axis"));
+    }
+    Ok(Some(out))
+}
+
 fn powercube_on(ctx: &Ctx, pc: PowerCube, args: &DashboardArgs) -> anyhow::Result<Box<dyn DeviceSource>> {
     let mut pc = pc.with_clock(Arc::clone(&ctx.clock));
     if let Some(t) = ctx.timeout {
@@ -153,6 +174,7 @@ fn plan(ctx: &Ctx, args: &DashboardArgs) -> anyhow::Result<Vec<LinkPlan>> {
     // Checked before any link opens: a typo sends nothing.
     parse_cube_modules(args)?;
     parse_cdios_modules(args)?;
+    parse_axes(args)?;
     let uses_sim = [&a.cube, &a.pac, &a.cdios].iter().any(|s| **s == Some(LinkSpec::Sim));
     let bench = uses_sim.then(|| Bench::contract(Arc::clone(&ctx.clock)));
     let mut plans = Vec::new();
@@ -174,6 +196,30 @@ fn plan(ctx: &Ctx, args: &DashboardArgs) -> anyhow::Result<Vec<LinkPlan>> {
             Some((_, fams)) => fams.push(f),
             None => groups.push((spec.clone(), vec![f])),
         }
+    }
+    if let Some(spec) = &a.pac {
+        let pac = match (spec, &bench) {
+            (LinkSpec::Sim, Some(b)) => {
+                let l: Box<dyn link::ByteLink> = Box::new(b.pac_link(Arc::clone(&ctx.clock)));
+                Pac::new(l, 9600, link::SerialFormat::F7N1)
+            }
+            (LinkSpec::Serial { path, baud, format }, _) => {
+                let baud = baud.unwrap_or(9600);
+                let format = format.unwrap_or(link::SerialFormat::F7N1);
+                Pac::new(link::open_bytes(path, baud, format)?, baud, format)
+            }
+            _ => unreachable!("checked in assign"),
+        };
+        let mut pac = pac.with_clock(Arc::clone(&ctx.clock));
+        if let Some(t) = ctx.timeout {
+            pac.set_timeout(t);
+        }
+        pac.set_retry(ctx.retry);
+        if ctx.pac_check_etx {
+            pac.set_check_rule(axisctl::proto::pac::CheckRule::WithEtx);
+        }
+        let name = if *spec == LinkSpec::Sim { "sim RS232".to_string() } else { spec.to_string() };
+        plans.push(LinkPlan { name, sources: vec![Box::new(PacSource::new(pac, parse_axes(args)?))] });
     }
     for (spec, fams) in groups {
         let (name, link) = match (&spec, &bench) {

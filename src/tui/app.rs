@@ -454,6 +454,9 @@ impl App {
                 let m = ModuleId::new(*m).ok_or("bad module id")?;
                 c.limits.check_pos(pos, m).map_err(|e| e.to_string())?;
             }
+            (DeviceKey::PacAxis(a), Some(Snapshot::PacAxis(s))) => {
+                super::pac::check_target(*a, pos, s)?;
+            }
             (DeviceKey::Cdios { .. }, _) => {
                 super::cdios::check_position("goto", pos)?;
             }

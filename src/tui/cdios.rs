@@ -9,6 +9,9 @@ use crate::proto::cdios::{
 use crate::session::cdios::Cdios;
 use crate::session::RetryPolicy;
 
+/// Status 1 bits 0 and 1: running forward / reverse.
+const RUNNING: u8 = 0x03;
+
 pub struct CdiosSource {
     s: Cdios,
     node: NodeId,
@@ -139,7 +142,15 @@ impl DeviceSource for CdiosSource {
             .clone()
             .into_iter()
             .map(|m| {
-                let r = self.send(m, Command::Stop { sync: false, option: StopOption::FastStop }, "fast stop");
+                let mut r = self.send(m, Command::Stop { sync: false, option: StopOption::FastStop }, "fast stop");
+                // A motor that is not running refuses a stop: that is no failure.
+                if let Err(SourceError::Session(crate::session::SessionError::Device { .. })) = &r {
+                    if let Ok(st) = self.s.read_status(self.node, m) {
+                        if st.status[0] & RUNNING == 0 {
+                            r = Ok("not running".into());
+                        }
+                    }
+                }
                 (Some(DeviceKey::Cdios { node, module: m.get() }), r)
             })
             .collect()

@@ -14,6 +14,7 @@ pub mod app;
 pub mod cdios;
 pub mod event;
 pub mod keys;
+pub mod pac;
 pub mod powercube;
 pub mod source;
 pub mod ui;

@@ -13,16 +13,19 @@ use ratatui::Terminal;
 use super::app::{App, LinkView, Mode};
 use super::cdios::CdiosSource;
 use super::event::{Event, LinkEvent, ToWorker};
+use super::pac::PacSource;
 use super::powercube::CubeSource;
 use super::source::{DeviceKey, DeviceSource, Family, SharedCan, Snapshot};
 use super::ui;
 use super::worker::LinkWorker;
 use crate::clock::{Clock, VirtualClock};
 use crate::link::mem::Fault;
+use crate::link::SerialFormat;
 use crate::proto::cdios::NodeId;
 use crate::proto::powercube::flags::state;
 use crate::proto::CanFrame;
 use crate::session::cdios::Cdios;
+use crate::session::pac::Pac;
 use crate::session::powercube::PowerCube;
 use crate::session::RetryPolicy;
 use crate::sim::bench::{lock, Bench};
@@ -59,8 +62,17 @@ impl Rig {
             RetryPolicy::default(),
         ));
         let sources = vec![cube, cdios];
-        let links = vec![LinkView::new("sim CAN", sources.iter().map(|s| s.family()).collect(), 10.0)];
-        let workers = vec![LinkWorker::new(0, sources, Arc::clone(&shared), 10.0)];
+        let pac_link: Box<dyn crate::link::ByteLink> = Box::new(bench.pac_link(Arc::clone(&shared)));
+        let pac = Pac::new(pac_link, 9600, SerialFormat::F7N1).with_clock(Arc::clone(&shared));
+        let pac_sources: Vec<Box<dyn DeviceSource>> = vec![Box::new(PacSource::new(pac, None))];
+        let links = vec![
+            LinkView::new("sim CAN", sources.iter().map(|s| s.family()).collect(), 10.0),
+            LinkView::new("sim RS232", vec![Family::Pac], 10.0),
+        ];
+        let workers = vec![
+            LinkWorker::new(0, sources, Arc::clone(&shared), 10.0),
+            LinkWorker::new(1, pac_sources, Arc::clone(&shared), 10.0),
+        ];
         let app = App::new(links, 10.0, clock.now());
         let mut rig = Self { clock, bench, workers, app, sent: Vec::new() };
         for i in 0..rig.workers.len() {
@@ -326,7 +338,7 @@ fn quitting_tells_every_worker() {
     let mut rig = Rig::new();
     rig.keys("q");
     assert!(rig.app.quit);
-    assert_eq!(rig.sent, vec![ToWorker::Quit]);
+    assert_eq!(rig.sent, vec![ToWorker::Quit; rig.workers.len()]);
 }
 
 #[test]
@@ -337,7 +349,160 @@ fn snapshots_keep_their_family() {
         match (&d.key, &d.snap) {
             (DeviceKey::Cube(_), Some(Snapshot::Cube(_))) => assert_eq!(d.key.family(), Family::PowerCube),
             (DeviceKey::Cdios { .. }, Some(Snapshot::Cdios(_))) => assert_eq!(d.key.family(), Family::Cdios),
+            (DeviceKey::PacController, Some(Snapshot::PacController(_)))
+            | (DeviceKey::PacAxis(_), Some(Snapshot::PacAxis(_))) => assert_eq!(d.key.family(), Family::Pac),
             (k, s) => panic!("{k:?} has {s:?}"),
         }
     }
+}
+
+impl Rig {
+    /// Online, and `axis` referenced (the controller moves only referenced axes).
+    fn pac_online_and_referenced(&mut self, axis: u8) {
+        self.select(DeviceKey::PacController);
+        self.keys("o");
+        self.select(DeviceKey::PacAxis(axis));
+        self.keys("h");
+        for _ in 0..600 {
+            self.advance(Duration::from_millis(100));
+            self.round();
+            if lock(&self.bench.pac).axis_referenced(axis) == Some(true) && lock(&self.bench.pac).busy().is_none() {
+                break;
+            }
+        }
+        self.round();
+        assert!(self.app.stale(self.app.device(DeviceKey::PacAxis(axis)).unwrap()).is_none());
+    }
+
+    fn pac_axis(&self, axis: u8) -> (u8, f64) {
+        let mut pac = lock(&self.bench.pac);
+        pac.advance(self.clock.now());
+        (pac.axis_status(axis).unwrap(), pac.axis_speed(axis).unwrap())
+    }
+
+    fn cdios_motor(&self, m: u8) -> (bool, f64) {
+        let mut node = lock(&self.bench.cdios);
+        node.poll(self.clock.now(), &mut Vec::new());
+        let motor = node.module(m).unwrap();
+        (motor.running(), motor.speed_rpm())
+    }
+
+    /// Every family moving: module 3 homing, module 17 jogging, PA axis 1
+    /// moving online, Cdios module 0 on a long goto.
+    fn everything_moving(&mut self) {
+        self.round();
+        self.pac_online_and_referenced(1);
+        self.keys("g5000");
+        self.key(KeyCode::Enter);
+        self.select(DeviceKey::Cube(3));
+        self.keys("h");
+        self.select(DeviceKey::Cube(17));
+        self.keys("]]+");
+        self.select(DeviceKey::Cdios { node: 1, module: 0 });
+        self.keys("eg1000000");
+        self.key(KeyCode::Enter);
+        self.advance(Duration::from_millis(300));
+        self.round();
+    }
+}
+
+#[test]
+fn pac_panes() {
+    let mut rig = Rig::new();
+    rig.round();
+    rig.select(DeviceKey::PacController);
+    insta::assert_snapshot!("pac_controller_80x24", rig.screen(80, 24));
+    rig.pac_online_and_referenced(2);
+    rig.keys("g2500");
+    rig.key(KeyCode::Enter);
+    rig.advance(Duration::from_millis(500));
+    rig.round();
+    insta::assert_snapshot!("pac_axis_moving_80x24", rig.screen(80, 24));
+    insta::assert_snapshot!("pac_axis_moving_200x50", rig.screen(200, 50));
+    // Outside the traverse area: refused like pac-move, nothing sent.
+    let before = rig.sent.len();
+    rig.keys("g99999");
+    rig.key(KeyCode::Enter);
+    assert_eq!(rig.sent.len(), before);
+    let last = &rig.app.events.back().unwrap().text;
+    assert!(last.contains("outside axis 2's traverse area"), "{last}");
+}
+
+#[test]
+fn pac_reference_drive_keeps_the_line_for_polls() {
+    let mut rig = Rig::new();
+    rig.round();
+    rig.select(DeviceKey::PacController);
+    rig.keys("o");
+    rig.select(DeviceKey::PacAxis(1));
+    rig.keys("h");
+    rig.advance(Duration::from_millis(100));
+    rig.round();
+    let d = rig.app.device(DeviceKey::PacAxis(2)).unwrap();
+    let why = rig.app.stale(d).expect("axes cannot be read during the drive");
+    assert!(why.contains("only polls"), "{why}");
+    // Only a stop gets through: any other action is refused before sending.
+    rig.keys("e");
+    assert!(rig.app.events.back().unwrap().text.contains("nothing was sent"));
+    rig.key(KeyCode::Char(' '));
+    rig.advance(Duration::from_millis(100));
+    rig.round();
+    assert_eq!(rig.pac_axis(1).1, 0.0, "the referencing axis stands");
+    let d = rig.app.device(DeviceKey::PacAxis(2)).unwrap();
+    assert!(rig.app.stale(d).is_none(), "the line is free again");
+}
+
+#[test]
+fn cdios_panes() {
+    let mut rig = Rig::new();
+    rig.round();
+    rig.select(DeviceKey::Cdios { node: 1, module: 0 });
+    rig.keys("eg20000");
+    rig.key(KeyCode::Enter);
+    rig.advance(Duration::from_millis(200));
+    rig.round();
+    insta::assert_snapshot!("cdios_moving_80x24", rig.screen(80, 24));
+    insta::assert_snapshot!("cdios_moving_200x50", rig.screen(200, 50));
+    // An error state: the emergency input stops the motor.
+    lock(&rig.bench.cdios).module_mut(0).unwrap().set_emergency(true);
+    rig.advance(Duration::from_millis(100));
+    rig.round();
+    insta::assert_snapshot!("cdios_error_80x24", rig.screen(80, 24));
+    let t = rig.terminal(80, 24);
+    let (x, y) = Rig::find(&t, "EMERGENCY_INPUT_ACTIVE").unwrap();
+    assert_eq!(t.backend().buffer()[(x, y)].fg, Color::Red, "error bits are red");
+    // Out of the goto field's range: refused like cdios-goto.
+    rig.keys("g3000000000");
+    rig.key(KeyCode::Enter);
+    assert!(rig.app.events.back().unwrap().text.contains("out of range"), "{:?}", rig.app.events.back());
+}
+
+#[test]
+fn halt_all_stops_all_three_families_within_one_poll_period() {
+    let mut rig = Rig::new();
+    rig.everything_moving();
+    assert_ne!(rig.cube(3).1, 0.0, "module 3 homing");
+    assert_ne!(rig.cube(17).1, 0.0, "module 17 jogging");
+    assert_eq!(rig.pac_axis(1).0, 1, "PA axis 1 moving: {:#?}", rig.app.events);
+    assert!(rig.cdios_motor(0).0, "Cdios motor 0 running");
+    let pac_speed = rig.pac_axis(1).1;
+    rig.key(KeyCode::Char(' '));
+    // Every device has its stop within one poll period (10 Hz); PowerCube
+    // and Cdios stand at once, the PA axis brakes at its acceleration.
+    rig.advance(Duration::from_millis(100));
+    let failed: Vec<_> = rig.app.events.iter().filter(|e| e.text.contains("failed")).map(|e| &e.text).collect();
+    assert!(failed.is_empty(), "{failed:?}");
+    let (status, speed) = rig.pac_axis(1);
+    assert!(status == 2 || speed < pac_speed, "PA axis 1 braking: status {status}, {speed} < {pac_speed}");
+    for m in [3, 5, 17] {
+        let (cube, vel) = rig.cube(m);
+        assert_ne!(cube & state::HALTED, 0, "module {m} halted");
+        assert_eq!(vel, 0.0, "module {m} stands");
+    }
+    rig.advance(Duration::from_millis(400));
+    assert_eq!(rig.pac_axis(1), (2, 0.0), "PA axis 1 stopped");
+    let (running, rpm) = rig.cdios_motor(0);
+    assert!(!running && rpm == 0.0, "Cdios motor 0 stands: running {running}, {rpm} rpm");
+    rig.round();
+    insta::assert_snapshot!("after_halt_all_80x24", rig.screen(80, 24));
 }
