@@ -197,6 +197,16 @@ fn plan(ctx: &Ctx, args: &DashboardArgs) -> anyhow::Result<Vec<LinkPlan>> {
             None => groups.push((spec.clone(), vec![f])),
         }
     }
+    for (spec, fams) in groups {
+        let (name, link) = match (&spec, &bench) {
+            (LinkSpec::Sim, Some(b)) => ("sim CAN".to_string(), Box::new(b.bus.open()) as Box<dyn CanLink>),
+            _ => (spec.to_string(), open_can(ctx, &spec)?),
+        };
+        let sources = can_sources(ctx, args, SharedCan::new(link), &fams)?;
+        if !sources.is_empty() {
+            plans.push(LinkPlan { name, sources });
+        }
+    }
     if let Some(spec) = &a.pac {
         let pac = match (spec, &bench) {
             (LinkSpec::Sim, Some(b)) => {
@@ -220,16 +230,6 @@ fn plan(ctx: &Ctx, args: &DashboardArgs) -> anyhow::Result<Vec<LinkPlan>> {
         }
         let name = if *spec == LinkSpec::Sim { "sim RS232".to_string() } else { spec.to_string() };
         plans.push(LinkPlan { name, sources: vec![Box::new(PacSource::new(pac, parse_axes(args)?))] });
-    }
-    for (spec, fams) in groups {
-        let (name, link) = match (&spec, &bench) {
-            (LinkSpec::Sim, Some(b)) => ("sim CAN".to_string(), Box::new(b.bus.open()) as Box<dyn CanLink>),
-            _ => (spec.to_string(), open_can(ctx, &spec)?),
-        };
-        let sources = can_sources(ctx, args, SharedCan::new(link), &fams)?;
-        if !sources.is_empty() {
-            plans.push(LinkPlan { name, sources });
-        }
     }
     Ok(plans)
 }

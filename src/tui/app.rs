@@ -133,6 +133,8 @@ pub struct App {
     pub started: Instant,
     pub now: Instant,
     pub quit: bool,
+    /// The user moved the selection: it follows its device as others appear.
+    pub chosen: bool,
 }
 
 impl App {
@@ -149,6 +151,7 @@ impl App {
             started: now,
             now,
             quit: false,
+            chosen: false,
         }
     }
 
@@ -236,9 +239,10 @@ impl App {
                     }
                 }
                 self.devices.sort_by_key(|d| d.key);
-                if let Some(k) = selected {
-                    self.selected = self.devices.iter().position(|d| d.key == k).unwrap_or(0);
-                }
+                self.selected = match selected.filter(|_| self.chosen) {
+                    Some(k) => self.devices.iter().position(|d| d.key == k).unwrap_or(0),
+                    None => 0,
+                };
             }
             LinkEvent::Polled { link, device, at, result, health } => {
                 let lv = &mut self.links[link];
@@ -338,10 +342,12 @@ impl App {
         match action {
             KeyAction::HaltAll => unreachable!("handled above"),
             KeyAction::Up => {
+                self.chosen = true;
                 self.selected = self.selected.saturating_sub(1);
                 vec![]
             }
             KeyAction::Down => {
+                self.chosen = true;
                 self.selected = (self.selected + 1).min(self.devices.len().saturating_sub(1));
                 vec![]
             }

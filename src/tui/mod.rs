@@ -24,6 +24,7 @@ pub mod worker;
 mod tests;
 
 use std::io::{self, Stdout};
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc;
 use std::sync::Arc;
 use std::time::Duration;
@@ -56,10 +57,17 @@ pub struct LinkPlan {
     pub sources: Vec<Box<dyn DeviceSource>>,
 }
 
-/// Leaves raw mode and the alternate screen; safe to call twice.
+/// Set while the terminal is in raw mode on the alternate screen.
+static TERMINAL_TAKEN: AtomicBool = AtomicBool::new(false);
+
+/// Leaves raw mode and the alternate screen, once: leaving the alternate
+/// screen twice would move the cursor back over what was printed between
+/// (a panic message, say).
 pub fn restore_terminal() {
-    let _ = disable_raw_mode();
-    let _ = execute!(io::stdout(), LeaveAlternateScreen, cursor::Show);
+    if TERMINAL_TAKEN.swap(false, Ordering::SeqCst) {
+        let _ = disable_raw_mode();
+        let _ = execute!(io::stdout(), LeaveAlternateScreen, cursor::Show);
+    }
 }
 
 struct TerminalGuard;
@@ -88,6 +96,7 @@ fn install_panic_hook() {
 pub fn run(plans: Vec<LinkPlan>, rate: f64, clock: Arc<dyn Clock>) -> anyhow::Result<()> {
     install_panic_hook();
     enable_raw_mode()?;
+    TERMINAL_TAKEN.store(true, Ordering::SeqCst);
     let _guard = TerminalGuard;
     execute!(io::stdout(), EnterAlternateScreen, cursor::Hide)?;
     let mut terminal: Terminal<CrosstermBackend<Stdout>> = Terminal::new(CrosstermBackend::new(io::stdout()))?;
@@ -137,6 +146,9 @@ where
         }
     })?;
     drop(tx);
+    // For the smoke test that a panic restores the terminal: `!` panics the
+    // UI thread when this variable is set, and is unbound otherwise.
+    let panic_key = std::env::var_os("AXISCTL_TEST_PANIC_KEY").is_some();
     let mut app = App::new(links, rate, clock.now());
     app.log(app::Level::Info, "press ? for the keys, space to halt everything");
     loop {
@@ -150,6 +162,11 @@ where
         batch.extend(rx.try_iter().take(1000));
         batch.push(Event::Tick(clock.now()));
         for ev in batch {
+            if let Event::Key(k) = &ev {
+                if panic_key && k.code == ct::KeyCode::Char('!') {
+                    panic!("test panic requested with AXISCTL_TEST_PANIC_KEY");
+                }
+            }
             for out in app.handle(ev) {
                 // A worker that is gone has reported why; nothing to do here.
                 let _ = senders[out.link].send(out.msg);

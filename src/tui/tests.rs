@@ -506,3 +506,48 @@ fn halt_all_stops_all_three_families_within_one_poll_period() {
     rig.round();
     insta::assert_snapshot!("after_halt_all_80x24", rig.screen(80, 24));
 }
+
+/// Every binding of the help does something visible on a device it
+/// applies to: a request to a worker, or a change of the screen's state.
+#[test]
+fn every_key_in_the_help_works() {
+    use super::keys::{KeyAction, KEYS};
+    for b in KEYS {
+        let mut rig = Rig::new();
+        rig.round();
+        for _ in 0..12 {
+            rig.app.log(super::app::Level::Info, "filler so that the event pane can scroll");
+        }
+        let device = match b.action {
+            KeyAction::Enable | KeyAction::Disable => DeviceKey::PacAxis(1),
+            KeyAction::Online | KeyAction::Offline => DeviceKey::PacController,
+            KeyAction::Up => DeviceKey::Cube(5),
+            _ => DeviceKey::Cube(3),
+        };
+        if matches!(b.action, KeyAction::Enable | KeyAction::Disable | KeyAction::Offline) {
+            rig.select(DeviceKey::PacController);
+            rig.keys("o");
+            rig.sent.clear();
+        }
+        rig.select(device);
+        if b.action == KeyAction::ScrollDown {
+            rig.key(KeyCode::PageUp);
+        }
+        let before = (rig.app.selected, rig.app.mode.clone(), rig.app.jog, rig.app.rate, rig.app.scroll);
+        rig.key(b.codes[0]);
+        let after = (rig.app.selected, rig.app.mode.clone(), rig.app.jog, rig.app.rate, rig.app.scroll);
+        let did = !rig.sent.is_empty() || before != after || rig.app.quit;
+        assert!(did, "{} ({:?}) did nothing on {:?}", b.keys, b.action, device);
+        if let Some(e) = rig.app.events.iter().find(|e| e.level == super::app::Level::Error) {
+            panic!("{} ({:?}) on {:?}: {}", b.keys, b.action, device, e.text);
+        }
+    }
+}
+
+/// docs/guide.md carries the key table exactly as the code declares it.
+#[test]
+fn the_guide_lists_the_keys_of_the_code() {
+    let guide = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/docs/guide.md")).unwrap();
+    let table = super::keys::markdown_table();
+    assert!(guide.contains(&table), "docs/guide.md must contain the key table of src/tui/keys.rs:\n{table}");
+}
