@@ -217,6 +217,8 @@ pub enum Command {
     Monitor(MonitorArgs),
     #[command(flatten)]
     Cdios(crate::cli_cdios::CdiosCommand),
+    /// Live dashboard of every device on the links (try: --link sim dashboard)
+    Dashboard(crate::cli_dashboard::DashboardArgs),
     #[command(flatten)]
     Pac(crate::cli_pac::PacCommand),
 }
