@@ -394,14 +394,7 @@ fn wait_until(
     let clock = std::sync::Arc::clone(pc.clock());
     let start = clock.now();
     let limit = Duration::from_secs_f64(wait.wait_timeout.max(0.0));
-    let bar = (!ctx.json).then(|| {
-        let bar = indicatif::ProgressBar::new_spinner();
-        bar.set_style(
-            indicatif::ProgressStyle::with_template("{spinner} [{elapsed_precise}] {msg}")
-                .unwrap_or_else(|_| indicatif::ProgressStyle::default_spinner()),
-        );
-        bar
-    });
+    let bar = crate::output::spinner(ctx.json);
     let halt = |pc: &mut PowerCube| pc.transact(m, &Request::Halt);
     let result = loop {
         if interrupted() {
