@@ -27,7 +27,7 @@ pub struct Global {
     #[arg(long, global = true)]
     pub json: bool,
     /// How long to wait for each answer, in ms (default 100 on CAN, 30 plus wire time on RS232)
-    #[arg(long, global = true, value_name = "MS")]
+    #[arg(long, global = true, env = "AXISCTL_TIMEOUT", value_name = "MS")]
     pub timeout: Option<u64>,
     /// Print every frame sent and received, decoded, on stderr
     #[arg(long, global = true)]
@@ -204,7 +204,7 @@ pub enum Command {
         #[command(subcommand)]
         action: WatchdogAction,
     },
-    /// Decode a raw word offline: cube-state, short-state, config, setup, dio, dio-setup, profibus-state, profibus-image, cdios-status, cdios-error
+    /// Decode a raw word offline: cube-state, config, dio, ..., cdios-status, pac-axis-status, ... (an unknown KIND lists them all)
     Decode {
         /// What the value is
         kind: String,
@@ -217,6 +217,8 @@ pub enum Command {
     Monitor(MonitorArgs),
     #[command(flatten)]
     Cdios(crate::cli_cdios::CdiosCommand),
+    /// Live dashboard of every device on the links (try: --link sim dashboard)
+    Dashboard(crate::cli_dashboard::DashboardArgs),
     #[command(flatten)]
     Pac(crate::cli_pac::PacCommand),
 }

@@ -4,6 +4,7 @@ use clap::Parser;
 
 mod cli;
 mod cli_cdios;
+mod cli_dashboard;
 mod cli_pac;
 mod commands;
 mod output;

@@ -45,6 +45,29 @@ impl Style {
     }
 }
 
+/// The progress spinner of `--wait`s: on stderr, hidden when that is not a
+/// terminal and never with `--json`.
+pub fn spinner(json: bool) -> Option<indicatif::ProgressBar> {
+    (!json && std::io::stderr().is_terminal()).then(|| {
+        let bar = indicatif::ProgressBar::new_spinner();
+        bar.set_style(
+            indicatif::ProgressStyle::with_template("{spinner} [{elapsed_precise}] {msg}")
+                .unwrap_or_else(|_| indicatif::ProgressStyle::default_spinner()),
+        );
+        bar
+    })
+}
+
+/// Hex bytes as typed: `0a3c0000`, `0a 3c 00 00`, `0a:3c`, optionally `0x`-prefixed.
+pub fn parse_hex_bytes(text: &str) -> Option<Vec<u8>> {
+    let digits: String = text.chars().filter(|c| !c.is_whitespace() && *c != ':' && *c != ',').collect();
+    let digits = digits.strip_prefix("0x").unwrap_or(&digits);
+    if !digits.len().is_multiple_of(2) || !digits.chars().all(|c| c.is_ascii_hexdigit()) {
+        return None;
+    }
+    (0..digits.len()).step_by(2).map(|i| u8::from_str_radix(&digits[i..i + 2], 16).ok()).collect()
+}
+
 /// Prints one JSON document on stdout.
 pub fn json(value: &serde_json::Value) {
     let mut out = std::io::stdout().lock();

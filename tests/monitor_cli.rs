@@ -5,9 +5,13 @@ mod common;
 
 use common::run;
 
+/// A commissioning session against one served bench (PowerCube and Cdios on
+/// one slcan bus), logged with --log.
 fn session_log() -> tempfile::NamedTempFile {
     let log = tempfile::Builder::new().suffix(".log").tempfile().unwrap();
     let p = log.path().to_str().unwrap();
+    let sim = common::Sim::start(&[], 3);
+    let link = sim.link("powercube");
     let steps: &[&[&str]] = &[
         &["scan"],
         &["info", "-m", "17"],
@@ -20,9 +24,19 @@ fn session_log() -> tempfile::NamedTempFile {
         &["watchdog", "on", "-m", "5"],
         &["halt", "--all"],
         &["reset", "--all"],
+        &["cdios-identify"],
+        &["cdios-enable", "-m", "0"],
+        &["cdios-goto", "-m", "0", "2000", "--wait"],
+        &["cdios-status", "-m", "0"],
+        &["cdios-position", "-m", "1", "--all"],
+        &["cdios-outputs", "-m", "1", "--set", "5"],
+        &["cdios-config", "-m", "0"],
+        &["cdios-enable", "-m", "1"],
+        &["cdios-goto", "-m", "1", "5000"],
+        &["cdios-stop", "-m", "1"],
     ];
     for s in steps {
-        let mut args = vec!["--link", "sim", "--log", p];
+        let mut args = vec!["--link", link, "--log", p];
         args.extend_from_slice(s);
         let r = run(&args);
         assert_eq!(r.code, 0, "{s:?}: {}", r.stderr);
@@ -41,13 +55,16 @@ fn a_whole_session_replays_with_every_frame_decoded() {
     let (frames, stats) = lines.split_at(lines.len() - 1);
     assert_eq!(frames.len(), logged);
     for f in frames {
-        assert_eq!(f["family"], "powercube", "{f}");
+        assert!(f["family"] == "powercube" || f["family"] == "cdios", "{f}");
         assert!(f.get("error").is_none(), "undecoded: {f}");
         assert!(!f["summary"].as_str().unwrap().is_empty(), "{f}");
     }
     assert_eq!(stats[0]["stats"]["frames"].as_u64().unwrap() as usize, logged);
     assert_eq!(stats[0]["stats"]["errors"], 0);
     assert!(frames.iter().any(|f| f["kind"] == "broadcast"));
+    for kind in ["nmt", "command", "reply"] {
+        assert!(frames.iter().any(|f| f["family"] == "cdios" && f["kind"] == kind), "no Cdios {kind}");
+    }
     assert!(frames.iter().any(|f| f["summary"].as_str().unwrap().contains("STATE_HOME_OK")));
 }
 
@@ -60,8 +77,11 @@ fn filters_and_candump_output() {
     assert!(only17.stdout.lines().count() > 10);
     let ids = run(&["--json", "monitor", "--from-log", p, "--id", "100"]);
     assert_eq!(ids.stdout.lines().count(), 2, "the two broadcasts:\n{}", ids.stdout);
-    let none = run(&["monitor", "--from-log", p, "--family", "cdios"]);
+    let none = run(&["monitor", "--from-log", p, "--family", "other"]);
     assert_eq!(none.stdout, "");
+    let cdios = run(&["--json", "monitor", "--from-log", p, "--family", "cdios"]);
+    assert!(cdios.stdout.lines().count() > 10);
+    assert!(cdios.stdout.lines().all(|l| l.contains("\"family\":\"cdios\"")));
     // --candump reproduces the log it read.
     let again = run(&["monitor", "--from-log", p, "--candump"]);
     assert_eq!(again.stdout, std::fs::read_to_string(log.path()).unwrap());

@@ -14,7 +14,9 @@ fn sims() -> Vec<Sim> {
 fn scan_finds_exactly_the_simulated_ids() {
     for sim in sims() {
         let link = sim.link("powercube");
-        let r = run(&["--link", link, "--json", "scan"]);
+        // A patient scan (an answer may start 200 ms late): a loaded machine
+        // must not make a present module look absent.
+        let r = run(&["--link", link, "--json", "--timeout", "1600", "scan"]);
         assert_eq!(r.code, 0, "{link}: {}", r.stderr);
         let ids: Vec<u64> =
             r.json()["modules"].as_array().unwrap().iter().map(|m| m["module"].as_u64().unwrap()).collect();

@@ -428,14 +428,7 @@ fn wait_motion(
     let clock = Arc::clone(s.clock());
     let start = clock.now();
     let limit = Duration::from_secs_f64(wait.wait_timeout.max(0.0));
-    let bar = (!ctx.json).then(|| {
-        let bar = indicatif::ProgressBar::new_spinner();
-        bar.set_style(
-            indicatif::ProgressStyle::with_template("{spinner} [{elapsed_precise}] {msg}")
-                .unwrap_or_else(|_| indicatif::ProgressStyle::default_spinner()),
-        );
-        bar
-    });
+    let bar = crate::output::spinner(ctx.json);
     let stop = |s: &mut Cdios| {
         s.transact(node, Address::Module(m), &Command::Stop { sync: false, option: StopOption::FastStop })
     };
@@ -976,12 +969,7 @@ pub fn decode_kind(ctx: &Ctx, kind: &str, value: &str) -> Option<anyhow::Result<
 pub const DECODE_KINDS: &[&str] = &["cdios-status", "cdios-error"];
 
 fn hex_bytes(text: &str) -> anyhow::Result<Vec<u8>> {
-    let digits: String = text.chars().filter(|c| !c.is_whitespace() && *c != ':' && *c != ',').collect();
-    let digits = digits.strip_prefix("0x").unwrap_or(&digits);
-    if !digits.len().is_multiple_of(2) || !digits.chars().all(|c| c.is_ascii_hexdigit()) {
-        return Err(usage(format!("{text:?} is not a sequence of hex bytes")));
-    }
-    Ok((0..digits.len()).step_by(2).map(|i| u8::from_str_radix(&digits[i..i + 2], 16).unwrap_or(0)).collect())
+    crate::output::parse_hex_bytes(text).ok_or_else(|| usage(format!("{text:?} is not a sequence of hex bytes")))
 }
 
 fn decode_status_bytes(ctx: &Ctx, value: &str) -> anyhow::Result<()> {

@@ -69,12 +69,7 @@ pub fn run(ctx: &Ctx, kind: &str, value: &str) -> anyhow::Result<()> {
 }
 
 fn parse_hex_bytes(text: &str) -> anyhow::Result<Vec<u8>> {
-    let digits: String = text.chars().filter(|c| !c.is_whitespace() && *c != ':' && *c != ',').collect();
-    let digits = digits.strip_prefix("0x").unwrap_or(&digits);
-    if !digits.len().is_multiple_of(2) || !digits.chars().all(|c| c.is_ascii_hexdigit()) {
-        return Err(usage(format!("{text:?} is not a sequence of hex bytes")));
-    }
-    Ok((0..digits.len()).step_by(2).map(|i| u8::from_str_radix(&digits[i..i + 2], 16).unwrap_or(0)).collect())
+    crate::output::parse_hex_bytes(text).ok_or_else(|| usage(format!("{text:?} is not a sequence of hex bytes")))
 }
 
 fn profibus_image(ctx: &Ctx, value: &str) -> anyhow::Result<()> {

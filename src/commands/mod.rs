@@ -2,6 +2,7 @@
 //! anything is sent, talks to the device through a session and prints.
 
 mod cdios;
+mod dashboard;
 mod decode;
 mod monitor;
 mod pac;
@@ -222,6 +223,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Sim(args) => sim::run(&ctx, &args),
         Command::Monitor(args) => monitor::run(&ctx, &args),
         Command::Cdios(c) => cdios::run(&ctx, c),
+        Command::Dashboard(args) => dashboard::run(&ctx, &args),
         Command::Pac(cmd) => pac::run(&ctx, cmd),
         other => powercube::run(&ctx, other),
     }

@@ -296,14 +296,7 @@ struct Reporter {
 
 impl Reporter {
     fn new(ctx: &Ctx, wait: &PacWait) -> Self {
-        let bar = (!ctx.json && std::io::stderr().is_terminal()).then(|| {
-            let bar = indicatif::ProgressBar::new_spinner();
-            bar.set_style(
-                indicatif::ProgressStyle::with_template("{spinner} [{elapsed_precise}] {msg}")
-                    .unwrap_or_else(|_| indicatif::ProgressStyle::default_spinner()),
-            );
-            bar
-        });
+        let bar = crate::output::spinner(ctx.json);
         Self { bar, json: wait.progress_json }
     }
 

@@ -7,6 +7,7 @@ use anyhow::{bail, Context as _};
 use axisctl::proto::powercube::can::Broadcast;
 use axisctl::proto::powercube::flags::{self, config, state, FlagWord};
 use axisctl::proto::powercube::frame::{f32_to_f64, parse_int, Value};
+use axisctl::proto::powercube::limits::{self, LimitError, Limits};
 use axisctl::proto::powercube::table::{self, ids, ParamDef};
 use axisctl::proto::powercube::{ModuleId, Motion, MotionValue, Request, Response};
 use axisctl::session::powercube::{decode_get, describe, PowerCube};
@@ -39,9 +40,12 @@ pub fn run(ctx: &Ctx, cmd: Command) -> anyhow::Result<()> {
         Command::SetConfig { module: m, changes, raw } => set_config(ctx, module(m.module), &changes, raw.as_deref()),
         Command::Dio { module: m, out } => dio(ctx, module(m.module), out.as_deref()),
         Command::Watchdog { action } => watchdog(ctx, action),
-        Command::Decode { .. } | Command::Sim(_) | Command::Monitor(_) | Command::Cdios(_) | Command::Pac(_) => {
-            unreachable!("dispatched elsewhere")
-        }
+        Command::Decode { .. }
+        | Command::Sim(_)
+        | Command::Monitor(_)
+        | Command::Cdios(_)
+        | Command::Pac(_)
+        | Command::Dashboard(_) => unreachable!("dispatched elsewhere"),
     }
 }
 
@@ -119,7 +123,7 @@ fn version_text(v: u16) -> String {
     format!("{:x}.{:x}.{:02x}", v >> 12, (v >> 8) & 0xf, v & 0xff)
 }
 
-fn parse_ids(text: &str) -> anyhow::Result<Vec<ModuleId>> {
+pub(crate) fn parse_ids(text: &str) -> anyhow::Result<Vec<ModuleId>> {
     let mut out = Vec::new();
     for part in text.split(',').map(str::trim).filter(|p| !p.is_empty()) {
         let (a, b) = part.split_once('-').unwrap_or((part, part));
@@ -144,17 +148,16 @@ fn parse_ids(text: &str) -> anyhow::Result<Vec<ModuleId>> {
     Ok(out)
 }
 
-/// How long after a scan request's last byte an RS232 answer must start.
+/// How long after a scan request's last byte an RS232 answer must start
+/// (at least; a longer --timeout makes the scan proportionally patient).
 const SCAN_ANSWER_START: Duration = Duration::from_millis(8);
 
 fn scan(ctx: &Ctx, ids_text: &str) -> anyhow::Result<()> {
     let ids = parse_ids(ids_text)?;
     let mut pc = ctx.powercube()?;
-    if ctx.timeout.is_none() {
-        // An absent module never answers; a present one starts answering right
-        // after the request, so a scan need not wait the whole timeout per id.
-        pc.set_answer_start_timeout(Some(SCAN_ANSWER_START));
-    }
+    // An absent module never answers; a present one starts answering right
+    // after the request, so a scan need not wait the whole timeout per id.
+    pc.set_answer_start_timeout(Some(SCAN_ANSWER_START.max(pc.timeout() / 8)));
     let probes: Vec<_> = ids.iter().map(|m| (*m, Request::GetExtended { param: ids::DEF_CUBE_VERSION })).collect();
     let answers = pc.transact_many(&probes)?;
     let mut found = Vec::new();
@@ -360,13 +363,7 @@ fn present_modules(pc: &mut PowerCube) -> anyhow::Result<Vec<ModuleId>> {
 /// Motion is refused while the module reports an error or is halted: it
 /// would not move, and the user should reset first.
 fn refuse_if_faulted(pc: &mut PowerCube, m: ModuleId) -> anyhow::Result<()> {
-    let cube = read_state(pc, m)?;
-    let d = flags::CUBE_STATE.decode(cube);
-    if d.has_error() || cube & state::HALTED != 0 {
-        let mut why = d.errors.clone();
-        if cube & state::HALTED != 0 {
-            why.push("STATE_HALTED");
-        }
+    if let Some(why) = limits::not_ready(read_state(pc, m)?) {
         return Err(DeviceFault(format!(
             "module {m} is not ready ({}): clear it with `axisctl reset -m {m}`",
             why.join(", ")
@@ -397,14 +394,7 @@ fn wait_until(
     let clock = std::sync::Arc::clone(pc.clock());
     let start = clock.now();
     let limit = Duration::from_secs_f64(wait.wait_timeout.max(0.0));
-    let bar = (!ctx.json).then(|| {
-        let bar = indicatif::ProgressBar::new_spinner();
-        bar.set_style(
-            indicatif::ProgressStyle::with_template("{spinner} [{elapsed_precise}] {msg}")
-                .unwrap_or_else(|_| indicatif::ProgressStyle::default_spinner()),
-        );
-        bar
-    });
+    let bar = crate::output::spinner(ctx.json);
     let halt = |pc: &mut PowerCube| pc.transact(m, &Request::Halt);
     let result = loop {
         if interrupted() {
@@ -477,67 +467,22 @@ fn print_wait_results(ctx: &Ctx, what: &str, results: &[WaitEnd]) {
 }
 
 /// The module's own limits, read before any motion command.
-struct Limits {
-    min_pos: f64,
-    max_pos: f64,
-    max_vel: f64,
-    max_acc: f64,
-    max_cur: f64,
-}
-
 fn read_limits(pc: &mut PowerCube, m: ModuleId, ticks: bool) -> anyhow::Result<Limits> {
-    let set: [u8; 5] = if ticks {
-        [ids::ACT_I_MIN_POS, ids::ACT_I_MAX_POS, ids::ACT_I_MAX_VEL, ids::ACT_I_MAX_ACC, ids::MAX_CUR]
-    } else {
-        [ids::MIN_POS, ids::MAX_POS, ids::MAX_VEL, ids::MAX_ACC, ids::MAX_CUR]
-    };
-    let defs: Vec<_> = set.iter().map(|id| param(*id)).collect();
+    let defs: Vec<_> = Limits::param_ids(ticks).iter().map(|id| param(*id)).collect();
     let v = get_many(pc, m, &defs)?;
-    Ok(Limits {
-        min_pos: f64_of(&v[0]),
-        max_pos: f64_of(&v[1]),
-        max_vel: f64_of(&v[2]),
-        max_acc: f64_of(&v[3]),
-        max_cur: f64_of(&v[4]),
-    })
+    Ok(Limits::from_values([0, 1, 2, 3, 4].map(|i| f64_of(&v[i])), ticks))
 }
 
-/// A named limit check: exit 2 with the limit's name, nothing sent.
-fn check(ok: bool, what: &str, value: f64, limit_name: &str, limit: f64, m: ModuleId) -> anyhow::Result<()> {
-    if ok {
-        Ok(())
-    } else {
-        Err(usage(format!(
-            "{what} {value} exceeds module {m}'s {limit_name} = {limit}; nothing was sent (use --force to skip this check)"
-        )))
+/// A refused value: exit 2 naming the limit, nothing sent.
+fn refused(e: LimitError) -> anyhow::Error {
+    match e {
+        LimitError::Exceeds { .. } => usage(format!("{e} (use --force to skip this check)")),
+        other => usage(other.to_string()),
     }
 }
 
-fn check_pos(l: &Limits, pos: f64, m: ModuleId, ticks: bool) -> anyhow::Result<()> {
-    let (lo, hi) = if ticks { ("ActIMinPos", "ActIMaxPos") } else { ("MinPos", "MaxPos") };
-    check(pos >= l.min_pos, "target position", pos, lo, l.min_pos, m)?;
-    check(pos <= l.max_pos, "target position", pos, hi, l.max_pos, m)
-}
-
-fn check_finite(name: &str, v: f64) -> anyhow::Result<()> {
-    if v.is_finite() {
-        Ok(())
-    } else {
-        Err(usage(format!("{name} {v} is not a finite number")))
-    }
-}
-
-/// A target as the motion's wire type, range-checked for that type.
-fn motion_value(v: f64, ticks: bool, what: &str) -> anyhow::Result<MotionValue> {
-    check_finite(what, v)?;
-    if ticks {
-        if v.fract() != 0.0 || v < f64::from(i32::MIN) || v > f64::from(i32::MAX) {
-            return Err(usage(format!("{what} {v} is not a whole number of encoder ticks in the Int32 range")));
-        }
-        Ok(MotionValue::Int32(v as i32))
-    } else {
-        Ok(MotionValue::Float(v as f32))
-    }
+fn motion_value(v: f64, ticks: bool, what: &'static str) -> anyhow::Result<MotionValue> {
+    limits::motion_value(v, ticks, what).map_err(refused)
 }
 
 fn send_motion(ctx: &Ctx, pc: &mut PowerCube, m: ModuleId, motion: Motion) -> anyhow::Result<Response> {
@@ -565,21 +510,19 @@ fn move_ramp(
     let acc_v = acc.map(|a| motion_value(a, ticks, "acceleration")).transpose()?;
     for (name, v) in [("velocity", vel), ("acceleration", acc)] {
         if let Some(v) = v {
-            if v <= 0.0 {
-                return Err(usage(format!("{name} must be positive, got {v}")));
-            }
+            limits::check_positive(name, v).map_err(refused)?;
         }
     }
     let mut pc = ctx.powercube()?;
     refuse_if_faulted(&mut pc, m)?;
     if !force {
         let l = read_limits(&mut pc, m, ticks)?;
-        check_pos(&l, pos, m, ticks)?;
+        l.check_pos(pos, m).map_err(refused)?;
         if let Some(v) = vel {
-            check(v <= l.max_vel, "velocity", v, if ticks { "ActIMaxVel" } else { "MaxVel" }, l.max_vel, m)?;
+            l.check_vel(v, m).map_err(refused)?;
         }
         if let Some(a) = acc {
-            check(a <= l.max_acc, "acceleration", a, if ticks { "ActIMaxAcc" } else { "MaxAcc" }, l.max_acc, m)?;
+            l.check_acc(a, m).map_err(refused)?;
         }
     }
     let (vel_id, acc_id) =
@@ -620,7 +563,7 @@ fn move_step(ctx: &Ctx, m: ModuleId, pos: f64, time: u16, ticks: bool, force: bo
     let mut pc = ctx.powercube()?;
     refuse_if_faulted(&mut pc, m)?;
     if !force {
-        check_pos(&read_limits(&mut pc, m, ticks)?, pos, m, ticks)?;
+        read_limits(&mut pc, m, ticks)?.check_pos(pos, m).map_err(refused)?;
     }
     let id = if ticks { 11 } else { 6 };
     send_motion(ctx, &mut pc, m, Motion { id, value: target, time_ms: Some(time) })?;
@@ -637,8 +580,7 @@ fn move_vel(ctx: &Ctx, m: ModuleId, vel: f64, ticks: bool, force: bool) -> anyho
     let mut pc = ctx.powercube()?;
     refuse_if_faulted(&mut pc, m)?;
     if !force {
-        let l = read_limits(&mut pc, m, ticks)?;
-        check(vel.abs() <= l.max_vel, "velocity", vel, if ticks { "ActIMaxVel" } else { "MaxVel" }, l.max_vel, m)?;
+        read_limits(&mut pc, m, ticks)?.check_vel(vel, m).map_err(refused)?;
     }
     send_motion(ctx, &mut pc, m, Motion { id: if ticks { 12 } else { 7 }, value, time_ms: None })?;
     if ctx.json {
@@ -648,12 +590,11 @@ fn move_vel(ctx: &Ctx, m: ModuleId, vel: f64, ticks: bool, force: bool) -> anyho
 }
 
 fn move_cur(ctx: &Ctx, m: ModuleId, amps: f64, force: bool) -> anyhow::Result<()> {
-    check_finite("current", amps)?;
+    limits::check_finite("current", amps).map_err(refused)?;
     let mut pc = ctx.powercube()?;
     refuse_if_faulted(&mut pc, m)?;
     if !force {
-        let l = read_limits(&mut pc, m, false)?;
-        check(amps.abs() <= l.max_cur, "current", amps, "MaxCur", l.max_cur, m)?;
+        read_limits(&mut pc, m, false)?.check_cur(amps, m).map_err(refused)?;
     }
     send_motion(ctx, &mut pc, m, Motion { id: 8, value: MotionValue::Float(amps as f32), time_ms: None })?;
     if ctx.json {

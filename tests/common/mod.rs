@@ -6,7 +6,10 @@ use std::process::{Child, Command, Output, Stdio};
 
 pub fn bin() -> Command {
     let mut c = Command::new(env!("CARGO_BIN_EXE_axisctl"));
-    c.env_remove("AXISCTL_LINK").env("NO_COLOR", "1");
+    // Tests check behaviour, not timing: a loaded CI machine must not turn a
+    // slow simulator answer into a timeout. Tests that want the real default
+    // remove the variable.
+    c.env_remove("AXISCTL_LINK").env("NO_COLOR", "1").env("AXISCTL_TIMEOUT", "400");
     c
 }
 

@@ -8,6 +8,7 @@
 pub mod can;
 pub mod flags;
 pub mod frame;
+pub mod limits;
 pub mod rs232;
 pub mod table;
 

@@ -1,0 +1,184 @@
+//! The checks a motion target passes before anything is sent: finite,
+//! representable in the motion's wire type, and within the module's own
+//! limits (MinPos / MaxPos / MaxVel / MaxAcc / MaxCur, or the ActI* tick
+//! limits). The CLI (`move-*`) and the dashboard (jog, move to a typed
+//! target) both call these, so both refuse exactly the same input with the
+//! same words.
+
+use super::{ModuleId, MotionValue};
+
+/// A module's limits as read from it (units, or encoder ticks when `ticks`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Limits {
+    pub min_pos: f64,
+    pub max_pos: f64,
+    pub max_vel: f64,
+    pub max_acc: f64,
+    pub max_cur: f64,
+    /// The position / velocity / acceleration limits are ActIMinPos.. (ticks).
+    pub ticks: bool,
+}
+
+/// Why a value was refused; nothing was sent.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum LimitError {
+    #[error("{what} {value} exceeds module {module}'s {limit_name} = {limit}; nothing was sent")]
+    Exceeds { what: &'static str, value: f64, module: ModuleId, limit_name: &'static str, limit: f64 },
+    #[error("{what} {value} is not a finite number")]
+    NotFinite { what: &'static str, value: f64 },
+    #[error("{what} {value} is not a whole number of encoder ticks in the Int32 range")]
+    NotTicks { what: &'static str, value: f64 },
+    #[error("{what} must be positive, got {value}")]
+    NotPositive { what: &'static str, value: f64 },
+}
+
+fn check(
+    ok: bool,
+    what: &'static str,
+    value: f64,
+    limit_name: &'static str,
+    limit: f64,
+    module: ModuleId,
+) -> Result<(), LimitError> {
+    if ok {
+        Ok(())
+    } else {
+        Err(LimitError::Exceeds { what, value, module, limit_name, limit })
+    }
+}
+
+impl Limits {
+    /// The parameter ids to read, in the order of the fields.
+    pub fn param_ids(ticks: bool) -> [u8; 5] {
+        use super::table::ids;
+        if ticks {
+            [ids::ACT_I_MIN_POS, ids::ACT_I_MAX_POS, ids::ACT_I_MAX_VEL, ids::ACT_I_MAX_ACC, ids::MAX_CUR]
+        } else {
+            [ids::MIN_POS, ids::MAX_POS, ids::MAX_VEL, ids::MAX_ACC, ids::MAX_CUR]
+        }
+    }
+
+    /// From the values of [`Limits::param_ids`], in order.
+    pub fn from_values(v: [f64; 5], ticks: bool) -> Self {
+        Self { min_pos: v[0], max_pos: v[1], max_vel: v[2], max_acc: v[3], max_cur: v[4], ticks }
+    }
+
+    pub fn check_pos(&self, pos: f64, m: ModuleId) -> Result<(), LimitError> {
+        check_finite("target position", pos)?;
+        let (lo, hi) = if self.ticks { ("ActIMinPos", "ActIMaxPos") } else { ("MinPos", "MaxPos") };
+        check(pos >= self.min_pos, "target position", pos, lo, self.min_pos, m)?;
+        check(pos <= self.max_pos, "target position", pos, hi, self.max_pos, m)
+    }
+
+    /// A velocity's magnitude against MaxVel.
+    pub fn check_vel(&self, vel: f64, m: ModuleId) -> Result<(), LimitError> {
+        check_finite("velocity", vel)?;
+        let name = if self.ticks { "ActIMaxVel" } else { "MaxVel" };
+        check(vel.abs() <= self.max_vel, "velocity", vel, name, self.max_vel, m)
+    }
+
+    pub fn check_acc(&self, acc: f64, m: ModuleId) -> Result<(), LimitError> {
+        check_finite("acceleration", acc)?;
+        let name = if self.ticks { "ActIMaxAcc" } else { "MaxAcc" };
+        check(acc <= self.max_acc, "acceleration", acc, name, self.max_acc, m)
+    }
+
+    /// A current's magnitude against MaxCur.
+    pub fn check_cur(&self, amps: f64, m: ModuleId) -> Result<(), LimitError> {
+        check_finite("current", amps)?;
+        check(amps.abs() <= self.max_cur, "current", amps, "MaxCur", self.max_cur, m)
+    }
+}
+
+pub fn check_finite(what: &'static str, value: f64) -> Result<(), LimitError> {
+    if value.is_finite() {
+        Ok(())
+    } else {
+        Err(LimitError::NotFinite { what, value })
+    }
+}
+
+/// Ramp velocities and accelerations must be positive.
+pub fn check_positive(what: &'static str, value: f64) -> Result<(), LimitError> {
+    if value > 0.0 {
+        Ok(())
+    } else {
+        Err(LimitError::NotPositive { what, value })
+    }
+}
+
+/// Why a module in this CubeState takes no motion command (error flags, or
+/// halted), or `None` when it does: it would not move, and the user should
+/// reset it first.
+pub fn not_ready(cube_state: u32) -> Option<Vec<&'static str>> {
+    use super::flags::{state, CUBE_STATE};
+    let mut why = CUBE_STATE.decode(cube_state).errors;
+    if cube_state & state::HALTED != 0 {
+        why.push("STATE_HALTED");
+    }
+    (!why.is_empty()).then_some(why)
+}
+
+/// A value as the motion's wire type, range-checked for that type.
+pub fn motion_value(v: f64, ticks: bool, what: &'static str) -> Result<MotionValue, LimitError> {
+    check_finite(what, v)?;
+    if ticks {
+        if v.fract() != 0.0 || v < f64::from(i32::MIN) || v > f64::from(i32::MAX) {
+            return Err(LimitError::NotTicks { what, value: v });
+        }
+        Ok(MotionValue::Int32(v as i32))
+    } else {
+        Ok(MotionValue::Float(v as f32))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn m17() -> ModuleId {
+        ModuleId::new(17).unwrap()
+    }
+
+    const LIN: Limits = Limits { min_pos: 0.0, max_pos: 1.0, max_vel: 0.1, max_acc: 0.5, max_cur: 5.0, ticks: false };
+
+    #[test]
+    fn refusals_name_the_limit_and_say_nothing_was_sent() {
+        assert_eq!(
+            LIN.check_pos(5.0, m17()).unwrap_err().to_string(),
+            "target position 5 exceeds module 17's MaxPos = 1; nothing was sent"
+        );
+        assert_eq!(
+            LIN.check_pos(-0.5, m17()).unwrap_err().to_string(),
+            "target position -0.5 exceeds module 17's MinPos = 0; nothing was sent"
+        );
+        assert!(LIN.check_pos(0.75, m17()).is_ok());
+        assert!(LIN.check_pos(1.0, m17()).is_ok(), "the limit itself is allowed");
+        assert!(matches!(LIN.check_vel(-0.2, m17()), Err(LimitError::Exceeds { limit_name: "MaxVel", .. })));
+        assert!(LIN.check_vel(-0.1, m17()).is_ok());
+        assert!(matches!(LIN.check_cur(6.0, m17()), Err(LimitError::Exceeds { limit_name: "MaxCur", .. })));
+        assert!(matches!(LIN.check_pos(f64::NAN, m17()), Err(LimitError::NotFinite { .. })));
+        let ticks = Limits { ticks: true, ..LIN };
+        assert!(matches!(ticks.check_pos(2.0, m17()), Err(LimitError::Exceeds { limit_name: "ActIMaxPos", .. })));
+    }
+
+    #[test]
+    fn halted_or_faulted_modules_are_not_ready() {
+        use crate::proto::powercube::flags::state;
+        assert_eq!(not_ready(state::HOME_OK | state::RAMP_END), None);
+        assert_eq!(not_ready(state::HALTED | state::HOME_OK), Some(vec!["STATE_HALTED"]));
+        assert_eq!(
+            not_ready(state::ERROR | state::TOW_ERROR | state::HALTED),
+            Some(vec!["STATE_ERROR", "STATE_TOW_ERROR", "STATE_HALTED"])
+        );
+    }
+
+    #[test]
+    fn tick_values_must_be_whole_int32() {
+        assert_eq!(motion_value(12.0, true, "target position"), Ok(MotionValue::Int32(12)));
+        assert!(matches!(motion_value(1.5, true, "x"), Err(LimitError::NotTicks { .. })));
+        assert!(matches!(motion_value(3e9, true, "x"), Err(LimitError::NotTicks { .. })));
+        assert_eq!(motion_value(0.25, false, "x"), Ok(MotionValue::Float(0.25)));
+        assert!(matches!(check_positive("velocity", 0.0), Err(LimitError::NotPositive { .. })));
+    }
+}

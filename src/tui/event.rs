@@ -1,0 +1,48 @@
+//! Everything the dashboard reacts to arrives as one [`Event`]: keys, what
+//! the link workers report, and clock ticks. What it asks of the workers
+//! goes out as [`ToWorker`].
+
+use std::time::{Duration, Instant};
+
+use crossterm::event::KeyEvent;
+
+use super::source::{Action, DeviceKey, Health, Snapshot};
+
+/// Index of a link (and of its worker) in the order the links were opened.
+pub type LinkId = usize;
+
+#[derive(Debug, Clone)]
+pub enum Event {
+    Key(KeyEvent),
+    Link(LinkEvent),
+    /// Time passes: ages data, ends highlights. Carries the clock's now.
+    Tick(Instant),
+}
+
+/// What a link worker reports.
+#[derive(Debug, Clone)]
+pub enum LinkEvent {
+    /// The devices found on the link (or given on the command line).
+    Discovered { link: LinkId, devices: Vec<DeviceKey>, errors: Vec<String> },
+    /// One poll of one device.
+    Polled { link: LinkId, device: DeviceKey, at: Instant, result: Result<Snapshot, String>, health: Health },
+    /// An action carried out (or refused); `device` is `None` for link-wide
+    /// parts of a halt-all (the PowerCube broadcast).
+    Acted { link: LinkId, device: Option<DeviceKey>, what: String, at: Instant, result: Result<String, String> },
+    /// One round over every device: how long it took, and the time since the
+    /// previous round started (the achieved poll period).
+    Cycle { link: LinkId, busy: Duration, period: Duration },
+    /// The worker stopped (its link failed for good, or it panicked).
+    Ended { link: LinkId, why: String },
+}
+
+/// What the UI asks of a worker.
+#[derive(Debug, Clone, PartialEq)]
+pub enum ToWorker {
+    Act(DeviceKey, Action),
+    /// Stop everything on the link; goes before anything else queued.
+    HaltAll,
+    /// Polls per second wanted.
+    SetRate(f64),
+    Quit,
+}

@@ -1,0 +1,190 @@
+//! `axisctl dashboard`: a ratatui screen over every device on the links.
+//!
+//! - [`app`]: the state, pure: events in, requests for the workers out.
+//! - [`event`]: the one [`event::Event`] enum (keys, worker reports, ticks).
+//! - [`ui`]: drawing, a pure function of the state.
+//! - [`worker`]: one thread per link, polling its device sources.
+//! - [`source`] and the family modules: what a device source is and does.
+//! - [`keys`]: the key bindings, declared once.
+//!
+//! The terminal is restored by a guard on every way out of [`run`] and by a
+//! panic hook when the UI thread panics.
+
+pub mod app;
+pub mod cdios;
+pub mod event;
+pub mod keys;
+pub mod pac;
+pub mod powercube;
+pub mod source;
+pub mod ui;
+pub mod worker;
+
+#[cfg(test)]
+mod tests;
+
+use std::io::{self, Stdout};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::mpsc;
+use std::sync::Arc;
+use std::time::Duration;
+
+use crossterm::event::{self as ct, Event as CtEvent};
+use crossterm::terminal::{disable_raw_mode, enable_raw_mode, EnterAlternateScreen, LeaveAlternateScreen};
+use crossterm::{cursor, execute};
+use ratatui::backend::{Backend, CrosstermBackend};
+use ratatui::Terminal;
+
+use crate::clock::Clock;
+use app::{App, LinkView};
+use event::{Event, ToWorker};
+use source::DeviceSource;
+use worker::LinkWorker;
+
+/// How often the screen is redrawn when nothing else happens (ages, highlights).
+pub const TICK: Duration = Duration::from_millis(100);
+
+/// The range a Cdios goto position takes (the table's goto field).
+pub fn cdios_target_range() -> (i64, i64) {
+    crate::proto::cdios::table::command("goto")
+        .and_then(|c| c.field("position"))
+        .map_or((i64::from(i32::MIN), i64::from(i32::MAX)), |f| (f.min, f.max))
+}
+
+/// One link to open: its name for the status bar and its device sources.
+pub struct LinkPlan {
+    pub name: String,
+    pub sources: Vec<Box<dyn DeviceSource>>,
+}
+
+/// Set while the terminal is in raw mode on the alternate screen.
+static TERMINAL_TAKEN: AtomicBool = AtomicBool::new(false);
+
+/// Leaves raw mode and the alternate screen, once: leaving the alternate
+/// screen twice would move the cursor back over what was printed between
+/// (a panic message, say).
+pub fn restore_terminal() {
+    if TERMINAL_TAKEN.swap(false, Ordering::SeqCst) {
+        let _ = disable_raw_mode();
+        let _ = execute!(io::stdout(), LeaveAlternateScreen, cursor::Show);
+    }
+}
+
+struct TerminalGuard;
+
+impl Drop for TerminalGuard {
+    fn drop(&mut self) {
+        restore_terminal();
+    }
+}
+
+/// Restores the terminal before the default hook prints a UI-thread panic
+/// (so the message lands on a normal screen). Worker panics are reported in
+/// the event pane instead and leave the screen alone.
+fn install_panic_hook() {
+    let ui_thread = std::thread::current().id();
+    let default = std::panic::take_hook();
+    std::panic::set_hook(Box::new(move |info| {
+        if std::thread::current().id() == ui_thread {
+            restore_terminal();
+            default(info);
+        }
+    }));
+}
+
+/// Runs the dashboard until the user quits.
+pub fn run(plans: Vec<LinkPlan>, rate: f64, clock: Arc<dyn Clock>) -> anyhow::Result<()> {
+    install_panic_hook();
+    enable_raw_mode()?;
+    TERMINAL_TAKEN.store(true, Ordering::SeqCst);
+    let _guard = TerminalGuard;
+    execute!(io::stdout(), EnterAlternateScreen, cursor::Hide)?;
+    let mut terminal: Terminal<CrosstermBackend<Stdout>> = Terminal::new(CrosstermBackend::new(io::stdout()))?;
+    terminal.clear()?;
+    let r = run_loop(&mut terminal, plans, rate, clock);
+    drop(terminal);
+    r
+}
+
+/// Spawns the workers and merges keys, worker reports and ticks into one
+/// stream of [`Event`]s for the [`App`]; draws after each batch.
+pub fn run_loop<B: Backend>(
+    terminal: &mut Terminal<B>,
+    plans: Vec<LinkPlan>,
+    rate: f64,
+    clock: Arc<dyn Clock>,
+) -> anyhow::Result<()>
+where
+    B::Error: Send + Sync + 'static,
+{
+    let (tx, rx) = mpsc::channel::<Event>();
+    let mut links = Vec::new();
+    let mut senders = Vec::new();
+    let mut handles = Vec::new();
+    for (i, plan) in plans.into_iter().enumerate() {
+        let families = plan.sources.iter().map(|s| s.family()).collect();
+        links.push(LinkView::new(plan.name, families, rate));
+        let (wtx, h) = worker::spawn(LinkWorker::new(i, plan.sources, Arc::clone(&clock), rate), tx.clone());
+        senders.push(wtx);
+        handles.push(h);
+    }
+    // Keys come from their own thread so that a slow draw never drops one.
+    let key_tx = tx.clone();
+    std::thread::Builder::new().name("axisctl-keys".into()).spawn(move || loop {
+        match ct::poll(TICK) {
+            Ok(true) => match ct::read() {
+                Ok(CtEvent::Key(k)) => {
+                    if key_tx.send(Event::Key(k)).is_err() {
+                        return;
+                    }
+                }
+                Ok(_) => {}
+                Err(_) => return,
+            },
+            Ok(false) => {}
+            Err(_) => return,
+        }
+    })?;
+    drop(tx);
+    // For the smoke test that a panic restores the terminal: `!` panics the
+    // UI thread when this variable is set, and is unbound otherwise.
+    let panic_key = std::env::var_os("AXISCTL_TEST_PANIC_KEY").is_some();
+    let mut app = App::new(links, rate, clock.now());
+    app.log(app::Level::Info, "press ? for the keys, space to halt everything");
+    loop {
+        terminal.draw(|f| ui::draw(f, &app))?;
+        let first = match rx.recv_timeout(TICK) {
+            Ok(ev) => Some(ev),
+            Err(mpsc::RecvTimeoutError::Timeout) => None,
+            Err(mpsc::RecvTimeoutError::Disconnected) => break,
+        };
+        let mut batch: Vec<Event> = first.into_iter().collect();
+        batch.extend(rx.try_iter().take(1000));
+        batch.push(Event::Tick(clock.now()));
+        for ev in batch {
+            if let Event::Key(k) = &ev {
+                if panic_key && k.code == ct::KeyCode::Char('!') {
+                    panic!("test panic requested with AXISCTL_TEST_PANIC_KEY");
+                }
+            }
+            for out in app.handle(ev) {
+                // A worker that is gone has reported why; nothing to do here.
+                let _ = senders[out.link].send(out.msg);
+            }
+        }
+        if app.quit {
+            break;
+        }
+    }
+    for s in &senders {
+        let _ = s.send(ToWorker::Quit);
+    }
+    // Workers finish their current transaction; do not hang on a dead link.
+    let deadline = std::time::Instant::now() + Duration::from_secs(2);
+    for h in handles {
+        while !h.is_finished() && std::time::Instant::now() < deadline {
+            std::thread::sleep(Duration::from_millis(5));
+        }
+    }
+    Ok(())
+}

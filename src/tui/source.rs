@@ -1,0 +1,233 @@
+//! Device sources: one per family on a link. A source owns its session,
+//! turns polls into typed [`Snapshot`]s and carries out [`Action`]s. The
+//! worker of a link ([`super::worker`]) drives its sources one call at a
+//! time, so a source never waits on anything but its own transactions.
+
+use std::sync::{Arc, Mutex};
+use std::time::Duration;
+
+use crate::link::{CanLink, LinkError};
+use crate::proto::powercube::limits::Limits;
+use crate::proto::CanFrame;
+use crate::session::SessionError;
+
+/// Which family a device belongs to.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum Family {
+    PowerCube,
+    Pac,
+    Cdios,
+}
+
+impl Family {
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::PowerCube => "PowerCube",
+            Self::Pac => "PA-CONTROL",
+            Self::Cdios => "Cdios",
+        }
+    }
+}
+
+/// One device on the dashboard.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum DeviceKey {
+    /// A PowerCube module, 1..=31.
+    Cube(u8),
+    /// The PA-CONTROL itself (operating status, error number).
+    PacController,
+    /// A PA-CONTROL axis, 1..=16.
+    PacAxis(u8),
+    /// A Cdios 6168 module on a node.
+    Cdios { node: u8, module: u8 },
+}
+
+impl DeviceKey {
+    pub fn family(self) -> Family {
+        match self {
+            Self::Cube(_) => Family::PowerCube,
+            Self::PacController | Self::PacAxis(_) => Family::Pac,
+            Self::Cdios { .. } => Family::Cdios,
+        }
+    }
+
+    /// `module 17`, `axis 2`, `node 1 module 0`: how events name it.
+    pub fn label(self) -> String {
+        match self {
+            Self::Cube(m) => format!("PowerCube {m}"),
+            Self::PacController => "PA-CONTROL".into(),
+            Self::PacAxis(a) => format!("PA axis {a}"),
+            Self::Cdios { node, module } => format!("Cdios {node}/{module}"),
+        }
+    }
+}
+
+/// A PowerCube module as last read.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CubeSnap {
+    pub linear: bool,
+    pub pos: f64,
+    pub vel: f64,
+    pub cur: f64,
+    pub temp: f64,
+    pub motor_v: f64,
+    pub logic_v: f64,
+    pub cube_state: u32,
+    pub limits: Limits,
+}
+
+/// The PA-CONTROL controller as last read.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PacCtrlSnap {
+    /// Operating status (manual 6.4), e.g. 31 online.
+    pub status: u16,
+    /// PA-CONTROL error number; 0 = none.
+    pub error: u16,
+    pub axes: u8,
+}
+
+/// One PA-CONTROL axis as last read.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PacAxisSnap {
+    pub position: f64,
+    pub speed: f64,
+    /// 1910: 0 in position, 1 moving, 2 stopped, 4 fault, 8 measuring.
+    pub status: i64,
+    /// 1921: extended status word.
+    pub ext_status: u32,
+    /// Traverse area (1913 / 1914), when the controller reports it.
+    pub min_pos: Option<f64>,
+    pub max_pos: Option<f64>,
+}
+
+/// A Cdios 6168 module as last read.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CdiosSnap {
+    pub position: i64,
+    pub setpoint: i64,
+    pub speed: i64,
+    pub rpm_error: i64,
+    pub status: [u8; 4],
+}
+
+/// What one poll of one device returns.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Snapshot {
+    Cube(CubeSnap),
+    PacController(PacCtrlSnap),
+    PacAxis(PacAxisSnap),
+    Cdios(CdiosSnap),
+}
+
+/// What the user asks of the selected device.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Action {
+    /// Homing (PowerCube), reference drive (PA-CONTROL).
+    Home,
+    /// Clear the error state.
+    Reset,
+    /// Halt / stop this device.
+    Halt,
+    Enable,
+    Disable,
+    /// Move by this much from the current position.
+    Jog(f64),
+    /// Move to this absolute position.
+    MoveTo(f64),
+    /// PA-CONTROL: switch to online mode.
+    Online,
+    /// PA-CONTROL: leave online mode.
+    Offline,
+}
+
+impl Action {
+    pub fn name(self) -> String {
+        match self {
+            Self::Home => "home".into(),
+            Self::Reset => "reset".into(),
+            Self::Halt => "halt".into(),
+            Self::Enable => "enable".into(),
+            Self::Disable => "disable".into(),
+            Self::Jog(d) => format!("jog {d:+}"),
+            Self::MoveTo(p) => format!("move to {p}"),
+            Self::Online => "online".into(),
+            Self::Offline => "offline".into(),
+        }
+    }
+
+    /// Whether the action makes something move (never retried).
+    pub fn is_motion(self) -> bool {
+        matches!(self, Self::Home | Self::Jog(_) | Self::MoveTo(_))
+    }
+}
+
+/// Why a poll or an action failed.
+#[derive(Debug, thiserror::Error)]
+pub enum SourceError {
+    /// The exchange failed: link, timeout, malformed answer or device refusal.
+    #[error(transparent)]
+    Session(#[from] SessionError),
+    /// Refused before anything was sent (a limit, a bad value, a fault).
+    #[error("{0}")]
+    Refused(String),
+    /// The family has no such action.
+    #[error("{0}")]
+    Unsupported(String),
+}
+
+impl SourceError {
+    /// Health counters: an answer that says no is still an answer.
+    pub fn health(&self) -> Health {
+        match self {
+            Self::Session(SessionError::Timeout { .. }) => Health::Timeout,
+            Self::Session(SessionError::Device { .. }) | Self::Refused(_) | Self::Unsupported(_) => Health::Answer,
+            Self::Session(_) => Health::Error,
+        }
+    }
+}
+
+/// How one exchange with the link went, for the link health counters.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Health {
+    Answer,
+    Timeout,
+    Error,
+}
+
+/// One line of a halt-all report.
+pub type HaltReport = (Option<DeviceKey>, Result<String, SourceError>);
+
+/// A family on a link.
+pub trait DeviceSource: Send {
+    fn family(&self) -> Family;
+    /// The devices to show: the ones given on the command line, or a scan.
+    fn discover(&mut self) -> Result<Vec<DeviceKey>, SourceError>;
+    /// Reads one device.
+    fn poll(&mut self, dev: DeviceKey) -> Result<Snapshot, SourceError>;
+    /// Carries out an action; the text says what was done.
+    fn act(&mut self, dev: DeviceKey, action: Action) -> Result<String, SourceError>;
+    /// Stops every device of the family, as fast as the link allows.
+    fn halt_all(&mut self) -> Vec<HaltReport>;
+}
+
+/// One CAN link shared by several sources of one worker (PowerCube and
+/// Cdios on one bus): the worker runs one transaction at a time, so the
+/// lock is never contended; a session drops the other family's frames it
+/// reads, which are answers to nobody by then.
+#[derive(Clone)]
+pub struct SharedCan(Arc<Mutex<Box<dyn CanLink>>>);
+
+impl SharedCan {
+    pub fn new(link: Box<dyn CanLink>) -> Self {
+        Self(Arc::new(Mutex::new(link)))
+    }
+}
+
+impl CanLink for SharedCan {
+    fn send(&mut self, frame: &CanFrame) -> Result<(), LinkError> {
+        crate::sim::bench::lock(&self.0).send(frame)
+    }
+    fn recv(&mut self, timeout: Duration) -> Result<Option<CanFrame>, LinkError> {
+        crate::sim::bench::lock(&self.0).recv(timeout)
+    }
+}

@@ -1,0 +1,553 @@
+//! The dashboard on a virtual-time bench: the App, real workers and device
+//! sources, the simulators, and ratatui's TestBackend. Snapshots are of the
+//! text on screen; colours are checked cell by cell where they carry meaning.
+
+use std::sync::Arc;
+use std::time::Duration;
+
+use crossterm::event::{KeyCode, KeyEvent, KeyModifiers};
+use ratatui::backend::TestBackend;
+use ratatui::style::Color;
+use ratatui::Terminal;
+
+use super::app::{App, LinkView, Mode};
+use super::cdios::CdiosSource;
+use super::event::{Event, LinkEvent, ToWorker};
+use super::pac::PacSource;
+use super::powercube::CubeSource;
+use super::source::{DeviceKey, DeviceSource, Family, SharedCan, Snapshot};
+use super::ui;
+use super::worker::LinkWorker;
+use crate::clock::{Clock, VirtualClock};
+use crate::link::mem::Fault;
+use crate::link::SerialFormat;
+use crate::proto::cdios::NodeId;
+use crate::proto::powercube::flags::state;
+use crate::proto::CanFrame;
+use crate::session::cdios::Cdios;
+use crate::session::pac::Pac;
+use crate::session::powercube::PowerCube;
+use crate::session::RetryPolicy;
+use crate::sim::bench::{lock, Bench};
+
+/// Drops every frame the devices send: a link that stops answering.
+struct Silence;
+impl Fault for Silence {
+    fn device_frame(&mut self, _frame: CanFrame) -> Vec<CanFrame> {
+        vec![]
+    }
+}
+
+struct Rig {
+    clock: VirtualClock,
+    bench: Bench,
+    workers: Vec<LinkWorker>,
+    app: App,
+    sent: Vec<ToWorker>,
+}
+
+impl Rig {
+    /// The contract bench; every family that has a source, each on its link.
+    fn new() -> Self {
+        let clock = VirtualClock::new();
+        let shared: Arc<dyn Clock> = Arc::new(clock.clone());
+        let bench = Bench::contract(Arc::clone(&shared));
+        let can = SharedCan::new(Box::new(bench.bus.open()));
+        let cube: Box<dyn DeviceSource> =
+            Box::new(CubeSource::new(PowerCube::over_can(Box::new(can.clone())).with_clock(Arc::clone(&shared)), None));
+        let cdios: Box<dyn DeviceSource> = Box::new(CdiosSource::new(
+            Cdios::new(Box::new(can)).with_clock(Arc::clone(&shared)),
+            NodeId::new(1).unwrap(),
+            None,
+            RetryPolicy::default(),
+        ));
+        let sources = vec![cube, cdios];
+        let pac_link: Box<dyn crate::link::ByteLink> = Box::new(bench.pac_link(Arc::clone(&shared)));
+        let pac = Pac::new(pac_link, 9600, SerialFormat::F7N1).with_clock(Arc::clone(&shared));
+        let pac_sources: Vec<Box<dyn DeviceSource>> = vec![Box::new(PacSource::new(pac, None))];
+        let links = vec![
+            LinkView::new("sim CAN", sources.iter().map(|s| s.family()).collect(), 10.0),
+            LinkView::new("sim RS232", vec![Family::Pac], 10.0),
+        ];
+        let workers = vec![
+            LinkWorker::new(0, sources, Arc::clone(&shared), 10.0),
+            LinkWorker::new(1, pac_sources, Arc::clone(&shared), 10.0),
+        ];
+        let app = App::new(links, 10.0, clock.now());
+        let mut rig = Self { clock, bench, workers, app, sent: Vec::new() };
+        for i in 0..rig.workers.len() {
+            let ev = rig.workers[i].discover();
+            rig.feed(ev);
+        }
+        rig
+    }
+
+    fn feed(&mut self, ev: LinkEvent) {
+        let out = self.app.handle(Event::Link(ev));
+        assert!(out.is_empty(), "worker reports never ask the workers for anything");
+    }
+
+    /// One poll round on every link, reports fed to the App.
+    fn round(&mut self) {
+        for i in 0..self.workers.len() {
+            let mut events = Vec::new();
+            let quit = self.workers[i].round(&mut Vec::new, &mut |ev| events.push(ev));
+            assert!(!quit);
+            for ev in events {
+                self.feed(ev);
+            }
+        }
+    }
+
+    fn advance(&mut self, d: Duration) {
+        self.clock.advance(d);
+        self.app.handle(Event::Tick(self.clock.now()));
+    }
+
+    /// A key press; what the App asks goes to the workers at once.
+    fn key(&mut self, code: KeyCode) {
+        let outs = self.app.handle(Event::Key(KeyEvent::new(code, KeyModifiers::NONE)));
+        for o in outs {
+            self.sent.push(o.msg.clone());
+            let mut events = Vec::new();
+            self.workers[o.link].handle(vec![o.msg], &mut |ev| events.push(ev));
+            for ev in events {
+                self.feed(ev);
+            }
+        }
+    }
+
+    fn keys(&mut self, text: &str) {
+        for c in text.chars() {
+            self.key(KeyCode::Char(c));
+        }
+    }
+
+    fn select(&mut self, key: DeviceKey) {
+        self.app.selected = self.app.devices.iter().position(|d| d.key == key).expect("device listed");
+    }
+
+    fn terminal(&self, w: u16, h: u16) -> Terminal<TestBackend> {
+        let mut t = Terminal::new(TestBackend::new(w, h)).unwrap();
+        t.draw(|f| ui::draw(f, &self.app)).unwrap();
+        t
+    }
+
+    fn screen(&self, w: u16, h: u16) -> String {
+        self.terminal(w, h).backend().to_string()
+    }
+
+    fn cube(&self, id: u8) -> (u32, f32) {
+        let pc = lock(&self.bench.powercube);
+        let m = pc.module(id).unwrap();
+        (m.cube_state(), m.velocity())
+    }
+
+    /// Where `text` starts on the screen, as (x, y).
+    fn find(t: &Terminal<TestBackend>, text: &str) -> Option<(u16, u16)> {
+        let buf = t.backend().buffer();
+        for y in 0..buf.area.height {
+            let row: String = (0..buf.area.width).map(|x| buf[(x, y)].symbol().to_string()).collect();
+            if let Some(i) = row.find(text) {
+                return Some((row[..i].chars().count() as u16, y));
+            }
+        }
+        None
+    }
+}
+
+#[test]
+fn scan_finds_the_contract_modules() {
+    let rig = Rig::new();
+    let keys: Vec<_> = rig.app.devices.iter().map(|d| d.key).collect();
+    assert!(keys.starts_with(&[DeviceKey::Cube(3), DeviceKey::Cube(5), DeviceKey::Cube(17)]), "{keys:?}");
+}
+
+#[test]
+fn powercube_pane_idle() {
+    let mut rig = Rig::new();
+    rig.round();
+    rig.advance(Duration::from_millis(100));
+    rig.round();
+    insta::assert_snapshot!("powercube_idle_80x24", rig.screen(80, 24));
+    insta::assert_snapshot!("powercube_idle_200x50", rig.screen(200, 50));
+}
+
+#[test]
+fn powercube_pane_moving_highlights_changes() {
+    let mut rig = Rig::new();
+    rig.round();
+    rig.select(DeviceKey::Cube(17));
+    rig.key(KeyCode::Char('g'));
+    rig.keys("0.5");
+    assert_eq!(rig.app.mode, Mode::Target("0.5".into()));
+    insta::assert_snapshot!("powercube_target_prompt_80x24", rig.screen(80, 24));
+    rig.key(KeyCode::Enter);
+    assert!(rig.sent.contains(&ToWorker::Act(DeviceKey::Cube(17), super::source::Action::MoveTo(0.5))));
+    rig.advance(Duration::from_millis(1500));
+    rig.round();
+    insta::assert_snapshot!("powercube_moving_80x24", rig.screen(80, 24));
+    let t = rig.terminal(80, 24);
+    let (x, y) = Rig::find(&t, "0.0700").expect("position shown");
+    assert_eq!(t.backend().buffer()[(x, y)].bg, Color::Cyan, "a changed value is highlighted");
+    // Unchanged for longer than the highlight: plain again.
+    rig.advance(Duration::from_secs(20));
+    rig.round();
+    rig.advance(Duration::from_secs(2));
+    rig.round();
+    let t = rig.terminal(80, 24);
+    let (x, y) = Rig::find(&t, "0.5000").expect("arrived");
+    assert_ne!(t.backend().buffer()[(x, y)].bg, Color::Cyan);
+}
+
+#[test]
+fn powercube_pane_error_state() {
+    let mut rig = Rig::new();
+    lock(&rig.bench.powercube).module_mut(5).unwrap().inject_error(state::TOW_ERROR | state::CURLIMIT);
+    rig.round();
+    rig.select(DeviceKey::Cube(5));
+    insta::assert_snapshot!("powercube_error_80x24", rig.screen(80, 24));
+    insta::assert_snapshot!("powercube_error_200x50", rig.screen(200, 50));
+    let t = rig.terminal(80, 24);
+    let (x, y) = Rig::find(&t, "STATE_TOW_ERROR").unwrap();
+    assert_eq!(t.backend().buffer()[(x, y)].fg, Color::Red, "error flags are red");
+    let (x, y) = Rig::find(&t, "STATE_CURLIMIT").unwrap();
+    assert_eq!(t.backend().buffer()[(x, y)].fg, Color::Yellow, "warnings are yellow");
+    let (x, y) = Rig::find(&t, "STATE_HALTED").unwrap();
+    assert_eq!(t.backend().buffer()[(x, y)].fg, Color::Reset, "information is plain");
+    // Moving a faulted module is refused by the worker, nothing sent.
+    rig.keys("+");
+    let last = rig.app.events.back().unwrap().text.clone();
+    assert!(last.contains("not ready") && last.contains("nothing was sent"), "{last}");
+    // Reset clears it.
+    rig.keys("r");
+    rig.round();
+    assert_eq!(rig.cube(5).0 & state::ERROR, 0);
+}
+
+#[test]
+fn stale_link_is_shown_as_stale() {
+    let mut rig = Rig::new();
+    rig.round();
+    rig.bench.bus.set_fault(Some(Box::new(Silence)));
+    rig.advance(Duration::from_millis(100));
+    rig.round();
+    let d = rig.app.device(DeviceKey::Cube(3)).unwrap();
+    assert!(rig.app.stale(d).is_some());
+    assert!(rig.app.links[0].timeouts >= 3, "timeouts counted: {:?}", rig.app.links[0]);
+    insta::assert_snapshot!("stale_link_80x24", rig.screen(80, 24));
+    insta::assert_snapshot!("stale_link_200x50", rig.screen(200, 50));
+    // It answers again: current again.
+    rig.bench.bus.set_fault(None);
+    rig.round();
+    let d = rig.app.device(DeviceKey::Cube(3)).unwrap();
+    assert!(rig.app.stale(d).is_none());
+}
+
+#[test]
+fn old_data_turns_stale_without_a_failed_poll() {
+    let mut rig = Rig::new();
+    rig.round();
+    rig.advance(Duration::from_secs(5));
+    let d = rig.app.device(DeviceKey::Cube(3)).unwrap();
+    assert_eq!(rig.app.stale(d).as_deref(), Some("no data for 5.0 s"));
+}
+
+#[test]
+fn help_overlay_lists_every_key() {
+    let mut rig = Rig::new();
+    rig.round();
+    rig.keys("?");
+    let screen = rig.screen(80, 24);
+    for b in super::keys::KEYS {
+        assert!(screen.contains(b.keys), "help lacks {}", b.keys);
+    }
+    insta::assert_snapshot!("help_80x24", screen);
+    rig.keys("x");
+    assert_eq!(rig.app.mode, Mode::Normal);
+}
+
+#[test]
+fn halt_all_reaches_every_device() {
+    let mut rig = Rig::new();
+    rig.round();
+    rig.select(DeviceKey::Cube(3));
+    rig.keys("h");
+    rig.select(DeviceKey::Cube(17));
+    rig.keys("]]");
+    rig.keys("+");
+    rig.advance(Duration::from_millis(300));
+    rig.round();
+    assert_ne!(rig.cube(3).1, 0.0, "module 3 homing");
+    assert_ne!(rig.cube(17).1, 0.0, "module 17 jogging");
+    // From the prompt, too: space is never part of a target.
+    rig.keys("g1");
+    rig.key(KeyCode::Char(' '));
+    for m in [3, 5, 17] {
+        let (cube, vel) = rig.cube(m);
+        assert_ne!(cube & state::HALTED, 0, "module {m} halted");
+        assert_eq!(vel, 0.0, "module {m} stands");
+    }
+    assert!(rig.sent.iter().all(|m| *m != ToWorker::Act(DeviceKey::Cube(17), super::source::Action::MoveTo(1.0))));
+}
+
+#[test]
+fn targets_are_checked_like_the_cli() {
+    let mut rig = Rig::new();
+    rig.round();
+    rig.select(DeviceKey::Cube(17));
+    rig.keys("g5");
+    rig.key(KeyCode::Enter);
+    assert!(rig.sent.is_empty(), "nothing sent: {:?}", rig.sent);
+    let last = &rig.app.events.back().unwrap().text;
+    assert_eq!(last, "PowerCube 17: target position 5 exceeds module 17's MaxPos = 1; nothing was sent");
+    rig.keys("g1..2");
+    rig.key(KeyCode::Enter);
+    assert!(rig.sent.is_empty());
+    // The worker checks again with fresh limits: a direct request fails the same way.
+    let mut events = Vec::new();
+    rig.workers[0]
+        .handle(vec![ToWorker::Act(DeviceKey::Cube(17), super::source::Action::MoveTo(-1.0))], &mut |e| events.push(e));
+    let LinkEvent::Acted { result: Err(e), .. } = &events[0] else { panic!("{events:?}") };
+    assert!(e.contains("MinPos = 0"), "{e}");
+    assert_eq!(rig.cube(17).1, 0.0);
+}
+
+#[test]
+fn actions_a_family_lacks_are_refused_before_sending() {
+    let mut rig = Rig::new();
+    rig.round();
+    rig.keys("eo");
+    assert!(rig.sent.is_empty());
+    assert!(rig.app.events.iter().any(|e| e.text.contains("no enable / disable")));
+}
+
+#[test]
+fn rate_keys_reach_every_worker() {
+    let mut rig = Rig::new();
+    rig.keys(">");
+    assert_eq!(rig.app.rate, 20.0);
+    assert_eq!(rig.workers[0].rate(), 20.0);
+    rig.keys("<<<");
+    assert_eq!(rig.app.rate, 2.0);
+    assert_eq!(rig.workers[0].rate(), 2.0);
+}
+
+#[test]
+fn quitting_tells_every_worker() {
+    let mut rig = Rig::new();
+    rig.keys("q");
+    assert!(rig.app.quit);
+    assert_eq!(rig.sent, vec![ToWorker::Quit; rig.workers.len()]);
+}
+
+#[test]
+fn snapshots_keep_their_family() {
+    let mut rig = Rig::new();
+    rig.round();
+    for d in &rig.app.devices {
+        match (&d.key, &d.snap) {
+            (DeviceKey::Cube(_), Some(Snapshot::Cube(_))) => assert_eq!(d.key.family(), Family::PowerCube),
+            (DeviceKey::Cdios { .. }, Some(Snapshot::Cdios(_))) => assert_eq!(d.key.family(), Family::Cdios),
+            (DeviceKey::PacController, Some(Snapshot::PacController(_)))
+            | (DeviceKey::PacAxis(_), Some(Snapshot::PacAxis(_))) => assert_eq!(d.key.family(), Family::Pac),
+            (k, s) => panic!("{k:?} has {s:?}"),
+        }
+    }
+}
+
+impl Rig {
+    /// Online, and `axis` referenced (the controller moves only referenced axes).
+    fn pac_online_and_referenced(&mut self, axis: u8) {
+        self.select(DeviceKey::PacController);
+        self.keys("o");
+        self.select(DeviceKey::PacAxis(axis));
+        self.keys("h");
+        for _ in 0..600 {
+            self.advance(Duration::from_millis(100));
+            self.round();
+            if lock(&self.bench.pac).axis_referenced(axis) == Some(true) && lock(&self.bench.pac).busy().is_none() {
+                break;
+            }
+        }
+        self.round();
+        assert!(self.app.stale(self.app.device(DeviceKey::PacAxis(axis)).unwrap()).is_none());
+    }
+
+    fn pac_axis(&self, axis: u8) -> (u8, f64) {
+        let mut pac = lock(&self.bench.pac);
+        pac.advance(self.clock.now());
+        (pac.axis_status(axis).unwrap(), pac.axis_speed(axis).unwrap())
+    }
+
+    fn cdios_motor(&self, m: u8) -> (bool, f64) {
+        let mut node = lock(&self.bench.cdios);
+        node.poll(self.clock.now(), &mut Vec::new());
+        let motor = node.module(m).unwrap();
+        (motor.running(), motor.speed_rpm())
+    }
+
+    /// Every family moving: module 3 homing, module 17 jogging, PA axis 1
+    /// moving online, Cdios module 0 on a long goto.
+    fn everything_moving(&mut self) {
+        self.round();
+        self.pac_online_and_referenced(1);
+        self.keys("g5000");
+        self.key(KeyCode::Enter);
+        self.select(DeviceKey::Cube(3));
+        self.keys("h");
+        self.select(DeviceKey::Cube(17));
+        self.keys("]]+");
+        self.select(DeviceKey::Cdios { node: 1, module: 0 });
+        self.keys("eg1000000");
+        self.key(KeyCode::Enter);
+        self.advance(Duration::from_millis(300));
+        self.round();
+    }
+}
+
+#[test]
+fn pac_panes() {
+    let mut rig = Rig::new();
+    rig.round();
+    rig.select(DeviceKey::PacController);
+    insta::assert_snapshot!("pac_controller_80x24", rig.screen(80, 24));
+    rig.pac_online_and_referenced(2);
+    rig.keys("g2500");
+    rig.key(KeyCode::Enter);
+    rig.advance(Duration::from_millis(500));
+    rig.round();
+    insta::assert_snapshot!("pac_axis_moving_80x24", rig.screen(80, 24));
+    insta::assert_snapshot!("pac_axis_moving_200x50", rig.screen(200, 50));
+    // Outside the traverse area: refused like pac-move, nothing sent.
+    let before = rig.sent.len();
+    rig.keys("g99999");
+    rig.key(KeyCode::Enter);
+    assert_eq!(rig.sent.len(), before);
+    let last = &rig.app.events.back().unwrap().text;
+    assert!(last.contains("outside axis 2's traverse area"), "{last}");
+}
+
+#[test]
+fn pac_reference_drive_keeps_the_line_for_polls() {
+    let mut rig = Rig::new();
+    rig.round();
+    rig.select(DeviceKey::PacController);
+    rig.keys("o");
+    rig.select(DeviceKey::PacAxis(1));
+    rig.keys("h");
+    rig.advance(Duration::from_millis(100));
+    rig.round();
+    let d = rig.app.device(DeviceKey::PacAxis(2)).unwrap();
+    let why = rig.app.stale(d).expect("axes cannot be read during the drive");
+    assert!(why.contains("only polls"), "{why}");
+    // Only a stop gets through: any other action is refused before sending.
+    rig.keys("e");
+    assert!(rig.app.events.back().unwrap().text.contains("nothing was sent"));
+    rig.key(KeyCode::Char(' '));
+    rig.advance(Duration::from_millis(100));
+    rig.round();
+    assert_eq!(rig.pac_axis(1).1, 0.0, "the referencing axis stands");
+    let d = rig.app.device(DeviceKey::PacAxis(2)).unwrap();
+    assert!(rig.app.stale(d).is_none(), "the line is free again");
+}
+
+#[test]
+fn cdios_panes() {
+    let mut rig = Rig::new();
+    rig.round();
+    rig.select(DeviceKey::Cdios { node: 1, module: 0 });
+    rig.keys("eg20000");
+    rig.key(KeyCode::Enter);
+    rig.advance(Duration::from_millis(200));
+    rig.round();
+    insta::assert_snapshot!("cdios_moving_80x24", rig.screen(80, 24));
+    insta::assert_snapshot!("cdios_moving_200x50", rig.screen(200, 50));
+    // An error state: the emergency input stops the motor.
+    lock(&rig.bench.cdios).module_mut(0).unwrap().set_emergency(true);
+    rig.advance(Duration::from_millis(100));
+    rig.round();
+    insta::assert_snapshot!("cdios_error_80x24", rig.screen(80, 24));
+    let t = rig.terminal(80, 24);
+    let (x, y) = Rig::find(&t, "EMERGENCY_INPUT_ACTIVE").unwrap();
+    assert_eq!(t.backend().buffer()[(x, y)].fg, Color::Red, "error bits are red");
+    // Out of the goto field's range: refused like cdios-goto.
+    rig.keys("g3000000000");
+    rig.key(KeyCode::Enter);
+    assert!(rig.app.events.back().unwrap().text.contains("out of range"), "{:?}", rig.app.events.back());
+}
+
+#[test]
+fn halt_all_stops_all_three_families_within_one_poll_period() {
+    let mut rig = Rig::new();
+    rig.everything_moving();
+    assert_ne!(rig.cube(3).1, 0.0, "module 3 homing");
+    assert_ne!(rig.cube(17).1, 0.0, "module 17 jogging");
+    assert_eq!(rig.pac_axis(1).0, 1, "PA axis 1 moving: {:#?}", rig.app.events);
+    assert!(rig.cdios_motor(0).0, "Cdios motor 0 running");
+    let pac_speed = rig.pac_axis(1).1;
+    rig.key(KeyCode::Char(' '));
+    // Every device has its stop within one poll period (10 Hz); PowerCube
+    // and Cdios stand at once, the PA axis brakes at its acceleration.
+    rig.advance(Duration::from_millis(100));
+    let failed: Vec<_> = rig.app.events.iter().filter(|e| e.text.contains("failed")).map(|e| &e.text).collect();
+    assert!(failed.is_empty(), "{failed:?}");
+    let (status, speed) = rig.pac_axis(1);
+    assert!(status == 2 || speed < pac_speed, "PA axis 1 braking: status {status}, {speed} < {pac_speed}");
+    for m in [3, 5, 17] {
+        let (cube, vel) = rig.cube(m);
+        assert_ne!(cube & state::HALTED, 0, "module {m} halted");
+        assert_eq!(vel, 0.0, "module {m} stands");
+    }
+    rig.advance(Duration::from_millis(400));
+    assert_eq!(rig.pac_axis(1), (2, 0.0), "PA axis 1 stopped");
+    let (running, rpm) = rig.cdios_motor(0);
+    assert!(!running && rpm == 0.0, "Cdios motor 0 stands: running {running}, {rpm} rpm");
+    rig.round();
+    insta::assert_snapshot!("after_halt_all_80x24", rig.screen(80, 24));
+}
+
+/// Every binding of the help does something visible on a device it
+/// applies to: a request to a worker, or a change of the screen's state.
+#[test]
+fn every_key_in_the_help_works() {
+    use super::keys::{KeyAction, KEYS};
+    for b in KEYS {
+        let mut rig = Rig::new();
+        rig.round();
+        for _ in 0..12 {
+            rig.app.log(super::app::Level::Info, "filler so that the event pane can scroll");
+        }
+        let device = match b.action {
+            KeyAction::Enable | KeyAction::Disable => DeviceKey::PacAxis(1),
+            KeyAction::Online | KeyAction::Offline => DeviceKey::PacController,
+            KeyAction::Up => DeviceKey::Cube(5),
+            _ => DeviceKey::Cube(3),
+        };
+        if matches!(b.action, KeyAction::Enable | KeyAction::Disable | KeyAction::Offline) {
+            rig.select(DeviceKey::PacController);
+            rig.keys("o");
+            rig.sent.clear();
+        }
+        rig.select(device);
+        if b.action == KeyAction::ScrollDown {
+            rig.key(KeyCode::PageUp);
+        }
+        let before = (rig.app.selected, rig.app.mode.clone(), rig.app.jog, rig.app.rate, rig.app.scroll);
+        rig.key(b.codes[0]);
+        let after = (rig.app.selected, rig.app.mode.clone(), rig.app.jog, rig.app.rate, rig.app.scroll);
+        let did = !rig.sent.is_empty() || before != after || rig.app.quit;
+        assert!(did, "{} ({:?}) did nothing on {:?}", b.keys, b.action, device);
+        if let Some(e) = rig.app.events.iter().find(|e| e.level == super::app::Level::Error) {
+            panic!("{} ({:?}) on {:?}: {}", b.keys, b.action, device, e.text);
+        }
+    }
+}
+
+/// docs/guide.md carries the key table exactly as the code declares it.
+#[test]
+fn the_guide_lists_the_keys_of_the_code() {
+    let guide = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/docs/guide.md")).unwrap();
+    let table = super::keys::markdown_table();
+    assert!(guide.contains(&table), "docs/guide.md must contain the key table of src/tui/keys.rs:\n{table}");
+}

@@ -1,0 +1,208 @@
+//! One worker per link: a thread that owns the link's device sources,
+//! polls every device round after round at the wanted rate, and carries
+//! out actions between two polls, so an action waits at most for one
+//! device poll. A halt-all goes before anything else queued. Motion actions
+//! are sent once: the sessions never retry them, and neither does the worker.
+//!
+//! The rate adapts to what the link can carry: a round that takes longer
+//! than the wanted period is followed at once by the next, so the achieved
+//! rate is what the link gives, and the [`LinkEvent::Cycle`] reports say
+//! which it is.
+
+use std::sync::mpsc::{Receiver, RecvTimeoutError, Sender, TryRecvError};
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+use super::event::{Event, LinkEvent, LinkId, ToWorker};
+use super::source::{DeviceKey, DeviceSource, Health};
+use crate::clock::Clock;
+
+/// Slowest and fastest poll rates the dashboard asks for.
+pub const MIN_RATE: f64 = 0.5;
+pub const MAX_RATE: f64 = 100.0;
+
+pub struct LinkWorker {
+    link: LinkId,
+    sources: Vec<Box<dyn DeviceSource>>,
+    /// (source index, device), in display order.
+    devices: Vec<(usize, DeviceKey)>,
+    clock: Arc<dyn Clock>,
+    rate: f64,
+    last_round: Option<Instant>,
+}
+
+impl LinkWorker {
+    pub fn new(link: LinkId, sources: Vec<Box<dyn DeviceSource>>, clock: Arc<dyn Clock>, rate: f64) -> Self {
+        Self { link, sources, devices: Vec::new(), clock, rate: rate.clamp(MIN_RATE, MAX_RATE), last_round: None }
+    }
+
+    pub fn rate(&self) -> f64 {
+        self.rate
+    }
+
+    /// Asks every source for its devices.
+    pub fn discover(&mut self) -> LinkEvent {
+        let mut errors = Vec::new();
+        self.devices.clear();
+        for (i, s) in self.sources.iter_mut().enumerate() {
+            match s.discover() {
+                Ok(list) => self.devices.extend(list.into_iter().map(|d| (i, d))),
+                Err(e) => errors.push(format!("{} scan failed: {e}", s.family().name())),
+            }
+        }
+        LinkEvent::Discovered { link: self.link, devices: self.devices.iter().map(|d| d.1).collect(), errors }
+    }
+
+    /// Carries out queued requests, a halt-all first. Returns `true` on Quit.
+    pub fn handle(&mut self, mut msgs: Vec<ToWorker>, out: &mut dyn FnMut(LinkEvent)) -> bool {
+        if msgs.contains(&ToWorker::HaltAll) {
+            msgs.retain(|m| *m != ToWorker::HaltAll);
+            self.halt_all(out);
+        }
+        for m in msgs {
+            match m {
+                ToWorker::Quit => return true,
+                ToWorker::SetRate(r) => self.rate = r.clamp(MIN_RATE, MAX_RATE),
+                ToWorker::HaltAll => unreachable!("handled first"),
+                ToWorker::Act(dev, action) => {
+                    let what = action.name();
+                    let result = match self.source_of(dev) {
+                        Some(i) => self.sources[i].act(dev, action).map_err(|e| e.to_string()),
+                        None => Err(format!("{} is not on this link", dev.label())),
+                    };
+                    out(LinkEvent::Acted { link: self.link, device: Some(dev), what, at: self.clock.now(), result });
+                }
+            }
+        }
+        false
+    }
+
+    fn source_of(&self, dev: DeviceKey) -> Option<usize> {
+        self.devices
+            .iter()
+            .find(|(_, d)| *d == dev)
+            .map(|(i, _)| *i)
+            .or_else(|| self.sources.iter().position(|s| s.family() == dev.family()))
+    }
+
+    fn halt_all(&mut self, out: &mut dyn FnMut(LinkEvent)) {
+        for s in &mut self.sources {
+            for (device, r) in s.halt_all() {
+                let at = self.clock.now();
+                out(LinkEvent::Acted {
+                    link: self.link,
+                    device,
+                    what: "HALT ALL".into(),
+                    at,
+                    result: r.map_err(|e| e.to_string()),
+                });
+            }
+        }
+    }
+
+    /// Polls the `i`th device.
+    pub fn poll_device(&mut self, i: usize) -> LinkEvent {
+        let (s, device) = self.devices[i];
+        let result = self.sources[s].poll(device);
+        let health = match &result {
+            Ok(_) => Health::Answer,
+            Err(e) => e.health(),
+        };
+        LinkEvent::Polled {
+            link: self.link,
+            device,
+            at: self.clock.now(),
+            result: result.map_err(|e| e.to_string()),
+            health,
+        }
+    }
+
+    /// One round over every device, taking queued requests between polls
+    /// from `pending`. Returns `true` on Quit.
+    pub fn round(&mut self, pending: &mut dyn FnMut() -> Vec<ToWorker>, out: &mut dyn FnMut(LinkEvent)) -> bool {
+        let start = self.clock.now();
+        let period = self.last_round.map_or(Duration::ZERO, |l| start - l);
+        self.last_round = Some(start);
+        for i in 0..self.devices.len() {
+            if self.handle(pending(), out) {
+                return true;
+            }
+            out(self.poll_device(i));
+        }
+        if self.handle(pending(), out) {
+            return true;
+        }
+        out(LinkEvent::Cycle { link: self.link, busy: self.clock.now() - start, period });
+        false
+    }
+
+    /// The thread body: discover, then rounds until Quit or the UI is gone.
+    pub fn run(mut self, rx: Receiver<ToWorker>, tx: Sender<Event>) {
+        let send = |ev: LinkEvent| tx.send(Event::Link(ev)).is_ok();
+        if !send(self.discover()) {
+            return;
+        }
+        let mut gone = false;
+        loop {
+            let mut pending = || {
+                let mut v = Vec::new();
+                loop {
+                    match rx.try_recv() {
+                        Ok(m) => v.push(m),
+                        Err(TryRecvError::Empty) => break,
+                        Err(TryRecvError::Disconnected) => {
+                            v.push(ToWorker::Quit);
+                            break;
+                        }
+                    }
+                }
+                v
+            };
+            let start = self.clock.now();
+            if self.round(&mut pending, &mut |ev| gone |= !send(ev)) || gone {
+                return;
+            }
+            // Wait out the rest of the period, but take requests at once.
+            let deadline = start + Duration::from_secs_f64(1.0 / self.rate);
+            loop {
+                let now = self.clock.now();
+                if now >= deadline {
+                    break;
+                }
+                match rx.recv_timeout(deadline - now) {
+                    Ok(m) => {
+                        let mut msgs = vec![m];
+                        msgs.extend(rx.try_iter());
+                        if self.handle(msgs, &mut |ev| gone |= !send(ev)) || gone {
+                            return;
+                        }
+                    }
+                    Err(RecvTimeoutError::Timeout) => break,
+                    Err(RecvTimeoutError::Disconnected) => return,
+                }
+            }
+        }
+    }
+}
+
+/// Starts a worker thread; a panic in it is reported as [`LinkEvent::Ended`].
+pub fn spawn(worker: LinkWorker, tx: Sender<Event>) -> (Sender<ToWorker>, std::thread::JoinHandle<()>) {
+    let (wtx, wrx) = std::sync::mpsc::channel();
+    let link = worker.link;
+    let handle = std::thread::Builder::new()
+        .name(format!("axisctl-link-{link}"))
+        .spawn(move || {
+            let tx2 = tx.clone();
+            let r = std::panic::catch_unwind(std::panic::AssertUnwindSafe(move || worker.run(wrx, tx)));
+            if let Err(p) = r {
+                let why = p
+                    .downcast_ref::<&str>()
+                    .map(|s| s.to_string())
+                    .or_else(|| p.downcast_ref::<String>().cloned())
+                    .unwrap_or_else(|| "panic".into());
+                let _ = tx2.send(Event::Link(LinkEvent::Ended { link, why: format!("worker panicked: {why}") }));
+            }
+        })
+        .expect("spawn a link worker thread");
+    (wtx, handle)
+}

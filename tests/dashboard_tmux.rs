@@ -1,0 +1,140 @@
+//! The real binary in a real terminal: `axisctl --link sim dashboard` inside
+//! tmux at 80x24, driven with keys, read back with capture-pane, quit, and
+//! the shell's terminal checked to be back to normal. Needs tmux (.ci/run
+//! installs it); without it the test fails and says so.
+
+use std::process::Command;
+use std::time::{Duration, Instant};
+
+struct Tmux {
+    session: String,
+}
+
+impl Tmux {
+    fn start(w: u16, h: u16) -> Self {
+        let found = Command::new("tmux").arg("-V").output().map(|o| o.status.success()).unwrap_or(false);
+        assert!(found, "tmux is not installed: the dashboard smoke test needs it (apt-get install tmux)");
+        let session = format!("axisctl-smoke-{}-{w}x{h}", std::process::id());
+        // A plain shell with a known prompt, so that its return is visible.
+        let ok = Command::new("tmux")
+            .args(["new-session", "-d", "-s", &session, "-x", &w.to_string(), "-y", &h.to_string()])
+            .args(["env", "-i", "PATH=/usr/bin:/bin", "TERM=screen", "PS1=READY$ ", "bash", "--norc", "--noprofile"])
+            .status()
+            .expect("run tmux")
+            .success();
+        assert!(ok, "tmux new-session failed");
+        Self { session }
+    }
+
+    fn keys(&self, keys: &[&str]) {
+        let ok = Command::new("tmux").args(["send-keys", "-t", &self.session]).args(keys).status().unwrap().success();
+        assert!(ok, "tmux send-keys {keys:?}");
+    }
+
+    fn capture(&self) -> String {
+        let out = Command::new("tmux").args(["capture-pane", "-p", "-t", &self.session]).output().unwrap();
+        String::from_utf8_lossy(&out.stdout).into()
+    }
+
+    fn display(&self, format: &str) -> String {
+        let out = Command::new("tmux").args(["display-message", "-p", "-t", &self.session, format]).output().unwrap();
+        String::from_utf8_lossy(&out.stdout).trim().into()
+    }
+
+    /// Waits until the pane shows `text`; the pane on failure.
+    fn wait_for(&self, text: &str) -> String {
+        let deadline = Instant::now() + Duration::from_secs(15);
+        loop {
+            let screen = self.capture();
+            if screen.contains(text) {
+                return screen;
+            }
+            assert!(Instant::now() < deadline, "{text:?} never appeared; the pane shows:\n{screen}");
+            std::thread::sleep(Duration::from_millis(50));
+        }
+    }
+}
+
+impl Drop for Tmux {
+    fn drop(&mut self) {
+        let _ = Command::new("tmux").args(["kill-session", "-t", &self.session]).status();
+    }
+}
+
+fn smoke(w: u16, h: u16) {
+    let t = Tmux::start(w, h);
+    t.wait_for("READY$");
+    t.keys(&[&format!("{} --link sim dashboard", env!("CARGO_BIN_EXE_axisctl")), "Enter"]);
+    let screen = t.wait_for("module 17");
+    assert_eq!(t.display("#{alternate_on}"), "1", "the dashboard runs on the alternate screen");
+    for want in ["PowerCube", "PA-CONTROL", "Cdios", "axis 3", "node 1 mod 1", "sim CAN", "sim RS232", "HALT ALL"] {
+        assert!(screen.contains(want), "{want:?} missing:\n{screen}");
+    }
+    // Home module 3 (selected first), see it move.
+    t.keys(&["h"]);
+    t.wait_for("Home acknowledged");
+    t.wait_for("moving");
+    // The help, and any key closes it.
+    t.keys(&["?"]);
+    t.wait_for("Keys (any key closes)");
+    t.keys(&["x"]);
+    // Halt everything.
+    t.keys(&["Space"]);
+    let deadline = Instant::now() + Duration::from_secs(10);
+    loop {
+        let screen = t.capture();
+        // The three PowerCube rows of the device list say so.
+        if screen.matches("halted").count() >= 3 {
+            break;
+        }
+        assert!(Instant::now() < deadline, "not every PowerCube shows halted:\n{screen}");
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    // Quit: the shell is back, on the normal screen, in cooked mode.
+    t.keys(&["q"]);
+    let deadline = Instant::now() + Duration::from_secs(10);
+    while t.display("#{alternate_on}") != "0" {
+        assert!(Instant::now() < deadline, "still on the alternate screen:\n{}", t.capture());
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    // Typed as DO''NE so that only the output says DONE.
+    t.keys(&["s=$?; clear; echo exit=$s; stty -a | tr ' ' '\\n' | grep -x -e icanon -e echo -e -icanon -e -echo; echo DO''NE", "Enter"]);
+    let screen = t.wait_for("DONE");
+    let lines: Vec<&str> = screen.lines().map(str::trim).collect();
+    assert!(lines.contains(&"exit=0"), "the dashboard exits 0:\n{screen}");
+    assert!(lines.contains(&"icanon") && lines.contains(&"echo"), "terminal left in raw mode:\n{screen}");
+    assert!(!lines.contains(&"-icanon") && !lines.contains(&"-echo"), "terminal left in raw mode:\n{screen}");
+    assert!(!screen.contains("Devices"), "the dashboard is still on screen:\n{screen}");
+}
+
+/// A panic in the UI thread leaves the terminal usable too (the panic hook
+/// restores it before the message is printed).
+#[test]
+fn a_panic_restores_the_terminal() {
+    let t = Tmux::start(80, 24);
+    t.wait_for("READY$");
+    t.keys(&[&format!("AXISCTL_TEST_PANIC_KEY=1 {} --link sim dashboard", env!("CARGO_BIN_EXE_axisctl")), "Enter"]);
+    t.wait_for("module 17");
+    t.keys(&["!"]);
+    let deadline = Instant::now() + Duration::from_secs(10);
+    while t.display("#{alternate_on}") != "0" {
+        assert!(Instant::now() < deadline, "still on the alternate screen after the panic:\n{}", t.capture());
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    t.keys(&["s=$?; stty -a | tr ' ' '\\n' | grep -x -e icanon -e -icanon; echo code=$s DO''NE", "Enter"]);
+    let screen = t.wait_for("DONE");
+    assert!(screen.contains("test panic requested"), "the panic message is readable:\n{screen}");
+    let lines: Vec<&str> = screen.lines().map(str::trim).collect();
+    assert!(lines.contains(&"icanon") && !lines.contains(&"-icanon"), "terminal left in raw mode:\n{screen}");
+    assert!(screen.contains("code=101 DONE"), "a panic exits 101:\n{screen}");
+}
+
+#[test]
+fn dashboard_runs_and_restores_the_terminal_80x24() {
+    smoke(80, 24);
+}
+
+#[test]
+fn dashboard_runs_and_restores_the_terminal_200x50() {
+    smoke(200, 50);
+}
