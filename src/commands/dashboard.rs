@@ -15,7 +15,6 @@ use axisctl::proto::cdios::{ModuleId as CdiosModule, NodeId};
 use axisctl::session::cdios::Cdios;
 use axisctl::session::pac::Pac;
 use axisctl::session::powercube::PowerCube;
-use axisctl::sim::bench::Bench;
 use axisctl::tui::cdios::CdiosSource;
 use axisctl::tui::pac::PacSource;
 use axisctl::tui::powercube::CubeSource;
@@ -176,7 +175,7 @@ fn plan(ctx: &Ctx, args: &DashboardArgs) -> anyhow::Result<Vec<LinkPlan>> {
     parse_cdios_modules(args)?;
     parse_axes(args)?;
     let uses_sim = [&a.cube, &a.pac, &a.cdios].iter().any(|s| **s == Some(LinkSpec::Sim));
-    let bench = uses_sim.then(|| Bench::contract(Arc::clone(&ctx.clock)));
+    let bench = if uses_sim { Some(ctx.sim_bench()?) } else { None };
     let mut plans = Vec::new();
     // CAN families, grouped by link.
     let mut groups: Vec<(LinkSpec, Vec<Family>)> = Vec::new();

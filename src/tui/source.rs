@@ -227,6 +227,9 @@ impl CanLink for SharedCan {
     fn send(&mut self, frame: &CanFrame) -> Result<(), LinkError> {
         crate::sim::bench::lock(&self.0).send(frame)
     }
+    fn send_many(&mut self, frames: &[CanFrame]) -> Result<(), LinkError> {
+        crate::sim::bench::lock(&self.0).send_many(frames)
+    }
     fn recv(&mut self, timeout: Duration) -> Result<Option<CanFrame>, LinkError> {
         crate::sim::bench::lock(&self.0).recv(timeout)
     }
