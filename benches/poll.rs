@@ -99,7 +99,12 @@ fn can_sources(shared: &SharedCan, families: Vec<&str>) -> Vec<Box<dyn DeviceSou
 }
 
 fn main() {
-    let args: Vec<String> = std::env::args().skip(1).filter(|a| a != "--bench").collect();
+    let bench_mode = std::env::args().any(|a| a == "--bench");
+    let mut args: Vec<String> = std::env::args().skip(1).filter(|a| a != "--bench").collect();
+    if !bench_mode && args.is_empty() {
+        // `cargo test --all-targets`: one short in-process run, so the harness keeps working.
+        args = vec!["sim".into(), "0.1".into()];
+    }
     let (Some(uri), Some(secs)) = (args.first(), args.get(1).and_then(|s| s.parse::<f64>().ok())) else {
         eprintln!("usage: cargo bench --bench poll -- LINK SECONDS [FAMILY...]");
         std::process::exit(2);
@@ -137,7 +142,11 @@ fn main() {
             bench.set_wire_speed(Some(wire));
             if families.first() == Some(&"pac") {
                 let bits = SerialFormat::F7N1.bits_per_char();
-                let l = Box::new(MeteredBytes(Box::new(bench.pac_link(Arc::clone(&clock))), Arc::clone(&meter), bits.into()));
+                let l = Box::new(MeteredBytes(
+                    Box::new(bench.pac_link(Arc::clone(&clock))),
+                    Arc::clone(&meter),
+                    bits.into(),
+                ));
                 let pac = Pac::new(l, wire.baud, SerialFormat::F7N1).with_clock(Arc::clone(&clock));
                 (wire.baud, vec![Box::new(PacSource::new(pac, None)) as Box<dyn DeviceSource>])
             } else {

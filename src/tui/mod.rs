@@ -44,6 +44,9 @@ use worker::LinkWorker;
 /// How often the screen is redrawn when nothing else happens (ages, highlights).
 pub const TICK: Duration = Duration::from_millis(100);
 
+/// Shortest time between two redraws for worker reports (20 frames a second).
+pub const FRAME: Duration = Duration::from_millis(50);
+
 /// The range a Cdios goto position takes (the table's goto field).
 pub fn cdios_target_range() -> (i64, i64) {
     crate::proto::cdios::table::command("goto")
@@ -151,9 +154,21 @@ where
     let panic_key = std::env::var_os("AXISCTL_TEST_PANIC_KEY").is_some();
     let mut app = App::new(links, rate, clock.now());
     app.log(app::Level::Info, "press ? for the keys, space to halt everything");
+    // Worker reports come a hundred times a second and more; the screen is
+    // redrawn at most every FRAME for them, at once for a key.
+    let mut drawn_at: Option<std::time::Instant> = None;
+    let mut key_pressed = true;
     loop {
-        terminal.draw(|f| ui::draw(f, &app))?;
-        let first = match rx.recv_timeout(TICK) {
+        let since = drawn_at.map(|t| t.elapsed());
+        let wait = if key_pressed || since.is_none_or(|s| s >= FRAME) {
+            terminal.draw(|f| ui::draw(f, &app))?;
+            drawn_at = Some(std::time::Instant::now());
+            TICK
+        } else {
+            // Something is not on screen yet: come back when the frame is due.
+            FRAME - since.unwrap_or_default()
+        };
+        let first = match rx.recv_timeout(wait) {
             Ok(ev) => Some(ev),
             Err(mpsc::RecvTimeoutError::Timeout) => None,
             Err(mpsc::RecvTimeoutError::Disconnected) => break,
@@ -161,6 +176,7 @@ where
         let mut batch: Vec<Event> = first.into_iter().collect();
         batch.extend(rx.try_iter().take(1000));
         batch.push(Event::Tick(clock.now()));
+        key_pressed = batch.iter().any(|ev| matches!(ev, Event::Key(_)));
         for ev in batch {
             if let Event::Key(k) = &ev {
                 if panic_key && k.code == ct::KeyCode::Char('!') {
