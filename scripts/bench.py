@@ -11,6 +11,7 @@ pass / fail. With --markdown FILE the table is also written as markdown.
 import argparse
 import json
 import os
+import shlex
 import signal
 import statistics
 import subprocess
@@ -261,7 +262,7 @@ def dashboard_figures(links, seconds):
     # PowerCube and Cdios share the slcan bus (one link, one worker), the PA-CONTROL its own line.
     cmd = [str(AXISCTL), "--link", links["powercube"], "dashboard", "--rate", "20", "--pac-link", links["pac"]]
     subprocess.run(["tmux", "kill-session", "-t", session], capture_output=True)
-    subprocess.run(["tmux", "new-session", "-d", "-s", session, "-x", "120", "-y", "40", " ".join(cmd)], check=True)
+    subprocess.run(["tmux", "new-session", "-d", "-s", session, "-x", "120", "-y", "40", shlex.join(cmd)], check=True)
     try:
         time.sleep(3)  # discovery and the first rounds
         pid = int(
@@ -288,7 +289,7 @@ def dashboard_figures(links, seconds):
         f"{100 * share:.2f} % of a core over {seconds} s",
         "goal < 3 % of a core",
         share < 0.03,
-        f"tmux: {' '.join(cmd)}; /proc/PID/stat utime+stime",
+        f"tmux: {shlex.join(cmd)}; /proc/PID/stat utime+stime",
         "polling (each CAN answer is read as it arrives at wire speed) and drawing, at most 20 frames/s; "
         "the served links run in another process",
     )
