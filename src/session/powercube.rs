@@ -336,6 +336,103 @@ impl PowerCube {
     }
 }
 
+/// Refresh intervals of a keep-alive run, in microseconds.
+#[derive(Debug, Clone, PartialEq, Eq, serde::Serialize)]
+pub struct KeepaliveStats {
+    pub refreshes: u64,
+    pub interval_us: u64,
+    pub min_gap_us: u64,
+    pub mean_gap_us: u64,
+    pub p99_gap_us: u64,
+    pub max_gap_us: u64,
+}
+
+/// Gaps are binned by 10 µs up to this; longer ones count in the last bin
+/// (the maximum is kept exactly).
+const GAP_BINS: usize = 20_000;
+
+/// A fixed-size histogram of gaps: recording allocates nothing, so the
+/// refresh loop never waits on the allocator.
+struct GapHistogram {
+    bins: Box<[u32; GAP_BINS]>,
+    n: u64,
+    sum: u128,
+    min: Duration,
+    max: Duration,
+}
+
+impl GapHistogram {
+    fn new() -> Self {
+        Self { bins: Box::new([0; GAP_BINS]), n: 0, sum: 0, min: Duration::MAX, max: Duration::ZERO }
+    }
+
+    fn record(&mut self, gap: Duration) {
+        let bin = ((gap.as_micros() / 10) as usize).min(GAP_BINS - 1);
+        self.bins[bin] = self.bins[bin].saturating_add(1);
+        self.n += 1;
+        self.sum += gap.as_micros();
+        self.min = self.min.min(gap);
+        self.max = self.max.max(gap);
+    }
+
+    /// The upper edge of the bin holding the `q` quantile, capped at the maximum.
+    fn quantile_us(&self, q: f64) -> u64 {
+        if self.n == 0 {
+            return 0;
+        }
+        let rank = ((self.n as f64) * q).ceil().max(1.0) as u64;
+        let mut seen = 0u64;
+        for (i, c) in self.bins.iter().enumerate() {
+            seen += u64::from(*c);
+            if seen >= rank {
+                return ((i as u64 + 1) * 10).min(self.max.as_micros() as u64);
+            }
+        }
+        self.max.as_micros() as u64
+    }
+}
+
+impl PowerCube {
+    /// Broadcasts the watchdog refresh `[0x07, 0]` every `interval` on an
+    /// absolute schedule (a late turn does not push the later ones back) for
+    /// as long as `keep_going` says, and measures the gaps between refreshes.
+    /// Nothing in the loop allocates or takes a lock of ours.
+    pub fn keepalive(
+        &mut self,
+        interval: Duration,
+        keep_going: &mut dyn FnMut() -> bool,
+    ) -> Result<KeepaliveStats, SessionError> {
+        let clock = Arc::clone(&self.clock);
+        let mut hist = GapHistogram::new();
+        let mut next = clock.now();
+        let mut last: Option<std::time::Instant> = None;
+        while keep_going() {
+            self.broadcast(Broadcast::WatchdogRefresh)?;
+            let now = clock.now();
+            if let Some(prev) = last {
+                hist.record(now - prev);
+            }
+            last = Some(now);
+            next += interval;
+            let now = clock.now();
+            if next > now {
+                clock.sleep(next - now);
+            } else {
+                // Late: refresh at once and schedule from here.
+                next = now;
+            }
+        }
+        Ok(KeepaliveStats {
+            refreshes: hist.n + u64::from(last.is_some()),
+            interval_us: interval.as_micros() as u64,
+            min_gap_us: if hist.n == 0 { 0 } else { hist.min.as_micros() as u64 },
+            mean_gap_us: if hist.n == 0 { 0 } else { (hist.sum / u128::from(hist.n)) as u64 },
+            p99_gap_us: hist.quantile_us(0.99),
+            max_gap_us: hist.max.as_micros() as u64,
+        })
+    }
+}
+
 /// Decodes a GetExtended answer by the parameter's declared type.
 pub fn decode_get(module: ModuleId, param: &ParamDef, resp: &Response) -> Result<Value, SessionError> {
     let Response::Get { data, .. } = resp else {
