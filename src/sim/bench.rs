@@ -80,7 +80,7 @@ impl CanDevice for SharedCdios {
 }
 
 /// The PowerCube modules' RS232 side as a byte device.
-struct PowerCubeRs232(Shared<PowerCubeBus>);
+pub struct PowerCubeRs232(pub Shared<PowerCubeBus>);
 
 impl ByteDevice for PowerCubeRs232 {
     fn on_bytes(&mut self, now: Instant, bytes: &[u8], out: &mut Vec<u8>) {
@@ -128,6 +128,11 @@ impl Bench {
             self.bus.attach(Box::new(trip));
         }
         inj
+    }
+
+    /// The PowerCube modules as a byte device at the far end of an RS232 line.
+    pub fn powercube_port(&self) -> PowerCubeRs232 {
+        PowerCubeRs232(Arc::clone(&self.powercube))
     }
 
     /// An RS232 line to the PowerCube modules (the same modules as on the

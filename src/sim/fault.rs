@@ -248,6 +248,13 @@ impl Injector {
         &self.spec
     }
 
+    /// New faults from the next answer on (the generator runs on).
+    pub fn set_spec(&mut self, spec: FaultSpec) {
+        self.spec = spec;
+        self.stats.hit = 0;
+        self.stats.answers = 0;
+    }
+
     pub fn stats(&self) -> FaultStats {
         self.stats
     }
