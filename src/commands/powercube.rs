@@ -67,13 +67,11 @@ fn get_many(pc: &mut PowerCube, m: ModuleId, defs: &[&'static ParamDef]) -> anyh
     defs.iter()
         .zip(answers)
         .map(|(d, a)| {
-            // Pipelined reads get one retry each, one by one.
+            // A pipelined read that failed is retried one by one; the
+            // pipelined attempt counts as its first.
             let resp = match a {
                 Ok(r) => r,
-                Err(SessionError::Timeout { .. } | SessionError::Malformed { .. }) => {
-                    pc.transact(m, &Request::GetExtended { param: d.id })?
-                }
-                Err(e) => return Err(e.into()),
+                Err(e) => pc.retry_read(m, &Request::GetExtended { param: d.id }, e)?,
             };
             Ok(decode_get(m, d, &resp)?)
         })

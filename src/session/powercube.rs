@@ -124,10 +124,40 @@ impl PowerCube {
     /// retried per the [`RetryPolicy`]; nothing else is.
     pub fn transact(&mut self, module: ModuleId, req: &Request) -> Result<Response, SessionError> {
         let attempts = if req.is_read() { 1 + self.retry.read_retries } else { 1 };
-        let mut last = None;
+        self.attempts(module, req, attempts, None)
+    }
+
+    /// The retries of a read whose first attempt went out pipelined
+    /// ([`Self::transact_many`]) and failed with `first`: the read is sent
+    /// `read_retries` more times, so it goes out 1 + retries times in all, as
+    /// with [`Self::transact`]. Anything but a read is not sent again.
+    pub fn retry_read(
+        &mut self,
+        module: ModuleId,
+        req: &Request,
+        first: SessionError,
+    ) -> Result<Response, SessionError> {
+        let retryable = matches!(first, SessionError::Timeout { .. } | SessionError::Malformed { .. });
+        if !req.is_read() || !retryable || self.retry.read_retries == 0 {
+            return Err(first);
+        }
+        self.attempts(module, req, self.retry.read_retries, Some(first))
+    }
+
+    fn attempts(
+        &mut self,
+        module: ModuleId,
+        req: &Request,
+        attempts: u32,
+        first: Option<SessionError>,
+    ) -> Result<Response, SessionError> {
+        let offset = u32::from(first.is_some());
+        let mut last = first;
         for attempt in 0..attempts {
-            if attempt > 0 {
-                self.trace(|| TraceEvent::Note(format!("retrying read ({attempt}/{})", attempts - 1)));
+            let retry = attempt + offset;
+            if retry > 0 {
+                let of = self.retry.read_retries;
+                self.trace(|| TraceEvent::Note(format!("retrying read ({retry}/{of})")));
             }
             match self.transact_once(module, req) {
                 Ok(r) => return Ok(r),
@@ -501,6 +531,52 @@ mod tests {
     use crate::proto::powercube::table::{ids, param};
     use crate::proto::CanFrame;
     use crate::sim::bench::in_process;
+
+    // Manual 13 on the simulator: refreshes every 20 ms keep an online
+    // watchdog quiet for as long as they run; 50 ms after the last one the
+    // module stops with COMM_ERROR and HALTED, not a moment earlier.
+    #[test]
+    fn keepalive_holds_the_watchdog_and_its_end_trips_it_within_one_period() {
+        use crate::proto::powercube::flags::{config, state};
+        use crate::sim::bench::{lock, Bench};
+        let vclock = Arc::new(VirtualClock::new());
+        let clock: Arc<dyn Clock> = vclock.clone();
+        let bench = Bench::contract(Arc::clone(&clock));
+        let mut pc = PowerCube::over_can(Box::new(bench.bus.open())).with_clock(Arc::clone(&clock));
+        let m = ModuleId::new(5).unwrap();
+        let cfg = match pc.get(m, param(ids::CONFIG).unwrap()).unwrap() {
+            Value::UInt32(c) => c,
+            other => panic!("{other:?}"),
+        };
+        pc.set(m, param(ids::CONFIG).unwrap(), Value::UInt32(cfg | config::WATCHDOG_ENABLE)).unwrap();
+        pc.transact(m, &Request::Watchdog).unwrap();
+        let state_at = |t: std::time::Instant| {
+            let mut bus = lock(&bench.powercube);
+            bus.advance(t);
+            bus.module(5).unwrap().cube_state()
+        };
+        let start = clock.now();
+        let mut last = start;
+        let mut worst_state = 0;
+        let stats = pc
+            .keepalive(Duration::from_millis(20), &mut || {
+                worst_state |= state_at(clock.now());
+                last = clock.now();
+                clock.now() - start < Duration::from_secs(3)
+            })
+            .unwrap();
+        assert_eq!(worst_state & (state::COMM_ERROR | state::HALTED), 0, "never tripped while refreshed");
+        assert_eq!((stats.min_gap_us, stats.max_gap_us, stats.p99_gap_us), (20_000, 20_000, 20_000));
+        assert_eq!(stats.refreshes, 150, "0, 20, .., 2980 ms");
+        // `last` is the check that ended the loop; the last refresh was 20 ms before.
+        let refreshed = last - Duration::from_millis(20);
+        assert_eq!(state_at(refreshed + Duration::from_micros(49_999)) & state::COMM_ERROR, 0);
+        let s = state_at(refreshed + Duration::from_millis(50));
+        assert_eq!(
+            s & (state::COMM_ERROR | state::ERROR | state::HALTED),
+            state::COMM_ERROR | state::ERROR | state::HALTED
+        );
+    }
 
     // Seen on a real kernel's vcan under qemu (scripts/qemu-socketcan.sh): a poll's ActPos
     // answer came after the timeout, the retry took it, and the retry's own answer stayed
