@@ -198,13 +198,28 @@ fn unplugged_adapter_mid_command_is_exit_3_at_once() {
     for (sim_args, fam, cmd) in cases {
         let mut s = sim(sim_args, "delay=30s", "1");
         let link = s.link(fam).to_string();
-        let mut args = vec!["--link", &link, "--timeout", "20000"];
+        let mut args = vec!["--link", &link, "--timeout", "20000", "--trace"];
         args.extend_from_slice(cmd);
-        let child = common::bin().args(&args).stdout(Stdio::piped()).stderr(Stdio::piped()).spawn().unwrap();
-        std::thread::sleep(Duration::from_millis(400));
+        let mut child = common::bin().args(&args).stdout(Stdio::piped()).stderr(Stdio::piped()).spawn().unwrap();
+        // Unplug only once the request is out (--trace says so on stderr).
+        let mut err = std::io::BufReader::new(child.stderr.take().unwrap());
+        let mut seen = String::new();
+        let deadline = Instant::now() + Duration::from_secs(10);
+        while !seen.lines().any(|l| l.starts_with("-> ") && !l.contains("NMT")) {
+            assert!(Instant::now() < deadline, "{sim_args:?}: no request sent: {seen}");
+            use std::io::BufRead;
+            let mut line = String::new();
+            if err.read_line(&mut line).unwrap() == 0 {
+                panic!("{sim_args:?}: client ended early: {seen}");
+            }
+            seen.push_str(&line);
+        }
+        std::thread::sleep(Duration::from_millis(100));
         s.unplug();
         let t0 = Instant::now();
-        let r = wait_bounded(child, 5, &args);
+        child.stderr = Some(err.into_inner());
+        let mut r = wait_bounded(child, 5, &args);
+        r.stderr = seen + &r.stderr;
         assert_eq!(r.code, 3, "{sim_args:?}: {}", r.stderr);
         assert!(r.stderr.contains("link closed (adapter unplugged?)"), "{sim_args:?}: {}", r.stderr);
         assert!(t0.elapsed() < Duration::from_secs(2), "{sim_args:?}: {:?}", t0.elapsed());
