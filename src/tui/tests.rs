@@ -33,9 +33,7 @@ use crate::sim::bench::{lock, Bench};
 /// Drops every frame the devices send: a link that stops answering.
 struct Silence;
 impl Fault for Silence {
-    fn device_frame(&mut self, _frame: CanFrame) -> Vec<CanFrame> {
-        vec![]
-    }
+    fn device_frame(&mut self, _frame: CanFrame, _out: &mut Vec<crate::link::mem::Delivery>) {}
 }
 
 struct Rig {
