@@ -429,8 +429,18 @@ fn wait_motion(
     let start = clock.now();
     let limit = Duration::from_secs_f64(wait.wait_timeout.max(0.0));
     let bar = crate::output::spinner(ctx.json);
+    // Sent again when no confirmation comes: stopping twice is harmless.
+    let attempts = 1 + ctx.retry.read_retries;
     let stop = |s: &mut Cdios| {
-        s.transact(node, Address::Module(m), &Command::Stop { sync: false, option: StopOption::FastStop })
+        let mut last = None;
+        for _ in 0..attempts {
+            match s.transact(node, Address::Module(m), &Command::Stop { sync: false, option: StopOption::FastStop }) {
+                Ok(a) => return Ok(a),
+                Err(e @ (SessionError::Timeout { .. } | SessionError::Malformed { .. })) => last = Some(e),
+                Err(e) => return Err(e),
+            }
+        }
+        Err(last.expect("at least one attempt"))
     };
     let result = loop {
         if interrupted() {
@@ -440,8 +450,18 @@ fn wait_motion(
             })
             .into());
         }
-        let r = s.read_status(node, m)?;
-        let pos = s.read_position(node, m, PositionSource::Current)?;
+        let polled = s.read_status(node, m).and_then(|r| Ok((r, s.read_position(node, m, PositionSource::Current)?)));
+        let (r, pos) = match polled {
+            Ok(v) => v,
+            // The motor may still be running: stop it before giving up.
+            Err(e) => {
+                let note = match stop(s) {
+                    Ok(_) => format!("node {node} module {m} stopped (fast stop)"),
+                    Err(h) => format!("STOP OF NODE {node} MODULE {m} FAILED: {h}"),
+                };
+                break Err(anyhow::Error::new(e).context(format!("lost track of the {what} ({note})")));
+            }
+        };
         let elapsed = clock.now() - start;
         if let Some(bar) = &bar {
             bar.set_message(format!("module {m} {what}: pos {pos}  {}", status_line(ctx, &r)));

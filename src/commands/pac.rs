@@ -317,10 +317,30 @@ impl Reporter {
     }
 }
 
-/// Stops the axis (0A93, polled to standstill), even past an unfinished command.
+/// Stops the axis (0A93, polled to standstill), even past an unfinished
+/// command; sent again when no acknowledge comes (stopping twice is harmless).
 fn stop_axis(d: &mut Dev, axis: u8) -> Result<f64, String> {
     let stop = Command::new(0x0A93, axis.into(), Par2::Float(0.0));
-    d.pac.abandon_and_stop(&stop).map(|done| done.ack.q_par.as_f64()).map_err(|e| e.to_string())
+    let mut last = String::new();
+    for _ in 0..3 {
+        match d.pac.abandon_and_stop(&stop) {
+            Ok(done) => return Ok(done.ack.q_par.as_f64()),
+            Err(e @ PacError::Session(SessionError::Timeout { .. } | SessionError::Malformed { .. })) => {
+                last = e.to_string()
+            }
+            Err(e) => return Err(e.to_string()),
+        }
+    }
+    Err(last)
+}
+
+/// A failed poll during a wait: the axis may still be moving, so it is stopped first.
+fn lost_track(d: &mut Dev, axis: u8, e: anyhow::Error) -> anyhow::Error {
+    let note = match stop_axis(d, axis) {
+        Ok(p) => format!("axis {axis} stopped at {p}"),
+        Err(s) => format!("STOP OF AXIS {axis} FAILED: {s}"),
+    };
+    e.context(format!("lost track of axis {axis} during the move ({note})"))
 }
 
 fn interrupted_after_stop(d: &mut Dev, axis: u8) -> anyhow::Error {
@@ -379,8 +399,11 @@ fn move_axis(
         if interrupted() {
             break Err(interrupted_after_stop(d, axis));
         }
-        let status = d.read_i64(0x1910, axis.into())? as u64;
-        let position = d.read_f64(0x190C, axis.into())?;
+        let polled = d.read_i64(0x1910, axis.into()).and_then(|s| Ok((s as u64, d.read_f64(0x190C, axis.into())?)));
+        let (status, position) = match polled {
+            Ok(v) => v,
+            Err(e) => break Err(lost_track(d, axis, e)),
+        };
         let elapsed = clock.now() - t0;
         reporter.report(
             json!({"axis": axis, "position": position, "status": status, "elapsed_ms": elapsed.as_millis() as u64}),
@@ -477,7 +500,7 @@ fn reference(ctx: &Ctx, d: &mut Dev, axis: u8, wait: PacWait) -> anyhow::Result<
     let done = match result {
         Ok(done) => done,
         Err(PacError::Abandoned { .. }) => return Err(interrupted_after_stop(d, axis)),
-        Err(e @ PacError::Session(SessionError::Timeout { .. })) if d.pac.busy_command().is_some() => {
+        Err(e @ PacError::Session(_)) if d.pac.busy_command().is_some() => {
             let note = match stop_axis(d, axis) {
                 Ok(p) => format!("axis {axis} stopped at {p}"),
                 Err(s) => format!("STOP OF AXIS {axis} FAILED: {s}"),

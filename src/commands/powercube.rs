@@ -71,13 +71,11 @@ fn get_many(pc: &mut PowerCube, m: ModuleId, defs: &[&'static ParamDef]) -> anyh
     defs.iter()
         .zip(answers)
         .map(|(d, a)| {
-            // Pipelined reads get one retry each, one by one.
+            // A pipelined read that failed is retried one by one; the
+            // pipelined attempt counts as its first.
             let resp = match a {
                 Ok(r) => r,
-                Err(SessionError::Timeout { .. } | SessionError::Malformed { .. }) => {
-                    pc.transact(m, &Request::GetExtended { param: d.id })?
-                }
-                Err(e) => return Err(e.into()),
+                Err(e) => pc.retry_read(m, &Request::GetExtended { param: d.id }, e)?,
             };
             Ok(decode_get(m, d, &resp)?)
         })
@@ -395,7 +393,8 @@ fn wait_until(
     let start = clock.now();
     let limit = Duration::from_secs_f64(wait.wait_timeout.max(0.0));
     let bar = crate::output::spinner(ctx.json);
-    let halt = |pc: &mut PowerCube| pc.transact(m, &Request::Halt);
+    let attempts = 1 + ctx.retry.read_retries;
+    let halt = |pc: &mut PowerCube| halt_module(pc, m, attempts);
     let result = loop {
         if interrupted() {
             let halted = halt(pc);
@@ -405,7 +404,17 @@ fn wait_until(
             })
             .into());
         }
-        let vals = get_many(pc, m, &[param(ids::CUBE_STATE), param(ids::ACT_POS)])?;
+        let vals = match get_many(pc, m, &[param(ids::CUBE_STATE), param(ids::ACT_POS)]) {
+            Ok(v) => v,
+            // The module may still be moving: stop it before giving up.
+            Err(e) => {
+                let note = match halt(pc) {
+                    Ok(_) => format!("module {m} halted"),
+                    Err(h) => format!("HALT OF MODULE {m} FAILED: {h}"),
+                };
+                break Err(e.context(format!("lost track of module {m} while {what} ({note})")));
+            }
+        };
         let (cube, pos) = (f64_of(&vals[0]) as u32, f64_of(&vals[1]) as f32);
         let elapsed = clock.now() - start;
         if let Some(bar) = &bar {
@@ -424,10 +433,10 @@ fn wait_until(
             break Ok(WaitEnd { module: m, position: pos, cube, elapsed });
         }
         if elapsed >= limit {
-            let _ = halt(pc);
+            let halted = halt(pc).is_ok();
             break Err(anyhow::Error::new(SessionError::Timeout {
                 target: format!("module {m}"),
-                what: format!("the end of {what} (module halted)"),
+                what: format!("the end of {what} ({})", if halted { "module halted" } else { "HALT FAILED" }),
                 timeout: limit,
             }));
         }
@@ -437,6 +446,20 @@ fn wait_until(
         bar.finish_and_clear();
     }
     result
+}
+
+/// Halt, sent again when its acknowledge does not come: stopping twice is
+/// harmless, not stopping is not. (Motion commands are never sent twice.)
+fn halt_module(pc: &mut PowerCube, m: ModuleId, attempts: u32) -> Result<Response, SessionError> {
+    let mut last = None;
+    for _ in 0..attempts.max(1) {
+        match pc.transact(m, &Request::Halt) {
+            Ok(r) => return Ok(r),
+            Err(e @ (SessionError::Timeout { .. } | SessionError::Malformed { .. })) => last = Some(e),
+            Err(e) => return Err(e),
+        }
+    }
+    Err(last.expect("at least one attempt"))
 }
 
 fn print_wait_results(ctx: &Ctx, what: &str, results: &[WaitEnd]) {
@@ -782,39 +805,29 @@ fn watchdog(ctx: &Ctx, action: WatchdogAction) -> anyhow::Result<()> {
 }
 
 /// Broadcasts the refresh on a fixed schedule (not "sleep after send", which
-/// drifts) and reports the worst gap between refreshes.
+/// drifts) and reports the gaps between refreshes.
 fn keepalive(ctx: &Ctx, pc: &mut PowerCube, interval_ms: u64, duration: Option<f64>) -> anyhow::Result<()> {
     super::arm_interrupt()?;
+    let scheduling = raise_priority();
     let clock = std::sync::Arc::clone(pc.clock());
-    let interval = Duration::from_millis(interval_ms);
     let start = clock.now();
     let stop_after = duration.map(|s| Duration::from_secs_f64(s.max(0.0)));
-    let mut next = start;
-    let mut last_sent: Option<std::time::Instant> = None;
-    let mut worst = Duration::ZERO;
-    let mut count = 0u64;
-    while !interrupted() && stop_after.is_none_or(|d| clock.now() - start < d) {
-        pc.broadcast(Broadcast::WatchdogRefresh)?;
-        let now = clock.now();
-        if let Some(prev) = last_sent {
-            worst = worst.max(now - prev);
-        }
-        last_sent = Some(now);
-        count += 1;
-        next += interval;
-        let now = clock.now();
-        if next > now {
-            clock.sleep(next - now);
-        } else {
-            next = now;
-        }
-    }
+    let mut keep_going = || !interrupted() && stop_after.is_none_or(|d| clock.now() - start < d);
+    let st = pc.keepalive(Duration::from_millis(interval_ms), &mut keep_going)?;
+    let ms = |us: u64| us as f64 / 1e3;
     if ctx.json {
-        output::json(&json!({"refreshes": count, "interval_ms": interval_ms, "max_gap_ms": worst.as_secs_f64() * 1e3}));
+        output::json(&json!({"refreshes": st.refreshes, "interval_ms": interval_ms,
+            "min_gap_ms": ms(st.min_gap_us), "mean_gap_ms": ms(st.mean_gap_us), "p99_gap_ms": ms(st.p99_gap_us),
+            "max_gap_ms": ms(st.max_gap_us), "scheduling": scheduling}));
     } else {
         println!(
-            "{count} watchdog refreshes, interval {interval_ms} ms, longest gap {:.2} ms",
-            worst.as_secs_f64() * 1e3
+            "{} watchdog refreshes, interval {interval_ms} ms, gaps min {:.2} / mean {:.2} / p99 {:.2} / max {:.2} ms \
+             ({scheduling} scheduling)",
+            st.refreshes,
+            ms(st.min_gap_us),
+            ms(st.mean_gap_us),
+            ms(st.p99_gap_us),
+            ms(st.max_gap_us)
         );
     }
     if interrupted() {
@@ -823,4 +836,22 @@ fn keepalive(ctx: &Ctx, pc: &mut PowerCube, interval_ms: u64, duration: Option<f
         );
     }
     Ok(())
+}
+
+/// Puts the keep-alive thread ahead of ordinary work where the system allows
+/// it: a busy machine must not delay a refresh by tens of milliseconds
+/// (docs/safety.md has the figures). SCHED_FIFO first (root or
+/// CAP_SYS_NICE), then nice -10; otherwise ordinary scheduling.
+fn raise_priority() -> &'static str {
+    // SAFETY: plain system calls on the calling thread with valid arguments.
+    unsafe {
+        let param = libc::sched_param { sched_priority: 20 };
+        if libc::pthread_setschedparam(libc::pthread_self(), libc::SCHED_FIFO, &param) == 0 {
+            return "fifo";
+        }
+        if libc::setpriority(libc::PRIO_PROCESS, 0, -10) == 0 {
+            return "nice";
+        }
+    }
+    "normal"
 }

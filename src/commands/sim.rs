@@ -8,6 +8,7 @@ use std::sync::Arc;
 use anyhow::Context as _;
 use axisctl::link::{self, LinkSpec};
 use axisctl::sim::bench::{Bench, BenchConfig};
+use axisctl::sim::fault::{ByteFaults, ByteProtocol, FaultSpec, Injector, Trip};
 use axisctl::sim::serve;
 
 use super::{usage, Ctx};
@@ -87,11 +88,31 @@ pub fn run(ctx: &Ctx, args: &SimArgs) -> anyhow::Result<()> {
         None => None,
     };
 
+    let faults = args
+        .fault
+        .as_deref()
+        .map(|f| f.parse::<FaultSpec>().map_err(|e| usage(format!("--fault: {e}"))))
+        .transpose()?;
     let bench = Bench::new(&cfg, Arc::clone(&ctx.clock));
     if args.wire_speed {
         bench.bus.set_bitrate(Some(args.bitrate));
         serve::precise_timers();
     }
+    if let Some(spec) = faults {
+        bench.inject_faults(spec, args.fault_seed);
+    }
+    // Every serial line draws its faults from its own generator.
+    let noise = |protocol, seed_offset: u64| match faults {
+        None => serve::Noise::default(),
+        Some(spec) => {
+            let inj = Arc::new(std::sync::Mutex::new(Injector::new(spec, args.fault_seed.wrapping_add(seed_offset))));
+            let trip = spec.trip.map(|d| match protocol {
+                ByteProtocol::PowerCube => Trip::new(d).powercube(Arc::clone(&bench.powercube)),
+                ByteProtocol::Pac => Trip::new(d).pac(Arc::clone(&bench.pac)),
+            });
+            serve::Noise { faults: spec.touches_answers().then(|| ByteFaults::new(inj, protocol)), trip }
+        }
+    };
     let pace = |format| args.wire_speed.then(|| serve::Pace::serial(args.baud, format));
     let stop = Arc::new(AtomicBool::new(false));
     {
@@ -107,8 +128,8 @@ pub fn run(ctx: &Ctx, args: &SimArgs) -> anyhow::Result<()> {
                 let (master, path) = link::pty::open_pair()?;
                 announce_all(&format!("serial:{path}?baud={}&format=8N1", args.baud));
                 let (pc, clock, stop) = (Arc::clone(&bench.powercube), Arc::clone(&ctx.clock), Arc::clone(&stop));
-                let pace = pace(link::SerialFormat::F8N1);
-                threads.push(std::thread::spawn(move || serve::rs232(Box::new(master), pc, clock, &stop, pace)));
+                let (pace, noise) = (pace(link::SerialFormat::F8N1), noise(ByteProtocol::PowerCube, 1));
+                threads.push(std::thread::spawn(move || serve::rs232(Box::new(master), pc, clock, &stop, pace, noise)));
             }
             Where::PtySlcan => {
                 let (master, path) = link::pty::open_pair()?;
@@ -129,8 +150,8 @@ pub fn run(ctx: &Ctx, args: &SimArgs) -> anyhow::Result<()> {
         let (master, path) = link::pty::open_pair()?;
         announce("pac", &format!("serial:{path}?baud={}&format=7N1", args.baud));
         let (pac, clock, stop) = (Arc::clone(&bench.pac), Arc::clone(&ctx.clock), Arc::clone(&stop));
-        let pace = pace(link::SerialFormat::F7N1);
-        threads.push(std::thread::spawn(move || serve::pac(Box::new(master), pac, clock, &stop, pace)));
+        let (pace, noise) = (pace(link::SerialFormat::F7N1), noise(ByteProtocol::Pac, 2));
+        threads.push(std::thread::spawn(move || serve::pac(Box::new(master), pac, clock, &stop, pace, noise)));
     }
     for t in threads {
         match t.join() {

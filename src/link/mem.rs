@@ -21,11 +21,18 @@ pub trait CanDevice: Send {
     fn poll(&mut self, _now: Instant, _out: &mut Vec<CanFrame>) {}
 }
 
-/// How the bus treats frames, for fault injection.
+/// How the bus treats frames, for fault injection (see `sim::fault`).
 pub trait Fault: Send {
-    /// Decides what happens to a frame sent by a device; returns the frames to
-    /// deliver instead (empty to drop it).
-    fn device_frame(&mut self, frame: CanFrame) -> Vec<CanFrame>;
+    /// Decides what happens to a frame sent by a device: pushes the frames to
+    /// deliver instead, each after a delay (nothing pushed drops it).
+    fn device_frame(&mut self, frame: CanFrame, out: &mut Vec<Delivery>);
+}
+
+/// A frame a [`Fault`] lets through, `after` this long.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Delivery {
+    pub after: Duration,
+    pub frame: CanFrame,
 }
 
 /// A frame on its way: it occupies the bus until `done`, then every other
@@ -49,6 +56,9 @@ struct Inner {
     busy_until: Option<Instant>,
     /// Ends are non-decreasing: the bus carries one frame at a time.
     in_flight: VecDeque<InFlight>,
+    /// Device frames a fault holds back, with the time they go on the bus.
+    delayed: Vec<(Instant, CanFrame)>,
+    deliveries: Vec<Delivery>,
 }
 
 impl Inner {
@@ -63,12 +73,46 @@ impl Inner {
     fn schedule_device_frames(&mut self, at: Instant) {
         let mut frames = std::mem::take(&mut self.scratch);
         if let Some(fault) = self.fault.as_mut() {
-            frames = frames.into_iter().flat_map(|f| fault.device_frame(f)).collect();
+            let mut deliveries = std::mem::take(&mut self.deliveries);
+            for f in frames.drain(..) {
+                fault.device_frame(f, &mut deliveries);
+            }
+            for d in deliveries.drain(..) {
+                if d.after.is_zero() {
+                    frames.push(d.frame);
+                } else {
+                    self.delayed.push((at + d.after, d.frame));
+                }
+            }
+            self.deliveries = deliveries;
         }
         for f in frames.drain(..) {
             self.schedule(at, f, None);
         }
         self.scratch = frames;
+    }
+
+    /// Puts held-back frames that are due by `now` on the bus, in time order.
+    fn release_delayed(&mut self, now: Instant) {
+        if self.delayed.iter().all(|(t, _)| *t > now) {
+            return;
+        }
+        self.delayed.sort_by_key(|(t, _)| *t);
+        let due = self.delayed.iter().take_while(|(t, _)| *t <= now).count();
+        let frames: Vec<_> = self.delayed.drain(..due).collect();
+        for (t, f) in frames {
+            self.schedule(t, f, None);
+        }
+    }
+
+    /// When something next happens on the bus by itself.
+    fn next_wake(&self) -> Option<Instant> {
+        let flight = self.in_flight.front().map(|f| f.done);
+        let delayed = self.delayed.iter().map(|(t, _)| *t).min();
+        match (flight, delayed) {
+            (Some(a), Some(b)) => Some(a.min(b)),
+            (a, b) => a.or(b),
+        }
     }
 
     /// Delivers every frame whose transmission has ended by `now`, lets the
@@ -80,6 +124,7 @@ impl Inner {
         }
         self.scratch = out;
         self.schedule_device_frames(now);
+        self.release_delayed(now);
         while self.in_flight.front().is_some_and(|f| f.done <= now) {
             let InFlight { done, frame, from } = self.in_flight.pop_front().expect("checked");
             for (i, q) in self.queues.iter_mut().enumerate() {
@@ -116,6 +161,8 @@ impl MemBus {
             bit_time: None,
             busy_until: None,
             in_flight: VecDeque::new(),
+            delayed: Vec::new(),
+            deliveries: Vec::new(),
         };
         Self { inner: Arc::new(Mutex::new(inner)), clock }
     }
@@ -194,7 +241,7 @@ impl CanLink for MemCanLink {
                 if let Some(f) = inner.queues[self.index].pop_front() {
                     return Ok(Some(f));
                 }
-                inner.in_flight.front().map(|f| f.done)
+                inner.next_wake()
             };
             if now >= deadline {
                 return Ok(None);

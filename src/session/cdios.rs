@@ -46,6 +46,8 @@ pub const BUSY_RETRY_INTERVAL: Duration = Duration::from_millis(50);
 pub const BUSY_RETRY_LIMIT: Duration = Duration::from_millis(1000);
 /// Events kept for the caller; older ones are dropped (and counted).
 pub const EVENT_QUEUE: usize = 1024;
+/// Most stale frames dropped before a command.
+const MAX_DRAIN: usize = 256;
 
 /// General error codes after which the same read may succeed a little later.
 const GENERAL_INITIALISING: u8 = 4;
@@ -218,6 +220,16 @@ impl Cdios {
     }
 
     fn attempt(&mut self, node: NodeId, address: Address, data: &[u8; 8]) -> Result<Option<Answer>, Failure> {
+        // Answers queued before the command cannot answer it: a late reply to
+        // an exchange that timed out would otherwise be taken for the reply to
+        // the next command of the same kind (every later poll one behind).
+        // Events among them are kept. Bounded, for a bus that never falls silent.
+        for _ in 0..MAX_DRAIN {
+            let Some(stale) = self.link.recv(Duration::ZERO)? else { break };
+            if self.take_answer(&stale).is_some() {
+                self.trace(|| TraceEvent::Received(format!("{stale:<22} ignored (queued before the command)")));
+            }
+        }
         let frame = transport::command_frame(node, data);
         self.trace(|| TraceEvent::Sent(format!("{frame:<22} {} to {}", describe(data), target(node, address))));
         self.link.send(&frame)?;

@@ -128,10 +128,40 @@ impl PowerCube {
     /// retried per the [`RetryPolicy`]; nothing else is.
     pub fn transact(&mut self, module: ModuleId, req: &Request) -> Result<Response, SessionError> {
         let attempts = if req.is_read() { 1 + self.retry.read_retries } else { 1 };
-        let mut last = None;
+        self.attempts(module, req, attempts, None)
+    }
+
+    /// The retries of a read whose first attempt went out pipelined
+    /// ([`Self::transact_many`]) and failed with `first`: the read is sent
+    /// `read_retries` more times, so it goes out 1 + retries times in all, as
+    /// with [`Self::transact`]. Anything but a read is not sent again.
+    pub fn retry_read(
+        &mut self,
+        module: ModuleId,
+        req: &Request,
+        first: SessionError,
+    ) -> Result<Response, SessionError> {
+        let retryable = matches!(first, SessionError::Timeout { .. } | SessionError::Malformed { .. });
+        if !req.is_read() || !retryable || self.retry.read_retries == 0 {
+            return Err(first);
+        }
+        self.attempts(module, req, self.retry.read_retries, Some(first))
+    }
+
+    fn attempts(
+        &mut self,
+        module: ModuleId,
+        req: &Request,
+        attempts: u32,
+        first: Option<SessionError>,
+    ) -> Result<Response, SessionError> {
+        let offset = u32::from(first.is_some());
+        let mut last = first;
         for attempt in 0..attempts {
-            if attempt > 0 {
-                self.trace(|| TraceEvent::Note(format!("retrying read ({attempt}/{})", attempts - 1)));
+            let retry = attempt + offset;
+            if retry > 0 {
+                let of = self.retry.read_retries;
+                self.trace(|| TraceEvent::Note(format!("retrying read ({retry}/{of})")));
             }
             match self.transact_once(module, req) {
                 Ok(r) => return Ok(r),
@@ -354,6 +384,103 @@ impl PowerCube {
     }
 }
 
+/// Refresh intervals of a keep-alive run, in microseconds.
+#[derive(Debug, Clone, PartialEq, Eq, serde::Serialize)]
+pub struct KeepaliveStats {
+    pub refreshes: u64,
+    pub interval_us: u64,
+    pub min_gap_us: u64,
+    pub mean_gap_us: u64,
+    pub p99_gap_us: u64,
+    pub max_gap_us: u64,
+}
+
+/// Gaps are binned by 10 µs up to this; longer ones count in the last bin
+/// (the maximum is kept exactly).
+const GAP_BINS: usize = 20_000;
+
+/// A fixed-size histogram of gaps: recording allocates nothing, so the
+/// refresh loop never waits on the allocator.
+struct GapHistogram {
+    bins: Box<[u32; GAP_BINS]>,
+    n: u64,
+    sum: u128,
+    min: Duration,
+    max: Duration,
+}
+
+impl GapHistogram {
+    fn new() -> Self {
+        Self { bins: Box::new([0; GAP_BINS]), n: 0, sum: 0, min: Duration::MAX, max: Duration::ZERO }
+    }
+
+    fn record(&mut self, gap: Duration) {
+        let bin = ((gap.as_micros() / 10) as usize).min(GAP_BINS - 1);
+        self.bins[bin] = self.bins[bin].saturating_add(1);
+        self.n += 1;
+        self.sum += gap.as_micros();
+        self.min = self.min.min(gap);
+        self.max = self.max.max(gap);
+    }
+
+    /// The upper edge of the bin holding the `q` quantile, capped at the maximum.
+    fn quantile_us(&self, q: f64) -> u64 {
+        if self.n == 0 {
+            return 0;
+        }
+        let rank = ((self.n as f64) * q).ceil().max(1.0) as u64;
+        let mut seen = 0u64;
+        for (i, c) in self.bins.iter().enumerate() {
+            seen += u64::from(*c);
+            if seen >= rank {
+                return ((i as u64 + 1) * 10).min(self.max.as_micros() as u64);
+            }
+        }
+        self.max.as_micros() as u64
+    }
+}
+
+impl PowerCube {
+    /// Broadcasts the watchdog refresh `[0x07, 0]` every `interval` on an
+    /// absolute schedule (a late turn does not push the later ones back) for
+    /// as long as `keep_going` says, and measures the gaps between refreshes.
+    /// Nothing in the loop allocates or takes a lock of ours.
+    pub fn keepalive(
+        &mut self,
+        interval: Duration,
+        keep_going: &mut dyn FnMut() -> bool,
+    ) -> Result<KeepaliveStats, SessionError> {
+        let clock = Arc::clone(&self.clock);
+        let mut hist = GapHistogram::new();
+        let mut next = clock.now();
+        let mut last: Option<std::time::Instant> = None;
+        while keep_going() {
+            self.broadcast(Broadcast::WatchdogRefresh)?;
+            let now = clock.now();
+            if let Some(prev) = last {
+                hist.record(now - prev);
+            }
+            last = Some(now);
+            next += interval;
+            let now = clock.now();
+            if next > now {
+                clock.sleep(next - now);
+            } else {
+                // Late: refresh at once and schedule from here.
+                next = now;
+            }
+        }
+        Ok(KeepaliveStats {
+            refreshes: hist.n + u64::from(last.is_some()),
+            interval_us: interval.as_micros() as u64,
+            min_gap_us: if hist.n == 0 { 0 } else { hist.min.as_micros() as u64 },
+            mean_gap_us: if hist.n == 0 { 0 } else { (hist.sum / u128::from(hist.n)) as u64 },
+            p99_gap_us: hist.quantile_us(0.99),
+            max_gap_us: hist.max.as_micros() as u64,
+        })
+    }
+}
+
 /// Decodes a GetExtended answer by the parameter's declared type.
 pub fn decode_get(module: ModuleId, param: &ParamDef, resp: &Response) -> Result<Value, SessionError> {
     let Response::Get { data, .. } = resp else {
@@ -421,6 +548,52 @@ mod tests {
     use crate::clock::VirtualClock;
     use crate::proto::powercube::table::{ids, param};
     use crate::sim::bench::in_process;
+
+    // Manual 13 on the simulator: refreshes every 20 ms keep an online
+    // watchdog quiet for as long as they run; 50 ms after the last one the
+    // module stops with COMM_ERROR and HALTED, not a moment earlier.
+    #[test]
+    fn keepalive_holds_the_watchdog_and_its_end_trips_it_within_one_period() {
+        use crate::proto::powercube::flags::{config, state};
+        use crate::sim::bench::{lock, Bench};
+        let vclock = Arc::new(VirtualClock::new());
+        let clock: Arc<dyn Clock> = vclock.clone();
+        let bench = Bench::contract(Arc::clone(&clock));
+        let mut pc = PowerCube::over_can(Box::new(bench.bus.open())).with_clock(Arc::clone(&clock));
+        let m = ModuleId::new(5).unwrap();
+        let cfg = match pc.get(m, param(ids::CONFIG).unwrap()).unwrap() {
+            Value::UInt32(c) => c,
+            other => panic!("{other:?}"),
+        };
+        pc.set(m, param(ids::CONFIG).unwrap(), Value::UInt32(cfg | config::WATCHDOG_ENABLE)).unwrap();
+        pc.transact(m, &Request::Watchdog).unwrap();
+        let state_at = |t: std::time::Instant| {
+            let mut bus = lock(&bench.powercube);
+            bus.advance(t);
+            bus.module(5).unwrap().cube_state()
+        };
+        let start = clock.now();
+        let mut last = start;
+        let mut worst_state = 0;
+        let stats = pc
+            .keepalive(Duration::from_millis(20), &mut || {
+                worst_state |= state_at(clock.now());
+                last = clock.now();
+                clock.now() - start < Duration::from_secs(3)
+            })
+            .unwrap();
+        assert_eq!(worst_state & (state::COMM_ERROR | state::HALTED), 0, "never tripped while refreshed");
+        assert_eq!((stats.min_gap_us, stats.max_gap_us, stats.p99_gap_us), (20_000, 20_000, 20_000));
+        assert_eq!(stats.refreshes, 150, "0, 20, .., 2980 ms");
+        // `last` is the check that ended the loop; the last refresh was 20 ms before.
+        let refreshed = last - Duration::from_millis(20);
+        assert_eq!(state_at(refreshed + Duration::from_micros(49_999)) & state::COMM_ERROR, 0);
+        let s = state_at(refreshed + Duration::from_millis(50));
+        assert_eq!(
+            s & (state::COMM_ERROR | state::ERROR | state::HALTED),
+            state::COMM_ERROR | state::ERROR | state::HALTED
+        );
+    }
 
     // Seen on a real kernel's vcan under qemu (scripts/qemu-socketcan.sh): a poll's ActPos
     // answer came after the timeout, the retry took it, and the retry's own answer stayed

@@ -8,10 +8,11 @@ use std::sync::{Arc, Mutex, MutexGuard};
 use std::time::{Duration, Instant};
 
 use super::cdios::CdiosNode;
+use super::fault::{ByteFaults, CanFaults, FaultSpec, FaultyByteDevice, Injector, Trip};
 use super::pac::PacController;
 use super::powercube::{ModuleKind, ModuleSpec, PowerCubeBus};
 use crate::clock::Clock;
-use crate::link::mem::{CanDevice, MemBus, MemByteLink};
+use crate::link::mem::{ByteDevice, CanDevice, MemBus, MemByteLink};
 use crate::proto::cdios::NodeId;
 use crate::proto::powercube::ModuleId;
 use crate::proto::CanFrame;
@@ -125,6 +126,15 @@ impl WireSpeed {
     }
 }
 
+/// The PowerCube modules' RS232 side as a byte device.
+pub struct PowerCubeRs232(pub Shared<PowerCubeBus>);
+
+impl ByteDevice for PowerCubeRs232 {
+    fn on_bytes(&mut self, now: Instant, bytes: &[u8], out: &mut Vec<u8>) {
+        lock(&self.0).handle_rs232(now, bytes, out);
+    }
+}
+
 pub struct Bench {
     pub bus: MemBus,
     pub powercube: Shared<PowerCubeBus>,
@@ -162,6 +172,41 @@ impl Bench {
             link.set_char_time(Duration::from_secs(bits.into()) / w.baud);
         }
         link
+    }
+
+    /// Faults on the CAN bus (the answers of every device on it) and, with
+    /// `trip`, a watcher that faults moving PowerCube and Cdios devices.
+    /// Returns the injector (its stats count what was hit).
+    pub fn inject_faults(&self, spec: FaultSpec, seed: u64) -> Shared<Injector> {
+        let inj = Arc::new(Mutex::new(Injector::new(spec, seed)));
+        if spec.touches_answers() {
+            self.bus.set_fault(Some(Box::new(CanFaults::new(Arc::clone(&inj)))));
+        }
+        if let Some(after) = spec.trip {
+            let trip = Trip::new(after).powercube(Arc::clone(&self.powercube)).cdios(Arc::clone(&self.cdios));
+            self.bus.attach(Box::new(trip));
+        }
+        inj
+    }
+
+    /// The PowerCube modules as a byte device at the far end of an RS232 line.
+    pub fn powercube_port(&self) -> PowerCubeRs232 {
+        PowerCubeRs232(Arc::clone(&self.powercube))
+    }
+
+    /// An RS232 line to the PowerCube modules (the same modules as on the
+    /// bus), its answers through `faults` if given.
+    pub fn powercube_rs232_link(&self, clock: Arc<dyn Clock>, faults: Option<ByteFaults>) -> MemByteLink {
+        let port = PowerCubeRs232(Arc::clone(&self.powercube));
+        match faults {
+            Some(f) => MemByteLink::new(Box::new(FaultyByteDevice::new(port, f)), clock),
+            None => MemByteLink::new(Box::new(port), clock),
+        }
+    }
+
+    /// A serial line to the PA-CONTROL whose answers go through `faults`.
+    pub fn faulty_pac_link(&self, clock: Arc<dyn Clock>, faults: ByteFaults) -> MemByteLink {
+        MemByteLink::new(Box::new(FaultyByteDevice::new(Arc::clone(&self.pac), faults)), clock)
     }
 
     pub fn contract(clock: Arc<dyn Clock>) -> Self {

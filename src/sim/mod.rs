@@ -4,6 +4,7 @@
 
 pub mod bench;
 pub mod cdios;
+pub mod fault;
 pub mod pac;
 pub mod powercube;
 pub mod serve;

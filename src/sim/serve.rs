@@ -8,6 +8,7 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use super::bench::{lock, Shared};
+use super::fault::{ByteFaults, Trip};
 use super::pac::PacController;
 use super::powercube::PowerCubeBus;
 use crate::clock::Clock;
@@ -93,6 +94,28 @@ fn sleep_until(clock: &dyn Clock, t: Instant) {
     }
 }
 
+/// Faults for a served serial line (`axisctl sim --fault`); the default is a clean line.
+#[derive(Default)]
+pub struct Noise {
+    pub faults: Option<ByteFaults>,
+    pub trip: Option<Trip>,
+}
+
+impl Noise {
+    /// Runs after the device at every turn of the serving loop (a quiet line
+    /// too): trips devices that are due, then passes the answer through the
+    /// faults and adds delayed answers that are due.
+    fn apply(&mut self, now: Instant, out: &mut Vec<u8>) {
+        if let Some(t) = self.trip.as_mut() {
+            t.check(now);
+        }
+        if let Some(f) = self.faults.as_mut() {
+            f.answer(now, out);
+            f.due(now, out);
+        }
+    }
+}
+
 /// PowerCube RS232 on a byte link: answers as a chain of modules would.
 pub fn rs232(
     link: Box<dyn ByteLink>,
@@ -100,8 +123,12 @@ pub fn rs232(
     clock: Arc<dyn Clock>,
     stop: &AtomicBool,
     pace: Option<Pace>,
+    mut noise: Noise,
 ) -> Result<(), LinkError> {
-    let mut device = |now, bytes: &[u8], out: &mut Vec<u8>| lock(&bus).handle_rs232(now, bytes, out);
+    let mut device = |now, bytes: &[u8], out: &mut Vec<u8>| {
+        lock(&bus).handle_rs232(now, bytes, out);
+        noise.apply(now, out);
+    };
     self::bytes(link, &mut device, clock.as_ref(), stop, pace)
 }
 
@@ -112,8 +139,12 @@ pub fn pac(
     clock: Arc<dyn Clock>,
     stop: &AtomicBool,
     pace: Option<Pace>,
+    mut noise: Noise,
 ) -> Result<(), LinkError> {
-    let mut device = |now, bytes: &[u8], out: &mut Vec<u8>| lock(&pac).handle_bytes(now, bytes, out);
+    let mut device = |now, bytes: &[u8], out: &mut Vec<u8>| {
+        lock(&pac).handle_bytes(now, bytes, out);
+        noise.apply(now, out);
+    };
     self::bytes(link, &mut device, clock.as_ref(), stop, pace)
 }
 
@@ -191,7 +222,7 @@ mod tests {
         let stop = Arc::new(AtomicBool::new(false));
         let server = {
             let (c, clock, stop) = (Arc::clone(&controller), Arc::clone(&clock), Arc::clone(&stop));
-            std::thread::spawn(move || pac(Box::new(master), c, clock, &stop, None))
+            std::thread::spawn(move || pac(Box::new(master), c, clock, &stop, None, Noise::default()))
         };
         let mut client = SerialLink::open(&path, 9600, SerialFormat::F7N1).unwrap();
         client.write_all(&hex("01 02 30 36 30 33 3B 30 3B 30 3B 30 03 31 34 04")).unwrap();

@@ -33,9 +33,7 @@ use crate::sim::bench::{lock, Bench};
 /// Drops every frame the devices send: a link that stops answering.
 struct Silence;
 impl Fault for Silence {
-    fn device_frame(&mut self, _frame: CanFrame) -> Vec<CanFrame> {
-        vec![]
-    }
+    fn device_frame(&mut self, _frame: CanFrame, _out: &mut Vec<crate::link::mem::Delivery>) {}
 }
 
 struct Rig {
@@ -505,6 +503,35 @@ fn halt_all_stops_all_three_families_within_one_poll_period() {
     assert!(!running && rpm == 0.0, "Cdios motor 0 stands: running {running}, {rpm} rpm");
     rig.round();
     insta::assert_snapshot!("after_halt_all_80x24", rig.screen(80, 24));
+}
+
+/// The CAN link stops answering while everything moves: halt-all still
+/// stops every PowerCube (the broadcast Halt needs no answer) and every
+/// Cdios motor (the stop goes out; only its confirmation is lost), and the
+/// PA-CONTROL on its own healthy link.
+#[test]
+fn halt_all_works_while_a_link_times_out() {
+    let mut rig = Rig::new();
+    rig.everything_moving();
+    assert!(rig.cdios_motor(0).0, "Cdios motor 0 running");
+    rig.bench.bus.set_fault(Some(Box::new(Silence)));
+    rig.advance(Duration::from_millis(100));
+    rig.round();
+    let d = rig.app.device(DeviceKey::Cube(3)).unwrap();
+    assert!(rig.app.stale(d).is_some(), "the CAN link is timing out");
+    let t0 = rig.clock.now();
+    rig.key(KeyCode::Char(' '));
+    // The halt itself waits out at most the lost confirmations' timeouts.
+    assert!(rig.clock.now() - t0 <= Duration::from_secs(2), "{:?}", rig.clock.now() - t0);
+    for m in [3, 5, 17] {
+        let (cube, vel) = rig.cube(m);
+        assert_ne!(cube & state::HALTED, 0, "module {m} halted");
+        assert_eq!(vel, 0.0, "module {m} stands");
+    }
+    rig.advance(Duration::from_millis(500));
+    let (running, rpm) = rig.cdios_motor(0);
+    assert!(!running && rpm == 0.0, "Cdios motor 0 stands: running {running}, {rpm} rpm");
+    assert_eq!(rig.pac_axis(1), (2, 0.0), "PA axis 1 stopped");
 }
 
 /// Every binding of the help does something visible on a device it

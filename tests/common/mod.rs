@@ -59,6 +59,13 @@ impl Sim {
         Self { child, links }
     }
 
+    /// Kills the simulator at once, as pulling the adapter's plug would:
+    /// its ptys close under whoever has them open.
+    pub fn unplug(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+
     pub fn link(&self, family: &str) -> &str {
         &self.links.iter().find(|(f, _)| f == family).expect("family served").1
     }

@@ -386,3 +386,43 @@ proptest! {
         }
     }
 }
+
+/// Holds back the first answer by 150 ms (beyond the 100 ms timeout).
+struct FirstLate(bool);
+
+impl crate::link::mem::Fault for FirstLate {
+    fn device_frame(&mut self, frame: CanFrame, out: &mut Vec<crate::link::mem::Delivery>) {
+        let after = if std::mem::replace(&mut self.0, false) { Duration::from_millis(150) } else { Duration::ZERO };
+        out.push(crate::link::mem::Delivery { after, frame });
+    }
+}
+
+// The PowerCube session's qemu finding, for Cdios: a late reply to a timed-out
+// read must not become the reply to the next read (every later poll one behind).
+#[test]
+fn a_reply_queued_before_the_command_is_not_taken_for_its_reply() {
+    let clock = Arc::new(VirtualClock::new());
+    let bus = MemBus::new(clock.clone());
+    let n = Arc::new(Mutex::new(0i32));
+    let seen = Arc::new(Mutex::new(Vec::new()));
+    let counter = Arc::clone(&n);
+    bus.attach(Box::new(Scripted {
+        seen,
+        respond: Box::new(move |frame| {
+            let Some(d) = on_command(frame) else { return vec![] };
+            let mut c = counter.lock().unwrap();
+            *c += 1;
+            let v = c.to_le_bytes();
+            vec![CanFrame::new(0x181, &[0x21, d[1], d[2], v[0], v[1], v[2], v[3], 0]).unwrap()]
+        }),
+    }));
+    bus.set_fault(Some(Box::new(FirstLate(true))));
+    let mut s = Cdios::new(Box::new(bus.open())).with_clock(clock.clone());
+    s.set_nmt(false);
+    let m0 = ModuleId::new(0).unwrap();
+    // Read 1 times out; the retry gets its own reply (2); the late reply (1)
+    // arrives afterwards and waits in the queue.
+    assert_eq!(s.read_position(node1(), m0, PositionSource::Current).unwrap(), 2);
+    clock.advance(Duration::from_millis(100));
+    assert_eq!(s.read_position(node1(), m0, PositionSource::Current).unwrap(), 3, "not the stale 1");
+}

@@ -459,6 +459,18 @@ impl PacController {
         }
     }
 
+    /// The bench side: a moving axis runs onto the limit switch ahead of it
+    /// now (as with a jammed or misplaced switch): it halts with status 4 and
+    /// E_LIMIT_*, exactly as when the switch is reached. A standing axis is
+    /// left alone.
+    pub fn trip_axis(&mut self, now: Instant, axis: u8) {
+        self.advance(now);
+        let t = self.t;
+        let Some(a) = self.axis(axis).filter(|a| a.moving()) else { return };
+        let positive = a.kin(t).vel >= 0.0;
+        self.apply_event(usize::from(axis) - 1, Event::LimitSwitch { positive });
+    }
+
     /// The bench side: raise a PA-CONTROL error (0 clears it).
     pub fn inject_error(&mut self, error: u16) {
         self.error = error;

@@ -197,6 +197,17 @@ fn first_cross_up(p: f64, v: f64, a: f64, dur: f64, m: f64) -> Option<f64> {
     if p >= m && (v > 0.0 || (v == 0.0 && a > 0.0)) {
         return Some(0.0);
     }
+    // Beyond the bound and moving back in, then turning outward again before
+    // it is back in range: the module leaves when its velocity turns, at
+    // `-v / a`. Without this the move on beyond the limit would never be
+    // caught (no crossing of `m` happens), while a poll taken just after the
+    // turn sees "beyond and moving outward" and trips there.
+    if p >= m && v < 0.0 && a > 0.0 {
+        let turn = -v / a;
+        if turn <= dur && p + v * turn + a * turn * turn / 2.0 >= m {
+            return Some(turn);
+        }
+    }
     let c = p - m;
     let mut best: Option<f64> = None;
     let mut consider = |tau: f64| {
@@ -342,6 +353,24 @@ mod tests {
         assert_eq!(back.first_exit(-10.0, 1.0, 0.0), Some(12.0), "leaves at the other end only");
         let out = Traj::Segs { t0: 0.0, p0: -2.0, v0: -1.0, segs: vec![], end: End::Cruise };
         assert_eq!(out.first_exit(-1.0, 1.0, 0.5), Some(0.5));
+    }
+
+    // The proptest regression of extra_advance_calls_change_nothing (MaxPos
+    // -0.0 = MinPos, the module 2e-7 beyond it): a velocity command from a
+    // slow inward step turns outward without ever coming back in range. The
+    // exit is the turn; before, lazy evaluation missed it while a poll just
+    // after the turn tripped, so the two disagreed.
+    #[test]
+    fn beyond_a_bound_turning_outward_leaves_at_the_turn() {
+        let segs = plan_velocity(-1e-6, 1.0, 2.0);
+        let t = Traj::Segs { t0: 0.0, p0: 2e-7, v0: -1e-6, segs, end: End::Cruise };
+        let hit = t.first_exit(-1e-7, 1e-7, 0.0).unwrap();
+        assert!((hit - 0.5e-6).abs() < 1e-15, "{hit}");
+        assert_eq!(t.first_exit(-1e-7, 1e-7, 0.0), t.first_exit(-1e-7, 1e-7, 0.25e-6), "polling changes nothing");
+        // Turning while back in range is no exit.
+        let t = Traj::Segs { t0: 0.0, p0: 2e-7, v0: -1.0, segs: plan_velocity(-1.0, 1.0, 2.0), end: End::Cruise };
+        let hit = t.first_exit(-1.0, 1e-7, 0.0).unwrap();
+        assert!(hit > 0.5, "crosses back out after the turn: {hit}");
     }
 
     #[test]
