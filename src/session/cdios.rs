@@ -356,6 +356,93 @@ impl Cdios {
         }
     }
 
+    /// Several reads of one module at once: one burst on the bus, the replies
+    /// collected within one timeout (what a dashboard poll needs; on a slow
+    /// link it saves a turnaround per read). Reads whose replies cannot be
+    /// told apart, and any read the burst did not answer, go one at a time
+    /// through [`Self::read`] with its retries.
+    pub fn read_many(
+        &mut self,
+        node: NodeId,
+        address: Address,
+        cmds: &[Command],
+    ) -> Result<Vec<DecodedReply>, SessionError> {
+        let mut data = Vec::with_capacity(cmds.len());
+        for cmd in cmds {
+            data.push(cmd.encode(address).map_err(|e| SessionError::Malformed {
+                target: target(node, address),
+                source: DecodeError::Malformed(format!("command not encodable: {e}")),
+            })?);
+        }
+        let distinct = data.iter().enumerate().all(|(i, a)| data[..i].iter().all(|b| !same_reply(a, b)));
+        let mut got: Vec<Option<DecodedReply>> = vec![None; cmds.len()];
+        if distinct && cmds.len() > 1 {
+            self.start_node(node)?;
+            for _ in 0..MAX_DRAIN {
+                let Some(stale) = self.link.recv(Duration::ZERO)? else { break };
+                if self.take_answer(&stale).is_some() {
+                    self.trace(|| TraceEvent::Received(format!("{stale:<22} ignored (queued before the command)")));
+                }
+            }
+            let frames: Vec<CanFrame> = data.iter().map(|d| transport::command_frame(node, d)).collect();
+            for (f, d) in frames.iter().zip(&data) {
+                self.trace(|| TraceEvent::Sent(format!("{f:<22} {} to {}", describe(d), target(node, address))));
+            }
+            self.link.send_many(&frames)?;
+            let deadline = self.clock.now() + self.timeout;
+            let mut pending = cmds.len();
+            while pending > 0 {
+                let now = self.clock.now();
+                if now >= deadline {
+                    break;
+                }
+                let Some(frame) = self.link.recv(deadline - now)? else { continue };
+                let Some(answer) = self.take_answer(&frame) else { continue };
+                if answer.node != node || Address::from_byte(answer.module) != address {
+                    continue;
+                }
+                let slot = data.iter().position(|d| answer.kind == AnswerKind::Reply && is_reply_to(&answer, d));
+                match (slot, answer.reply()) {
+                    (Some(i), Some(Ok(r))) if got[i].is_none() && check_row(Ok(r.clone()), &data[i]).is_ok() => {
+                        self.trace(|| TraceEvent::Received(format!("{frame:<22} {}", describe_answer(&answer))));
+                        got[i] = Some(r);
+                        pending -= 1;
+                    }
+                    // Errors and odd replies: left to the one-at-a-time path below.
+                    _ => self.trace(|| TraceEvent::Received(format!("{frame:<22} left for a single read"))),
+                }
+            }
+        }
+        // The burst was the first attempt of every read it did not answer.
+        let retry = self.retry;
+        let burst = distinct && cmds.len() > 1;
+        if burst && retry.read_retries == 0 {
+            if let Some(i) = got.iter().position(Option::is_none) {
+                let (what, timeout) = (describe(&data[i]), self.timeout);
+                return Err(SessionError::Timeout { target: target(node, address), what, timeout });
+            }
+        }
+        if burst {
+            self.retry.read_retries = retry.read_retries - 1;
+        }
+        let mut out = Vec::with_capacity(cmds.len());
+        let mut result = Ok(());
+        for (cmd, r) in cmds.iter().zip(got) {
+            match r {
+                Some(r) => out.push(r),
+                None => match self.read(node, address, cmd) {
+                    Ok(r) => out.push(r),
+                    Err(e) => {
+                        result = Err(e);
+                        break;
+                    }
+                },
+            }
+        }
+        self.retry = retry;
+        result.map(|()| out)
+    }
+
     /// 26h selector 0: the four status bytes, decoded.
     pub fn read_status(&mut self, node: NodeId, module: ModuleId) -> Result<StatusReport, SessionError> {
         let r = self.read(node, Address::Module(module), &Command::ReadStatus(StatusSelector::Status))?;
@@ -387,6 +474,13 @@ pub fn target(node: NodeId, address: Address) -> String {
         Address::Module(m) => format!("node {node} module {m}"),
         Address::Controller => format!("node {node} controller"),
     }
+}
+
+/// Whether the replies to two commands look alike (same reply code, and no
+/// echoed selector to tell them apart).
+fn same_reply(a: &[u8; 8], b: &[u8; 8]) -> bool {
+    let (Some(da), Some(db)) = (table::command_for(a[0], a[2]), table::command_for(b[0], b[2])) else { return true };
+    da.reply.code == db.reply.code && (da.reply.selector != ReplySelector::Echo || a[2] == b[2])
 }
 
 /// Whether `a` is the normal reply to the command `data`.

@@ -4,7 +4,7 @@
 use super::source::{Action, CdiosSnap, DeviceKey, DeviceSource, Family, HaltReport, Snapshot, SourceError};
 use crate::proto::cdios::table;
 use crate::proto::cdios::{
-    Address, Command, Direction, GotoMode, ModuleId, NodeId, PositionSource, StartOption, StopOption,
+    Address, Command, Direction, GotoMode, ModuleId, NodeId, PositionSource, StartOption, StatusSelector, StopOption,
 };
 use crate::session::cdios::Cdios;
 use crate::session::RetryPolicy;
@@ -84,16 +84,25 @@ impl DeviceSource for CdiosSource {
 
     fn poll(&mut self, dev: DeviceKey) -> Result<Snapshot, SourceError> {
         let m = self.module(dev)?;
-        let status = self.s.read_status(self.node, m)?.status;
-        let (speed, rpm_error) = self.s.read_speed(self.node, m)?;
-        let position = self.s.read_position(self.node, m, PositionSource::Current)?;
-        let setpoint = self.s.read_position(self.node, m, PositionSource::Setpoint)?;
+        // One burst per poll: status, speed, position, setpoint.
+        let replies = self.s.read_many(
+            self.node,
+            Address::Module(m),
+            &[
+                Command::ReadStatus(StatusSelector::Status),
+                Command::ReadStatus(StatusSelector::SpeedError),
+                Command::ReadPosition(PositionSource::Current),
+                Command::ReadPosition(PositionSource::Setpoint),
+            ],
+        )?;
+        let get = |i: usize, k: &str| replies[i].get(k).unwrap_or(0);
+        let byte = |k| get(0, k) as u8;
         Ok(Snapshot::Cdios(CdiosSnap {
-            position: position.into(),
-            setpoint: setpoint.into(),
-            speed,
-            rpm_error,
-            status,
+            position: get(2, "position"),
+            setpoint: get(3, "position"),
+            speed: get(1, "motor_speed"),
+            rpm_error: get(1, "rpm_error"),
+            status: [byte("status1"), byte("status2"), byte("status3"), byte("status4")],
         }))
     }
 

@@ -426,3 +426,52 @@ fn a_reply_queued_before_the_command_is_not_taken_for_its_reply() {
     clock.advance(Duration::from_millis(100));
     assert_eq!(s.read_position(node1(), m0, PositionSource::Current).unwrap(), 3, "not the stale 1");
 }
+
+#[test]
+fn read_many_is_one_burst_with_the_same_answers() {
+    // This node answers only once all three reads are in: one at a time,
+    // the first would time out.
+    let mut held: Vec<CanFrame> = Vec::new();
+    let mut rig = Rig::new(move |frame| {
+        if on_command(frame).is_some_and(|d| d[0] == 0x21 || d[0] == 0x26) {
+            held.extend(plain_node(frame));
+            if held.len() == 3 {
+                return std::mem::take(&mut held);
+            }
+            return vec![];
+        }
+        plain_node(frame)
+    });
+    let reads = [
+        Command::ReadStatus(StatusSelector::Status),
+        Command::ReadPosition(PositionSource::Current),
+        Command::ReadPosition(PositionSource::Setpoint),
+    ];
+    let t0 = rig.clock.now();
+    rig.session.start_node(node1()).unwrap();
+    let settled = rig.clock.now();
+    let r = rig.session.read_many(node1(), m(0), &reads).unwrap();
+    assert_eq!(r[0].get("status1"), Some(0x81));
+    assert_eq!((r[1].get("position"), r[2].get("position")), (Some(-1200), Some(-1200)));
+    assert_eq!(r[1].selector, 0, "replies matched by their echoed selector");
+    assert_eq!(r[2].selector, 2);
+    assert!(settled > t0);
+    assert_eq!(rig.sent(), ["000#0101", "201#2600000000000000", "201#2100000000000000", "201#2100020000000000"]);
+}
+
+#[test]
+fn read_many_retries_exactly_like_single_reads() {
+    let mut silent = Rig::new(|_| vec![]);
+    silent.session.set_nmt(false);
+    let reads = [Command::ReadStatus(StatusSelector::Status), Command::ReadPosition(PositionSource::Current)];
+    silent.session.read_many(node1(), m(0), &reads).unwrap_err();
+    // The burst is the first attempt of both; the first read then gets its 2 retries and fails.
+    let status = silent.sent().iter().filter(|s| s.starts_with("201#26")).count();
+    assert_eq!(status, 3, "{:?}", silent.sent());
+    let mut silent = Rig::new(|_| vec![]);
+    silent.session.set_nmt(false);
+    silent.session.set_retry(RetryPolicy { read_retries: 0 });
+    let e = silent.session.read_many(node1(), m(0), &reads).unwrap_err();
+    assert_eq!(e.kind().exit_code(), 4);
+    assert_eq!(silent.sent().len(), 2, "--retries 0: the burst only");
+}
