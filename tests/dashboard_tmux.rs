@@ -66,7 +66,12 @@ fn smoke(w: u16, h: u16) {
     t.wait_for("READY$");
     t.keys(&[&format!("{} --link sim dashboard", env!("CARGO_BIN_EXE_axisctl")), "Enter"]);
     let screen = t.wait_for("module 17");
-    assert_eq!(t.display("#{alternate_on}"), "1", "the dashboard runs on the alternate screen");
+    // tmux reports the mode a moment after the screen shows it.
+    let deadline = Instant::now() + Duration::from_secs(5);
+    while t.display("#{alternate_on}") != "1" {
+        assert!(Instant::now() < deadline, "the dashboard runs on the alternate screen:\n{}", t.capture());
+        std::thread::sleep(Duration::from_millis(50));
+    }
     for want in ["PowerCube", "PA-CONTROL", "Cdios", "axis 3", "node 1 mod 1", "sim CAN", "sim RS232", "HALT ALL"] {
         assert!(screen.contains(want), "{want:?} missing:\n{screen}");
     }
