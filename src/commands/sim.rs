@@ -7,7 +7,7 @@ use std::sync::Arc;
 
 use anyhow::Context as _;
 use axisctl::link::{self, LinkSpec};
-use axisctl::sim::bench::{Bench, BenchConfig};
+use axisctl::sim::bench::{Bench, BenchConfig, PowerCubeRs232};
 use axisctl::sim::fault::{ByteFaults, ByteProtocol, FaultSpec, Injector, Trip};
 use axisctl::sim::serve;
 
@@ -129,7 +129,9 @@ pub fn run(ctx: &Ctx, args: &SimArgs) -> anyhow::Result<()> {
                 announce_all(&format!("serial:{path}?baud={}&format=8N1", args.baud));
                 let (pc, clock, stop) = (Arc::clone(&bench.powercube), Arc::clone(&ctx.clock), Arc::clone(&stop));
                 let (pace, noise) = (pace(link::SerialFormat::F8N1), noise(ByteProtocol::PowerCube, 1));
-                threads.push(std::thread::spawn(move || serve::rs232(Box::new(master), pc, clock, &stop, pace, noise)));
+                threads.push(std::thread::spawn(move || {
+                    serve::serial(Box::new(master), PowerCubeRs232(pc), clock, &stop, pace, noise)
+                }));
             }
             Where::PtySlcan => {
                 let (master, path) = link::pty::open_pair()?;
@@ -151,7 +153,7 @@ pub fn run(ctx: &Ctx, args: &SimArgs) -> anyhow::Result<()> {
         announce("pac", &format!("serial:{path}?baud={}&format=7N1", args.baud));
         let (pac, clock, stop) = (Arc::clone(&bench.pac), Arc::clone(&ctx.clock), Arc::clone(&stop));
         let (pace, noise) = (pace(link::SerialFormat::F7N1), noise(ByteProtocol::Pac, 2));
-        threads.push(std::thread::spawn(move || serve::pac(Box::new(master), pac, clock, &stop, pace, noise)));
+        threads.push(std::thread::spawn(move || serve::serial(Box::new(master), pac, clock, &stop, pace, noise)));
     }
     for t in threads {
         match t.join() {

@@ -7,12 +7,9 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use super::bench::{lock, Shared};
 use super::fault::{ByteFaults, Trip};
-use super::pac::PacController;
-use super::powercube::PowerCubeBus;
 use crate::clock::Clock;
-use crate::link::mem::MemCanLink;
+use crate::link::mem::{ByteDevice, MemCanLink};
 use crate::link::{ByteLink, CanLink, LinkError, SerialFormat};
 use crate::proto::slcan::{AckStyle, Adapter};
 
@@ -116,33 +113,19 @@ impl Noise {
     }
 }
 
-/// PowerCube RS232 on a byte link: answers as a chain of modules would.
-pub fn rs232(
+/// A serial device on a byte link: the PowerCube modules' RS232 side
+/// ([`PowerCubeRs232`](super::bench::PowerCubeRs232)) or the PA-CONTROL's
+/// online command port, with the fault noise on what it answers.
+pub fn serial(
     link: Box<dyn ByteLink>,
-    bus: Shared<PowerCubeBus>,
+    mut dev: impl ByteDevice,
     clock: Arc<dyn Clock>,
     stop: &AtomicBool,
     pace: Option<Pace>,
     mut noise: Noise,
 ) -> Result<(), LinkError> {
     let mut device = |now, bytes: &[u8], out: &mut Vec<u8>| {
-        lock(&bus).handle_rs232(now, bytes, out);
-        noise.apply(now, out);
-    };
-    self::bytes(link, &mut device, clock.as_ref(), stop, pace)
-}
-
-/// The PA-CONTROL's RS232 online command port on a byte link.
-pub fn pac(
-    link: Box<dyn ByteLink>,
-    pac: Shared<PacController>,
-    clock: Arc<dyn Clock>,
-    stop: &AtomicBool,
-    pace: Option<Pace>,
-    mut noise: Noise,
-) -> Result<(), LinkError> {
-    let mut device = |now, bytes: &[u8], out: &mut Vec<u8>| {
-        lock(&pac).handle_bytes(now, bytes, out);
+        dev.on_bytes(now, bytes, out);
         noise.apply(now, out);
     };
     self::bytes(link, &mut device, clock.as_ref(), stop, pace)
@@ -194,6 +177,8 @@ mod tests {
     use crate::clock::SystemClock;
     use crate::link::serial::SerialLink;
     use crate::link::{pty, SerialFormat};
+    use crate::sim::bench::lock;
+    use crate::sim::pac::PacController;
     use std::sync::Mutex;
 
     fn hex(s: &str) -> Vec<u8> {
@@ -222,7 +207,7 @@ mod tests {
         let stop = Arc::new(AtomicBool::new(false));
         let server = {
             let (c, clock, stop) = (Arc::clone(&controller), Arc::clone(&clock), Arc::clone(&stop));
-            std::thread::spawn(move || pac(Box::new(master), c, clock, &stop, None, Noise::default()))
+            std::thread::spawn(move || serial(Box::new(master), c, clock, &stop, None, Noise::default()))
         };
         let mut client = SerialLink::open(&path, 9600, SerialFormat::F7N1).unwrap();
         client.write_all(&hex("01 02 30 36 30 33 3B 30 3B 30 3B 30 03 31 34 04")).unwrap();
