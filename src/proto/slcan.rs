@@ -323,11 +323,15 @@ impl LineBuffer {
                 self.buf.drain(..1);
                 Some(Line::Bel)
             }
-            Some(i) if self.buf[i] == BEL => Some(Line::Partial(self.buf.drain(..i).collect())),
+            // Length first, whatever ends the line: a line that arrived in
+            // one read must read as it does when it trickles in (overlong
+            // before its end is seen). Keep a BEL: it is a reply of its own.
             Some(i) if i > MAX_LINE => {
-                self.buf.drain(..=i);
+                let end = if self.buf[i] == CR { i + 1 } else { i };
+                self.buf.drain(..end);
                 Some(Line::Overlong(i))
             }
+            Some(i) if self.buf[i] == BEL => Some(Line::Partial(self.buf.drain(..i).collect())),
             Some(i) => {
                 let mut line: Vec<u8> = self.buf.drain(..=i).collect();
                 line.pop();
@@ -702,6 +706,27 @@ mod tests {
         assert_eq!(d.next_event(), Some(Ok(SlcanEvent::Error)));
         assert_eq!(d.next_event(), Some(Ok(SlcanEvent::Frame(frame(0x0F1, &[1])))));
         assert_eq!(d.next_event(), None);
+    }
+
+    // Found by fuzzing (fuzz/fuzz_targets/slcan_stream.rs): an overlong line
+    // ended by BEL read as "line cut by BEL" when it arrived in one read and
+    // as overlong when it trickled in.
+    #[test]
+    fn overlong_line_cut_by_bel_reads_the_same_in_any_reads() {
+        let mut stream = vec![b'x'; MAX_LINE + 4];
+        stream.extend_from_slice(b"\x07t0F1101\r");
+        let whole = events(&stream);
+        assert!(matches!(whole[0], Err(DecodeError::TooLong { .. })), "{whole:?}");
+        assert_eq!(whole[1..], [Ok(SlcanEvent::Error), Ok(SlcanEvent::Frame(frame(0x0F1, &[1])))]);
+        let mut d = LineDecoder::new();
+        let mut split = Vec::new();
+        for b in &stream {
+            d.push(std::slice::from_ref(b));
+            split.extend(std::iter::from_fn(|| d.next_event()));
+        }
+        assert_eq!(split.len(), whole.len());
+        assert!(matches!(split[0], Err(DecodeError::TooLong { .. })));
+        assert_eq!(split[1..], whole[1..]);
     }
 
     fn run(adapter: &mut Adapter, host: &[u8]) -> Vec<u8> {

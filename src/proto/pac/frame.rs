@@ -478,9 +478,16 @@ impl Framer {
         }
         // Body: up to ETX. Any other control character means the frame was
         // cut off; resume at an SOH, swallow an EOT (it ended the broken
-        // frame, it is not a poll).
+        // frame, it is not a poll). The length limit is checked by position
+        // before each byte, so the verdict on a long frame does not depend on
+        // how the bytes were split into reads: ETX at MAX_FRAME - 1 or later
+        // leaves no room for EOT inside MAX_FRAME bytes.
         let mut i = 2;
-        while i < self.buf.len() && i <= MAX_FRAME {
+        while i < self.buf.len() {
+            if i >= MAX_FRAME - 1 {
+                self.drop_front(1);
+                return Some(Err(FrameError::TooLong));
+            }
             match self.buf[i] {
                 ETX => break,
                 SOH | STX => {
@@ -494,9 +501,16 @@ impl Framer {
                 _ => i += 1,
             }
         }
+        if i >= self.buf.len() {
+            return None;
+        }
         let etx = i;
         let mut j = etx + 1;
-        while j < self.buf.len() && j <= MAX_FRAME {
+        while j < self.buf.len() {
+            if j >= MAX_FRAME {
+                self.drop_front(1);
+                return Some(Err(FrameError::TooLong));
+            }
             match self.buf[j] {
                 EOT => break,
                 SOH => {
@@ -505,10 +519,6 @@ impl Framer {
                 }
                 _ => j += 1,
             }
-        }
-        if j >= MAX_FRAME {
-            self.drop_front(1);
-            return Some(Err(FrameError::TooLong));
         }
         if j >= self.buf.len() {
             return None;
@@ -904,6 +914,34 @@ mod tests {
         let good = ack(0, true, 1, 0, Par2::Int(1), CheckRule::Strict).encode().unwrap();
         d.push(&good);
         assert!(matches!(d.next(), Some(Ok(_))));
+    }
+
+    // Found by fuzzing (fuzz/fuzz_targets/pac_ack_stream.rs): a frame that
+    // reached MAX_FRAME bytes was TooLong when a read ended there but
+    // Truncated when the next byte came in the same read, and the EOT after
+    // it then read as a poll or not depending on read timing.
+    #[test]
+    fn long_frame_verdict_does_not_depend_on_read_boundaries() {
+        let mut stream = b"\x01\x02".to_vec();
+        stream.extend(std::iter::repeat_n(b'1', MAX_FRAME - 3));
+        stream.push(EOT);
+        stream.extend_from_slice(&POLL);
+        let run = |reads: &[&[u8]]| {
+            let mut d = CommandDecoder::new();
+            let mut out = Vec::new();
+            for r in reads {
+                d.push(r);
+                out.extend(std::iter::from_fn(|| d.next()));
+            }
+            out
+        };
+        let whole = run(&[&stream]);
+        assert_eq!(whole.first(), Some(&Err(FrameError::TooLong)));
+        assert_eq!(whole.iter().filter(|r| **r == Ok(Request::Poll)).count(), 2);
+        for cut in [MAX_FRAME - 2, MAX_FRAME - 1, MAX_FRAME] {
+            let (a, b) = stream.split_at(cut);
+            assert_eq!(run(&[a, b]), whole, "split at {cut}");
+        }
     }
 
     #[test]
