@@ -225,7 +225,13 @@ pub fn parse_int(t: &str) -> Option<i64> {
     } else {
         body.parse().ok()?
     };
-    Some(if neg { -v } else { v })
+    // The digits may carry a sign of their own ("--5", "-0x-8000000000000000"):
+    // negating i64::MIN must be a parse error, not an overflow.
+    if neg {
+        v.checked_neg()
+    } else {
+        Some(v)
+    }
 }
 
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -539,6 +545,17 @@ mod tests {
         assert!(Request::GetExtended { param: 0x27 }
             .matches(&Response::Get { param: 0x27, data: Payload::new(&[2, 0, 0, 0]).unwrap() }));
         assert!(!Request::GetExtended { param: 0x27 }.matches(&Response::Get { param: 0x3c, data: Payload::default() }));
+    }
+
+    // Found by fuzzing (fuzz/fuzz_targets/user_values.rs): negating a body that
+    // is itself i64::MIN overflowed (a panic with overflow checks on).
+    #[test]
+    fn parse_int_rejects_double_negative_minimum() {
+        assert_eq!(parse_int("--9223372036854775808"), None);
+        assert_eq!(parse_int("-0x-8000000000000000"), None);
+        assert_eq!(parse_int("-9223372036854775807"), Some(-i64::MAX));
+        assert_eq!(parse_int("--5"), Some(5));
+        assert!(matches!(Value::parse(ParamType::Int32, "--9223372036854775808"), Err(ValueError::NotANumber { .. })));
     }
 
     #[test]
