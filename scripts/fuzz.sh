@@ -69,7 +69,10 @@ for t in "${targets[@]}"; do
     after=$(find "artifacts/$t" -type f | wc -l)
     runs=$(sed -n 's/^stat::number_of_executed_units: *//p' "logs/$t.log" | tail -1)
     secs=$(((end - start + 500000000) / 1000000000))
-    rate=$(sed -n 's/^stat::average_exec_per_sec: *//p' "logs/$t.log" | tail -1)
+    # Over the wall time of the run (startup included): libFuzzer's own
+    # average divides by whole seconds and reads 0 for short runs.
+    ms=$(((end - start) / 1000000))
+    rate=$([[ -n $runs ]] && echo $((runs * 1000 / (ms > 0 ? ms : 1))))
     crashes=$((after - before))
     if [[ $rc -ne 0 && $crashes -eq 0 ]]; then
         crashes=1
