@@ -25,14 +25,30 @@ fn main() -> ExitCode {
         Err(e) => {
             let kind = commands::classify(&e);
             if json {
-                let doc = serde_json::json!({"error": {"kind": kind.as_str(), "message": format!("{e:#}")}});
+                let doc = serde_json::json!({"error": {"kind": kind.as_str(), "message": message(&e)}});
                 eprintln!("{doc}");
             } else {
-                eprintln!("axisctl: {e:#}");
+                eprintln!("axisctl: {}", message(&e));
             }
             ExitCode::from(kind.exit_code())
         }
     }
+}
+
+/// The error and its causes joined with ": ", leaving out a cause whose text
+/// the message already carries (typed errors quote their source).
+fn message(e: &anyhow::Error) -> String {
+    let mut out = String::new();
+    for cause in e.chain() {
+        let text = cause.to_string();
+        if !out.contains(&text) {
+            if !out.is_empty() {
+                out.push_str(": ");
+            }
+            out.push_str(&text);
+        }
+    }
+    out
 }
 
 fn is_broken_pipe(e: &anyhow::Error) -> bool {
