@@ -10,6 +10,7 @@ use axisctl::proto::cdios::{
     decode_status, Address, AnalogOutput, Command, Direction, ErrorReply, GotoMode, ModuleId, NodeId, PositionSource,
     ServoConfig, ServoPart, StartOption, StatusReport, StopOption, Timers, Traject, ValidationError,
 };
+use axisctl::proto::parse_int;
 use axisctl::session::cdios::{describe_answer, Cdios, Event};
 use axisctl::session::SessionError;
 use serde_json::{json, Value};
@@ -568,22 +569,6 @@ fn find_field(name: &str) -> Option<(ServoPart, &'static Field)> {
             *full == n || (!group_of(*part).starts_with("traject") && full.ends_with(&format!(".{n}")))
         })
         .map(|(p, f, _)| (p, f))
-}
-
-fn parse_int(text: &str) -> Option<i64> {
-    let t = text.trim();
-    let (neg, t) = match t.strip_prefix('-') {
-        Some(r) => (true, r),
-        None => (false, t),
-    };
-    let v = if let Some(h) = t.strip_prefix("0x").or_else(|| t.strip_prefix("0X")) {
-        i64::from_str_radix(h, 16).ok()?
-    } else if let Some(b) = t.strip_prefix("0b") {
-        i64::from_str_radix(b, 2).ok()?
-    } else {
-        t.parse().ok()?
-    };
-    Some(if neg { -v } else { v })
 }
 
 /// Field keys and new values of one selector.

@@ -103,14 +103,8 @@ fn pac_word(ctx: &Ctx, def: &'static pac_profibus::WordDef, value: &str) -> anyh
             bytes.try_into().map_err(|b: Vec<u8>| usage(format!("{} takes 8 bytes, got {}", def.kind, b.len())))?;
         pac_profibus::image(arr)
     } else {
-        let parsed = if let Some(h) = t.strip_prefix("0x").or_else(|| t.strip_prefix("0X")) {
-            u64::from_str_radix(h, 16)
-        } else if let Some(b) = t.strip_prefix("0b").or_else(|| t.strip_prefix("0B")) {
-            u64::from_str_radix(b, 2)
-        } else {
-            t.parse()
-        };
-        parsed.map_err(|_| usage(format!("{value:?} is not a number (decimal, 0x hex or 0b binary)")))?
+        axisctl::proto::parse_uint(t)
+            .ok_or_else(|| usage(format!("{value:?} is not a number (decimal, 0x hex or 0b binary)")))?
     };
     let d = pac_profibus::decode_word(def, raw).map_err(|e| usage(e.to_string()))?;
     if ctx.json {

@@ -641,15 +641,8 @@ impl Element {
 
 /// Decimal, 0x hex or 0b binary.
 fn parse_uint(text: &str) -> anyhow::Result<u64> {
-    let t = text.trim();
-    let r = if let Some(h) = t.strip_prefix("0x").or_else(|| t.strip_prefix("0X")) {
-        u64::from_str_radix(h, 16)
-    } else if let Some(b) = t.strip_prefix("0b").or_else(|| t.strip_prefix("0B")) {
-        u64::from_str_radix(b, 2)
-    } else {
-        t.parse()
-    };
-    r.map_err(|_| usage(format!("{text:?} is not a number (decimal, 0x hex or 0b binary)")))
+    axisctl::proto::parse_uint(text)
+        .ok_or_else(|| usage(format!("{text:?} is not a number (decimal, 0x hex or 0b binary)")))
 }
 
 fn element(ctx: &Ctx, d: &mut Dev, el: Element, number: u16, value: Option<String>, word: bool) -> anyhow::Result<()> {

@@ -26,3 +26,62 @@ pub enum DecodeError {
     #[error("malformed frame: {0}")]
     Malformed(String),
 }
+
+/// A number as a user types it: decimal, `0x` hex or `0b` binary (either
+/// case), surrounding blanks ignored.
+fn split_radix(t: &str) -> (&str, u32) {
+    if let Some(h) = t.strip_prefix("0x").or_else(|| t.strip_prefix("0X")) {
+        (h, 16)
+    } else if let Some(b) = t.strip_prefix("0b").or_else(|| t.strip_prefix("0B")) {
+        (b, 2)
+    } else {
+        (t, 10)
+    }
+}
+
+/// A signed integer as a user types it: decimal, `0x` hex or `0b` binary,
+/// with an optional sign. `None` for anything else, never a panic.
+pub fn parse_int(text: &str) -> Option<i64> {
+    let t = text.trim();
+    let (neg, body) = match t.strip_prefix('-') {
+        Some(rest) => (true, rest),
+        None => (false, t.strip_prefix('+').unwrap_or(t)),
+    };
+    let (digits, radix) = split_radix(body);
+    let v = i64::from_str_radix(digits, radix).ok()?;
+    // The digits may carry a sign of their own ("--5", "-0x-8000000000000000"):
+    // negating i64::MIN must be a parse error, not an overflow.
+    if neg {
+        v.checked_neg()
+    } else {
+        Some(v)
+    }
+}
+
+/// An unsigned integer as a user types it: decimal, `0x` hex or `0b` binary.
+pub fn parse_uint(text: &str) -> Option<u64> {
+    let (digits, radix) = split_radix(text.trim());
+    // from_str_radix takes a leading '+'; a second sign is not a number here.
+    if digits.starts_with(['+', '-']) {
+        return None;
+    }
+    u64::from_str_radix(digits, radix).ok()
+}
+
+#[cfg(test)]
+mod parse_tests {
+    use super::*;
+
+    #[test]
+    fn user_numbers() {
+        assert_eq!(parse_int(" -0x10 "), Some(-16));
+        assert_eq!(parse_int("0B101"), Some(5));
+        assert_eq!(parse_int("+7"), Some(7));
+        assert_eq!(parse_int("--9223372036854775808"), None);
+        assert_eq!(parse_int("x"), None);
+        assert_eq!(parse_uint("0x3E11"), Some(15889));
+        assert_eq!(parse_uint("18446744073709551615"), Some(u64::MAX));
+        assert_eq!(parse_uint("-1"), None);
+        assert_eq!(parse_uint("0x-1"), None);
+    }
+}

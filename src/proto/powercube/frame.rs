@@ -212,27 +212,7 @@ impl std::fmt::Display for Value {
     }
 }
 
-/// Integers in decimal, `0x` hex or `0b` binary, with an optional sign.
-pub fn parse_int(t: &str) -> Option<i64> {
-    let (neg, body) = match t.strip_prefix('-') {
-        Some(rest) => (true, rest),
-        None => (false, t.strip_prefix('+').unwrap_or(t)),
-    };
-    let v = if let Some(h) = body.strip_prefix("0x").or_else(|| body.strip_prefix("0X")) {
-        i64::from_str_radix(h, 16).ok()?
-    } else if let Some(b) = body.strip_prefix("0b") {
-        i64::from_str_radix(b, 2).ok()?
-    } else {
-        body.parse().ok()?
-    };
-    // The digits may carry a sign of their own ("--5", "-0x-8000000000000000"):
-    // negating i64::MIN must be a parse error, not an overflow.
-    if neg {
-        v.checked_neg()
-    } else {
-        Some(v)
-    }
-}
+pub use crate::proto::parse_int;
 
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum ValueError {
