@@ -118,20 +118,13 @@ impl<B: ByteLink> SlcanLink<B> {
         Ok(n > 0)
     }
 
-    /// Waits for the answer to a setup command: `Some(true)` OK, `Some(false)` BEL,
-    /// `None` nothing within `timeout`. Frames still arriving from before the channel
-    /// was (re)opened are stale and dropped.
-    fn wait_reply(&mut self, timeout: Duration) -> Result<Option<bool>, LinkError> {
-        let deadline = Instant::now() + timeout;
+    /// The next well-formed event, reading for at most until `deadline`;
+    /// malformed lines are counted and skipped.
+    fn next_event(&mut self, deadline: Instant) -> Result<Option<SlcanEvent>, LinkError> {
         loop {
             while let Some(ev) = self.decoder.next_event() {
                 match ev {
-                    Ok(SlcanEvent::Ack | SlcanEvent::TransmitAck { .. }) => return Ok(Some(true)),
-                    Ok(SlcanEvent::Error) => {
-                        self.adapter_errors += 1;
-                        return Ok(Some(false));
-                    }
-                    Ok(_) => {}
+                    Ok(ev) => return Ok(Some(ev)),
                     Err(_) => self.decode_errors += 1,
                 }
             }
@@ -141,6 +134,24 @@ impl<B: ByteLink> SlcanLink<B> {
             }
             self.fill(left)?;
         }
+    }
+
+    /// Waits for the answer to a setup command: `Some(true)` OK, `Some(false)` BEL,
+    /// `None` nothing within `timeout`. Frames still arriving from before the channel
+    /// was (re)opened are stale and dropped.
+    fn wait_reply(&mut self, timeout: Duration) -> Result<Option<bool>, LinkError> {
+        let deadline = Instant::now() + timeout;
+        while let Some(ev) = self.next_event(deadline)? {
+            match ev {
+                SlcanEvent::Ack | SlcanEvent::TransmitAck { .. } => return Ok(Some(true)),
+                SlcanEvent::Error => {
+                    self.adapter_errors += 1;
+                    return Ok(Some(false));
+                }
+                _ => {}
+            }
+        }
+        Ok(None)
     }
 }
 
@@ -168,33 +179,26 @@ impl<B: ByteLink> CanLink for SlcanLink<B> {
 
     fn recv(&mut self, timeout: Duration) -> Result<Option<CanFrame>, LinkError> {
         let deadline = Instant::now() + timeout;
-        loop {
-            while let Some(ev) = self.decoder.next_event() {
-                match ev {
-                    Ok(SlcanEvent::Frame(f)) => return Ok(Some(f)),
-                    Ok(SlcanEvent::Ack | SlcanEvent::TransmitAck { .. }) => {
-                        self.pending.pop_front();
-                    }
-                    Ok(SlcanEvent::Error) => {
-                        self.adapter_errors += 1;
-                        if let Some(f) = self.pending.pop_front() {
-                            return Err(LinkError::Adapter(format!(
-                                "adapter did not transmit {f} (BEL): bus off, no other node acknowledging, \
-                                 or wrong bitrate?"
-                            )));
-                        }
-                    }
-                    // Remote frames, status and version lines: nothing a device command waits for.
-                    Ok(_) => {}
-                    Err(_) => self.decode_errors += 1,
+        while let Some(ev) = self.next_event(deadline)? {
+            match ev {
+                SlcanEvent::Frame(f) => return Ok(Some(f)),
+                SlcanEvent::Ack | SlcanEvent::TransmitAck { .. } => {
+                    self.pending.pop_front();
                 }
+                SlcanEvent::Error => {
+                    self.adapter_errors += 1;
+                    if let Some(f) = self.pending.pop_front() {
+                        return Err(LinkError::Adapter(format!(
+                            "adapter did not transmit {f} (BEL): bus off, no other node acknowledging, \
+                             or wrong bitrate?"
+                        )));
+                    }
+                }
+                // Remote frames, status and version lines: nothing a device command waits for.
+                _ => {}
             }
-            let left = deadline.saturating_duration_since(Instant::now());
-            if left.is_zero() {
-                return Ok(None);
-            }
-            self.fill(left)?;
         }
+        Ok(None)
     }
 }
 
