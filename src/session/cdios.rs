@@ -189,10 +189,22 @@ impl Cdios {
         address: Address,
         data: &[u8; 8],
     ) -> Result<Option<Answer>, SessionError> {
+        self.exchange(node, address, data, self.retry.read_retries)
+    }
+
+    /// One command with its answer; a read is repeated up to `read_retries`
+    /// times after a timeout or a malformed answer.
+    fn exchange(
+        &mut self,
+        node: NodeId,
+        address: Address,
+        data: &[u8; 8],
+        read_retries: u32,
+    ) -> Result<Option<Answer>, SessionError> {
         self.start_node(node)?;
         let def = table::command_for(data[0], data[2]);
         let read = def.is_some_and(|d| !d.reply.fields.is_empty());
-        let attempts = if read { 1 + self.retry.read_retries } else { 1 };
+        let attempts = if read { 1 + read_retries } else { 1 };
         let first = self.clock.now();
         let mut attempt = 0;
         loop {
@@ -342,18 +354,8 @@ impl Cdios {
 
     /// A read: the reply decoded with the table.
     pub fn read(&mut self, node: NodeId, address: Address, cmd: &Command) -> Result<DecodedReply, SessionError> {
-        let answer = self.transact(node, address, cmd)?.ok_or_else(|| SessionError::Malformed {
-            target: target(node, address),
-            source: DecodeError::Malformed("a read got no reply".into()),
-        })?;
-        match answer.reply() {
-            Some(Ok(r)) => Ok(r),
-            Some(Err(source)) => Err(SessionError::Malformed { target: target(node, address), source }),
-            None => Err(SessionError::Malformed {
-                target: target(node, address),
-                source: DecodeError::Malformed("an error reply where a reply was expected".into()),
-            }),
-        }
+        let answer = self.transact(node, address, cmd)?;
+        reply_of(node, address, answer)
     }
 
     /// Several reads of one module at once: one burst on the bus, the replies
@@ -414,33 +416,21 @@ impl Cdios {
             }
         }
         // The burst was the first attempt of every read it did not answer.
-        let retry = self.retry;
         let burst = distinct && cmds.len() > 1;
-        if burst && retry.read_retries == 0 {
-            if let Some(i) = got.iter().position(Option::is_none) {
-                let (what, timeout) = (describe(&data[i]), self.timeout);
-                return Err(SessionError::Timeout { target: target(node, address), what, timeout });
-            }
-        }
-        if burst {
-            self.retry.read_retries = retry.read_retries - 1;
-        }
+        let retries = self.retry.read_retries;
         let mut out = Vec::with_capacity(cmds.len());
-        let mut result = Ok(());
-        for (cmd, r) in cmds.iter().zip(got) {
-            match r {
-                Some(r) => out.push(r),
-                None => match self.read(node, address, cmd) {
-                    Ok(r) => out.push(r),
-                    Err(e) => {
-                        result = Err(e);
-                        break;
-                    }
-                },
-            }
+        for (d, r) in data.iter().zip(got) {
+            out.push(match r {
+                Some(r) => r,
+                None if !burst => reply_of(node, address, self.exchange(node, address, d, retries)?)?,
+                None if retries == 0 => {
+                    let (what, timeout) = (describe(d), self.timeout);
+                    return Err(SessionError::Timeout { target: target(node, address), what, timeout });
+                }
+                None => reply_of(node, address, self.exchange(node, address, d, retries - 1)?)?,
+            });
         }
-        self.retry = retry;
-        result.map(|()| out)
+        Ok(out)
     }
 
     /// 26h selector 0: the four status bytes, decoded.
@@ -465,6 +455,22 @@ impl Cdios {
     ) -> Result<i32, SessionError> {
         let r = self.read(node, Address::Module(module), &Command::ReadPosition(source))?;
         Ok(r.get("position").unwrap_or(0) as i32)
+    }
+}
+
+/// The decoded reply a read must have got.
+fn reply_of(node: NodeId, address: Address, answer: Option<Answer>) -> Result<DecodedReply, SessionError> {
+    let answer = answer.ok_or_else(|| SessionError::Malformed {
+        target: target(node, address),
+        source: DecodeError::Malformed("a read got no reply".into()),
+    })?;
+    match answer.reply() {
+        Some(Ok(r)) => Ok(r),
+        Some(Err(source)) => Err(SessionError::Malformed { target: target(node, address), source }),
+        None => Err(SessionError::Malformed {
+            target: target(node, address),
+            source: DecodeError::Malformed("an error reply where a reply was expected".into()),
+        }),
     }
 }
 
