@@ -8,6 +8,7 @@
 //! - `commands` (binary side): the CLI subcommands.
 
 pub mod clock;
+pub mod device;
 pub mod link;
 pub mod monitor;
 pub mod proto;

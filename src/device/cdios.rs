@@ -1,0 +1,1 @@
+//! cdios operations (see the module above).

@@ -1,0 +1,1 @@
+//! pac operations (see the module above).

@@ -1,0 +1,1 @@
+//! powercube operations (see the module above).
