@@ -13,7 +13,8 @@ use axisctl::link::CanLink;
 use axisctl::proto::cdios::{Address, Command, GotoMode, ModuleId, NodeId, PositionSource};
 use axisctl::proto::CanFrame;
 use axisctl::session::cdios::Cdios;
-use axisctl::sim::bench::{lock, Bench};
+use axisctl::sim::bench::Bench;
+use axisctl::sim::shared::lock;
 use common::{run, Run, Sim};
 use serde_json::Value;
 

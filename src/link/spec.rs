@@ -3,6 +3,8 @@
 
 use std::fmt;
 
+use crate::proto::slcan::SLCAN_BITRATES;
+
 /// Serial character format.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum SerialFormat {
@@ -54,9 +56,6 @@ impl fmt::Display for SerialFormat {
         })
     }
 }
-
-/// The slcan bitrates S0..S8.
-pub const SLCAN_BITRATES: [u32; 9] = [10_000, 20_000, 50_000, 100_000, 125_000, 250_000, 500_000, 800_000, 1_000_000];
 
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub enum LinkSpec {

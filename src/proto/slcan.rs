@@ -20,7 +20,6 @@ use std::collections::VecDeque;
 use std::fmt;
 
 use super::{CanFrame, DecodeError};
-use crate::link::spec::SLCAN_BITRATES;
 
 pub const CR: u8 = b'\r';
 pub const BEL: u8 = 0x07;
@@ -29,6 +28,9 @@ pub const BEL: u8 = 0x07;
 /// timestamp digits is 30; some firmwares answer `V` with a longer banner.
 /// Anything longer than this is garbage and is skipped up to the next CR.
 pub const MAX_LINE: usize = 96;
+
+/// The slcan bitrates S0..S8.
+pub const SLCAN_BITRATES: [u32; 9] = [10_000, 20_000, 50_000, 100_000, 125_000, 250_000, 500_000, 800_000, 1_000_000];
 
 /// Lawicel status flags, the `xx` of the `Fxx\r` reply to `F` (CANUSB manual, "F[CR]").
 pub mod status {
@@ -58,6 +60,7 @@ pub mod status {
 }
 
 /// A remote transmission request: no data, only an id and a DLC.
+
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct RemoteFrame {
     pub id: u32,

@@ -555,7 +555,8 @@ mod tests {
     #[test]
     fn keepalive_holds_the_watchdog_and_its_end_trips_it_within_one_period() {
         use crate::proto::powercube::flags::{config, state};
-        use crate::sim::bench::{lock, Bench};
+        use crate::sim::bench::Bench;
+        use crate::sim::shared::lock;
         let vclock = Arc::new(VirtualClock::new());
         let clock: Arc<dyn Clock> = vclock.clone();
         let bench = Bench::contract(Arc::clone(&clock));

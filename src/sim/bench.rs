@@ -4,13 +4,14 @@
 //! axes on its own serial line, shared by the in-process `--link sim` and by
 //! `axisctl sim`'s served links.
 
-use std::sync::{Arc, Mutex, MutexGuard};
+use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
 use super::cdios::CdiosNode;
 use super::fault::{ByteFaults, CanFaults, FaultSpec, FaultyByteDevice, Injector, Trip};
 use super::pac::PacController;
 use super::powercube::{ModuleKind, ModuleSpec, PowerCubeBus};
+use super::shared::{lock, Shared};
 use crate::clock::Clock;
 use crate::link::mem::{ByteDevice, CanDevice, MemBus, MemByteLink};
 use crate::proto::cdios::NodeId;
@@ -50,13 +51,6 @@ impl BenchConfig {
             })
             .collect()
     }
-}
-
-/// A device shared between the bus and whoever inspects it (tests, RS232 serving).
-pub type Shared<T> = Arc<Mutex<T>>;
-
-pub fn lock<T>(m: &Mutex<T>) -> MutexGuard<'_, T> {
-    m.lock().unwrap_or_else(|e| e.into_inner())
 }
 
 struct SharedPowerCube(Shared<PowerCubeBus>);

@@ -37,10 +37,10 @@ use std::str::FromStr;
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
-use super::bench::{lock, Shared};
 use super::cdios::CdiosNode;
 use super::pac::PacController;
 use super::powercube::PowerCubeBus;
+use super::shared::{lock, Shared};
 use crate::link::mem::{ByteDevice, CanDevice, Delivery, Fault};
 use crate::proto::cdios::transport as cdios_transport;
 use crate::proto::powercube::can::ACK_BASE;

@@ -8,3 +8,4 @@ pub mod fault;
 pub mod pac;
 pub mod powercube;
 pub mod serve;
+pub mod shared;

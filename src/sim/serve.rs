@@ -177,8 +177,8 @@ mod tests {
     use crate::clock::SystemClock;
     use crate::link::serial::SerialLink;
     use crate::link::{pty, SerialFormat};
-    use crate::sim::bench::lock;
     use crate::sim::pac::PacController;
+    use crate::sim::shared::lock;
     use std::sync::Mutex;
 
     fn hex(s: &str) -> Vec<u8> {

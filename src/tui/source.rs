@@ -225,12 +225,12 @@ impl SharedCan {
 
 impl CanLink for SharedCan {
     fn send(&mut self, frame: &CanFrame) -> Result<(), LinkError> {
-        crate::sim::bench::lock(&self.0).send(frame)
+        crate::sim::shared::lock(&self.0).send(frame)
     }
     fn send_many(&mut self, frames: &[CanFrame]) -> Result<(), LinkError> {
-        crate::sim::bench::lock(&self.0).send_many(frames)
+        crate::sim::shared::lock(&self.0).send_many(frames)
     }
     fn recv(&mut self, timeout: Duration) -> Result<Option<CanFrame>, LinkError> {
-        crate::sim::bench::lock(&self.0).recv(timeout)
+        crate::sim::shared::lock(&self.0).recv(timeout)
     }
 }

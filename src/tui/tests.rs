@@ -28,7 +28,8 @@ use crate::session::cdios::Cdios;
 use crate::session::pac::Pac;
 use crate::session::powercube::PowerCube;
 use crate::session::RetryPolicy;
-use crate::sim::bench::{lock, Bench};
+use crate::sim::bench::Bench;
+use crate::sim::shared::lock;
 
 /// Drops every frame the devices send: a link that stops answering.
 struct Silence;

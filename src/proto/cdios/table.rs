@@ -278,6 +278,44 @@ pub const STOP: u8 = 0x25;
 pub const MOTOR_STATUS: u8 = 0x26;
 pub const EVENT_MASK: u8 = 0x27;
 
+/// `data` zero-padded to 8 bytes; `None` if empty or longer than 8.
+pub fn padded(data: &[u8]) -> Option<[u8; 8]> {
+    if data.is_empty() || data.len() > 8 {
+        return None;
+    }
+    let mut out = [0u8; 8];
+    out[..data.len()].copy_from_slice(data);
+    Some(out)
+}
+
+/// What an answer from a node is.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum AnswerKind {
+    /// The command code repeated (11h for reading digital outputs).
+    Reply,
+    /// Code | 0x40, unsolicited.
+    Event,
+    /// Code | 0x80 (and 56h for 16h, as the manual prints it).
+    Error,
+}
+
+/// Classifies an answer's code byte; returns the kind and the command code
+/// it belongs to. Total: every byte has an answer.
+pub const fn classify_code(code: u8) -> (AnswerKind, u8) {
+    if code == ANALOG_OUTPUTS_ERROR_AS_PRINTED {
+        (AnswerKind::Error, ANALOG_OUTPUTS)
+    } else if code & 0x80 != 0 {
+        (AnswerKind::Error, code & 0x7F)
+    } else if code & 0x40 != 0 {
+        (AnswerKind::Event, code & 0x3F)
+    } else if code == DIGITAL_OUTPUTS_STATE {
+        (AnswerKind::Reply, DIGITAL_OUTPUTS)
+    } else {
+        (AnswerKind::Reply, code)
+    }
+}
+
 // ---- Fields ----
 
 /// 05h: bytes 4..6 must be 43h 44h 53h ("CDS").
@@ -1459,7 +1497,7 @@ impl DecodedCommand {
 /// Finds the row of a command; fields are read but not range-checked
 /// ([`DecodedCommand::validate`] does that).
 pub fn decode_command(data: &[u8]) -> Result<DecodedCommand, ValidationError> {
-    let data = super::transport::padded(data).ok_or(ValidationError::Empty)?;
+    let data = padded(data).ok_or(ValidationError::Empty)?;
     let (code, selector) = (data[0], data[2]);
     if !COMMANDS.iter().any(|c| c.code == code) {
         return Err(ValidationError::UnknownCode(code));
@@ -1508,8 +1546,8 @@ pub fn reply_row(reply_code: u8, selector: u8) -> Option<&'static CommandDef> {
 /// Decodes a reply (or an event, with the reply layout of its command).
 /// `data` may be shorter than 8 bytes (variable length messages).
 pub fn decode_reply(data: &[u8]) -> Result<DecodedReply, DecodeError> {
-    let d = super::transport::padded(data).ok_or(DecodeError::TooShort { need: 1, got: 0 })?;
-    if super::transport::classify_code(d[0]).0 == super::AnswerKind::Error {
+    let d = padded(data).ok_or(DecodeError::TooShort { need: 1, got: 0 })?;
+    if classify_code(d[0]).0 == AnswerKind::Error {
         return Err(DecodeError::Malformed(format!("{:#04x} is an error reply", d[0])));
     }
     // An event is its reply code with bit 6 set.

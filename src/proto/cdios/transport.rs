@@ -5,6 +5,7 @@
 //! ("variable length messages"): the missing bytes read as zero.
 
 use super::table::{self, Flag};
+pub use super::table::{classify_code, padded, AnswerKind};
 use super::NodeId;
 use crate::proto::{CanFrame, DecodeError};
 
@@ -29,44 +30,6 @@ pub fn command_frame(node: NodeId, data: &[u8; 8]) -> CanFrame {
 /// The frame a node answers with (for simulators).
 pub fn answer_frame(node: NodeId, data: &[u8; 8]) -> CanFrame {
     CanFrame::new(ANSWER_BASE + u32::from(node.get()), data).expect("id <= 0x1FF, 8 bytes")
-}
-
-/// `data` zero-padded to 8 bytes; `None` if empty or longer than 8.
-pub fn padded(data: &[u8]) -> Option<[u8; 8]> {
-    if data.is_empty() || data.len() > 8 {
-        return None;
-    }
-    let mut out = [0u8; 8];
-    out[..data.len()].copy_from_slice(data);
-    Some(out)
-}
-
-/// What an answer from a node is.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, serde::Serialize)]
-#[serde(rename_all = "snake_case")]
-pub enum AnswerKind {
-    /// The command code repeated (11h for reading digital outputs).
-    Reply,
-    /// Code | 0x40, unsolicited.
-    Event,
-    /// Code | 0x80 (and 56h for 16h, as the manual prints it).
-    Error,
-}
-
-/// Classifies an answer's code byte; returns the kind and the command code
-/// it belongs to. Total: every byte has an answer.
-pub const fn classify_code(code: u8) -> (AnswerKind, u8) {
-    if code == table::ANALOG_OUTPUTS_ERROR_AS_PRINTED {
-        (AnswerKind::Error, table::ANALOG_OUTPUTS)
-    } else if code & 0x80 != 0 {
-        (AnswerKind::Error, code & 0x7F)
-    } else if code & 0x40 != 0 {
-        (AnswerKind::Event, code & 0x3F)
-    } else if code == table::DIGITAL_OUTPUTS_STATE {
-        (AnswerKind::Reply, table::DIGITAL_OUTPUTS)
-    } else {
-        (AnswerKind::Reply, code)
-    }
 }
 
 /// Any frame from `0x180 + node`, classified.

@@ -1,0 +1,296 @@
+//! The layering rules of docs/architecture.md, checked on the source tree:
+//! which layer may import which, and no import cycle between files of the
+//! library. Read from the code's own `use` lines and `crate::` / `super::`
+//! paths, test modules left out (tests may reach across layers).
+
+use std::collections::{BTreeMap, BTreeSet};
+use std::path::{Path, PathBuf};
+
+/// Each layer of the library and the layers it may import (besides itself).
+/// The binary (main.rs, cli/, commands/, output.rs) sits on top and may use
+/// everything the library exports.
+const LAYERS: &[(&str, &[&str])] = &[
+    ("clock", &[]),
+    ("proto", &[]),
+    ("family", &["proto"]),
+    ("link", &["proto", "clock", "family"]),
+    ("session", &["proto", "link", "clock", "family"]),
+    ("sim", &["proto", "link", "clock", "family"]),
+    ("device", &["proto", "link", "session", "clock", "family", "sim"]),
+    // The monitor's describers still come from the session layer.
+    ("monitor", &["proto", "family", "session"]),
+    ("tui", &["device", "session", "proto", "link", "clock", "family", "monitor", "sim"]),
+];
+
+/// Top-level modules of the binary crate (declared in main.rs): not layers
+/// of the library.
+fn binary_modules() -> Vec<String> {
+    let main = std::fs::read_to_string(src().join("main.rs")).unwrap();
+    let mut out = vec!["main".to_string()];
+    out.extend(main.lines().filter_map(|l| l.trim().strip_prefix("mod ")).map(|m| m.trim_end_matches(';').to_string()));
+    out
+}
+
+struct File {
+    /// Module path from the crate root, e.g. ["proto", "cdios", "table"].
+    module: Vec<String>,
+    /// Whether the file is a `mod.rs` / `lib.rs` / `main.rs` (its children live beside it).
+    is_dir_module: bool,
+    /// Module paths the file refers to through `crate::` and `super::`.
+    refs: Vec<Vec<String>>,
+}
+
+fn src() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("src")
+}
+
+fn rust_files(dir: &Path, out: &mut Vec<PathBuf>) {
+    for entry in std::fs::read_dir(dir).unwrap() {
+        let path = entry.unwrap().path();
+        if path.is_dir() {
+            rust_files(&path, out);
+        } else if path.extension().is_some_and(|e| e == "rs") {
+            out.push(path);
+        }
+    }
+}
+
+/// The file without its test modules: everything from a `#[cfg(test)]`
+/// line on, which is where this crate keeps them.
+fn without_tests(text: &str) -> String {
+    text.lines().take_while(|l| l.trim() != "#[cfg(test)]").collect::<Vec<_>>().join("\n")
+}
+
+/// `a::{b, c::{d, e}}` -> `a::b`, `a::c::d`, `a::c::e`.
+fn expand(tree: &str) -> Vec<String> {
+    let tree = tree.trim();
+    let Some(open) = tree.find('{') else { return vec![tree.to_string()] };
+    let prefix = &tree[..open];
+    let inner = &tree[open + 1..tree.rfind('}').unwrap_or(tree.len())];
+    let mut parts = Vec::new();
+    let (mut depth, mut start) = (0, 0);
+    for (i, c) in inner.char_indices() {
+        match c {
+            '{' => depth += 1,
+            '}' => depth -= 1,
+            ',' if depth == 0 => {
+                parts.push(&inner[start..i]);
+                start = i + 1;
+            }
+            _ => {}
+        }
+    }
+    parts.push(&inner[start..]);
+    parts.iter().filter(|p| !p.trim().is_empty()).flat_map(|p| expand(p)).map(|p| format!("{prefix}{p}")).collect()
+}
+
+/// Every `crate::...` / `super::...` path of the text, `use` trees expanded.
+fn paths(text: &str) -> Vec<String> {
+    let mut out = Vec::new();
+    let mut rest = text;
+    while let Some(i) = rest.find("use ") {
+        let before = rest[..i].chars().last();
+        rest = &rest[i + 4..];
+        if before.is_some_and(|c| c.is_alphanumeric() || c == '_') {
+            continue;
+        }
+        let Some(end) = rest.find(';') else { break };
+        let tree: String = rest[..end].split_whitespace().collect::<Vec<_>>().join(" ");
+        if tree.starts_with("crate::") || tree.starts_with("super::") {
+            out.extend(expand(&tree));
+        }
+    }
+    // Inline paths in code: `crate::sim::bench::lock(...)`. Comments may
+    // point anywhere.
+    let code: String = text.lines().filter(|l| !l.trim_start().starts_with("//")).collect::<Vec<_>>().join("\n");
+    for word in code.split(|c: char| !(c.is_alphanumeric() || c == '_' || c == ':')) {
+        if let Some(p) = word.strip_prefix("crate::").map(|p| format!("crate::{p}")) {
+            out.push(p);
+        }
+    }
+    out
+}
+
+fn read_files() -> Vec<File> {
+    let root = src();
+    let mut files = Vec::new();
+    rust_files(&root, &mut files);
+    let mut out = Vec::new();
+    for path in files {
+        let rel = path.strip_prefix(&root).unwrap();
+        let mut module: Vec<String> = rel.with_extension("").iter().map(|c| c.to_string_lossy().into_owned()).collect();
+        let stem = module.last().cloned().unwrap_or_default();
+        // Test-only files.
+        if stem == "tests" || module.iter().any(|m| m == "tests") {
+            continue;
+        }
+        let is_dir_module = matches!(stem.as_str(), "mod" | "lib" | "main");
+        if is_dir_module {
+            module.pop();
+        }
+        let text = without_tests(&std::fs::read_to_string(&path).unwrap());
+        let mut refs = Vec::new();
+        for p in paths(&text) {
+            let segs: Vec<&str> = p.split("::").map(str::trim).filter(|s| !s.is_empty()).collect();
+            let resolved = match segs.first() {
+                Some(&"crate") => segs[1..].iter().map(|s| s.to_string()).collect::<Vec<_>>(),
+                Some(&"super") => {
+                    let mut base = module.clone();
+                    if !is_dir_module {
+                        base.pop();
+                    }
+                    let mut rest = &segs[..];
+                    while rest.first() == Some(&"super") {
+                        rest = &rest[1..];
+                        if rest.first() == Some(&"super") {
+                            base.pop();
+                        }
+                    }
+                    base.extend(rest.iter().map(|s| s.to_string()));
+                    base
+                }
+                _ => continue,
+            };
+            refs.push(resolved.into_iter().map(|s| s.split_whitespace().next().unwrap_or("").to_string()).collect());
+        }
+        out.push(File { module, is_dir_module, refs });
+    }
+    out
+}
+
+/// The file a referenced path lands in: its longest prefix that is a module.
+fn target(modules: &BTreeSet<Vec<String>>, path: &[String]) -> Option<Vec<String>> {
+    (1..=path.len()).rev().map(|n| path[..n].to_vec()).find(|p| modules.contains(p))
+}
+
+fn library(files: &[File]) -> impl Iterator<Item = &File> {
+    let binary = binary_modules();
+    files.iter().filter(move |f| f.module.first().is_some_and(|m| !binary.contains(m)))
+}
+
+#[test]
+fn every_layer_imports_only_the_layers_below_it() {
+    let files = read_files();
+    let allowed: BTreeMap<&str, &[&str]> = LAYERS.iter().copied().collect();
+    let mut violations = Vec::new();
+    for f in library(&files) {
+        let layer = f.module[0].as_str();
+        let Some(ok) = allowed.get(layer) else {
+            violations.push(format!("src/{layer}: a top-level module missing from LAYERS (and docs/architecture.md)"));
+            continue;
+        };
+        for r in &f.refs {
+            let Some(to) = r.first().map(String::as_str) else { continue };
+            if to != layer && !ok.contains(&to) && !["self", "Self"].contains(&to) {
+                violations.push(format!("{} imports crate::{}", f.module.join("::"), r.join("::")));
+            }
+        }
+    }
+    violations.sort();
+    violations.dedup();
+    assert!(violations.is_empty(), "imports against the layering:\n{}", violations.join("\n"));
+}
+
+#[test]
+fn nothing_under_proto_imports_a_layer_above_it() {
+    // The sans-IO core: the rule above says it, this names it.
+    let files = read_files();
+    let bad: Vec<_> = files
+        .iter()
+        .filter(|f| f.module.first().is_some_and(|m| m == "proto"))
+        .flat_map(|f| f.refs.iter().filter(|r| r.first().is_some_and(|m| m != "proto")).map(move |r| (f, r)))
+        .map(|(f, r)| format!("{} -> crate::{}", f.module.join("::"), r.join("::")))
+        .collect();
+    assert!(bad.is_empty(), "{bad:#?}");
+}
+
+#[test]
+fn no_two_files_of_the_library_import_each_other_in_a_loop() {
+    let files = read_files();
+    let modules: BTreeSet<Vec<String>> = files.iter().map(|f| f.module.clone()).collect();
+    let mut edges: BTreeMap<Vec<String>, BTreeSet<Vec<String>>> = BTreeMap::new();
+    for f in library(&files) {
+        for r in &f.refs {
+            let Some(to) = target(&modules, r) else { continue };
+            // A module's face re-exporting its own children is not a dependency on them.
+            let child_of_face = f.is_dir_module && to.len() > f.module.len() && to.starts_with(&f.module);
+            if to != f.module && !child_of_face {
+                edges.entry(f.module.clone()).or_default().insert(to);
+            }
+        }
+    }
+    let cycles = cycles(&edges);
+    let shown: Vec<String> =
+        cycles.iter().map(|c| c.iter().map(|m| m.join("::")).collect::<Vec<_>>().join(" -> ")).collect();
+    assert!(shown.is_empty(), "import cycles:\n{}", shown.join("\n"));
+}
+
+/// Strongly connected components of more than one file (Tarjan).
+fn cycles(edges: &BTreeMap<Vec<String>, BTreeSet<Vec<String>>>) -> Vec<Vec<Vec<String>>> {
+    struct Tarjan<'a> {
+        edges: &'a BTreeMap<Vec<String>, BTreeSet<Vec<String>>>,
+        index: BTreeMap<&'a Vec<String>, (usize, usize)>,
+        stack: Vec<&'a Vec<String>>,
+        on_stack: BTreeSet<&'a Vec<String>>,
+        next: usize,
+        out: Vec<Vec<Vec<String>>>,
+    }
+    impl<'a> Tarjan<'a> {
+        fn visit(&mut self, v: &'a Vec<String>) {
+            self.index.insert(v, (self.next, self.next));
+            self.next += 1;
+            self.stack.push(v);
+            self.on_stack.insert(v);
+            for w in self.edges.get(v).into_iter().flatten() {
+                if !self.index.contains_key(w) {
+                    self.visit(w);
+                    let low = self.index[w].1.min(self.index[v].1);
+                    self.index.get_mut(v).unwrap().1 = low;
+                } else if self.on_stack.contains(w) {
+                    let low = self.index[w].0.min(self.index[v].1);
+                    self.index.get_mut(v).unwrap().1 = low;
+                }
+            }
+            let (i, low) = self.index[v];
+            if i == low {
+                let mut comp = Vec::new();
+                while let Some(w) = self.stack.pop() {
+                    self.on_stack.remove(w);
+                    comp.push(w.clone());
+                    if w == v {
+                        break;
+                    }
+                }
+                if comp.len() > 1 {
+                    self.out.push(comp);
+                }
+            }
+        }
+    }
+    let mut t = Tarjan {
+        edges,
+        index: BTreeMap::new(),
+        stack: Vec::new(),
+        on_stack: BTreeSet::new(),
+        next: 0,
+        out: Vec::new(),
+    };
+    for v in edges.keys() {
+        if !t.index.contains_key(v) {
+            t.visit(v);
+        }
+    }
+    t.out
+}
+
+#[test]
+fn the_rules_catch_what_they_forbid() {
+    // The checker itself: a use tree expands, and a loop of two is a cycle.
+    assert_eq!(expand("crate::proto::{can::CanFrame, slcan::{self, X}}").len(), 3);
+    let a = vec!["a".to_string()];
+    let b = vec!["b".to_string()];
+    let edges = BTreeMap::from([(a.clone(), BTreeSet::from([b.clone()])), (b.clone(), BTreeSet::from([a.clone()]))]);
+    assert_eq!(cycles(&edges).len(), 1);
+    let edges = BTreeMap::from([(a, BTreeSet::from([b]))]);
+    assert!(cycles(&edges).is_empty());
+}
