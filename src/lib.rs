@@ -9,6 +9,7 @@
 
 pub mod clock;
 pub mod device;
+pub mod family;
 pub mod link;
 pub mod monitor;
 pub mod proto;

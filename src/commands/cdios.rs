@@ -971,8 +971,6 @@ pub fn decode_kind(ctx: &Ctx, kind: &str, value: &str) -> Option<anyhow::Result<
     }
 }
 
-pub const DECODE_KINDS: &[&str] = &["cdios-status", "cdios-error"];
-
 fn hex_bytes(text: &str) -> anyhow::Result<Vec<u8>> {
     crate::output::parse_hex_bytes(text).ok_or_else(|| usage(format!("{text:?} is not a sequence of hex bytes")))
 }
