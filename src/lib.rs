@@ -12,6 +12,7 @@ pub mod device;
 pub mod family;
 pub mod link;
 pub mod monitor;
+pub mod open;
 pub mod proto;
 pub mod session;
 pub mod sim;

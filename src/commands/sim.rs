@@ -165,7 +165,7 @@ pub fn run(ctx: &Ctx, args: &SimArgs) -> anyhow::Result<()> {
             }
             Where::SocketCan(iface) => {
                 let spec = LinkSpec::SocketCan { iface: iface.clone() };
-                let ext = link::open_can(&spec).with_context(|| format!("opening {spec}"))?;
+                let ext = ctx.opener().can(&spec, None).with_context(|| format!("opening {spec}"))?;
                 announce_all(&spec.to_string());
                 let (client, stop) = (bench.bus.open(), Arc::clone(&stop));
                 threads.push(std::thread::spawn(move || serve::bridge(ext, client, &stop)));
