@@ -47,7 +47,7 @@ pub struct SerialDefault {
 /// One kind of address a family uses, with the range its proto newtype accepts.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct IdRange {
-    /// How the CLI and errors name it: "module", "axis", "node".
+    /// How the CLI and errors name it: "module id", "axis", "node id".
     pub what: &'static str,
     pub min: u8,
     pub max: u8,
@@ -67,13 +67,13 @@ impl fmt::Display for IdRange {
 
 /// PowerCube module address (the range of [`powercube::ModuleId`]).
 pub const POWERCUBE_MODULE: IdRange =
-    IdRange { what: "module", min: powercube::ModuleId::MIN, max: powercube::ModuleId::MAX };
+    IdRange { what: "module id", min: powercube::ModuleId::MIN, max: powercube::ModuleId::MAX };
 /// PA-CONTROL axis number.
 pub const PAC_AXIS: IdRange = IdRange { what: "axis", min: 1, max: pac::table::MAX_AXES };
 /// Cdios CANopen node id (the range of [`cdios::NodeId`]).
-pub const CDIOS_NODE: IdRange = IdRange { what: "node", min: cdios::NodeId::MIN, max: cdios::NodeId::MAX };
+pub const CDIOS_NODE: IdRange = IdRange { what: "node id", min: cdios::NodeId::MIN, max: cdios::NodeId::MAX };
 /// Cdios 6168 module id on a node (the range of [`cdios::ModuleId`]).
-pub const CDIOS_MODULE: IdRange = IdRange { what: "module", min: 0, max: cdios::ModuleId::MAX };
+pub const CDIOS_MODULE: IdRange = IdRange { what: "module id", min: 0, max: cdios::ModuleId::MAX };
 
 /// What the dashboard can ask of a device, family by family.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

@@ -16,10 +16,10 @@ use axisctl::session::SessionError;
 use serde_json::{json, Value};
 
 use super::{interrupted, usage, Ctx, DeviceFault, Interrupted};
-use crate::cli::WaitArgs;
-use crate::cli_cdios::{
+use crate::cli::cdios::{
     CdiosCommand, DirectionArg, ModuleTarget, NodeArgs, PositionKind, StartOptionArg, StopOptionArg,
 };
+use crate::cli::WaitArgs;
 use crate::output;
 
 pub fn run(ctx: &Ctx, cmd: CdiosCommand) -> anyhow::Result<()> {

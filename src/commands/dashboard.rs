@@ -13,6 +13,7 @@ use axisctl::family::{self, Family};
 use axisctl::link::LinkSpec;
 use axisctl::open::{OpenedLink, Opener, SessionOptions};
 use axisctl::proto::cdios::{ModuleId as CdiosModule, NodeId};
+use axisctl::proto::powercube::ModuleId as CubeModule;
 use axisctl::tui::cdios::CdiosSource;
 use axisctl::tui::pac::PacSource;
 use axisctl::tui::powercube::CubeSource;
@@ -21,7 +22,7 @@ use axisctl::tui::worker::{MAX_RATE, MIN_RATE};
 use axisctl::tui::LinkPlan;
 
 use super::{usage, Ctx};
-use crate::cli_dashboard::DashboardArgs;
+use crate::cli::dashboard::DashboardArgs;
 
 pub fn run(ctx: &Ctx, args: &DashboardArgs) -> anyhow::Result<()> {
     if !(MIN_RATE..=MAX_RATE).contains(&args.rate) {
@@ -68,14 +69,6 @@ fn fits(spec: &LinkSpec, f: Family) -> Result<(), String> {
 }
 
 fn assign(ctx: &Ctx, args: &DashboardArgs) -> anyhow::Result<Assignment> {
-    let without = args
-        .without
-        .iter()
-        .map(|w| {
-            w.parse::<Family>()
-                .map_err(|_| usage(format!("--without {w:?}: expected {}", Family::names_where(|_| true))))
-        })
-        .collect::<anyhow::Result<Vec<_>>>()?;
     let global = ctx.link.clone();
     if let Some(g @ LinkSpec::Serial { .. }) = &global {
         if Family::ALL.iter().all(|f| link_option(args, *f).1.is_none() || !f.link_kind().rs232()) {
@@ -91,7 +84,7 @@ fn assign(ctx: &Ctx, args: &DashboardArgs) -> anyhow::Result<Assignment> {
         }
     }
     let mut a = Assignment::default();
-    for f in Family::ALL.into_iter().filter(|f| !without.contains(f)) {
+    for f in Family::ALL.into_iter().filter(|f| !args.without.contains(f)) {
         let (opt, given) = link_option(args, f);
         let spec = match given {
             Some(text) => {
@@ -116,66 +109,26 @@ fn assign(ctx: &Ctx, args: &DashboardArgs) -> anyhow::Result<Assignment> {
     Ok(a)
 }
 
-fn parse_cube_modules(args: &DashboardArgs) -> anyhow::Result<Option<Vec<axisctl::proto::powercube::ModuleId>>> {
-    args.modules.as_deref().map(super::powercube::parse_ids).transpose()
-}
-
-fn parse_cdios_modules(args: &DashboardArgs) -> anyhow::Result<Option<Vec<CdiosModule>>> {
-    let Some(text) = args.cdios_modules.as_deref() else { return Ok(None) };
-    let mut out = Vec::new();
-    for part in text.split(',').map(str::trim).filter(|p| !p.is_empty()) {
-        let m = part
-            .parse::<u8>()
-            .ok()
-            .and_then(CdiosModule::new)
-            .ok_or_else(|| usage(format!("{part:?} in --cdios-modules is not a module id 0..15")))?;
-        if !out.contains(&m) {
-            out.push(m);
-        }
-    }
-    if out.is_empty() {
-        return Err(usage("--cdios-modules lists no module"));
-    }
-    Ok(Some(out))
-}
-
-fn parse_axes(args: &DashboardArgs) -> anyhow::Result<Option<Vec<u8>>> {
-    let Some(text) = args.axes.as_deref() else { return Ok(None) };
-    let mut out = Vec::new();
-    for part in text.split(',').map(str::trim).filter(|p| !p.is_empty()) {
-        let a = part
-            .parse::<u8>()
-            .ok()
-            .filter(|a| (1..=axisctl::proto::pac::table::MAX_AXES).contains(a))
-            .ok_or_else(|| usage(format!("{part:?} in --axes is not an axis 1..16")))?;
-        if !out.contains(&a) {
-            out.push(a);
-        }
-    }
-    if out.is_empty() {
-        return Err(usage("--axes lists no axis"));
-    }
-    Ok(Some(out))
-}
-
 /// The device source of `family` on an opened link.
-fn source(ctx: &Ctx, args: &DashboardArgs, family: Family, link: OpenedLink) -> anyhow::Result<Box<dyn DeviceSource>> {
+fn source(ctx: &Ctx, args: &DashboardArgs, family: Family, link: OpenedLink) -> Box<dyn DeviceSource> {
     let opener = ctx.opener();
     // The screen is the trace: frames printed on stderr would tear it.
     let opts = SessionOptions { trace: None, ..ctx.session_options() };
-    Ok(match (family, link) {
+    match (family, link) {
         (Family::PowerCube, link) => {
-            Box::new(CubeSource::new(opener.powercube_on(link, &opts), parse_cube_modules(args)?))
+            let modules = args.modules.as_ref().map(|l| l.to(CubeModule::new));
+            Box::new(CubeSource::new(opener.powercube_on(link, &opts), modules))
         }
         (Family::Pac, OpenedLink::Serial(line)) => {
-            Box::new(PacSource::new(opener.pac_on(line, &opts), parse_axes(args)?))
+            Box::new(PacSource::new(opener.pac_on(line, &opts), args.axes.as_ref().map(|l| l.0.clone())))
         }
         (Family::Cdios, OpenedLink::Can(link)) => {
             let node = NodeId::new(args.node).expect("clap checks the node range");
-            Box::new(CdiosSource::new(opener.cdios_on(link, &opts), node, parse_cdios_modules(args)?, ctx.retry))
+            let modules = args.cdios_modules.as_ref().map(|l| l.to(CdiosModule::new));
+            Box::new(CdiosSource::new(opener.cdios_on(link, &opts), node, modules, ctx.retry))
         }
         (f, _) => unreachable!("assign checked that the link fits the {f}"),
-    })
+    }
 }
 
 /// How the status bar names a link.
@@ -188,11 +141,8 @@ fn link_name(spec: &LinkSpec, can: bool) -> String {
 }
 
 fn plan(ctx: &Ctx, args: &DashboardArgs) -> anyhow::Result<Vec<LinkPlan>> {
+    // Ids were checked by clap, before any link opens: a typo sends nothing.
     let a = assign(ctx, args)?;
-    // Checked before any link opens: a typo sends nothing.
-    parse_cube_modules(args)?;
-    parse_cdios_modules(args)?;
-    parse_axes(args)?;
     let opener = ctx.opener();
     // Families on one CAN link share it and its worker; a serial line carries
     // one family. Links keep the order in which their first family comes.
@@ -208,11 +158,11 @@ fn plan(ctx: &Ctx, args: &DashboardArgs) -> anyhow::Result<Vec<LinkPlan>> {
     for (spec, can, fams) in links {
         let sources = if can {
             let bus = SharedCan::new(opener.can(spec, None)?);
-            fams.into_iter()
-                .map(|f| source(ctx, args, f, OpenedLink::Can(Box::new(bus.clone()))))
-                .collect::<anyhow::Result<Vec<_>>>()?
+            fams.into_iter().map(|f| source(ctx, args, f, OpenedLink::Can(Box::new(bus.clone())))).collect()
         } else {
-            fams.into_iter().map(|f| source(ctx, args, f, opener.open(spec, f)?)).collect::<anyhow::Result<Vec<_>>>()?
+            fams.into_iter()
+                .map(|f| Ok(source(ctx, args, f, opener.open(spec, f)?)))
+                .collect::<anyhow::Result<Vec<_>>>()?
         };
         plans.push(LinkPlan { name: link_name(spec, can), sources });
     }
@@ -254,11 +204,25 @@ mod tests {
             &["axisctl", "--link", "serial:/dev/ttyS0", "dashboard"],
             &["axisctl", "dashboard", "--cdios-link", "serial:/dev/ttyS0"],
             &["axisctl", "dashboard", "--pac-link", "socketcan:can0"],
-            &["axisctl", "--link", "sim", "dashboard", "--without", "robots"],
         ] {
             let e = resolve(argv).err().unwrap_or_else(|| panic!("{argv:?} accepted"));
             assert_eq!(super::super::classify(&e), axisctl::session::ErrorKind::Usage, "{argv:?}: {e}");
         }
+        // Checked by clap (exit 2) before anything opens.
+        for argv in [
+            &["axisctl", "--link", "sim", "dashboard", "--without", "robots"][..],
+            &["axisctl", "--link", "sim", "dashboard", "--modules", "0"],
+            &["axisctl", "--link", "sim", "dashboard", "--axes", "17"],
+            &["axisctl", "--link", "sim", "dashboard", "--cdios-modules", "16"],
+            &["axisctl", "--link", "sim", "dashboard", "--node", "128"],
+        ] {
+            let e = crate::cli::Cli::try_parse_from(argv).err().unwrap_or_else(|| panic!("{argv:?} accepted"));
+            assert!(e.use_stderr(), "{argv:?}");
+        }
+        let cli =
+            crate::cli::Cli::try_parse_from(["axisctl", "dashboard", "--without", "PA-CONTROL", "--axes", "2,1-2"]);
+        let crate::cli::Command::Dashboard(args) = cli.unwrap().command else { panic!("not a dashboard") };
+        assert_eq!((args.without, args.axes.map(|l| l.0)), (vec![Family::Pac], Some(vec![1, 2])));
     }
 
     /// Runs every source of the plans once: a scan and a poll of each device,

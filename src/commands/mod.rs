@@ -4,6 +4,7 @@
 mod cdios;
 mod dashboard;
 mod decode;
+pub mod exit;
 mod monitor;
 mod pac;
 mod powercube;
@@ -24,17 +25,17 @@ use axisctl::sim::bench::{Bench, WireSpeed};
 use crate::cli::{Cli, Command, Global};
 use crate::output::Style;
 
-/// Bad input: exit 2, and nothing was sent.
+/// Bad input ([`ErrorKind::Usage`]): nothing was sent.
 #[derive(Debug, thiserror::Error)]
 #[error("{0}")]
 pub struct UsageError(pub String);
 
-/// The device reports a fault or refuses: exit 5.
+/// The device reports a fault or refuses ([`ErrorKind::Device`]).
 #[derive(Debug, thiserror::Error)]
 #[error("{0}")]
 pub struct DeviceFault(pub String);
 
-/// Ctrl-C: exit 130 (a moving device was halted first).
+/// Ctrl-C ([`ErrorKind::Interrupted`]; a moving device was halted first).
 #[derive(Debug, thiserror::Error)]
 #[error("interrupted{0}")]
 pub struct Interrupted(pub String);
@@ -182,6 +183,6 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Cdios(c) => cdios::run(&ctx, c),
         Command::Dashboard(args) => dashboard::run(&ctx, &args),
         Command::Pac(cmd) => pac::run(&ctx, cmd),
-        other => powercube::run(&ctx, other),
+        Command::PowerCube(c) => powercube::run(&ctx, c),
     }
 }

@@ -21,11 +21,6 @@ struct Filter {
 
 impl Filter {
     fn new(a: &MonitorArgs) -> anyhow::Result<Self> {
-        let families = a
-            .family
-            .iter()
-            .map(|f| FamilyFilter::parse(f).map_err(|e| usage(format!("--family {f:?}: {e}"))))
-            .collect::<anyhow::Result<_>>()?;
         let ids =
             a.id.iter()
                 .map(|i| {
@@ -35,7 +30,11 @@ impl Filter {
                         .ok_or_else(|| usage(format!("--id {i:?} is not a hex CAN id")))
                 })
                 .collect::<anyhow::Result<_>>()?;
-        Ok(Self { families, modules: a.module.clone(), ids })
+        Ok(Self {
+            families: a.family.clone(),
+            modules: a.module.iter().flat_map(|l| l.0.iter().copied()).collect(),
+            ids,
+        })
     }
 
     fn pass(&self, f: &CanFrame, i: &FrameInfo) -> bool {

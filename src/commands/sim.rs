@@ -15,16 +15,6 @@ use axisctl::sim::serve;
 use super::{usage, Ctx};
 use crate::cli::SimArgs;
 
-fn parse_list(text: &str, what: &str, max: u8) -> anyhow::Result<Vec<u8>> {
-    text.split(',')
-        .map(str::trim)
-        .filter(|s| !s.is_empty())
-        .map(|s| {
-            s.parse::<u8>().ok().filter(|v| *v <= max).ok_or_else(|| usage(format!("{what}: {s:?} is not 0..={max}")))
-        })
-        .collect()
-}
-
 enum Where {
     PtySerial,
     PtySlcan,
@@ -80,19 +70,14 @@ fn serial_uri(path: &str, baud: u32, f: Family) -> String {
 }
 
 pub fn run(ctx: &Ctx, args: &SimArgs) -> anyhow::Result<()> {
-    let modules = parse_list(&args.modules, "--modules", 31)?;
-    if modules.contains(&0) {
-        return Err(usage("--modules: PowerCube ids are 1..31"));
-    }
-    let linear = parse_list(&args.linear, "--linear", 31)?;
-    if !(1..=127).contains(&args.node) {
-        return Err(usage(format!("--node {}: Cdios node ids are 1..127", args.node)));
-    }
-    let cdios_modules = parse_list(&args.cdios_modules, "--cdios-modules", 15)?;
-    if !(1..=axisctl::proto::pac::table::MAX_AXES).contains(&args.axes) {
-        return Err(usage(format!("--axes: {} is not 1..={}", args.axes, axisctl::proto::pac::table::MAX_AXES)));
-    }
-    let cfg = BenchConfig { modules, linear, node: args.node, cdios_modules, axes: args.axes };
+    // Ids and their ranges were checked by clap.
+    let cfg = BenchConfig {
+        modules: args.modules.0.clone(),
+        linear: args.linear.0.clone(),
+        node: args.node,
+        cdios_modules: args.cdios_modules.0.clone(),
+        axes: args.axes,
+    };
     let only_some = args.powercube.is_some() || args.pac.is_some() || args.cdios.is_some();
     // What is served where: with no family option, PowerCube and Cdios share one slcan bus.
     let mut served: Vec<(Where, Vec<Family>)> = Vec::new();
