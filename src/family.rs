@@ -283,6 +283,28 @@ mod tests {
         assert_eq!(Family::of_decode_kind("pac-axis-status"), Some(Family::Pac));
     }
 
+    /// docs/links.md's link table says which families each link carries, as the registry does.
+    #[test]
+    fn the_link_table_of_the_docs_follows_the_registry() {
+        let docs = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/docs/links.md")).unwrap();
+        let names = |fams: Vec<String>| fams.join(", ");
+        let can = names(Family::ALL.into_iter().filter(|f| f.link_kind().can()).map(|f| f.to_string()).collect());
+        let serial = names(
+            Family::ALL
+                .into_iter()
+                .filter_map(|f| {
+                    let d = f.serial_default()?;
+                    let port = if f.link_kind().can() { " RS232" } else { "" };
+                    Some(format!("{f}{port} (default {} {})", d.baud, d.format))
+                })
+                .collect(),
+        );
+        for (row, fams) in [("`socketcan:IFACE`", &can), ("`slcan:TTY", &can), ("`serial:TTY", &serial)] {
+            let line = docs.lines().find(|l| l.starts_with(&format!("| {row}"))).unwrap_or_else(|| panic!("{row}"));
+            assert!(line.ends_with(&format!("| {fams} |")), "docs/links.md: {line}\nexpected families: {fams}");
+        }
+    }
+
     #[test]
     fn serial_defaults() {
         assert_eq!(Family::PowerCube.serial_default().map(|s| (s.baud, s.format)), Some((9600, SerialFormat::F8N1)));

@@ -1,6 +1,9 @@
 //! Passive bus decoding: what any CAN frame on a commissioning bus means.
 //! PowerCube ids (0x0A1..0x0FF, 0x100) and Cdios ids (NMT 0x000, 0x181.., 0x201..)
 //! do not overlap; everything else is shown raw. Sans-IO: frames in, [`FrameInfo`] out.
+//!
+//! Not under `proto/` yet: PowerCube requests are described by
+//! `session::powercube::describe`, and proto may not import session.
 
 use std::collections::BTreeMap;
 
