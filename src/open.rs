@@ -75,6 +75,23 @@ pub struct SessionOptions {
     pub pac_check_etx: bool,
 }
 
+/// Applies the options every session takes. A macro because the three
+/// sessions share the setters' names, not a trait.
+macro_rules! configure {
+    ($session:expr, $opts:expr) => {{
+        let mut s = $session;
+        let opts: &SessionOptions = $opts;
+        if let Some(t) = opts.timeout {
+            s.set_timeout(t);
+        }
+        s.set_retry(opts.retry);
+        if let Some(trace) = opts.trace {
+            s.set_tracer(Box::new(trace));
+        }
+        s
+    }};
+}
+
 /// Opens links and sessions. Every `sim` link of one opener reaches the same bench.
 pub struct Opener {
     clock: Arc<dyn Clock>,
@@ -186,19 +203,11 @@ impl Opener {
     }
 
     pub fn powercube_on(&self, link: OpenedLink, opts: &SessionOptions) -> PowerCube {
-        let mut pc = match link {
+        let pc = match link {
             OpenedLink::Can(l) => PowerCube::over_can(l),
             OpenedLink::Serial(s) => PowerCube::over_rs232(s.link, s.baud),
-        }
-        .with_clock(Arc::clone(&self.clock));
-        if let Some(t) = opts.timeout {
-            pc.set_timeout(t);
-        }
-        pc.set_retry(opts.retry);
-        if let Some(trace) = opts.trace {
-            pc.set_tracer(Box::new(trace));
-        }
-        pc
+        };
+        configure!(pc.with_clock(Arc::clone(&self.clock)), opts)
     }
 
     /// A PA-CONTROL session on a `serial:` line or the bench's (`sim`).
@@ -207,16 +216,9 @@ impl Opener {
     }
 
     pub fn pac_on(&self, line: SerialLine, opts: &SessionOptions) -> Pac {
-        let mut pac = Pac::new(line.link, line.baud, line.format).with_clock(Arc::clone(&self.clock));
-        if let Some(t) = opts.timeout {
-            pac.set_timeout(t);
-        }
-        pac.set_retry(opts.retry);
+        let mut pac = configure!(Pac::new(line.link, line.baud, line.format).with_clock(Arc::clone(&self.clock)), opts);
         if opts.pac_check_etx {
             pac.set_check_rule(CheckRule::WithEtx);
-        }
-        if let Some(trace) = opts.trace {
-            pac.set_tracer(Box::new(trace));
         }
         pac
     }
@@ -227,15 +229,7 @@ impl Opener {
     }
 
     pub fn cdios_on(&self, link: Box<dyn CanLink>, opts: &SessionOptions) -> Cdios {
-        let mut s = Cdios::new(link).with_clock(Arc::clone(&self.clock));
-        if let Some(t) = opts.timeout {
-            s.set_timeout(t);
-        }
-        s.set_retry(opts.retry);
-        if let Some(trace) = opts.trace {
-            s.set_tracer(Box::new(trace));
-        }
-        s
+        configure!(Cdios::new(link).with_clock(Arc::clone(&self.clock)), opts)
     }
 }
 
