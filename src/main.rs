@@ -1,19 +1,16 @@
 use std::process::ExitCode;
 
-use clap::Parser;
+use axisctl::session::ErrorKind;
 
 mod cli;
-mod cli_cdios;
-mod cli_dashboard;
-mod cli_pac;
 mod commands;
 mod output;
 
 fn main() -> ExitCode {
-    let cli = match cli::Cli::try_parse() {
+    let cli = match cli::parse(&commands::exit::summary()) {
         Ok(cli) => cli,
         Err(e) => {
-            let code = if e.use_stderr() { 2 } else { 0 };
+            let code = if e.use_stderr() { commands::exit::code(ErrorKind::Usage) } else { commands::exit::SUCCESS };
             let _ = e.print();
             return ExitCode::from(code);
         }
@@ -30,7 +27,7 @@ fn main() -> ExitCode {
             } else {
                 eprintln!("axisctl: {}", message(&e));
             }
-            ExitCode::from(kind.exit_code())
+            ExitCode::from(commands::exit::code(kind))
         }
     }
 }

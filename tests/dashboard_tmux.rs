@@ -14,7 +14,10 @@ impl Tmux {
     fn start(w: u16, h: u16) -> Self {
         let found = Command::new("tmux").arg("-V").output().map(|o| o.status.success()).unwrap_or(false);
         assert!(found, "tmux is not installed: the dashboard smoke test needs it (apt-get install tmux)");
-        let session = format!("axisctl-smoke-{}-{w}x{h}", std::process::id());
+        // Tests run in parallel: each needs a session of its own.
+        static NEXT: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+        let n = NEXT.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        let session = format!("axisctl-smoke-{}-{n}-{w}x{h}", std::process::id());
         // A plain shell with a known prompt, so that its return is visible.
         let ok = Command::new("tmux")
             .args(["new-session", "-d", "-s", &session, "-x", &w.to_string(), "-y", &h.to_string()])
@@ -142,4 +145,32 @@ fn dashboard_runs_and_restores_the_terminal_80x24() {
 #[test]
 fn dashboard_runs_and_restores_the_terminal_200x50() {
     smoke(200, 50);
+}
+
+/// `axisctl --log FILE --link sim dashboard` records the traffic of every
+/// link it polls: the sim CAN bus (PowerCube and Cdios) and the PA-CONTROL line.
+#[test]
+fn log_records_every_link_of_the_dashboard() {
+    let dir = tempfile::tempdir().unwrap();
+    let log = dir.path().join("dashboard.log");
+    let t = Tmux::start(80, 24);
+    t.wait_for("READY$");
+    t.keys(&[&format!("{} --log {} --link sim dashboard", env!("CARGO_BIN_EXE_axisctl"), log.display()), "Enter"]);
+    t.wait_for("module 17");
+    t.wait_for("axis 3");
+    t.keys(&["q"]);
+    t.keys(&["echo DO''NE", "Enter"]);
+    t.wait_for("DONE");
+    let text = std::fs::read_to_string(&log).expect("the log file");
+    let families: Vec<_> = text
+        .lines()
+        .filter_map(|l| axisctl::proto::candump::parse_candump_line(l).ok())
+        .filter_map(|(_, _, frame)| axisctl::monitor::describe(&frame).family)
+        .collect();
+    for f in [axisctl::family::Family::PowerCube, axisctl::family::Family::Cdios] {
+        assert!(families.contains(&f), "no {f} frame in the log:\n{text}");
+    }
+    // PA-CONTROL frames open with SOH STX.
+    assert!(text.lines().any(|l| l.contains(") tx 01 02 ")), "no PA-CONTROL request in the log:\n{text}");
+    assert!(text.lines().any(|l| l.contains(") rx 01 02 ")), "no PA-CONTROL answer in the log:\n{text}");
 }

@@ -16,10 +16,10 @@ use axisctl::session::SessionError;
 use serde_json::{json, Value};
 
 use super::{interrupted, usage, Ctx, DeviceFault, Interrupted};
-use crate::cli::WaitArgs;
-use crate::cli_cdios::{
+use crate::cli::cdios::{
     CdiosCommand, DirectionArg, ModuleTarget, NodeArgs, PositionKind, StartOptionArg, StopOptionArg,
 };
+use crate::cli::WaitArgs;
 use crate::output;
 
 pub fn run(ctx: &Ctx, cmd: CdiosCommand) -> anyhow::Result<()> {
@@ -970,8 +970,6 @@ pub fn decode_kind(ctx: &Ctx, kind: &str, value: &str) -> Option<anyhow::Result<
         _ => None,
     }
 }
-
-pub const DECODE_KINDS: &[&str] = &["cdios-status", "cdios-error"];
 
 fn hex_bytes(text: &str) -> anyhow::Result<Vec<u8>> {
     crate::output::parse_hex_bytes(text).ok_or_else(|| usage(format!("{text:?} is not a sequence of hex bytes")))

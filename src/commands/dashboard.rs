@@ -9,21 +9,20 @@
 use std::io::IsTerminal;
 use std::sync::Arc;
 
-use axisctl::link::log::{log_iface, LoggedCanLink, TrafficLog};
-use axisctl::link::{self, CanLink, LinkSpec};
+use axisctl::family::{self, Family};
+use axisctl::link::LinkSpec;
+use axisctl::open::{OpenedLink, Opener, SessionOptions};
 use axisctl::proto::cdios::{ModuleId as CdiosModule, NodeId};
-use axisctl::session::cdios::Cdios;
-use axisctl::session::pac::Pac;
-use axisctl::session::powercube::PowerCube;
+use axisctl::proto::powercube::ModuleId as CubeModule;
 use axisctl::tui::cdios::CdiosSource;
 use axisctl::tui::pac::PacSource;
 use axisctl::tui::powercube::CubeSource;
-use axisctl::tui::source::{DeviceSource, Family, SharedCan};
+use axisctl::tui::source::{DeviceSource, SharedCan};
 use axisctl::tui::worker::{MAX_RATE, MIN_RATE};
 use axisctl::tui::LinkPlan;
 
 use super::{usage, Ctx};
-use crate::cli_dashboard::DashboardArgs;
+use crate::cli::dashboard::DashboardArgs;
 
 pub fn run(ctx: &Ctx, args: &DashboardArgs) -> anyhow::Result<()> {
     if !(MIN_RATE..=MAX_RATE).contains(&args.rate) {
@@ -36,46 +35,73 @@ pub fn run(ctx: &Ctx, args: &DashboardArgs) -> anyhow::Result<()> {
     axisctl::tui::run(plans, args.rate, Arc::clone(&ctx.clock))
 }
 
-/// Which link each family is on.
+/// Which link each family is on, in registry order; a family left out has none.
 #[derive(Debug, Default)]
-struct Assignment {
-    cube: Option<LinkSpec>,
-    pac: Option<LinkSpec>,
-    cdios: Option<LinkSpec>,
+struct Assignment(Vec<(Family, LinkSpec)>);
+
+#[cfg(test)]
+impl Assignment {
+    fn get(&self, f: Family) -> Option<&LinkSpec> {
+        self.0.iter().find(|(g, _)| *g == f).map(|(_, s)| s)
+    }
 }
 
-fn parse_spec(opt: &Option<String>) -> anyhow::Result<Option<LinkSpec>> {
-    Ok(opt.as_deref().map(str::parse::<LinkSpec>).transpose()?)
+/// The dashboard option naming a family's own link, and what it holds.
+fn link_option(args: &DashboardArgs, f: Family) -> (&'static str, Option<&str>) {
+    match f {
+        Family::PowerCube => ("--cube-link", args.cube_link.as_deref()),
+        Family::Pac => ("--pac-link", args.pac_link.as_deref()),
+        Family::Cdios => ("--cdios-link", args.cdios_link.as_deref()),
+    }
+}
+
+/// Whether `spec` can carry the family (`sim` carries every one).
+fn fits(spec: &LinkSpec, f: Family) -> Result<(), String> {
+    let kind = f.link_kind();
+    match spec {
+        LinkSpec::Sim => Ok(()),
+        LinkSpec::Serial { .. } if !kind.rs232() => Err(format!("the {f} is on CAN (socketcan:, slcan: or sim)")),
+        LinkSpec::SocketCan { .. } | LinkSpec::Slcan { .. } if !kind.can() => {
+            Err(format!("the {f} talks RS232 (serial:TTY or sim)"))
+        }
+        _ => Ok(()),
+    }
 }
 
 fn assign(ctx: &Ctx, args: &DashboardArgs) -> anyhow::Result<Assignment> {
-    for w in &args.without {
-        if !["powercube", "pac", "cdios"].contains(&w.as_str()) {
-            return Err(usage(format!("--without {w:?}: expected powercube, pac or cdios")));
-        }
-    }
-    let keep = |f: &str| !args.without.iter().any(|w| w == f);
     let global = ctx.link.clone();
-    if let (Some(g @ LinkSpec::Serial { .. }), None, None) = (&global, &args.cube_link, &args.pac_link) {
-        return Err(usage(format!(
-            "{g} is a serial line, which carries one family: pass it as --cube-link (PowerCube RS232) or --pac-link (PA-CONTROL)"
-        )));
-    }
-    let can_global = global.clone().filter(LinkSpec::is_can);
-    let a = Assignment {
-        cube: parse_spec(&args.cube_link)?.or(can_global.clone()).filter(|_| keep("powercube")),
-        pac: parse_spec(&args.pac_link)?.or(global.clone().filter(|g| *g == LinkSpec::Sim)).filter(|_| keep("pac")),
-        cdios: parse_spec(&args.cdios_link)?.or(can_global).filter(|_| keep("cdios")),
-    };
-    if let Some(s) = &a.cdios {
-        if !s.is_can() {
-            return Err(usage(format!("--cdios-link {s}: the Cdios is on CAN (socketcan:, slcan: or sim)")));
+    if let Some(g @ LinkSpec::Serial { .. }) = &global {
+        if Family::ALL.iter().all(|f| link_option(args, *f).1.is_none() || !f.link_kind().rs232()) {
+            let opts: Vec<_> = Family::ALL
+                .into_iter()
+                .filter(|f| f.link_kind().rs232())
+                .map(|f| format!("{} ({f})", link_option(args, f).0))
+                .collect();
+            return Err(usage(format!(
+                "{g} is a serial line, which carries one family: pass it as {}",
+                family::join_or(&opts.iter().map(String::as_str).collect::<Vec<_>>())
+            )));
         }
     }
-    if let Some(s @ (LinkSpec::SocketCan { .. } | LinkSpec::Slcan { .. })) = &a.pac {
-        return Err(usage(format!("--pac-link {s}: the PA-CONTROL talks RS232 (serial:TTY or sim)")));
+    let mut a = Assignment::default();
+    for f in Family::ALL.into_iter().filter(|f| !args.without.contains(f)) {
+        let (opt, given) = link_option(args, f);
+        let spec = match given {
+            Some(text) => {
+                let spec = text.parse::<LinkSpec>()?;
+                fits(&spec, f).map_err(|why| usage(format!("{opt} {spec}: {why}")))?;
+                spec
+            }
+            // The global link serves every family it fits, except a serial
+            // line: that carries one family, named by its own option.
+            None => match global.clone().filter(|g| g.is_can() && fits(g, f).is_ok()) {
+                Some(g) => g,
+                None => continue,
+            },
+        };
+        a.0.push((f, spec));
     }
-    if a.cube.is_none() && a.pac.is_none() && a.cdios.is_none() {
+    if a.0.is_empty() {
         return Err(usage(
             "no link given: pass --link URI (or --cube-link / --pac-link / --cdios-link); try --link sim for the simulated bench",
         ));
@@ -83,152 +109,62 @@ fn assign(ctx: &Ctx, args: &DashboardArgs) -> anyhow::Result<Assignment> {
     Ok(a)
 }
 
-fn parse_cube_modules(args: &DashboardArgs) -> anyhow::Result<Option<Vec<axisctl::proto::powercube::ModuleId>>> {
-    args.modules.as_deref().map(super::powercube::parse_ids).transpose()
-}
-
-fn parse_cdios_modules(args: &DashboardArgs) -> anyhow::Result<Option<Vec<CdiosModule>>> {
-    let Some(text) = args.cdios_modules.as_deref() else { return Ok(None) };
-    let mut out = Vec::new();
-    for part in text.split(',').map(str::trim).filter(|p| !p.is_empty()) {
-        let m = part
-            .parse::<u8>()
-            .ok()
-            .and_then(CdiosModule::new)
-            .ok_or_else(|| usage(format!("{part:?} in --cdios-modules is not a module id 0..15")))?;
-        if !out.contains(&m) {
-            out.push(m);
+/// The device source of `family` on an opened link.
+fn source(ctx: &Ctx, args: &DashboardArgs, family: Family, link: OpenedLink) -> Box<dyn DeviceSource> {
+    let opener = ctx.opener();
+    // The screen is the trace: frames printed on stderr would tear it.
+    let opts = SessionOptions { trace: None, ..ctx.session_options() };
+    match (family, link) {
+        (Family::PowerCube, link) => {
+            let modules = args.modules.as_ref().map(|l| l.to(CubeModule::new));
+            Box::new(CubeSource::new(opener.powercube_on(link, &opts), modules))
         }
-    }
-    if out.is_empty() {
-        return Err(usage("--cdios-modules lists no module"));
-    }
-    Ok(Some(out))
-}
-
-fn parse_axes(args: &DashboardArgs) -> anyhow::Result<Option<Vec<u8>>> {
-    let Some(text) = args.axes.as_deref() else { return Ok(None) };
-    let mut out = Vec::new();
-    for part in text.split(',').map(str::trim).filter(|p| !p.is_empty()) {
-        let a = part
-            .parse::<u8>()
-            .ok()
-            .filter(|a| (1..=axisctl::proto::pac::table::MAX_AXES).contains(a))
-            .ok_or_else(|| usage(format!("{part:?} in --axes is not an axis 1..16")))?;
-        if !out.contains(&a) {
-            out.push(a);
+        (Family::Pac, OpenedLink::Serial(line)) => {
+            Box::new(PacSource::new(opener.pac_on(line, &opts), args.axes.as_ref().map(|l| l.0.clone())))
         }
-    }
-    if out.is_empty() {
-        return Err(usage("--axes lists no axis"));
-    }
-    Ok(Some(out))
-}
-
-fn powercube_on(ctx: &Ctx, pc: PowerCube, args: &DashboardArgs) -> anyhow::Result<Box<dyn DeviceSource>> {
-    let mut pc = pc.with_clock(Arc::clone(&ctx.clock));
-    if let Some(t) = ctx.timeout {
-        pc.set_timeout(t);
-    }
-    pc.set_retry(ctx.retry);
-    Ok(Box::new(CubeSource::new(pc, parse_cube_modules(args)?)))
-}
-
-/// The sources of the CAN families on one opened link.
-fn can_sources(
-    ctx: &Ctx,
-    args: &DashboardArgs,
-    link: SharedCan,
-    families: &[Family],
-) -> anyhow::Result<Vec<Box<dyn DeviceSource>>> {
-    let mut out = Vec::new();
-    for f in families {
-        match f {
-            Family::PowerCube => out.push(powercube_on(ctx, PowerCube::over_can(Box::new(link.clone())), args)?),
-            Family::Cdios => {
-                let mut s = Cdios::new(Box::new(link.clone())).with_clock(Arc::clone(&ctx.clock));
-                if let Some(t) = ctx.timeout {
-                    s.set_timeout(t);
-                }
-                s.set_retry(ctx.retry);
-                let node = NodeId::new(args.node).expect("clap checks 1..=127");
-                out.push(Box::new(CdiosSource::new(s, node, parse_cdios_modules(args)?, ctx.retry)));
-            }
-            Family::Pac => unreachable!("the PA-CONTROL is not on CAN"),
+        (Family::Cdios, OpenedLink::Can(link)) => {
+            let node = NodeId::new(args.node).expect("clap checks the node range");
+            let modules = args.cdios_modules.as_ref().map(|l| l.to(CdiosModule::new));
+            Box::new(CdiosSource::new(opener.cdios_on(link, &opts), node, modules, ctx.retry))
         }
+        (f, _) => unreachable!("assign checked that the link fits the {f}"),
     }
-    Ok(out)
 }
 
-fn open_can(ctx: &Ctx, spec: &LinkSpec) -> anyhow::Result<Box<dyn CanLink>> {
-    let l = link::open_can(spec)?;
-    Ok(match &ctx.log {
-        Some(path) => Box::new(LoggedCanLink::new(l, TrafficLog::append(path, &log_iface(spec))?)),
-        None => l,
-    })
+/// How the status bar names a link.
+fn link_name(spec: &LinkSpec, can: bool) -> String {
+    match (spec, can) {
+        (LinkSpec::Sim, true) => "sim CAN".into(),
+        (LinkSpec::Sim, false) => "sim RS232".into(),
+        _ => spec.to_string(),
+    }
 }
 
 fn plan(ctx: &Ctx, args: &DashboardArgs) -> anyhow::Result<Vec<LinkPlan>> {
+    // Ids were checked by clap, before any link opens: a typo sends nothing.
     let a = assign(ctx, args)?;
-    // Checked before any link opens: a typo sends nothing.
-    parse_cube_modules(args)?;
-    parse_cdios_modules(args)?;
-    parse_axes(args)?;
-    let uses_sim = [&a.cube, &a.pac, &a.cdios].iter().any(|s| **s == Some(LinkSpec::Sim));
-    let bench = if uses_sim { Some(ctx.sim_bench()?) } else { None };
+    let opener = ctx.opener();
+    // Families on one CAN link share it and its worker; a serial line carries
+    // one family. Links keep the order in which their first family comes.
+    let mut links: Vec<(&LinkSpec, bool, Vec<Family>)> = Vec::new();
+    for (f, spec) in &a.0 {
+        let can = Opener::is_can(spec, *f);
+        match links.iter_mut().find(|(s, c, _)| can && *c && *s == spec) {
+            Some((_, _, fams)) => fams.push(*f),
+            None => links.push((spec, can, vec![*f])),
+        }
+    }
     let mut plans = Vec::new();
-    // CAN families, grouped by link.
-    let mut groups: Vec<(LinkSpec, Vec<Family>)> = Vec::new();
-    for (f, spec) in [(Family::PowerCube, &a.cube), (Family::Cdios, &a.cdios)] {
-        let Some(spec) = spec else { continue };
-        if let LinkSpec::Serial { path, baud, format } = spec {
-            // PowerCube RS232: a line of its own.
-            let baud = baud.unwrap_or(9600);
-            let l = link::open_bytes(path, baud, format.unwrap_or(link::SerialFormat::F8N1))?;
-            plans.push(LinkPlan {
-                name: spec.to_string(),
-                sources: vec![powercube_on(ctx, PowerCube::over_rs232(l, baud), args)?],
-            });
-            continue;
-        }
-        match groups.iter_mut().find(|(s, _)| s == spec) {
-            Some((_, fams)) => fams.push(f),
-            None => groups.push((spec.clone(), vec![f])),
-        }
-    }
-    for (spec, fams) in groups {
-        let (name, link) = match (&spec, &bench) {
-            (LinkSpec::Sim, Some(b)) => ("sim CAN".to_string(), Box::new(b.bus.open()) as Box<dyn CanLink>),
-            _ => (spec.to_string(), open_can(ctx, &spec)?),
+    for (spec, can, fams) in links {
+        let sources = if can {
+            let bus = SharedCan::new(opener.can(spec, None)?);
+            fams.into_iter().map(|f| source(ctx, args, f, OpenedLink::Can(Box::new(bus.clone())))).collect()
+        } else {
+            fams.into_iter()
+                .map(|f| Ok(source(ctx, args, f, opener.open(spec, f)?)))
+                .collect::<anyhow::Result<Vec<_>>>()?
         };
-        let sources = can_sources(ctx, args, SharedCan::new(link), &fams)?;
-        if !sources.is_empty() {
-            plans.push(LinkPlan { name, sources });
-        }
-    }
-    if let Some(spec) = &a.pac {
-        let pac = match (spec, &bench) {
-            (LinkSpec::Sim, Some(b)) => {
-                let l: Box<dyn link::ByteLink> = Box::new(b.pac_link(Arc::clone(&ctx.clock)));
-                Pac::new(l, 9600, link::SerialFormat::F7N1)
-            }
-            (LinkSpec::Serial { path, baud, format }, _) => {
-                let baud = baud.unwrap_or(9600);
-                let format = format.unwrap_or(link::SerialFormat::F7N1);
-                Pac::new(link::open_bytes(path, baud, format)?, baud, format)
-            }
-            _ => unreachable!("checked in assign"),
-        };
-        let mut pac = pac.with_clock(Arc::clone(&ctx.clock));
-        if let Some(t) = ctx.timeout {
-            pac.set_timeout(t);
-        }
-        pac.set_retry(ctx.retry);
-        if ctx.pac_check_etx {
-            pac.set_check_rule(axisctl::proto::pac::CheckRule::WithEtx);
-        }
-        let name = if *spec == LinkSpec::Sim { "sim RS232".to_string() } else { spec.to_string() };
-        plans.push(LinkPlan { name, sources: vec![Box::new(PacSource::new(pac, parse_axes(args)?))] });
+        plans.push(LinkPlan { name: link_name(spec, can), sources });
     }
     Ok(plans)
 }
@@ -248,14 +184,17 @@ mod tests {
     #[test]
     fn link_options_resolve_per_family() {
         let a = resolve(&["axisctl", "--link", "sim", "dashboard"]).unwrap();
-        assert_eq!((a.cube, a.pac, a.cdios), (Some(LinkSpec::Sim), Some(LinkSpec::Sim), Some(LinkSpec::Sim)));
+        assert_eq!(
+            (a.get(Family::PowerCube).cloned(), a.get(Family::Pac).cloned(), a.get(Family::Cdios).cloned()),
+            (Some(LinkSpec::Sim), Some(LinkSpec::Sim), Some(LinkSpec::Sim))
+        );
         let a =
             resolve(&["axisctl", "--link", "socketcan:can0", "dashboard", "--pac-link", "serial:/dev/ttyS0"]).unwrap();
-        assert_eq!(a.cube, Some(LinkSpec::SocketCan { iface: "can0".into() }));
-        assert_eq!(a.cdios, a.cube);
-        assert!(matches!(a.pac, Some(LinkSpec::Serial { .. })));
+        assert_eq!(a.get(Family::PowerCube).cloned(), Some(LinkSpec::SocketCan { iface: "can0".into() }));
+        assert_eq!(a.get(Family::Cdios).cloned(), a.get(Family::PowerCube).cloned());
+        assert!(matches!(a.get(Family::Pac).cloned(), Some(LinkSpec::Serial { .. })));
         let a = resolve(&["axisctl", "--link", "sim", "dashboard", "--without", "pac"]).unwrap();
-        assert_eq!(a.pac, None);
+        assert_eq!(a.get(Family::Pac).cloned(), None);
     }
 
     #[test]
@@ -265,10 +204,92 @@ mod tests {
             &["axisctl", "--link", "serial:/dev/ttyS0", "dashboard"],
             &["axisctl", "dashboard", "--cdios-link", "serial:/dev/ttyS0"],
             &["axisctl", "dashboard", "--pac-link", "socketcan:can0"],
-            &["axisctl", "--link", "sim", "dashboard", "--without", "robots"],
         ] {
             let e = resolve(argv).err().unwrap_or_else(|| panic!("{argv:?} accepted"));
             assert_eq!(super::super::classify(&e), axisctl::session::ErrorKind::Usage, "{argv:?}: {e}");
         }
+        // Checked by clap (exit 2) before anything opens.
+        for argv in [
+            &["axisctl", "--link", "sim", "dashboard", "--without", "robots"][..],
+            &["axisctl", "--link", "sim", "dashboard", "--modules", "0"],
+            &["axisctl", "--link", "sim", "dashboard", "--axes", "17"],
+            &["axisctl", "--link", "sim", "dashboard", "--cdios-modules", "16"],
+            &["axisctl", "--link", "sim", "dashboard", "--node", "128"],
+        ] {
+            let e = crate::cli::Cli::try_parse_from(argv).err().unwrap_or_else(|| panic!("{argv:?} accepted"));
+            assert!(e.use_stderr(), "{argv:?}");
+        }
+        let cli =
+            crate::cli::Cli::try_parse_from(["axisctl", "dashboard", "--without", "PA-CONTROL", "--axes", "2,1-2"]);
+        let crate::cli::Command::Dashboard(args) = cli.unwrap().command else { panic!("not a dashboard") };
+        assert_eq!((args.without, args.axes.map(|l| l.0)), (vec![Family::Pac], Some(vec![1, 2])));
+    }
+
+    /// Runs every source of the plans once: a scan and a poll of each device,
+    /// which is traffic on every link.
+    fn exercise(argv: &[&str]) {
+        let cli = crate::cli::Cli::try_parse_from(argv).unwrap();
+        let ctx = Ctx::resolve(&cli.global).unwrap();
+        let crate::cli::Command::Dashboard(args) = cli.command else { panic!("not a dashboard") };
+        for p in plan(&ctx, &args).unwrap() {
+            for mut s in p.sources {
+                let devices = s.discover().unwrap_or_else(|e| panic!("{}: {e}", p.name));
+                assert!(!devices.is_empty(), "{}: no device", p.name);
+                for d in devices {
+                    let _ = s.poll(d);
+                }
+            }
+        }
+    }
+
+    /// The families of the CAN frames in a traffic log, and its serial lines.
+    fn logged(path: &std::path::Path) -> (Vec<Family>, Vec<String>) {
+        let text = std::fs::read_to_string(path).unwrap_or_default();
+        let (mut can, mut serial) = (Vec::new(), Vec::new());
+        for line in text.lines() {
+            match axisctl::proto::candump::parse_candump_line(line) {
+                Ok((_, _, frame)) => can.extend(axisctl::monitor::describe(&frame).family),
+                Err(_) => serial.push(line.to_string()),
+            }
+        }
+        (can, serial)
+    }
+
+    #[test]
+    fn log_records_every_sim_link_of_the_dashboard() {
+        let dir = tempfile::tempdir().unwrap();
+        let log = dir.path().join("sim.log");
+        exercise(&["axisctl", "--log", log.to_str().unwrap(), "--link", "sim", "dashboard", "--modules", "3"]);
+        let (can, serial) = logged(&log);
+        assert!(can.contains(&Family::PowerCube), "no PowerCube CAN frame logged");
+        assert!(can.contains(&Family::Cdios), "no Cdios frame logged");
+        // PA-CONTROL frames open with SOH STX.
+        assert!(serial.iter().any(|l| l.contains(") tx 01 02 ")), "no PA-CONTROL request logged: {serial:?}");
+        assert!(serial.iter().any(|l| l.contains(") rx 01 02 ")), "no PA-CONTROL answer logged: {serial:?}");
+    }
+
+    #[test]
+    fn log_records_the_powercube_rs232_line_of_the_dashboard() {
+        use std::sync::atomic::{AtomicBool, Ordering};
+        let clock: Arc<dyn axisctl::clock::Clock> = Arc::new(axisctl::clock::SystemClock);
+        let bench = axisctl::sim::bench::Bench::contract(Arc::clone(&clock));
+        let (master, pty) = axisctl::link::pty::open_pair().unwrap();
+        let stop = Arc::new(AtomicBool::new(false));
+        let server = {
+            let (cubes, stop) = (axisctl::sim::bench::PowerCubeRs232(Arc::clone(&bench.powercube)), Arc::clone(&stop));
+            std::thread::spawn(move || {
+                axisctl::sim::serve::serial(Box::new(master), cubes, clock, &stop, None, Default::default())
+            })
+        };
+        let dir = tempfile::tempdir().unwrap();
+        let log = dir.path().join("rs232.log");
+        let link = format!("serial:{pty}");
+        exercise(&["axisctl", "--log", log.to_str().unwrap(), "dashboard", "--cube-link", &link, "--modules", "3"]);
+        stop.store(true, Ordering::SeqCst);
+        server.join().unwrap().unwrap();
+        let (can, serial) = logged(&log);
+        assert!(can.is_empty(), "{can:?}");
+        assert!(serial.iter().any(|l| l.contains(") tx 02 ")), "no PowerCube RS232 request logged: {serial:?}");
+        assert!(serial.iter().any(|l| l.contains(") rx 02 ")), "no PowerCube RS232 answer logged: {serial:?}");
     }
 }

@@ -1,5 +1,6 @@
 //! `axisctl decode KIND VALUE`: take a raw word apart offline.
 
+use axisctl::family::{self, Family};
 use axisctl::proto::pac::profibus as pac_profibus;
 use axisctl::proto::powercube::flags::{self, ProfibusInput};
 use axisctl::proto::powercube::Response;
@@ -8,37 +9,25 @@ use serde_json::json;
 use super::{usage, Ctx};
 use crate::output;
 
-/// Kinds beyond the flag words.
-const PROFIBUS_IMAGE: &str = "profibus-image";
-
-fn kinds() -> String {
-    flags::WORDS
-        .iter()
-        .map(|w| w.kind)
-        .chain([PROFIBUS_IMAGE])
-        .chain(super::cdios::DECODE_KINDS.iter().copied())
-        .chain(pac_profibus::WORDS.iter().map(|w| w.kind))
-        .collect::<Vec<_>>()
-        .join(", ")
-}
+const PROFIBUS_IMAGE: &str = family::POWERCUBE_PROFIBUS_IMAGE;
 
 pub fn run(ctx: &Ctx, kind: &str, value: &str) -> anyhow::Result<()> {
-    if let Some(r) = super::cdios::decode_kind(ctx, kind, value) {
-        return r;
+    let unknown = || usage(format!("unknown kind {kind:?}; kinds: {}", Family::all_decode_kinds().join(", ")));
+    match Family::of_decode_kind(kind).ok_or_else(unknown)? {
+        Family::Cdios => super::cdios::decode_kind(ctx, kind, value).unwrap_or_else(|| Err(unknown())),
+        Family::Pac => pac_word(ctx, pac_profibus::word(kind).ok_or_else(unknown)?, value),
+        Family::PowerCube if kind.eq_ignore_ascii_case(PROFIBUS_IMAGE) => profibus_image(ctx, value),
+        Family::PowerCube => flag_word(ctx, flags::word(kind).ok_or_else(unknown)?, value),
     }
-    if kind.eq_ignore_ascii_case(PROFIBUS_IMAGE) {
-        return profibus_image(ctx, value);
-    }
-    if let Some(def) = pac_profibus::word(kind) {
-        return pac_word(ctx, def, value);
-    }
-    let word = flags::word(kind).ok_or_else(|| usage(format!("unknown kind {kind:?}; kinds: {}", kinds())))?;
+}
+
+fn flag_word(ctx: &Ctx, word: &'static flags::FlagWord, value: &str) -> anyhow::Result<()> {
     let raw = word.parse(value).map_err(|e| usage(e.to_string()))?;
     let d = word.decode(raw);
     if ctx.json {
         let details: Vec<_> = word
             .set_flags(raw)
-            .map(|f| json!({"name": f.name, "mask": f.mask, "class": format!("{:?}", f.class).to_lowercase(), "description": f.description}))
+            .map(|f| json!({"name": f.name, "mask": f.mask, "class": f.class, "description": f.description}))
             .collect();
         output::json(&json!({"kind": word.kind, "raw": raw, "flags": d.flags, "errors": d.errors,
                              "warnings": d.warnings, "unknown_bits": d.unknown_bits, "details": details}));
@@ -51,7 +40,7 @@ pub fn run(ctx: &Ctx, kind: &str, value: &str) -> anyhow::Result<()> {
         rows.push(vec![
             format!("{:#0w$x}", f.mask, w = width + 2),
             ctx.style.flag(f.name, f.class),
-            format!("{:?}", f.class).to_lowercase(),
+            class_name(f.class),
             f.description.to_string(),
         ]);
     }
@@ -66,6 +55,11 @@ pub fn run(ctx: &Ctx, kind: &str, value: &str) -> anyhow::Result<()> {
         println!("{}", ctx.style.warn(&format!("unknown bits {:#x}", d.unknown_bits)));
     }
     Ok(())
+}
+
+/// The class as JSON names it (the table's serde name, not the Rust one).
+fn class_name(class: flags::FlagClass) -> String {
+    serde_json::to_value(class).ok().and_then(|v| v.as_str().map(String::from)).unwrap_or_default()
 }
 
 fn parse_hex_bytes(text: &str) -> anyhow::Result<Vec<u8>> {

@@ -4,6 +4,7 @@
 mod cdios;
 mod dashboard;
 mod decode;
+pub mod exit;
 mod monitor;
 mod pac;
 mod powercube;
@@ -14,8 +15,8 @@ use std::sync::{Arc, OnceLock};
 use std::time::Duration;
 
 use axisctl::clock::{Clock, SystemClock};
-use axisctl::link::log::{log_iface, LoggedByteLink, LoggedCanLink, TrafficLog};
 use axisctl::link::{self, LinkSpec};
+use axisctl::open::{OpenError, Opener, SessionOptions};
 use axisctl::session::pac::Pac;
 use axisctl::session::powercube::PowerCube;
 use axisctl::session::{ErrorKind, RetryPolicy, TraceEvent};
@@ -24,17 +25,17 @@ use axisctl::sim::bench::{Bench, WireSpeed};
 use crate::cli::{Cli, Command, Global};
 use crate::output::Style;
 
-/// Bad input: exit 2, and nothing was sent.
+/// Bad input ([`ErrorKind::Usage`]): nothing was sent.
 #[derive(Debug, thiserror::Error)]
 #[error("{0}")]
 pub struct UsageError(pub String);
 
-/// The device reports a fault or refuses: exit 5.
+/// The device reports a fault or refuses ([`ErrorKind::Device`]).
 #[derive(Debug, thiserror::Error)]
 #[error("{0}")]
 pub struct DeviceFault(pub String);
 
-/// Ctrl-C: exit 130 (a moving device was halted first).
+/// Ctrl-C ([`ErrorKind::Interrupted`]; a moving device was halted first).
 #[derive(Debug, thiserror::Error)]
 #[error("interrupted{0}")]
 pub struct Interrupted(pub String);
@@ -58,6 +59,9 @@ pub fn classify(err: &anyhow::Error) -> ErrorKind {
         if let Some(e) = cause.downcast_ref::<axisctl::session::SessionError>() {
             return e.kind();
         }
+        if let Some(e) = cause.downcast_ref::<OpenError>() {
+            return if e.is_mismatch() { ErrorKind::Usage } else { ErrorKind::Link };
+        }
         if cause.is::<link::LinkError>() {
             return ErrorKind::Link;
         }
@@ -71,17 +75,23 @@ pub struct Ctx {
     pub json: bool,
     pub timeout: Option<Duration>,
     pub trace: bool,
+    /// `--log`; the opener logs every link it opens to it.
+    #[allow(dead_code)] // the family commands' API; no command reads it since the opener logs
     pub log: Option<std::path::PathBuf>,
     pub retry: RetryPolicy,
     pub style: Style,
     pub clock: Arc<dyn Clock>,
     /// `--pac-check-etx`: PA-CONTROL CHECK including ETX.
     pub pac_check_etx: bool,
+    /// Opens every link of the command; its `sim` links share one bench.
+    opener: Opener,
 }
 
 impl Ctx {
     fn resolve(g: &Global) -> anyhow::Result<Self> {
         let link = g.link.as_deref().map(str::parse::<LinkSpec>).transpose()?;
+        let clock: Arc<dyn Clock> = Arc::new(SystemClock);
+        let opener = Opener::new(Arc::clone(&clock)).with_log(g.log.clone()).with_wire_speed(WireSpeed::from_env());
         Ok(Self {
             link,
             json: g.json,
@@ -90,8 +100,9 @@ impl Ctx {
             log: g.log.clone(),
             retry: RetryPolicy { read_retries: g.retries },
             style: Style::detect(),
-            clock: Arc::new(SystemClock),
+            clock,
             pac_check_etx: g.pac_check_etx,
+            opener,
         })
     }
 
@@ -101,94 +112,41 @@ impl Ctx {
         })
     }
 
-    /// Opens a PowerCube session on the link: CAN for socketcan / slcan /
-    /// sim, RS232 for serial (default 9600 8N1).
-    pub fn powercube(&self) -> anyhow::Result<PowerCube> {
-        let spec = self.link()?;
-        let mut pc = match spec {
-            LinkSpec::Serial { path, baud, format } => {
-                let baud = baud.unwrap_or(9600);
-                let l = link::open_bytes(path, baud, format.unwrap_or(link::SerialFormat::F8N1))?;
-                PowerCube::over_rs232(self.logged_bytes(l)?, baud)
-            }
-            _ => PowerCube::over_can(self.can_link()?).with_clock(Arc::clone(&self.clock)),
-        };
-        if let Some(t) = self.timeout {
-            pc.set_timeout(t);
-        }
-        pc.set_retry(self.retry);
-        if self.trace {
-            pc.set_tracer(Box::new(print_trace));
-        }
-        Ok(pc)
+    /// The link opener behind every session of the command.
+    pub fn opener(&self) -> &Opener {
+        &self.opener
     }
 
-    /// Opens a PA-CONTROL session: a `serial:` link (default 9600 7N1) or
-    /// the in-process simulated controller (`sim`).
+    /// `--timeout`, `--retries`, `--trace` and `--pac-check-etx`, for any session.
+    pub fn session_options(&self) -> SessionOptions {
+        SessionOptions {
+            timeout: self.timeout,
+            retry: self.retry,
+            trace: self.trace.then_some(print_trace as fn(TraceEvent)),
+            pac_check_etx: self.pac_check_etx,
+        }
+    }
+
+    /// A PowerCube session on the link: CAN for socketcan / slcan / sim,
+    /// RS232 for serial (the family's serial default unless the link says).
+    pub fn powercube(&self) -> anyhow::Result<PowerCube> {
+        Ok(self.opener.powercube(self.link()?, &self.session_options())?)
+    }
+
+    /// A PA-CONTROL session: a `serial:` link or the simulated controller (`sim`).
     pub fn pac(&self) -> anyhow::Result<Pac> {
-        use axisctl::proto::pac::CheckRule;
-        let spec = self.link()?;
-        let mut pac = match spec {
-            LinkSpec::Serial { path, baud, format } => {
-                let baud = baud.unwrap_or(9600);
-                let format = format.unwrap_or(link::SerialFormat::F7N1);
-                Pac::new(self.logged_bytes(link::open_bytes(path, baud, format)?)?, baud, format)
-            }
-            LinkSpec::Sim => {
-                let bench = self.sim_bench()?;
-                let l: Box<dyn link::ByteLink> = Box::new(bench.pac_link(Arc::clone(&self.clock)));
-                Pac::new(self.logged_bytes(l)?, 9600, link::SerialFormat::F7N1).with_clock(Arc::clone(&self.clock))
-            }
-            _ => return Err(usage(format!("{spec} is a CAN link; the PA-CONTROL talks RS232 (serial:TTY or sim)"))),
-        };
-        if let Some(t) = self.timeout {
-            pac.set_timeout(t);
-        }
-        pac.set_retry(self.retry);
-        if self.pac_check_etx {
-            pac.set_check_rule(CheckRule::WithEtx);
-        }
-        if self.trace {
-            pac.set_tracer(Box::new(print_trace));
-        }
-        Ok(pac)
+        Ok(self.opener.pac(self.link()?, &self.session_options())?)
     }
 
     /// A CAN link (the in-process bench for `sim`), logged with `--log`.
     pub fn can_link(&self) -> anyhow::Result<Box<dyn link::CanLink>> {
-        let spec = self.link()?;
-        let l: Box<dyn link::CanLink> = match spec {
-            LinkSpec::Sim => Box::new(self.sim_bench()?.bus.open()),
-            LinkSpec::Serial { .. } => {
-                return Err(usage(format!(
-                    "{spec} is a serial link; this command needs CAN (socketcan:, slcan: or sim)"
-                )))
-            }
-            _ => link::open_can(spec)?,
-        };
-        Ok(match &self.log {
-            Some(path) => Box::new(LoggedCanLink::new(l, TrafficLog::append(path, &log_iface(spec))?)),
-            None => l,
-        })
+        Ok(self.opener.can(self.link()?, None)?)
     }
 
-    /// The in-process bench behind `--link sim`, at wire speed if
-    /// `AXISCTL_SIM_WIRE_SPEED` asks for it.
+    /// A fresh in-process bench, at wire speed if `AXISCTL_SIM_WIRE_SPEED` asks for it.
+    #[allow(dead_code)] // the family commands' API (a bench of their own)
     pub fn sim_bench(&self) -> anyhow::Result<Bench> {
-        let mut bench = Bench::contract(Arc::clone(&self.clock));
-        let wire = WireSpeed::from_env().map_err(usage)?;
-        if wire.is_some() {
-            axisctl::sim::serve::precise_timers();
-        }
-        bench.set_wire_speed(wire);
-        Ok(bench)
-    }
-
-    fn logged_bytes(&self, l: Box<dyn link::ByteLink>) -> anyhow::Result<Box<dyn link::ByteLink>> {
-        Ok(match (&self.log, &self.link) {
-            (Some(path), Some(spec)) => Box::new(LoggedByteLink::new(l, TrafficLog::append(path, &log_iface(spec))?)),
-            _ => l,
-        })
+        Ok(self.opener.new_bench()?)
     }
 }
 
@@ -225,6 +183,6 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Cdios(c) => cdios::run(&ctx, c),
         Command::Dashboard(args) => dashboard::run(&ctx, &args),
         Command::Pac(cmd) => pac::run(&ctx, cmd),
-        other => powercube::run(&ctx, other),
+        Command::PowerCube(c) => powercube::run(&ctx, c),
     }
 }

@@ -4,7 +4,8 @@
 use std::io::Write;
 use std::time::{Duration, SystemTime, UNIX_EPOCH};
 
-use axisctl::monitor::{describe, Family, FrameInfo, Stats};
+use axisctl::family::Family;
+use axisctl::monitor::{describe, FamilyFilter, FrameInfo, Stats};
 use axisctl::proto::candump::{format_candump_line, parse_candump_line};
 use axisctl::proto::CanFrame;
 use serde_json::json;
@@ -13,18 +14,13 @@ use super::{arm_interrupt, interrupted, usage, Ctx};
 use crate::cli::MonitorArgs;
 
 struct Filter {
-    families: Vec<Family>,
+    families: Vec<FamilyFilter>,
     modules: Vec<u8>,
     ids: Vec<u32>,
 }
 
 impl Filter {
     fn new(a: &MonitorArgs) -> anyhow::Result<Self> {
-        let families = a
-            .family
-            .iter()
-            .map(|f| Family::parse(f).ok_or_else(|| usage(format!("--family {f:?}: powercube, cdios or other"))))
-            .collect::<anyhow::Result<_>>()?;
         let ids =
             a.id.iter()
                 .map(|i| {
@@ -34,11 +30,15 @@ impl Filter {
                         .ok_or_else(|| usage(format!("--id {i:?} is not a hex CAN id")))
                 })
                 .collect::<anyhow::Result<_>>()?;
-        Ok(Self { families, modules: a.module.clone(), ids })
+        Ok(Self {
+            families: a.family.clone(),
+            modules: a.module.iter().flat_map(|l| l.0.iter().copied()).collect(),
+            ids,
+        })
     }
 
     fn pass(&self, f: &CanFrame, i: &FrameInfo) -> bool {
-        (self.families.is_empty() || self.families.contains(&i.family))
+        (self.families.is_empty() || self.families.iter().any(|f| f.pass(i)))
             && (self.modules.is_empty() || i.module.is_some_and(|m| self.modules.contains(&m)))
             && (self.ids.is_empty() || self.ids.contains(&f.id()))
     }
@@ -65,16 +65,12 @@ impl Printer<'_> {
             writeln!(self.out, "{v}")?;
         } else {
             let who = match (i.family, i.node, i.module) {
-                (Family::Cdios, Some(n), Some(m)) => format!("node {n} module {m}"),
-                (Family::Cdios, Some(n), None) => format!("node {n}"),
+                (Some(Family::Cdios), Some(n), Some(m)) => format!("node {n} module {m}"),
+                (Some(Family::Cdios), Some(n), None) => format!("node {n}"),
                 (_, _, Some(m)) => format!("module {m}"),
                 _ => String::new(),
             };
-            let fam = match i.family {
-                Family::Powercube => "powercube",
-                Family::Cdios => "cdios",
-                Family::Other => "-",
-            };
+            let fam = i.family.map_or("-", Family::name);
             let text = match &i.error {
                 Some(e) => self.ctx.style.error(&format!("{} ({e})", i.summary)),
                 None if i.kind == "error" => self.ctx.style.error(&i.summary),

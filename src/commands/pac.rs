@@ -26,7 +26,7 @@ use axisctl::session::SessionError;
 use serde_json::json;
 
 use super::{arm_interrupt, interrupted, usage, Ctx, DeviceFault, Interrupted};
-use crate::cli_pac::{PacCommand, PacWait, ParamAccess};
+use crate::cli::pac::{PacCommand, PacWait, ParamAccess};
 use crate::output;
 
 /// A session plus what is known about the controller.

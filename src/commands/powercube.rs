@@ -15,7 +15,7 @@ use axisctl::session::SessionError;
 use serde_json::json;
 
 use super::{interrupted, usage, Ctx, DeviceFault, Interrupted};
-use crate::cli::{Command, Target, WaitArgs, WatchdogAction};
+use crate::cli::{PowerCubeCommand as Command, Target, WaitArgs, WatchdogAction};
 use crate::output;
 
 pub fn run(ctx: &Ctx, cmd: Command) -> anyhow::Result<()> {
@@ -40,12 +40,6 @@ pub fn run(ctx: &Ctx, cmd: Command) -> anyhow::Result<()> {
         Command::SetConfig { module: m, changes, raw } => set_config(ctx, module(m.module), &changes, raw.as_deref()),
         Command::Dio { module: m, out } => dio(ctx, module(m.module), out.as_deref()),
         Command::Watchdog { action } => watchdog(ctx, action),
-        Command::Decode { .. }
-        | Command::Sim(_)
-        | Command::Monitor(_)
-        | Command::Cdios(_)
-        | Command::Pac(_)
-        | Command::Dashboard(_) => unreachable!("dispatched elsewhere"),
     }
 }
 

@@ -6,6 +6,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 
 use anyhow::Context as _;
+use axisctl::family::{self, Family};
 use axisctl::link::{self, LinkSpec};
 use axisctl::sim::bench::{Bench, BenchConfig, PowerCubeRs232};
 use axisctl::sim::fault::{ByteFaults, ByteProtocol, FaultSpec, Injector, Trip};
@@ -14,76 +15,84 @@ use axisctl::sim::serve;
 use super::{usage, Ctx};
 use crate::cli::SimArgs;
 
-fn parse_list(text: &str, what: &str, max: u8) -> anyhow::Result<Vec<u8>> {
-    text.split(',')
-        .map(str::trim)
-        .filter(|s| !s.is_empty())
-        .map(|s| {
-            s.parse::<u8>().ok().filter(|v| *v <= max).ok_or_else(|| usage(format!("{what}: {s:?} is not 0..={max}")))
-        })
-        .collect()
-}
-
 enum Where {
     PtySerial,
     PtySlcan,
     SocketCan(String),
 }
 
-fn parse_where(text: &str, family: &str) -> anyhow::Result<Where> {
-    match text {
-        "pty-serial" => Ok(Where::PtySerial),
-        "pty-slcan" => Ok(Where::PtySlcan),
+/// Where `--FAMILY WHERE` serves the family, as far as its link kind allows.
+fn parse_where(text: &str, family: Family) -> anyhow::Result<Where> {
+    let kind = family.link_kind();
+    let w = match text {
+        "pty-serial" => Where::PtySerial,
+        "pty-slcan" => Where::PtySlcan,
         _ => match text.parse::<LinkSpec>() {
-            Ok(LinkSpec::SocketCan { iface }) => Ok(Where::SocketCan(iface)),
-            _ => Err(usage(format!("--{family} {text:?}: expected pty-serial, pty-slcan or socketcan:IFACE"))),
+            Ok(LinkSpec::SocketCan { iface }) => Where::SocketCan(iface),
+            _ => {
+                let forms: Vec<_> =
+                    [(kind.rs232(), "pty-serial"), (kind.can(), "pty-slcan"), (kind.can(), "socketcan:IFACE")]
+                        .into_iter()
+                        .filter_map(|(ok, f)| ok.then_some(f))
+                        .collect();
+                return Err(usage(format!("--{} {text:?}: expected {}", family.name(), family::join_or(&forms))));
+            }
         },
+    };
+    match (&w, kind.can(), kind.rs232()) {
+        (Where::PtySerial, _, false) => Err(usage(format!(
+            "--{} pty-serial: {} is CAN only (pty-slcan or socketcan:IFACE)",
+            family.name(),
+            family.display_name()
+        ))),
+        (Where::PtySlcan | Where::SocketCan(_), false, _) => Err(usage(format!(
+            "--{} {text:?}: the {} is served on pty-serial only",
+            family.name(),
+            family.display_name()
+        ))),
+        _ => Ok(w),
     }
 }
 
-fn announce(family: &str, link: &str) {
+fn announce(family: Family, link: &str) {
     let mut out = std::io::stdout().lock();
     let _ = writeln!(out, "{}", serde_json::json!({"family": family, "link": link}));
     let _ = out.flush();
 }
 
+fn serial_format(f: Family) -> link::SerialFormat {
+    f.serial_default().map_or(link::SerialFormat::F8N1, |d| d.format)
+}
+
+/// The `--link` a client passes to reach a served line, in the family's format.
+fn serial_uri(path: &str, baud: u32, f: Family) -> String {
+    LinkSpec::Serial { path: path.into(), baud: Some(baud), format: Some(serial_format(f)) }.to_string()
+}
+
 pub fn run(ctx: &Ctx, args: &SimArgs) -> anyhow::Result<()> {
-    let modules = parse_list(&args.modules, "--modules", 31)?;
-    if modules.contains(&0) {
-        return Err(usage("--modules: PowerCube ids are 1..31"));
-    }
-    let linear = parse_list(&args.linear, "--linear", 31)?;
-    if !(1..=127).contains(&args.node) {
-        return Err(usage(format!("--node {}: Cdios node ids are 1..127", args.node)));
-    }
-    let cdios_modules = parse_list(&args.cdios_modules, "--cdios-modules", 15)?;
-    if !(1..=axisctl::proto::pac::table::MAX_AXES).contains(&args.axes) {
-        return Err(usage(format!("--axes: {} is not 1..={}", args.axes, axisctl::proto::pac::table::MAX_AXES)));
-    }
-    let cfg = BenchConfig { modules, linear, node: args.node, cdios_modules, axes: args.axes };
+    // Ids and their ranges were checked by clap.
+    let cfg = BenchConfig {
+        modules: args.modules.0.clone(),
+        linear: args.linear.0.clone(),
+        node: args.node,
+        cdios_modules: args.cdios_modules.0.clone(),
+        axes: args.axes,
+    };
     let only_some = args.powercube.is_some() || args.pac.is_some() || args.cdios.is_some();
     // What is served where: with no family option, PowerCube and Cdios share one slcan bus.
-    let mut served: Vec<(Where, Vec<&str>)> = Vec::new();
+    let mut served: Vec<(Where, Vec<Family>)> = Vec::new();
     match (&args.powercube, &args.cdios) {
-        (None, None) if !only_some => served.push((Where::PtySlcan, vec!["powercube", "cdios"])),
+        (None, None) if !only_some => served.push((Where::PtySlcan, vec![Family::PowerCube, Family::Cdios])),
         (pc, cd) => {
-            if let Some(w) = pc {
-                served.push((parse_where(w, "powercube")?, vec!["powercube"]));
-            }
-            if let Some(w) = cd {
-                match parse_where(w, "cdios")? {
-                    Where::PtySerial => {
-                        return Err(usage("--cdios pty-serial: Cdios is CAN only (pty-slcan or socketcan:IFACE)"))
-                    }
-                    w => served.push((w, vec!["cdios"])),
+            for (w, f) in [(pc, Family::PowerCube), (cd, Family::Cdios)] {
+                if let Some(w) = w {
+                    served.push((parse_where(w, f)?, vec![f]));
                 }
             }
         }
     }
-    // The PA-CONTROL has only its RS232 port.
     let pac_where = match args.pac.as_deref() {
-        Some("pty-serial") => Some(Where::PtySerial),
-        Some(other) => return Err(usage(format!("--pac {other:?}: the PA-CONTROL is served on pty-serial only"))),
+        Some(w) => Some(parse_where(w, Family::Pac)?),
         None if !only_some => Some(Where::PtySerial),
         None => None,
     };
@@ -122,13 +131,13 @@ pub fn run(ctx: &Ctx, args: &SimArgs) -> anyhow::Result<()> {
     }
     let mut threads = Vec::new();
     for (w, families) in served {
-        let announce_all = |link: &str| families.iter().for_each(|f| announce(f, link));
+        let announce_all = |link: &str| families.iter().for_each(|f| announce(*f, link));
         match w {
             Where::PtySerial => {
                 let (master, path) = link::pty::open_pair()?;
-                announce_all(&format!("serial:{path}?baud={}&format=8N1", args.baud));
+                announce_all(&serial_uri(&path, args.baud, Family::PowerCube));
                 let (pc, clock, stop) = (Arc::clone(&bench.powercube), Arc::clone(&ctx.clock), Arc::clone(&stop));
-                let (pace, noise) = (pace(link::SerialFormat::F8N1), noise(ByteProtocol::PowerCube, 1));
+                let (pace, noise) = (pace(serial_format(Family::PowerCube)), noise(ByteProtocol::PowerCube, 1));
                 threads.push(std::thread::spawn(move || {
                     serve::serial(Box::new(master), PowerCubeRs232(pc), clock, &stop, pace, noise)
                 }));
@@ -141,7 +150,7 @@ pub fn run(ctx: &Ctx, args: &SimArgs) -> anyhow::Result<()> {
             }
             Where::SocketCan(iface) => {
                 let spec = LinkSpec::SocketCan { iface: iface.clone() };
-                let ext = link::open_can(&spec).with_context(|| format!("opening {spec}"))?;
+                let ext = ctx.opener().can(&spec, None).with_context(|| format!("opening {spec}"))?;
                 announce_all(&spec.to_string());
                 let (client, stop) = (bench.bus.open(), Arc::clone(&stop));
                 threads.push(std::thread::spawn(move || serve::bridge(ext, client, &stop)));
@@ -150,9 +159,9 @@ pub fn run(ctx: &Ctx, args: &SimArgs) -> anyhow::Result<()> {
     }
     if let Some(Where::PtySerial) = pac_where {
         let (master, path) = link::pty::open_pair()?;
-        announce("pac", &format!("serial:{path}?baud={}&format=7N1", args.baud));
+        announce(Family::Pac, &serial_uri(&path, args.baud, Family::Pac));
         let (pac, clock, stop) = (Arc::clone(&bench.pac), Arc::clone(&ctx.clock), Arc::clone(&stop));
-        let (pace, noise) = (pace(link::SerialFormat::F7N1), noise(ByteProtocol::Pac, 2));
+        let (pace, noise) = (pace(serial_format(Family::Pac)), noise(ByteProtocol::Pac, 2));
         threads.push(std::thread::spawn(move || serve::serial(Box::new(master), pac, clock, &stop, pace, noise)));
     }
     for t in threads {

@@ -3,6 +3,8 @@
 
 use crossterm::event::{KeyCode, KeyEvent, KeyModifiers};
 
+use crate::family::{Capability, Family};
+
 /// What a key does.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum KeyAction {
@@ -37,8 +39,22 @@ pub struct KeyBinding {
     pub help: &'static str,
     /// The hint line's word for it ("" to leave it out).
     pub short: &'static str,
-    /// Which families it applies to ("all" for every one).
-    pub applies: &'static str,
+    /// What a device's family must be able to do for the key to act on it
+    /// (`None`: the key is about the screen, or every device).
+    pub needs: Option<Capability>,
+}
+
+impl KeyBinding {
+    /// Which families it applies to, from the registry ("all" for every one).
+    pub fn applies(&self) -> String {
+        let Some(c) = self.needs else { return "all".into() };
+        let fams: Vec<_> = Family::ALL.into_iter().filter(|f| f.can(c)).map(Family::display_name).collect();
+        if fams.len() == Family::ALL.len() {
+            "all".into()
+        } else {
+            fams.join(", ")
+        }
+    }
 }
 
 const fn k(
@@ -47,9 +63,9 @@ const fn k(
     action: KeyAction,
     help: &'static str,
     short: &'static str,
-    applies: &'static str,
+    needs: Option<Capability>,
 ) -> KeyBinding {
-    KeyBinding { codes, keys, action, help, short, applies }
+    KeyBinding { codes, keys, action, help, short, needs }
 }
 
 use KeyCode::{Char, Down, Esc, PageDown, PageUp, Up};
@@ -61,42 +77,70 @@ pub const KEYS: &[KeyBinding] = &[
         KeyAction::HaltAll,
         "HALT ALL: halt every PowerCube, PA axis and Cdios motor (any screen)",
         "HALT ALL",
-        "all",
+        None,
     ),
-    k(&[Up, Char('k')], "↑ / k", KeyAction::Up, "select the device above", "select", "all"),
-    k(&[Down, Char('j')], "↓ / j", KeyAction::Down, "select the device below", "", "all"),
-    k(&[Char('h')], "h", KeyAction::Home, "home (PowerCube) / reference drive (PA axis)", "home", "PowerCube, PA axis"),
-    k(&[Char('r')], "r", KeyAction::Reset, "reset: clear the error state", "reset", "PowerCube, PA-CONTROL, Cdios"),
-    k(&[Char('s')], "s", KeyAction::Halt, "halt / stop the selected device", "stop", "all"),
-    k(&[Char('e')], "e", KeyAction::Enable, "enable: switch the axis / motor on", "on", "PA axis, Cdios"),
-    k(&[Char('d')], "d", KeyAction::Disable, "disable: switch the axis / motor off", "off", "PA axis, Cdios"),
+    k(&[Up, Char('k')], "↑ / k", KeyAction::Up, "select the device above", "select", None),
+    k(&[Down, Char('j')], "↓ / j", KeyAction::Down, "select the device below", "", None),
     k(
-        &[Char('+'), Char('=')],
-        "+",
-        KeyAction::JogPlus,
-        "jog forward by the step size",
-        "jog",
-        "PowerCube, PA axis, Cdios",
+        &[Char('h')],
+        "h",
+        KeyAction::Home,
+        "home (PowerCube) / reference drive (PA axis)",
+        "home",
+        Some(Capability::Home),
     ),
-    k(&[Char('-')], "-", KeyAction::JogMinus, "jog backward by the step size", "", "PowerCube, PA axis, Cdios"),
-    k(&[Char('[')], "[", KeyAction::StepSmaller, "smaller jog step", "step", "all"),
-    k(&[Char(']')], "]", KeyAction::StepLarger, "larger jog step", "", "all"),
+    k(&[Char('r')], "r", KeyAction::Reset, "reset: clear the error state", "reset", Some(Capability::Reset)),
+    k(&[Char('s')], "s", KeyAction::Halt, "halt / stop the selected device", "stop", Some(Capability::Halt)),
+    k(
+        &[Char('e')],
+        "e",
+        KeyAction::Enable,
+        "enable: switch the axis / motor on",
+        "on",
+        Some(Capability::EnableDisable),
+    ),
+    k(
+        &[Char('d')],
+        "d",
+        KeyAction::Disable,
+        "disable: switch the axis / motor off",
+        "off",
+        Some(Capability::EnableDisable),
+    ),
+    k(&[Char('+'), Char('=')], "+", KeyAction::JogPlus, "jog forward by the step size", "jog", Some(Capability::Jog)),
+    k(&[Char('-')], "-", KeyAction::JogMinus, "jog backward by the step size", "", Some(Capability::Jog)),
+    k(&[Char('[')], "[", KeyAction::StepSmaller, "smaller jog step", "step", None),
+    k(&[Char(']')], "]", KeyAction::StepLarger, "larger jog step", "", None),
     k(
         &[Char('g')],
         "g",
         KeyAction::GoTo,
         "move to a typed target, checked against the limits like the CLI",
         "go to",
-        "PowerCube, PA axis, Cdios",
+        Some(Capability::GoTo),
     ),
-    k(&[Char('o')], "o", KeyAction::Online, "switch the PA-CONTROL to online mode", "online", "PA-CONTROL"),
-    k(&[Char('f')], "f", KeyAction::Offline, "switch the PA-CONTROL offline", "offline", "PA-CONTROL"),
-    k(&[Char('<')], "<", KeyAction::RateDown, "poll slower", "rate", "all"),
-    k(&[Char('>')], ">", KeyAction::RateUp, "poll faster", "", "all"),
-    k(&[PageUp], "PgUp", KeyAction::ScrollUp, "scroll the event pane back", "events", "all"),
-    k(&[PageDown], "PgDn", KeyAction::ScrollDown, "scroll the event pane forward", "", "all"),
-    k(&[Char('?')], "?", KeyAction::Help, "this help (any key closes it)", "help", "all"),
-    k(&[Char('q'), Esc], "q / Esc", KeyAction::Quit, "quit (the devices keep doing what they do)", "quit", "all"),
+    k(
+        &[Char('o')],
+        "o",
+        KeyAction::Online,
+        "switch the PA-CONTROL to online mode",
+        "online",
+        Some(Capability::OnlineOffline),
+    ),
+    k(
+        &[Char('f')],
+        "f",
+        KeyAction::Offline,
+        "switch the PA-CONTROL offline",
+        "offline",
+        Some(Capability::OnlineOffline),
+    ),
+    k(&[Char('<')], "<", KeyAction::RateDown, "poll slower", "rate", None),
+    k(&[Char('>')], ">", KeyAction::RateUp, "poll faster", "", None),
+    k(&[PageUp], "PgUp", KeyAction::ScrollUp, "scroll the event pane back", "events", None),
+    k(&[PageDown], "PgDn", KeyAction::ScrollDown, "scroll the event pane forward", "", None),
+    k(&[Char('?')], "?", KeyAction::Help, "this help (any key closes it)", "help", None),
+    k(&[Char('q'), Esc], "q / Esc", KeyAction::Quit, "quit (the devices keep doing what they do)", "quit", None),
 ];
 
 /// The action bound to a key press. Ctrl-C quits like `q`.
@@ -115,7 +159,7 @@ pub fn binding(action: KeyAction) -> &'static KeyBinding {
 pub fn markdown_table() -> String {
     let mut s = String::from("| key | what it does | applies to |\n|---|---|---|\n");
     for b in KEYS {
-        s.push_str(&format!("| `{}` | {} | {} |\n", b.keys, b.help, b.applies));
+        s.push_str(&format!("| `{}` | {} | {} |\n", b.keys, b.help, b.applies()));
     }
     s
 }

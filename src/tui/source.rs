@@ -6,28 +6,11 @@
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
+pub use crate::family::Family;
 use crate::link::{CanLink, LinkError};
 use crate::proto::powercube::limits::Limits;
 use crate::proto::CanFrame;
 use crate::session::SessionError;
-
-/// Which family a device belongs to.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
-pub enum Family {
-    PowerCube,
-    Pac,
-    Cdios,
-}
-
-impl Family {
-    pub fn name(self) -> &'static str {
-        match self {
-            Self::PowerCube => "PowerCube",
-            Self::Pac => "PA-CONTROL",
-            Self::Cdios => "Cdios",
-        }
-    }
-}
 
 /// One device on the dashboard.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]

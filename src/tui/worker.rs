@@ -47,7 +47,7 @@ impl LinkWorker {
         for (i, s) in self.sources.iter_mut().enumerate() {
             match s.discover() {
                 Ok(list) => self.devices.extend(list.into_iter().map(|d| (i, d))),
-                Err(e) => errors.push(format!("{} scan failed: {e}", s.family().name())),
+                Err(e) => errors.push(format!("{} scan failed: {e}", s.family().display_name())),
             }
         }
         LinkEvent::Discovered { link: self.link, devices: self.devices.iter().map(|d| d.1).collect(), errors }

@@ -77,7 +77,7 @@ fn summary(app: &App, d: &DeviceView) -> (String, Style) {
 }
 
 fn group_title(key: DeviceKey) -> &'static str {
-    key.family().name()
+    key.family().display_name()
 }
 
 fn draw_list(f: &mut Frame, app: &App, area: Rect) {
@@ -274,7 +274,7 @@ fn draw_help(f: &mut Frame, area: Rect) {
                 Span::raw(b.help),
             ];
             if wide {
-                spans.push(Span::styled(format!("  [{}]", b.applies), DIM));
+                spans.push(Span::styled(format!("  [{}]", b.applies()), DIM));
             }
             Line::from(spans)
         })

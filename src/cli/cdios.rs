@@ -4,13 +4,15 @@
 
 use clap::{Args, Subcommand, ValueEnum};
 
-use crate::cli::WaitArgs;
+use super::ids;
+use super::WaitArgs;
+use axisctl::family::{CDIOS_MODULE, CDIOS_NODE};
 
 /// Which node, and how it is talked to.
 #[derive(Debug, Args, Clone, Copy)]
 pub struct NodeArgs {
     /// Cdios node id (CANopen), 1..127; 1 is the factory setting
-    #[arg(long, value_name = "N", default_value_t = 1, value_parser = clap::value_parser!(u8).range(1..=127))]
+    #[arg(long, value_name = "N", default_value_t = 1, value_parser = ids::id(CDIOS_NODE))]
     pub node: u8,
     /// Do not send the NMT start (the node is operational already)
     #[arg(long)]
@@ -26,7 +28,7 @@ pub struct ModuleTarget {
     #[command(flatten)]
     pub node: NodeArgs,
     /// 6168 module id on the node (DIP switch), 0..15
-    #[arg(short, long, value_name = "ID", value_parser = clap::value_parser!(u8).range(0..=15))]
+    #[arg(short, long, value_name = "ID", value_parser = ids::id(CDIOS_MODULE))]
     pub module: u8,
 }
 

@@ -2,6 +2,9 @@
 
 use clap::Args;
 
+use super::ids::{self, IdList};
+use axisctl::family::{Family, CDIOS_MODULE, CDIOS_NODE, PAC_AXIS, POWERCUBE_MODULE};
+
 #[derive(Debug, Args)]
 pub struct DashboardArgs {
     /// Polls per second wanted on each link (the status bar shows what each achieves)
@@ -17,18 +20,23 @@ pub struct DashboardArgs {
     #[arg(long, value_name = "URI")]
     pub cdios_link: Option<String>,
     /// PowerCube module ids, e.g. 3,5,17 or 1-8 (default: scan 1..31 at start)
-    #[arg(long, value_name = "LIST")]
-    pub modules: Option<String>,
+    #[arg(long, value_name = "LIST", value_parser = ids::list(POWERCUBE_MODULE))]
+    pub modules: Option<IdList>,
     /// PA-CONTROL axes to show, e.g. 1,2 (default: as many as the controller has configured)
-    #[arg(long, value_name = "LIST")]
-    pub axes: Option<String>,
+    #[arg(long, value_name = "LIST", value_parser = ids::list(PAC_AXIS))]
+    pub axes: Option<IdList>,
     /// Cdios node id
-    #[arg(long, value_name = "N", default_value_t = 1, value_parser = clap::value_parser!(u8).range(1..=127))]
+    #[arg(long, value_name = "N", default_value_t = 1, value_parser = ids::id(CDIOS_NODE))]
     pub node: u8,
     /// Cdios 6168 module ids, e.g. 0,1 (default: scan 0..15 at start)
-    #[arg(long, value_name = "LIST")]
-    pub cdios_modules: Option<String>,
+    #[arg(long, value_name = "LIST", value_parser = ids::list(CDIOS_MODULE))]
+    pub cdios_modules: Option<IdList>,
     /// Leave out families: powercube, pac, cdios (repeatable)
-    #[arg(long, value_name = "FAMILY")]
-    pub without: Vec<String>,
+    #[arg(long, value_name = "FAMILY", value_parser = parse_family)]
+    pub without: Vec<Family>,
+}
+
+/// A family by its registry name or alias.
+pub fn parse_family(text: &str) -> Result<Family, String> {
+    text.parse().map_err(|e: axisctl::family::UnknownFamily| e.to_string())
 }

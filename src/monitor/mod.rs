@@ -1,12 +1,16 @@
 //! Passive bus decoding: what any CAN frame on a commissioning bus means.
 //! PowerCube ids (0x0A1..0x0FF, 0x100) and Cdios ids (NMT 0x000, 0x181.., 0x201..)
 //! do not overlap; everything else is shown raw. Sans-IO: frames in, [`FrameInfo`] out.
+//!
+//! Not under `proto/` yet: PowerCube requests are described by
+//! `session::powercube::describe`, and proto may not import session.
 
 use std::collections::BTreeMap;
 
 use serde::Serialize;
 use serde_json::json;
 
+use crate::family::Family;
 use crate::proto::cdios::transport::{self as cdios_tp, AnswerKind, BusMessage};
 use crate::proto::cdios::{table as cdios_table, Address};
 use crate::proto::powercube::can::{self as pc_can, CanMessage};
@@ -16,29 +20,54 @@ use crate::proto::powercube::{table as pc_table, Response};
 use crate::proto::CanFrame;
 use crate::session::powercube::describe as describe_request;
 
-#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Serialize)]
-#[serde(rename_all = "lowercase")]
-pub enum Family {
-    Powercube,
-    Cdios,
+const PC: Option<Family> = Some(Family::PowerCube);
+const CD: Option<Family> = Some(Family::Cdios);
+
+/// Which frames a `--family` filter keeps: a family on CAN, or the rest.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum FamilyFilter {
+    Of(Family),
     Other,
 }
 
-impl Family {
-    pub fn parse(s: &str) -> Option<Self> {
-        match s.to_ascii_lowercase().as_str() {
-            "powercube" | "pc" => Some(Self::Powercube),
-            "cdios" => Some(Self::Cdios),
-            "other" | "raw" => Some(Self::Other),
-            _ => None,
+impl FamilyFilter {
+    /// The registry's CAN families by name or alias, and `other` (or `raw`)
+    /// for frames of none.
+    pub fn parse(s: &str) -> Result<Self, String> {
+        let can = || format!("{} or other", Family::names_where(|f| f.link_kind().can()).replace(" or ", ", "));
+        if ["other", "raw"].iter().any(|o| o.eq_ignore_ascii_case(s.trim())) {
+            return Ok(Self::Other);
+        }
+        match s.parse::<Family>() {
+            Ok(f) if f.link_kind().can() => Ok(Self::Of(f)),
+            Ok(f) => Err(format!("{f} is not on CAN; expected {}", can())),
+            Err(_) => Err(format!("expected {}", can())),
         }
     }
+
+    pub fn pass(self, info: &FrameInfo) -> bool {
+        match self {
+            Self::Of(f) => info.family == Some(f),
+            Self::Other => info.family.is_none(),
+        }
+    }
+}
+
+/// A frame's family in JSON and text: its registry name, `other` for none.
+pub fn family_name(family: Option<Family>) -> &'static str {
+    family.map_or("other", Family::name)
+}
+
+fn serialize_family<S: serde::Serializer>(f: &Option<Family>, s: S) -> Result<S::Ok, S::Error> {
+    s.serialize_str(family_name(*f))
 }
 
 /// One decoded frame.
 #[derive(Debug, Clone, Serialize)]
 pub struct FrameInfo {
-    pub family: Family,
+    /// `None` for a frame of no known family (`"other"` in JSON).
+    #[serde(serialize_with = "serialize_family")]
+    pub family: Option<Family>,
     /// request, ack, broadcast, nmt, command, reply, event, error or raw.
     pub kind: &'static str,
     /// PowerCube module id, or Cdios module id (0..15; > 15 the controller).
@@ -55,7 +84,7 @@ pub struct FrameInfo {
 }
 
 impl FrameInfo {
-    fn new(family: Family, kind: &'static str, summary: String) -> Self {
+    fn new(family: Option<Family>, kind: &'static str, summary: String) -> Self {
         Self { family, kind, module: None, node: None, summary, error: None, details: serde_json::Value::Null }
     }
 }
@@ -69,7 +98,7 @@ pub fn describe(frame: &CanFrame) -> FrameInfo {
     if let Some(info) = cdios(frame) {
         return info;
     }
-    FrameInfo::new(Family::Other, "raw", String::new())
+    FrameInfo::new(None, "raw", String::new())
 }
 
 fn powercube(frame: &CanFrame) -> Option<FrameInfo> {
@@ -80,21 +109,21 @@ fn powercube(frame: &CanFrame) -> Option<FrameInfo> {
     }
     Some(match pc_can::classify(frame) {
         Ok(Some(CanMessage::Request { module, request })) => {
-            let mut i = FrameInfo::new(Family::Powercube, "request", describe_request(&request));
+            let mut i = FrameInfo::new(PC, "request", describe_request(&request));
             i.module = Some(module.get());
             i
         }
         Ok(Some(CanMessage::Ack { module, response })) => {
             let (summary, details) = describe_ack(&response);
-            let mut i = FrameInfo::new(Family::Powercube, "ack", summary);
+            let mut i = FrameInfo::new(PC, "ack", summary);
             i.module = Some(module.get());
             i.details = details;
             i
         }
-        Ok(Some(CanMessage::Broadcast(b))) => FrameInfo::new(Family::Powercube, "broadcast", format!("{b:?} to all")),
+        Ok(Some(CanMessage::Broadcast(b))) => FrameInfo::new(PC, "broadcast", format!("{b:?} to all")),
         Ok(None) => return None,
         Err(e) => {
-            let mut i = FrameInfo::new(Family::Powercube, "raw", String::new());
+            let mut i = FrameInfo::new(PC, "raw", String::new());
             i.module = Some((id & 0x1F) as u8).filter(|m| *m != 0);
             i.error = Some(e.to_string());
             i
@@ -154,7 +183,7 @@ fn cdios(frame: &CanFrame) -> Option<FrameInfo> {
         Ok(Some(m)) => m,
         Ok(None) => return None,
         Err(e) => {
-            let mut i = FrameInfo::new(Family::Cdios, "raw", String::new());
+            let mut i = FrameInfo::new(CD, "raw", String::new());
             i.error = Some(e.to_string());
             return Some(i);
         }
@@ -163,13 +192,12 @@ fn cdios(frame: &CanFrame) -> Option<FrameInfo> {
         BusMessage::Nmt { command, node } => {
             let what = if command == 0x01 { "start".to_string() } else { format!("command {command:#04x}") };
             let target = if node == 0 { "all nodes".to_string() } else { format!("node {node}") };
-            FrameInfo::new(Family::Cdios, "nmt", format!("NMT {what} {target}"))
+            FrameInfo::new(CD, "nmt", format!("NMT {what} {target}"))
         }
         BusMessage::Command { node, data } => {
             let mut i = match cdios_table::decode_command(&data) {
                 Ok(d) => {
-                    let mut i =
-                        FrameInfo::new(Family::Cdios, "command", format!("{} {}", d.def.key, fields_text(&d.fields)));
+                    let mut i = FrameInfo::new(CD, "command", format!("{} {}", d.def.key, fields_text(&d.fields)));
                     i.module = Some(match d.address {
                         Address::Module(m) => m.get(),
                         Address::Controller => 0xFF,
@@ -178,7 +206,7 @@ fn cdios(frame: &CanFrame) -> Option<FrameInfo> {
                     i
                 }
                 Err(e) => {
-                    let mut i = FrameInfo::new(Family::Cdios, "command", format!("{:02x?}", data));
+                    let mut i = FrameInfo::new(CD, "command", format!("{:02x?}", data));
                     i.error = Some(e.to_string());
                     i
                 }
@@ -192,7 +220,7 @@ fn cdios(frame: &CanFrame) -> Option<FrameInfo> {
                 AnswerKind::Event => "event",
                 AnswerKind::Error => "error",
             };
-            let mut i = FrameInfo::new(Family::Cdios, kind, String::new());
+            let mut i = FrameInfo::new(CD, kind, String::new());
             i.node = Some(a.node.get());
             i.module = Some(a.module);
             if let Some(err) = a.error() {
@@ -238,8 +266,7 @@ impl Stats {
         if info.error.is_some() {
             self.errors += 1;
         }
-        let fam = serde_json::to_value(info.family).ok().and_then(|v| v.as_str().map(String::from)).unwrap_or_default();
-        *self.by_kind.entry(format!("{fam}/{}", info.kind)).or_default() += 1;
+        *self.by_kind.entry(format!("{}/{}", family_name(info.family), info.kind)).or_default() += 1;
         *self.by_id.entry(format!("{:03X}", frame.id())).or_default() += 1;
     }
 }
@@ -255,19 +282,30 @@ mod tests {
     #[test]
     fn decodes_both_families_and_leaves_others_raw() {
         let home = d("0F1#01");
-        assert_eq!((home.family, home.kind, home.module), (Family::Powercube, "request", Some(17)));
+        assert_eq!((home.family, home.kind, home.module), (PC, "request", Some(17)));
         assert_eq!(home.summary, "Home");
         let st = d("0B1#0A2702000000");
         assert_eq!(st.kind, "ack");
         assert!(st.summary.contains("CubeState") && st.summary.contains("STATE_HOME_OK"), "{}", st.summary);
         assert_eq!(d("100#0700").kind, "broadcast");
         let goto = d("201#2301008813000000");
-        assert_eq!((goto.family, goto.kind, goto.node, goto.module), (Family::Cdios, "command", Some(1), Some(1)));
+        assert_eq!((goto.family, goto.kind, goto.node, goto.module), (CD, "command", Some(1), Some(1)));
         assert_eq!(d("000#0101").kind, "nmt");
-        assert_eq!(d("7FF#00").family, Family::Other);
-        assert_eq!(d("12345678#00").family, Family::Other);
+        assert_eq!(d("7FF#00").family, None);
+        assert_eq!(d("12345678#00").family, None);
+        assert_eq!(serde_json::to_value(d("7FF#00")).unwrap()["family"], "other");
         let bad = d("0B1#0B");
         assert!(bad.error.is_some(), "a truncated ack is an error of its family");
+    }
+
+    #[test]
+    fn family_filter_reads_the_registry() {
+        assert_eq!(FamilyFilter::parse("PC"), Ok(FamilyFilter::Of(Family::PowerCube)));
+        assert_eq!(FamilyFilter::parse("cdios"), Ok(FamilyFilter::Of(Family::Cdios)));
+        assert_eq!(FamilyFilter::parse("raw"), Ok(FamilyFilter::Other));
+        assert!(FamilyFilter::parse("pac").unwrap_err().contains("not on CAN"));
+        assert_eq!(FamilyFilter::parse("bogus").unwrap_err(), "expected powercube, cdios or other");
+        assert!(FamilyFilter::Other.pass(&d("7FF#00")) && !FamilyFilter::Other.pass(&d("0F1#01")));
     }
 
     proptest::proptest! {

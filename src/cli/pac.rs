@@ -1,11 +1,14 @@
 //! The PA-CONTROL subcommands, as typed (clap derive only). Flattened into
-//! [`crate::cli::Command`]; `commands::pac` gives them meaning.
+//! [`super::Command`]; `commands::pac` gives them meaning.
 
 use clap::{Args, Subcommand};
 
-/// An axis number 1..16 (the controller's own count is checked when known).
+use super::ids;
+use axisctl::family::{IdRange, PAC_AXIS};
+
+/// An axis number (the controller's own count is checked when known).
 fn axis_parser() -> clap::builder::RangedI64ValueParser<u8> {
-    clap::value_parser!(u8).range(1..=16)
+    ids::id(PAC_AXIS)
 }
 
 #[derive(Debug, Args, Clone, Copy)]
@@ -138,7 +141,7 @@ pub enum PacCommand {
     /// PA-CONTROL: limit switch monitoring of an axis (0 = all axes) on or off (0AA2)
     PacLimitSwitch {
         /// Axis number, or 0 for all axes
-        #[arg(value_parser = clap::value_parser!(u8).range(0..=16))]
+        #[arg(value_parser = ids::id(IdRange { min: 0, ..PAC_AXIS }))]
         axis: u8,
         /// on or off
         #[arg(value_parser = ["on", "off"])]

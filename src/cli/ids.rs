@@ -1,0 +1,91 @@
+//! Ids as typed: clap value parsers built from the family registry's
+//! ranges (which are the proto newtypes' ranges), so a range is written once.
+
+use axisctl::family::IdRange;
+
+/// One id of `range`, e.g. a PowerCube module address.
+pub fn id(range: IdRange) -> clap::builder::RangedI64ValueParser<u8> {
+    clap::value_parser!(u8).range(i64::from(range.min)..=i64::from(range.max))
+}
+
+/// A list of ids as typed: `3,5,17`, `1-8` or both; sorted, each once.
+#[derive(Debug, Clone, PartialEq, Eq, Default)]
+pub struct IdList(pub Vec<u8>);
+
+impl IdList {
+    /// The ids as the proto newtype (`new` accepts every id of the list's range).
+    pub fn to<T>(&self, new: impl Fn(u8) -> Option<T>) -> Vec<T> {
+        self.0.iter().filter_map(|&id| new(id)).collect()
+    }
+}
+
+/// Parses a list of ids of `range`; `allow_empty` for lists that may name none.
+pub fn parse_list(text: &str, range: IdRange, allow_empty: bool) -> Result<IdList, String> {
+    let mut out = Vec::new();
+    for part in text.split(',').map(str::trim).filter(|p| !p.is_empty()) {
+        let (a, b) = part.split_once('-').unwrap_or((part, part));
+        let one = |s: &str| {
+            let s = s.trim();
+            let id = s.parse::<u8>().map_err(|_| format!("{s:?} is not a number"))?;
+            if range.contains(id) {
+                Ok(id)
+            } else {
+                Err(format!("{s:?} is not a valid {range}"))
+            }
+        };
+        let (a, b) = (one(a)?, one(b)?);
+        if a > b {
+            return Err(format!("range {part:?} runs backwards"));
+        }
+        out.extend(a..=b);
+    }
+    out.sort_unstable();
+    out.dedup();
+    if out.is_empty() && !allow_empty {
+        return Err(format!("the list names no {}", range.what));
+    }
+    Ok(IdList(out))
+}
+
+/// A clap parser for a non-empty list of ids of `range`.
+pub fn list(range: IdRange) -> impl Fn(&str) -> Result<IdList, String> + Clone + Send + Sync + 'static {
+    move |text| parse_list(text, range, false)
+}
+
+/// A clap parser for a list of ids of `range` that may be empty.
+pub fn list_or_none(range: IdRange) -> impl Fn(&str) -> Result<IdList, String> + Clone + Send + Sync + 'static {
+    move |text| parse_list(text, range, true)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use axisctl::family::{CDIOS_MODULE, PAC_AXIS, POWERCUBE_MODULE};
+
+    #[test]
+    fn lists_take_ids_and_ranges_once_each() {
+        assert_eq!(parse_list("17, 3,5,3", POWERCUBE_MODULE, false), Ok(IdList(vec![3, 5, 17])));
+        assert_eq!(parse_list("1-4,2", PAC_AXIS, false), Ok(IdList(vec![1, 2, 3, 4])));
+        assert_eq!(parse_list("0,15", CDIOS_MODULE, false), Ok(IdList(vec![0, 15])));
+        assert_eq!(parse_list("", CDIOS_MODULE, true), Ok(IdList(vec![])));
+    }
+
+    #[test]
+    fn bad_lists_say_why() {
+        assert_eq!(parse_list("0", POWERCUBE_MODULE, false).unwrap_err(), "\"0\" is not a valid module id 1..31");
+        assert_eq!(parse_list("17", PAC_AXIS, false).unwrap_err(), "\"17\" is not a valid axis 1..16");
+        assert_eq!(parse_list("x", PAC_AXIS, false).unwrap_err(), "\"x\" is not a number");
+        assert_eq!(parse_list("5-3", PAC_AXIS, false).unwrap_err(), "range \"5-3\" runs backwards");
+        assert_eq!(parse_list(" , ", CDIOS_MODULE, false).unwrap_err(), "the list names no module id");
+    }
+
+    #[test]
+    fn single_ids_take_the_registry_range() {
+        use clap::builder::TypedValueParser;
+        let cmd = clap::Command::new("t");
+        let p = id(POWERCUBE_MODULE);
+        assert_eq!(p.parse_ref(&cmd, None, "31".as_ref()).unwrap(), 31);
+        assert!(p.parse_ref(&cmd, None, "32".as_ref()).is_err());
+        assert!(p.parse_ref(&cmd, None, "0".as_ref()).is_err());
+    }
+}

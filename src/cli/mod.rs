@@ -1,0 +1,98 @@
+//! The command line, as typed: clap derive only, no meaning. `commands`
+//! resolves it.
+
+pub mod cdios;
+pub mod dashboard;
+pub mod ids;
+pub mod monitor;
+pub mod pac;
+pub mod powercube;
+pub mod sim;
+pub mod wait;
+
+use std::path::PathBuf;
+
+use clap::{Args, CommandFactory, FromArgMatches, Parser, Subcommand};
+
+pub use monitor::MonitorArgs;
+pub use powercube::{PowerCubeCommand, Target, WatchdogAction};
+pub use sim::SimArgs;
+pub use wait::WaitArgs;
+
+#[derive(Debug, Parser)]
+#[command(name = "axisctl", version, about = "Commission PowerCube, PA-CONTROL and Cdios motion hardware")]
+pub struct Cli {
+    #[command(flatten)]
+    pub global: Global,
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+#[derive(Debug, Args)]
+pub struct Global {
+    /// The link: socketcan:IFACE, slcan:TTY[?bitrate=N], serial:TTY[?baud=N&format=F] or sim
+    #[arg(long, global = true, env = "AXISCTL_LINK", value_name = "URI")]
+    pub link: Option<String>,
+    /// Machine output: one JSON document on stdout (JSON Lines for streams)
+    #[arg(long, global = true)]
+    pub json: bool,
+    /// How long to wait for each answer, in ms (default 100 on CAN, 30 plus wire time on RS232)
+    #[arg(long, global = true, env = "AXISCTL_TIMEOUT", value_name = "MS")]
+    pub timeout: Option<u64>,
+    /// Print every frame sent and received, decoded, on stderr
+    #[arg(long, global = true)]
+    pub trace: bool,
+    /// Append every CAN frame in candump -l format (serial traffic as hex lines) to FILE
+    #[arg(long, global = true, value_name = "FILE")]
+    pub log: Option<PathBuf>,
+    /// How often a read is retried after a timeout (motion is never retried)
+    #[arg(long, global = true, value_name = "N", default_value_t = 2)]
+    pub retries: u32,
+    /// PA-CONTROL: send CHECK as the XOR including ETX (default: strictly between STX and ETX)
+    #[arg(long, global = true)]
+    pub pac_check_etx: bool,
+}
+
+#[derive(Debug, Subcommand)]
+pub enum Command {
+    #[command(flatten)]
+    PowerCube(PowerCubeCommand),
+    /// Decode a raw word offline (decode --help lists the kinds)
+    Decode {
+        /// What the value is (the kinds are listed below)
+        kind: String,
+        /// The raw value (decimal, 0x hex or 0b binary; hex bytes for profibus-image)
+        value: String,
+    },
+    /// Serve the simulated bench on pseudo-terminals until stopped
+    Sim(SimArgs),
+    /// Passive, decoded bus monitor on any CAN link, or replay of a candump log
+    Monitor(MonitorArgs),
+    #[command(flatten)]
+    Cdios(cdios::CdiosCommand),
+    /// Live dashboard of every device on the links (try: --link sim dashboard)
+    Dashboard(dashboard::DashboardArgs),
+    #[command(flatten)]
+    Pac(pac::PacCommand),
+}
+
+const LINKS: &str = "Links: socketcan:IFACE, slcan:TTY[?bitrate=N], serial:TTY[?baud=N&format=8N1|7N1|7E1|7O1], sim";
+
+/// The parser, with what the registries know: `decode`'s kinds and the exit codes.
+pub fn command(exit_codes: &str) -> clap::Command {
+    let kinds = axisctl::family::Family::ALL
+        .into_iter()
+        .map(|f| format!("  {}: {}", f.display_name(), f.decode_kinds().join(", ")))
+        .collect::<Vec<_>>()
+        .join("\n");
+    Cli::command()
+        .after_help(format!("{LINKS}\n{exit_codes}"))
+        .mut_subcommand("decode", |c| c.after_help(format!("Kinds:\n{kinds}")))
+}
+
+/// Parses the process arguments.
+pub fn parse(exit_codes: &str) -> Result<Cli, clap::Error> {
+    let mut cmd = command(exit_codes);
+    let matches = cmd.try_get_matches_from_mut(std::env::args_os())?;
+    Cli::from_arg_matches(&matches).map_err(|e| e.with_cmd(&cmd))
+}

@@ -1,0 +1,175 @@
+//! The PowerCube subcommands, as typed (clap derive only). Flattened into
+//! [`super::Command`]; `commands::powercube` gives them meaning.
+
+use clap::{Args, Subcommand};
+
+use super::ids;
+use super::WaitArgs;
+use axisctl::family::POWERCUBE_MODULE;
+
+#[derive(Debug, Args, Clone, Copy)]
+pub struct ModuleArg {
+    /// PowerCube module address, 1..31
+    #[arg(short, long, value_name = "ID", value_parser = ids::id(POWERCUBE_MODULE))]
+    pub module: u8,
+}
+
+/// `-m ID` or `--all` (broadcast).
+#[derive(Debug, Args, Clone, Copy)]
+#[group(required = true, multiple = false)]
+pub struct Target {
+    /// PowerCube module address, 1..31
+    #[arg(short, long, value_name = "ID", value_parser = ids::id(POWERCUBE_MODULE))]
+    pub module: Option<u8>,
+    /// Broadcast to every module on the bus (not acknowledged)
+    #[arg(long)]
+    pub all: bool,
+}
+
+#[derive(Debug, Subcommand)]
+pub enum PowerCubeCommand {
+    /// List the PowerCube modules present on the link
+    Scan {
+        /// Ids to probe, e.g. 1-31 or 3,5,17
+        #[arg(long, value_name = "LIST", default_value = "1-31")]
+        ids: String,
+    },
+    /// Identity, kind, limits, position and state of one module
+    Info(ModuleArg),
+    /// CubeState, decoded flag by flag
+    State(ModuleArg),
+    /// Start the homing procedure
+    Home {
+        #[command(flatten)]
+        target: Target,
+        #[command(flatten)]
+        wait: WaitArgs,
+    },
+    /// Clear the error state
+    Reset {
+        #[command(flatten)]
+        target: Target,
+    },
+    /// Stop immediately
+    Halt {
+        #[command(flatten)]
+        target: Target,
+    },
+    /// Ramp (trapezoidal) motion to a position
+    MoveRamp {
+        #[command(flatten)]
+        module: ModuleArg,
+        /// Target position (rad or m; encoder ticks with --ticks)
+        #[arg(allow_negative_numbers = true)]
+        pos: f64,
+        /// Ramp velocity (TargetVel; units/s or ticks/s)
+        #[arg(long)]
+        vel: Option<f64>,
+        /// Ramp acceleration (TargetAcc; units/s² or ticks/s²)
+        #[arg(long)]
+        acc: Option<f64>,
+        /// Values are encoder ticks (IRAMP_MODE)
+        #[arg(long)]
+        ticks: bool,
+        /// Skip the check against the module's own limits
+        #[arg(long)]
+        force: bool,
+        #[command(flatten)]
+        wait: WaitArgs,
+    },
+    /// Step motion: reach a position in a given time
+    MoveStep {
+        #[command(flatten)]
+        module: ModuleArg,
+        #[arg(allow_negative_numbers = true)]
+        pos: f64,
+        /// Time to reach the position, ms
+        #[arg(long, value_name = "MS")]
+        time: u16,
+        #[arg(long)]
+        ticks: bool,
+        #[arg(long)]
+        force: bool,
+    },
+    /// Velocity motion
+    MoveVel {
+        #[command(flatten)]
+        module: ModuleArg,
+        #[arg(allow_negative_numbers = true)]
+        vel: f64,
+        #[arg(long)]
+        ticks: bool,
+        #[arg(long)]
+        force: bool,
+    },
+    /// Current (torque) motion
+    MoveCur {
+        #[command(flatten)]
+        module: ModuleArg,
+        #[arg(allow_negative_numbers = true)]
+        amps: f64,
+        #[arg(long)]
+        force: bool,
+    },
+    /// Read parameters by manual name (case-insensitive) or id (decimal or 0x hex)
+    GetParam {
+        #[command(flatten)]
+        module: ModuleArg,
+        #[arg(value_name = "NAME|ID", required_unless_present = "all")]
+        params: Vec<String>,
+        /// Every readable parameter
+        #[arg(long, conflicts_with = "params")]
+        all: bool,
+    },
+    /// Write a parameter
+    SetParam {
+        #[command(flatten)]
+        module: ModuleArg,
+        #[arg(value_name = "NAME|ID")]
+        param: String,
+        #[arg(allow_negative_numbers = true)]
+        value: String,
+    },
+    /// The Config word, decoded
+    GetConfig(ModuleArg),
+    /// Change Config flags: +FLAG sets, -FLAG clears (manual or short names)
+    SetConfig {
+        #[command(flatten)]
+        module: ModuleArg,
+        #[arg(value_name = "+FLAG|-FLAG", allow_hyphen_values = true, required_unless_present = "raw")]
+        changes: Vec<String>,
+        /// Write the whole word
+        #[arg(long, value_name = "0xHEX", conflicts_with = "changes")]
+        raw: Option<String>,
+    },
+    /// Digital I/O (DioSetup): show, or set the outputs
+    Dio {
+        #[command(flatten)]
+        module: ModuleArg,
+        /// Set outputs 0..3 to this 4-bit mask (e.g. 0b0101)
+        #[arg(long, value_name = "MASK")]
+        out: Option<String>,
+    },
+    /// The module watchdog: switch it online / offline, or keep it alive
+    Watchdog {
+        #[command(subcommand)]
+        action: WatchdogAction,
+    },
+}
+
+#[derive(Debug, Subcommand)]
+pub enum WatchdogAction {
+    /// Enable the watchdog in Config if needed and switch it online (then keep it alive!)
+    On(ModuleArg),
+    /// Switch the watchdog offline
+    Off(ModuleArg),
+    /// Broadcast the refresh [0x07, 0] until Ctrl-C (or --for S)
+    Keepalive {
+        /// Refresh interval, ms (the modules trip after 50 ms)
+        #[arg(long, value_name = "MS", default_value_t = 20, value_parser = clap::value_parser!(u64).range(1..50))]
+        interval: u64,
+        /// Stop after this many seconds
+        #[arg(long = "for", value_name = "S")]
+        duration: Option<f64>,
+    },
+}

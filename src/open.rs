@@ -1,0 +1,278 @@
+//! From a `--link` and a family to a ready link or session, written once for
+//! the CLI, the dashboard, `monitor` and `sim`: the family's serial default,
+//! the in-process bench behind `sim`, the `--log` traffic log and the
+//! session options (`--timeout`, `--retries`, `--trace`).
+//!
+//! It sits above [`crate::link`] and [`crate::sim`] (a `sim` link is a
+//! client of the bench), so that neither of those imports the other.
+
+use std::path::PathBuf;
+use std::sync::{Arc, OnceLock};
+use std::time::Duration;
+
+use crate::clock::Clock;
+use crate::family::Family;
+use crate::link::log::{log_iface, LoggedByteLink, LoggedCanLink, TrafficLog};
+use crate::link::{self, ByteLink, CanLink, LinkError, LinkSpec, SerialFormat};
+use crate::proto::pac::CheckRule;
+use crate::session::cdios::Cdios;
+use crate::session::pac::Pac;
+use crate::session::powercube::PowerCube;
+use crate::session::{RetryPolicy, TraceEvent};
+use crate::sim::bench::{Bench, WireSpeed};
+
+/// Why a link could not be opened for a family.
+#[derive(Debug, thiserror::Error)]
+pub enum OpenError {
+    /// The family is not reached over this kind of link: bad input, nothing opened.
+    #[error("{spec} is a CAN link; the {family} talks RS232 (serial:TTY or sim)")]
+    NeedsRs232 { spec: LinkSpec, family: Family },
+    #[error("{spec} is a serial link; {} (socketcan:, slcan: or sim)", needs_can(*.family))]
+    NeedsCan { spec: LinkSpec, family: Option<Family> },
+    /// `AXISCTL_SIM_WIRE_SPEED` does not parse: bad input.
+    #[error("{0}")]
+    WireSpeed(String),
+    #[error(transparent)]
+    Link(#[from] LinkError),
+}
+
+fn needs_can(family: Option<Family>) -> String {
+    match family {
+        Some(f) => format!("the {f} is on CAN"),
+        None => "this command needs CAN".into(),
+    }
+}
+
+impl OpenError {
+    /// True when the link given does not fit the family (a usage error).
+    pub fn is_mismatch(&self) -> bool {
+        !matches!(self, Self::Link(_))
+    }
+}
+
+/// A serial line opened at the speed and format it runs at.
+pub struct SerialLine {
+    pub link: Box<dyn ByteLink>,
+    pub baud: u32,
+    pub format: SerialFormat,
+}
+
+/// A ready link: CAN frames or serial bytes, as the spec and family ask.
+pub enum OpenedLink {
+    Can(Box<dyn CanLink>),
+    Serial(SerialLine),
+}
+
+/// What every session gets besides its link.
+#[derive(Clone, Copy, Default)]
+pub struct SessionOptions {
+    /// `None`: the session's own default for its link.
+    pub timeout: Option<Duration>,
+    pub retry: RetryPolicy,
+    /// Called with every frame sent and received (`--trace`).
+    pub trace: Option<fn(TraceEvent)>,
+    /// PA-CONTROL: CHECK including ETX.
+    pub pac_check_etx: bool,
+}
+
+/// Applies the options every session takes. A macro because the three
+/// sessions share the setters' names, not a trait.
+macro_rules! configure {
+    ($session:expr, $opts:expr) => {{
+        let mut s = $session;
+        let opts: &SessionOptions = $opts;
+        if let Some(t) = opts.timeout {
+            s.set_timeout(t);
+        }
+        s.set_retry(opts.retry);
+        if let Some(trace) = opts.trace {
+            s.set_tracer(Box::new(trace));
+        }
+        s
+    }};
+}
+
+/// Opens links and sessions. Every `sim` link of one opener reaches the same bench.
+pub struct Opener {
+    clock: Arc<dyn Clock>,
+    log: Option<PathBuf>,
+    /// Read when a bench is built, so that a bad setting only matters to `sim`.
+    wire: Result<Option<WireSpeed>, String>,
+    bench: OnceLock<Bench>,
+}
+
+impl Opener {
+    pub fn new(clock: Arc<dyn Clock>) -> Self {
+        Self { clock, log: None, wire: Ok(None), bench: OnceLock::new() }
+    }
+
+    /// Appends the traffic of every link opened from now on to `path`.
+    pub fn with_log(mut self, path: Option<PathBuf>) -> Self {
+        self.log = path;
+        self
+    }
+
+    /// Runs the `sim` bench at wire speed ([`WireSpeed::from_env`]).
+    pub fn with_wire_speed(mut self, wire: Result<Option<WireSpeed>, String>) -> Self {
+        self.wire = wire;
+        self
+    }
+
+    pub fn clock(&self) -> &Arc<dyn Clock> {
+        &self.clock
+    }
+
+    /// A bench of its own, at this opener's wire speed.
+    pub fn new_bench(&self) -> Result<Bench, OpenError> {
+        let wire = self.wire.clone().map_err(OpenError::WireSpeed)?;
+        let mut bench = Bench::contract(Arc::clone(&self.clock));
+        if wire.is_some() {
+            crate::sim::serve::precise_timers();
+        }
+        bench.set_wire_speed(wire);
+        Ok(bench)
+    }
+
+    /// The bench behind every `sim` link of this opener, built on first use.
+    pub fn bench(&self) -> Result<&Bench, OpenError> {
+        if let Some(b) = self.bench.get() {
+            return Ok(b);
+        }
+        let b = self.new_bench()?;
+        Ok(self.bench.get_or_init(|| b))
+    }
+
+    /// Whether `family` talks CAN on `spec` (else it is a serial line;
+    /// on `sim`, the bench's CAN bus or its PA-CONTROL line).
+    pub fn is_can(spec: &LinkSpec, family: Family) -> bool {
+        spec.is_can() && family.link_kind().can()
+    }
+
+    /// The link `family` talks over on `spec`.
+    pub fn open(&self, spec: &LinkSpec, family: Family) -> Result<OpenedLink, OpenError> {
+        if Self::is_can(spec, family) {
+            Ok(OpenedLink::Can(self.can(spec, Some(family))?))
+        } else {
+            Ok(OpenedLink::Serial(self.serial(spec, family)?))
+        }
+    }
+
+    /// A CAN link (for `family`, or for any family with `None`), logged with `--log`.
+    pub fn can(&self, spec: &LinkSpec, family: Option<Family>) -> Result<Box<dyn CanLink>, OpenError> {
+        let l: Box<dyn CanLink> = match spec {
+            LinkSpec::Sim => Box::new(self.bench()?.bus.open()),
+            LinkSpec::Serial { .. } => return Err(OpenError::NeedsCan { spec: spec.clone(), family }),
+            _ => link::open_can(spec)?,
+        };
+        Ok(match self.traffic_log(spec)? {
+            Some(log) => Box::new(LoggedCanLink::new(l, log)),
+            None => l,
+        })
+    }
+
+    /// A serial line at the family's default speed and format unless the spec
+    /// says otherwise; `sim` is the bench's PA-CONTROL line.
+    pub fn serial(&self, spec: &LinkSpec, family: Family) -> Result<SerialLine, OpenError> {
+        let Some(default) = family.serial_default() else {
+            return Err(OpenError::NeedsCan { spec: spec.clone(), family: Some(family) });
+        };
+        let (l, baud, format): (Box<dyn ByteLink>, _, _) = match spec {
+            LinkSpec::Serial { path, baud, format } => {
+                let (baud, format) = (baud.unwrap_or(default.baud), format.unwrap_or(default.format));
+                (link::open_bytes(path, baud, format)?, baud, format)
+            }
+            LinkSpec::Sim if family == Family::Pac => {
+                (Box::new(self.bench()?.pac_link(Arc::clone(&self.clock))), default.baud, default.format)
+            }
+            _ => return Err(OpenError::NeedsRs232 { spec: spec.clone(), family }),
+        };
+        let link = match self.traffic_log(spec)? {
+            Some(log) => Box::new(LoggedByteLink::new(l, log)),
+            None => l,
+        };
+        Ok(SerialLine { link, baud, format })
+    }
+
+    fn traffic_log(&self, spec: &LinkSpec) -> Result<Option<TrafficLog>, LinkError> {
+        self.log.as_deref().map(|path| TrafficLog::append(path, &log_iface(spec))).transpose()
+    }
+
+    /// A PowerCube session: CAN, or RS232 on a `serial:` link.
+    pub fn powercube(&self, spec: &LinkSpec, opts: &SessionOptions) -> Result<PowerCube, OpenError> {
+        Ok(self.powercube_on(self.open(spec, Family::PowerCube)?, opts))
+    }
+
+    pub fn powercube_on(&self, link: OpenedLink, opts: &SessionOptions) -> PowerCube {
+        let pc = match link {
+            OpenedLink::Can(l) => PowerCube::over_can(l),
+            OpenedLink::Serial(s) => PowerCube::over_rs232(s.link, s.baud),
+        };
+        configure!(pc.with_clock(Arc::clone(&self.clock)), opts)
+    }
+
+    /// A PA-CONTROL session on a `serial:` line or the bench's (`sim`).
+    pub fn pac(&self, spec: &LinkSpec, opts: &SessionOptions) -> Result<Pac, OpenError> {
+        Ok(self.pac_on(self.serial(spec, Family::Pac)?, opts))
+    }
+
+    pub fn pac_on(&self, line: SerialLine, opts: &SessionOptions) -> Pac {
+        let mut pac = configure!(Pac::new(line.link, line.baud, line.format).with_clock(Arc::clone(&self.clock)), opts);
+        if opts.pac_check_etx {
+            pac.set_check_rule(CheckRule::WithEtx);
+        }
+        pac
+    }
+
+    /// A Cdios session on a CAN link.
+    pub fn cdios(&self, spec: &LinkSpec, opts: &SessionOptions) -> Result<Cdios, OpenError> {
+        Ok(self.cdios_on(self.can(spec, Some(Family::Cdios))?, opts))
+    }
+
+    pub fn cdios_on(&self, link: Box<dyn CanLink>, opts: &SessionOptions) -> Cdios {
+        configure!(Cdios::new(link).with_clock(Arc::clone(&self.clock)), opts)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::clock::SystemClock;
+
+    fn opener() -> Opener {
+        Opener::new(Arc::new(SystemClock))
+    }
+
+    #[test]
+    fn a_link_that_does_not_fit_the_family_is_a_mismatch() {
+        let o = opener();
+        let can: LinkSpec = "socketcan:axisnocan0".parse().unwrap();
+        let serial: LinkSpec = "serial:/dev/axisctl-none".parse().unwrap();
+        let e = o.open(&can, Family::Pac).err().unwrap();
+        assert!(e.is_mismatch(), "{e}");
+        assert_eq!(e.to_string(), "socketcan:axisnocan0 is a CAN link; the PA-CONTROL talks RS232 (serial:TTY or sim)");
+        let e = o.open(&serial, Family::Cdios).err().unwrap();
+        assert_eq!(
+            e.to_string(),
+            "serial:/dev/axisctl-none is a serial link; the Cdios is on CAN (socketcan:, slcan: or sim)"
+        );
+        let e = o.can(&serial, None).err().unwrap();
+        assert!(e.to_string().ends_with("this command needs CAN (socketcan:, slcan: or sim)"), "{e}");
+        assert!(!o.open(&serial, Family::PowerCube).err().unwrap().is_mismatch(), "a missing tty is a link error");
+    }
+
+    #[test]
+    fn sim_links_share_one_bench_and_are_logged() {
+        let dir = tempfile::tempdir().unwrap();
+        let log = dir.path().join("traffic.log");
+        let o = opener().with_log(Some(log.clone()));
+        let mut can = o.can(&LinkSpec::Sim, Some(Family::PowerCube)).unwrap();
+        can.send(&"0E3#0A27".parse().unwrap()).unwrap();
+        let mut line = o.serial(&LinkSpec::Sim, Family::Pac).unwrap();
+        assert_eq!((line.baud, line.format), (9600, SerialFormat::F7N1));
+        line.link.write_all(b"\x020100\x03").unwrap();
+        let text = std::fs::read_to_string(&log).unwrap();
+        assert!(text.lines().any(|l| l.ends_with(" sim0 0E3#0A27")), "{text}");
+        assert!(text.lines().any(|l| l.contains(") tx 02 ")), "{text}");
+        assert!(std::ptr::eq(o.bench().unwrap(), o.bench().unwrap()));
+    }
+}
