@@ -15,7 +15,7 @@
 use std::io::IsTerminal;
 use std::time::Duration;
 
-use axisctl::device::pac::{self as device, Controller, Error as DevError};
+use axisctl::device::pac::{self as device, Controller, Element, Error as DevError, Register};
 use axisctl::proto::pac::table::{self, CommandDef, ExtAxisStatus};
 use axisctl::proto::pac::{Ack, CheckRule, Command, Par2};
 use axisctl::session::pac::{PacError, Progress};
@@ -44,11 +44,9 @@ pub fn run(ctx: &Ctx, cmd: PacCommand) -> anyhow::Result<()> {
         PacCommand::PacNoRef(a) => simple(ctx, d, 0x0A83, a.axis.into(), None),
         PacCommand::PacZero(a) => simple(ctx, d, 0x0A85, a.axis.into(), None),
         PacCommand::PacSetPos { axis, pos } => simple(ctx, d, 0x0A86, axis.axis.into(), Some(finite("POS", pos)?)),
-        PacCommand::PacSpeed { axis, speed } => {
-            simple(ctx, d, 0x0A8D, axis.axis.into(), Some(positive("speed", speed)?))
-        }
+        PacCommand::PacSpeed { axis, speed } => simple(ctx, d, 0x0A8D, axis.axis.into(), Some(finite("speed", speed)?)),
         PacCommand::PacAccel { axis, accel } => {
-            simple(ctx, d, 0x0A8E, axis.axis.into(), Some(positive("acceleration", accel)?))
+            simple(ctx, d, 0x0A8E, axis.axis.into(), Some(finite("acceleration", accel)?))
         }
         PacCommand::PacStopAxis { axis, no_wait } => {
             simple(ctx, d, if no_wait { 0x0A9A } else { 0x0A93 }, axis.axis.into(), None)
@@ -67,10 +65,7 @@ pub fn run(ctx: &Ctx, cmd: PacCommand) -> anyhow::Result<()> {
         PacCommand::PacOut { number, value, word } => element(ctx, d, Element::Output, number, value, word),
         PacCommand::PacFlag { number, value, word, system } => {
             if system {
-                if value.is_some() {
-                    return Err(usage("system flags SM are read only"));
-                }
-                element(ctx, d, Element::SystemFlag, number, None, false)
+                element(ctx, d, Element::SystemFlag, number, value, false)
             } else {
                 element(ctx, d, Element::Flag, number, value, word)
             }
@@ -94,17 +89,6 @@ fn finite(what: &str, v: f64) -> anyhow::Result<f64> {
         Ok(v)
     } else {
         Err(usage(format!("{what} {v} is not a finite number")))
-    }
-}
-
-/// Speeds and accelerations: the controller's min / max (axis parameters
-/// 1 / 6) can only be read in home position, where 0A8D / 0A8E are not
-/// valid, so beyond "positive" the controller checks them (0x29).
-fn positive(what: &str, v: f64) -> anyhow::Result<f64> {
-    if finite(what, v)? > 0.0 {
-        Ok(v)
-    } else {
-        Err(usage(format!("{what} {v} must be greater than 0")))
     }
 }
 
@@ -430,35 +414,6 @@ fn axes(ctx: &Ctx, d: &mut Controller) -> anyhow::Result<()> {
     Ok(())
 }
 
-#[derive(Clone, Copy, PartialEq)]
-enum Element {
-    Input,
-    Output,
-    Flag,
-    SystemFlag,
-}
-
-impl Element {
-    fn key(self) -> &'static str {
-        match self {
-            Self::Input => "input",
-            Self::Output => "output",
-            Self::Flag => "flag",
-            Self::SystemFlag => "system_flag",
-        }
-    }
-
-    /// (read single, read word, write single, write word)
-    fn codes(self) -> (u16, Option<u16>, Option<u16>, Option<u16>) {
-        match self {
-            Self::Input => (0x1900, Some(0x1901), None, None),
-            Self::Output => (0x1902, Some(0x1903), Some(0x0902), Some(0x0903)),
-            Self::Flag => (0x1904, Some(0x1905), Some(0x0904), Some(0x0905)),
-            Self::SystemFlag => (0x1934, None, None, None),
-        }
-    }
-}
-
 /// Decimal, 0x hex or 0b binary.
 fn parse_uint(text: &str) -> anyhow::Result<u64> {
     axisctl::proto::parse_uint(text)
@@ -473,18 +428,14 @@ fn element(
     value: Option<String>,
     word: bool,
 ) -> anyhow::Result<()> {
-    let (read1, readw, write1, writew) = el.codes();
-    let n = i64::from(number);
     let key = el.key();
     if let Some(text) = value {
-        let code = if word { writew } else { write1 }
-            .ok_or_else(|| usage(format!("{key}s cannot be set over the online interface")))?;
+        el.write_code(word).cli()?;
         let v = parse_uint(&text)?;
-        d.send(code, n, Some(v as f64)).cli()?;
+        d.write_element(el, number, v, word).cli()?;
     }
     if word {
-        let code = readw.ok_or_else(|| usage(format!("{key}s have no word read")))?;
-        let w = d.read_i64(code, n).cli()? as u16;
+        let w = d.read_element_word(el, number).cli()?;
         let members = table::word_members(number, w);
         if ctx.json {
             output::json(&json!({key: number, "word": w, "set": members}));
@@ -493,7 +444,7 @@ fn element(
             println!("{key}s {first}..{}: {w:#06x} {w:016b}  set: {members:?}", first + 15);
         }
     } else {
-        let v = d.read_i64(read1, n).cli()?;
+        let v = d.read_element(el, number).cli()?;
         if ctx.json {
             output::json(&json!({key: number, "state": v}));
         } else {
@@ -504,31 +455,19 @@ fn element(
 }
 
 fn reg(ctx: &Ctx, d: &mut Controller, register: &str, value: Option<&str>) -> anyhow::Result<()> {
-    let upper = register.to_ascii_uppercase();
-    let (kind, digits) = ["SN", "SR", "N", "R"]
-        .iter()
-        .find_map(|p| upper.strip_prefix(p).map(|rest| (*p, rest)))
-        .ok_or_else(|| usage(format!("{register:?}: expected N<number>, R<number>, SN<number> or SR<number>")))?;
-    let number: i64 = digits.parse().map_err(|_| usage(format!("{register:?}: bad register number")))?;
-    let (read, write, float) = match kind {
-        "N" => (0x1906, Some(0x0906), false),
-        "R" => (0x1907, Some(0x0907), true),
-        "SN" => (0x1935, None, false),
-        _ => (0x1937, None, true),
-    };
+    let reg: Register = register.parse().cli()?;
     if let Some(text) = value {
-        let code = write.ok_or_else(|| usage("system registers SN / SR are read only"))?;
+        reg.write_code().cli()?;
         let v: f64 = text.trim().parse().map_err(|_| usage(format!("{text:?} is not a number")))?;
-        d.send(code, number, Some(finite("value", v)?)).cli()?;
+        d.write_register(reg, finite("value", v)?).cli()?;
     }
-    let ack = d.send(read, number, None).cli()?.ack;
-    let name = format!("{kind}{number}");
+    let q_par = d.read_register(reg).cli()?;
     if ctx.json {
         output::json(
-            &json!({"register": name, "type": if float { "float" } else { "int" }, "value": ack.q_par.as_f64()}),
+            &json!({"register": reg.to_string(), "type": if reg.is_float() { "float" } else { "int" }, "value": q_par.as_f64()}),
         );
     } else {
-        println!("{name} = {}", ack.q_par);
+        println!("{reg} = {q_par}");
     }
     Ok(())
 }

@@ -16,6 +16,7 @@
 //!   controller takes only polls; the one way past that is giving it up and
 //!   stopping its axis (0A93), which stops and halt-all do.
 
+mod elements;
 mod error;
 mod halt;
 mod motion;
@@ -25,6 +26,7 @@ mod tests;
 use std::collections::BTreeMap;
 use std::fmt;
 
+pub use elements::{Element, Register, RegisterKind};
 pub use error::Error;
 pub use halt::{HaltStep, HaltTarget};
 pub use motion::{Halted, MoveProgress, MoveStart};
@@ -112,6 +114,21 @@ fn valid_in_every_mode(def: &CommandDef) -> bool {
     Mode::ALL.iter().all(|m| def.modes.contains(*m))
 }
 
+/// Speeds and accelerations (0A8D / 0A8E) must be positive. Their min / max
+/// (axis parameters 1 / 6) can only be read in home position, where these
+/// commands are not valid, so beyond that the controller checks (0x29).
+fn check_positive(code: u16, value: Option<f64>) -> Result<()> {
+    let what = match code {
+        0x0A8D => "speed",
+        0x0A8E => "acceleration",
+        _ => return Ok(()),
+    };
+    match value {
+        Some(v) if v.is_nan() || v <= 0.0 => Err(Error::Refused(format!("{what} {v} must be greater than 0"))),
+        _ => Ok(()),
+    }
+}
+
 /// The axis a command moves and waits on: the one to stop when its wait is
 /// given up or loses track.
 pub fn stoppable_axis(cmd: &Command) -> Option<u8> {
@@ -197,6 +214,7 @@ impl Controller {
     /// every mode. Nothing is sent but, when needed, 190B.
     pub fn build(&mut self, code: u16, par1: i64, value: Option<f64>) -> Result<Command> {
         let def = table::command(code).ok_or(validate::ValidationError::UnknownCommand { code })?;
+        check_positive(code, value)?;
         let exempt = valid_in_every_mode(def) || MODE_CHANGES.contains(&code);
         self.limits.status = if exempt { None } else { Some(self.status()?) };
         Ok(validate::build(def, par1, value, &self.limits)?)

@@ -16,6 +16,10 @@ pub enum Error {
     /// The manual's ranges or the operating mode rule the command out.
     #[error("{0}; nothing was sent")]
     Invalid(#[from] ValidationError),
+    /// A rule of this layer rules the request out (a read-only element, a
+    /// speed that is not positive, an unreadable register name).
+    #[error("{0}")]
+    Refused(String),
     #[error("target position {target} is not a finite number; nothing was sent")]
     NotFinite { target: f64 },
     #[error(
@@ -71,9 +75,11 @@ impl Error {
     /// The exit-code class (`cli-contract.md`).
     pub fn kind(&self) -> ErrorKind {
         match self {
-            Self::Invalid(_) | Self::NotFinite { .. } | Self::OutsideTraverseArea { .. } | Self::Busy(_) => {
-                ErrorKind::Usage
-            }
+            Self::Invalid(_)
+            | Self::Refused(_)
+            | Self::NotFinite { .. }
+            | Self::OutsideTraverseArea { .. }
+            | Self::Busy(_) => ErrorKind::Usage,
             Self::Pac(e) => e.kind(),
             Self::Session(e) => e.kind(),
             Self::MoveFailed { .. } | Self::ErrorNotReset(_) | Self::ManualMode { .. } => ErrorKind::Device,

@@ -307,3 +307,47 @@ fn an_error_left_after_reset_is_a_fault() {
     assert_eq!((e.kind(), e.to_string()), (ErrorKind::Device, "PA-CONTROL error E7 could not be reset".into()));
     assert!(Reset { left: 0, ..r }.check().is_ok());
 }
+
+#[test]
+fn read_only_elements_and_registers_are_refused_unsent() {
+    let (mut ctl, seen) = fake(1, &[]);
+    let e = ctl.write_element(Element::SystemFlag, 3, 1, false).unwrap_err();
+    assert_eq!(e.to_string(), "system flags SM are read only");
+    let e = ctl.write_element(Element::Input, 3, 1, true).unwrap_err();
+    assert_eq!(e.to_string(), "inputs cannot be set over the online interface");
+    let e = ctl.read_element_word(Element::SystemFlag, 3).unwrap_err();
+    assert_eq!(e.to_string(), "system_flags have no word read");
+    let sr: Register = "sr2".parse().unwrap();
+    assert_eq!((sr.to_string(), sr.is_float()), ("SR2".into(), true));
+    let e = ctl.write_register(sr, 1.0).unwrap_err();
+    assert_eq!((e.kind(), e.to_string()), (ErrorKind::Usage, "system registers SN / SR are read only".into()));
+    assert!(codes(&seen).is_empty());
+    assert!("X5".parse::<Register>().is_err_and(|e| e.to_string().contains("expected N<number>")));
+    assert!("N".parse::<Register>().is_err_and(|e| e.to_string().contains("bad register number")));
+}
+
+#[test]
+fn elements_and_registers_on_the_simulator() {
+    let rig = Rig::new(2);
+    let mut ctl = rig.controller();
+    ctl.write_element(Element::Flag, 5, 1, false).unwrap();
+    assert_eq!(ctl.read_element(Element::Flag, 5).unwrap(), 1);
+    assert_eq!(rig.sim().flag(5), Some(true));
+    let r3: Register = "R3".parse().unwrap();
+    ctl.write_register(r3, 2.5).unwrap();
+    assert_eq!(ctl.read_register(r3).unwrap().as_f64(), 2.5);
+}
+
+#[test]
+fn speeds_and_accelerations_must_be_positive() {
+    let (mut ctl, seen) = fake(31, &[]);
+    for (code, text) in [(0x0A8D, "speed 0 must be greater than 0"), (0x0A8E, "acceleration -1 must be greater than 0")]
+    {
+        let v = if code == 0x0A8D { 0.0 } else { -1.0 };
+        let e = ctl.send(code, 1, Some(v)).unwrap_err();
+        assert_eq!((e.kind(), e.to_string()), (ErrorKind::Usage, text.into()));
+    }
+    assert!(codes(&seen).is_empty(), "refused before the mode read");
+    ctl.send(0x0A8D, 1, Some(10.0)).unwrap();
+    assert_eq!(codes(&seen), [0x190B, 0x0A8D]);
+}
