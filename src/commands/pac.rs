@@ -19,6 +19,7 @@ use axisctl::device::pac::{self as device, Controller, Element, Error as DevErro
 use axisctl::proto::pac::table::{self, CommandDef, ExtAxisStatus};
 use axisctl::proto::pac::{Ack, CheckRule, Command, Par2};
 use axisctl::session::pac::{PacError, Progress};
+use axisctl::session::ErrorKind;
 use serde_json::json;
 
 use super::{arm_interrupt, interrupted, usage, Ctx, DeviceFault, Interrupted};
@@ -93,18 +94,17 @@ fn finite(what: &str, v: f64) -> anyhow::Result<f64> {
 }
 
 /// Session errors keep their exit code (the `SessionError` stays in the
-/// chain); refusals before sending are usage errors, faults exit 5.
+/// chain); the rest are classed by their kind: refusals before sending are
+/// usage errors, faults exit 5.
 fn pac_err(e: DevError) -> anyhow::Error {
     match e {
         DevError::Session(s) => anyhow::Error::new(s),
-        DevError::Pac(p @ PacError::Abandoned { .. }) => Interrupted(format!(": {p}")).into(),
-        DevError::Interrupted(halted) => Interrupted(format!(": {halted}")).into(),
         DevError::Stopped { context, source } => pac_err(*source).context(context),
+        DevError::Interrupted(halted) => Interrupted(format!(": {halted}")).into(),
+        DevError::Pac(p @ PacError::Abandoned { .. }) => Interrupted(format!(": {p}")).into(),
         e @ DevError::OutsideTraverseArea { .. } => usage(format!("{e} (use --force to let the controller check)")),
-        e @ (DevError::MoveFailed { .. } | DevError::ErrorNotReset(_) | DevError::ManualMode { .. }) => {
-            DeviceFault(e.to_string()).into()
-        }
-        other => usage(other.to_string()),
+        e if e.kind() == ErrorKind::Device => DeviceFault(e.to_string()).into(),
+        e => usage(e.to_string()),
     }
 }
 

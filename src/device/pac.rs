@@ -311,6 +311,12 @@ impl Controller {
         self.send(0x0A81, 0, None)
     }
 
+    /// 0600: stop the automatic program or the online axes (a mode change:
+    /// sent without the local mode check, the QUIT says if it was pointless).
+    pub fn stop(&mut self) -> Result<Done> {
+        self.send(0x0600, 0, None)
+    }
+
     /// 0A97: switch an axis on.
     pub fn enable(&mut self, axis: u8) -> Result<Done> {
         self.send(0x0A97, axis.into(), None)

@@ -96,7 +96,7 @@ impl DeviceSource for PacSource {
             (_, Action::Online) => ctl.online().map(|d| Self::done(0x0603, d)),
             (_, Action::Offline) => ctl.offline().map(|d| Self::done(0x0A81, d)),
             (_, Action::Reset) => ctl.reset_error().and_then(|r| r.check()).map(|_| "error reset".into()),
-            (DeviceKey::PacController, Action::Halt) => ctl.send(0x0600, 0, None).map(|d| Self::done(0x0600, d)),
+            (DeviceKey::PacController, Action::Halt) => ctl.stop().map(|d| Self::done(0x0600, d)),
             (DeviceKey::PacAxis(axis), Action::Halt) => ctl.stop_axis(axis),
             (DeviceKey::PacAxis(axis), Action::Home) => ctl.start_reference(axis).map(|(_, done)| {
                 if done {
