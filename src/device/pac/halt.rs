@@ -5,10 +5,14 @@
 //! | mode read             | sent                                               |
 //! |-----------------------|----------------------------------------------------|
 //! | automatic             | 0600 STOP (the program and every axis brake)       |
-//! | online                | 0A9A to every known axis (online mode stays)       |
+//! | online                | 0A9A to every known axis (online mode stays);      |
+//! |                       | 0600 STOP when no axes are known                   |
 //! | home position         | nothing: no axis moves there                       |
 //! | manual (front panel)  | nothing: 0600 is not valid there; reported as fault|
 //! | unreadable or unknown | 0600 STOP anyway: the one stop of both moving modes|
+//!
+//! 0A93 / 0A9A go out with TYP F as the table has them, unvalidated like
+//! 0600: in an emergency the controller's QUIT is the check.
 //!
 //! A running start-and-wait command (a reference drive) is given up first
 //! and its axis stopped with 0A93, since until it ends the controller takes
@@ -51,9 +55,10 @@ impl Controller {
         }
         let status = self.read_status();
         match status.as_ref().ok().copied().and_then(table::mode_of_status) {
+            Some(Mode::Online) if self.axes.is_empty() => out.push(self.stop_program("online, no axes known")),
             Some(Mode::Online) => {
                 for axis in self.axes.clone() {
-                    let r = self.pac.transact(&Command::new(0x0A9A, axis.into(), Par2::Int(0)));
+                    let r = self.pac.transact(&Command::new(0x0A9A, axis.into(), Par2::Float(0.0)));
                     out.push(HaltStep::new(
                         HaltTarget::Axis(axis),
                         r.map(|_| "stopped (0A9A)".into()).map_err(Error::from),

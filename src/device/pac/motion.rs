@@ -191,7 +191,7 @@ impl Controller {
     /// names (0A93). Returns what was given up and how the stop went.
     pub fn give_up_busy(&mut self) -> Option<(Command, Result<Done>)> {
         let running = *self.pac.busy_command()?;
-        let stop = Command::new(0x0A93, running.par1, Par2::Int(0));
+        let stop = Command::new(0x0A93, running.par1, Par2::Float(0.0));
         Some((running, self.pac.abandon_and_stop(&stop).map_err(Error::from)))
     }
 

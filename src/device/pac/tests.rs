@@ -351,3 +351,13 @@ fn speeds_and_accelerations_must_be_positive() {
     ctl.send(0x0A8D, 1, Some(10.0)).unwrap();
     assert_eq!(codes(&seen), [0x190B, 0x0A8D]);
 }
+
+#[test]
+fn halt_all_online_without_known_axes_sends_stop() {
+    let (mut ctl, seen) = fake(31, &[]);
+    ctl.set_axes(Vec::new());
+    let steps = ctl.halt_all();
+    assert_eq!(targets(&steps), [HaltTarget::Controller]);
+    assert_eq!(steps[0].result.as_deref().unwrap(), "online, no axes known: STOP (0600) sent");
+    assert_eq!(codes(&seen), [0x190B, 0x0600]);
+}
