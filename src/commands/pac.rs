@@ -1,42 +1,33 @@
-//! PA-CONTROL commands (`pac-*`). Every command is built from its table row
-//! and validated before anything is sent: against the manual's ranges, the
-//! current operating mode (read with 190B when the command is not valid in
-//! every mode) and the controller's own limits where it reports them
-//! (traverse area 1913 / 1914, parameter min / max 17xx / 18xx).
+//! PA-CONTROL commands (`pac-*`): argument handling and printing over
+//! [`device::pac`](axisctl::device::pac), which builds and validates every
+//! command before anything is sent (the manual's ranges, the operating mode,
+//! the controller's own limits) and runs the moves, waits and stops.
 //!
 //! Moves: `pac-move` starts with 0A94 / 0A95, which answer BE = 1 at once,
 //! so the line stays free; `--wait` then reads 1910 (axis status) and 190C
 //! (position) every poll interval for the live display, and Ctrl-C sends
-//! 0A93 (stop axis) before exiting 130. Manual 5.2.6.6 says exactly this:
-//! "if other commands have to follow before the end of processing flag is
-//! transmitted, use 0A94". The 0A87 / 0A89 way (only polls until the move
-//! ends, the live position in each poll's Q_PAR, manual 3.4.3) is what
-//! `pac-raw 0A87 ...` does. The reference drive 0A84 has no start-and-return
-//! form: `pac-ref --wait` polls it and shows elapsed time; Ctrl-C abandons
-//! it and sends 0A93 anyway (see `Pac::abandon_and_stop`).
+//! 0A93 (stop axis) before exiting 130. The 0A87 / 0A89 way (only polls
+//! until the move ends, the live position in each poll's Q_PAR, manual
+//! 3.4.3) is what `pac-raw 0A87 ...` does. The reference drive 0A84 has no
+//! start-and-return form: `pac-ref --wait` polls it and shows elapsed time;
+//! Ctrl-C abandons it and sends 0A93 anyway.
 
 use std::io::IsTerminal;
 use std::time::Duration;
 
-use axisctl::proto::pac::table::{self, CommandDef, ExtAxisStatus, Modes};
-use axisctl::proto::pac::validate::{self, Context as Limits};
+use axisctl::device::pac::{self as device, Controller, Element, Error as DevError, Register};
+use axisctl::proto::pac::table::{self, CommandDef, ExtAxisStatus};
 use axisctl::proto::pac::{Ack, CheckRule, Command, Par2};
-use axisctl::session::pac::{Done, Pac, PacError, Progress};
-use axisctl::session::SessionError;
+use axisctl::session::pac::{PacError, Progress};
+use axisctl::session::ErrorKind;
 use serde_json::json;
 
 use super::{arm_interrupt, interrupted, usage, Ctx, DeviceFault, Interrupted};
 use crate::cli::pac::{PacCommand, PacWait, ParamAccess};
 use crate::output;
 
-/// A session plus what is known about the controller.
-struct Dev {
-    pac: Pac,
-    limits: Limits,
-}
-
 pub fn run(ctx: &Ctx, cmd: PacCommand) -> anyhow::Result<()> {
-    let mut d = Dev { pac: ctx.pac()?, limits: Limits::default() };
+    let mut d = Controller::new(ctx.pac()?);
     let d = &mut d;
     match cmd {
         PacCommand::PacOnline => simple(ctx, d, 0x0603, 0, None),
@@ -54,11 +45,9 @@ pub fn run(ctx: &Ctx, cmd: PacCommand) -> anyhow::Result<()> {
         PacCommand::PacNoRef(a) => simple(ctx, d, 0x0A83, a.axis.into(), None),
         PacCommand::PacZero(a) => simple(ctx, d, 0x0A85, a.axis.into(), None),
         PacCommand::PacSetPos { axis, pos } => simple(ctx, d, 0x0A86, axis.axis.into(), Some(finite("POS", pos)?)),
-        PacCommand::PacSpeed { axis, speed } => {
-            simple(ctx, d, 0x0A8D, axis.axis.into(), Some(positive("speed", speed)?))
-        }
+        PacCommand::PacSpeed { axis, speed } => simple(ctx, d, 0x0A8D, axis.axis.into(), Some(finite("speed", speed)?)),
         PacCommand::PacAccel { axis, accel } => {
-            simple(ctx, d, 0x0A8E, axis.axis.into(), Some(positive("acceleration", accel)?))
+            simple(ctx, d, 0x0A8E, axis.axis.into(), Some(finite("acceleration", accel)?))
         }
         PacCommand::PacStopAxis { axis, no_wait } => {
             simple(ctx, d, if no_wait { 0x0A9A } else { 0x0A93 }, axis.axis.into(), None)
@@ -77,10 +66,7 @@ pub fn run(ctx: &Ctx, cmd: PacCommand) -> anyhow::Result<()> {
         PacCommand::PacOut { number, value, word } => element(ctx, d, Element::Output, number, value, word),
         PacCommand::PacFlag { number, value, word, system } => {
             if system {
-                if value.is_some() {
-                    return Err(usage("system flags SM are read only"));
-                }
-                element(ctx, d, Element::SystemFlag, number, None, false)
+                element(ctx, d, Element::SystemFlag, number, value, false)
             } else {
                 element(ctx, d, Element::Flag, number, value, word)
             }
@@ -107,79 +93,30 @@ fn finite(what: &str, v: f64) -> anyhow::Result<f64> {
     }
 }
 
-/// Speeds and accelerations: the controller's min / max (axis parameters
-/// 1 / 6) can only be read in home position, where 0A8D / 0A8E are not
-/// valid, so beyond "positive" the controller checks them (0x29).
-fn positive(what: &str, v: f64) -> anyhow::Result<f64> {
-    if finite(what, v)? > 0.0 {
-        Ok(v)
-    } else {
-        Err(usage(format!("{what} {v} must be greater than 0")))
-    }
-}
-
-/// Session errors keep their exit code; local refusals are usage errors.
-fn pac_err(e: PacError) -> anyhow::Error {
+/// Session errors keep their exit code (the `SessionError` stays in the
+/// chain); the rest are classed by their kind: refusals before sending are
+/// usage errors, faults exit 5.
+fn pac_err(e: DevError) -> anyhow::Error {
     match e {
-        PacError::Session(s) => anyhow::Error::new(s),
-        PacError::Abandoned { .. } => Interrupted(format!(": {e}")).into(),
-        other => usage(other.to_string()),
+        DevError::Session(s) => anyhow::Error::new(s),
+        DevError::Stopped { context, source } => pac_err(*source).context(context),
+        DevError::Interrupted(halted) => Interrupted(format!(": {halted}")).into(),
+        DevError::Pac(p @ PacError::Abandoned { .. }) => Interrupted(format!(": {p}")).into(),
+        e @ DevError::OutsideTraverseArea { .. } => usage(format!("{e} (use --force to let the controller check)")),
+        e if e.kind() == ErrorKind::Device => DeviceFault(e.to_string()).into(),
+        e => usage(e.to_string()),
     }
 }
 
-impl Dev {
-    /// The operating status, read once (190B, valid in every mode) and then
-    /// followed through every acknowledge.
-    fn status(&mut self) -> anyhow::Result<u16> {
-        if let Some(s) = self.pac.last_status() {
-            return Ok(s);
-        }
-        let done = self.pac.transact(&Command::new(0x190B, 0, Par2::Int(0))).map_err(pac_err)?;
-        Ok(done.ack.status)
-    }
-
-    /// Builds and validates the command (table ranges, mode, known limits): exit 2.
-    /// The mode is read first (190B) unless the command is valid in every
-    /// mode or is itself an operating-mode change (5.2.1, 0A41, 0A81): those
-    /// go out as exactly one frame and the controller's QUIT says if the
-    /// mode was wrong.
-    fn build(&mut self, code: u16, par1: i64, value: Option<f64>) -> anyhow::Result<Command> {
-        let def = def(code);
-        let mode_change = matches!(code, 0x0600 | 0x0602 | 0x0603 | 0x0A41 | 0x0A81);
-        self.limits.status = if def.modes.contains_all() || mode_change { None } else { Some(self.status()?) };
-        validate::build(def, par1, value, &self.limits).map_err(|e| usage(format!("{e}; nothing was sent")))
-    }
-
-    fn send(&mut self, code: u16, par1: i64, value: Option<f64>) -> anyhow::Result<Done> {
-        let cmd = self.build(code, par1, value)?;
-        self.pac.transact(&cmd).map_err(pac_err)
-    }
-
-    fn read_f64(&mut self, code: u16, par1: i64) -> anyhow::Result<f64> {
-        Ok(self.send(code, par1, None)?.ack.q_par.as_f64())
-    }
-
-    fn read_i64(&mut self, code: u16, par1: i64) -> anyhow::Result<i64> {
-        let ack = self.send(code, par1, None)?.ack;
-        ack.q_par.as_i64().ok_or_else(|| {
-            anyhow::Error::new(SessionError::Malformed {
-                target: "PA-CONTROL".into(),
-                source: axisctl::proto::DecodeError::Malformed(format!(
-                    "{code:04X} answered {} where an integer was expected",
-                    ack.q_par
-                )),
-            })
-        })
-    }
+/// `?` on a device result would wrap the error whole and hide its exit
+/// code from `classify`: results go through this instead.
+trait Cli<T> {
+    fn cli(self) -> anyhow::Result<T>;
 }
 
-trait ModesExt {
-    fn contains_all(self) -> bool;
-}
-
-impl ModesExt for Modes {
-    fn contains_all(self) -> bool {
-        table::Mode::ALL.iter().all(|m| self.contains(*m))
+impl<T> Cli<T> for Result<T, DevError> {
+    fn cli(self) -> anyhow::Result<T> {
+        self.map_err(pac_err)
     }
 }
 
@@ -199,8 +136,8 @@ fn check_rule_name(r: CheckRule) -> &'static str {
 // Commands
 
 /// One command, its acknowledge; motion-free or finishing by itself.
-fn simple(ctx: &Ctx, d: &mut Dev, code: u16, par1: i64, value: Option<f64>) -> anyhow::Result<()> {
-    let done = d.send(code, par1, value)?;
+fn simple(ctx: &Ctx, d: &mut Controller, code: u16, par1: i64, value: Option<f64>) -> anyhow::Result<()> {
+    let done = d.send(code, par1, value).cli()?;
     let def = def(code);
     let ack = done.ack;
     let ack_value = match def.ack {
@@ -237,8 +174,8 @@ fn merge(doc: &mut serde_json::Value, more: serde_json::Value) {
     }
 }
 
-fn state(ctx: &Ctx, d: &mut Dev) -> anyhow::Result<()> {
-    let ack = d.send(0x190B, 0, None)?.ack;
+fn state(ctx: &Ctx, d: &mut Controller) -> anyhow::Result<()> {
+    let ack = d.send(0x190B, 0, None).cli()?.ack;
     let mode = table::mode_of_status(ack.status).map(|m| m.name());
     if ctx.json {
         let mut doc = status_json(&ack);
@@ -253,8 +190,8 @@ fn state(ctx: &Ctx, d: &mut Dev) -> anyhow::Result<()> {
     Ok(())
 }
 
-fn error(ctx: &Ctx, d: &mut Dev) -> anyhow::Result<()> {
-    let ack = d.send(0x1909, 0, None)?.ack;
+fn error(ctx: &Ctx, d: &mut Controller) -> anyhow::Result<()> {
+    let ack = d.send(0x1909, 0, None).cli()?.ack;
     let number = ack.q_par.as_i64().unwrap_or(i64::from(ack.error));
     if ctx.json {
         let mut doc = status_json(&ack);
@@ -268,10 +205,9 @@ fn error(ctx: &Ctx, d: &mut Dev) -> anyhow::Result<()> {
     Ok(())
 }
 
-fn reset_error(ctx: &Ctx, d: &mut Dev) -> anyhow::Result<()> {
-    let ack = d.send(0x0909, 0, None)?.ack;
-    // 5.2.4.15: the acknowledge date is the error number if it could not be reset.
-    let left = ack.q_par.as_i64().unwrap_or(0);
+fn reset_error(ctx: &Ctx, d: &mut Controller) -> anyhow::Result<()> {
+    let reset = d.reset_error().cli()?;
+    let (ack, left) = (reset.ack, reset.left);
     if ctx.json {
         let mut doc = status_json(&ack);
         doc["reset"] = json!(left == 0);
@@ -282,10 +218,7 @@ fn reset_error(ctx: &Ctx, d: &mut Dev) -> anyhow::Result<()> {
     } else {
         println!("{}", ctx.style.error(&format!("error E{left} could not be reset")));
     }
-    if left != 0 {
-        return Err(DeviceFault(format!("PA-CONTROL error E{left} could not be reset")).into());
-    }
-    Ok(())
+    reset.check().cli()
 }
 
 /// Live progress of a wait: a spinner on a terminal, JSON lines on request.
@@ -317,42 +250,9 @@ impl Reporter {
     }
 }
 
-/// Stops the axis (0A93, polled to standstill), even past an unfinished
-/// command; sent again when no acknowledge comes (stopping twice is harmless).
-fn stop_axis(d: &mut Dev, axis: u8) -> Result<f64, String> {
-    let stop = Command::new(0x0A93, axis.into(), Par2::Float(0.0));
-    let mut last = String::new();
-    for _ in 0..3 {
-        match d.pac.abandon_and_stop(&stop) {
-            Ok(done) => return Ok(done.ack.q_par.as_f64()),
-            Err(e @ PacError::Session(SessionError::Timeout { .. } | SessionError::Malformed { .. })) => {
-                last = e.to_string()
-            }
-            Err(e) => return Err(e.to_string()),
-        }
-    }
-    Err(last)
-}
-
-/// A failed poll during a wait: the axis may still be moving, so it is stopped first.
-fn lost_track(d: &mut Dev, axis: u8, e: anyhow::Error) -> anyhow::Error {
-    let note = match stop_axis(d, axis) {
-        Ok(p) => format!("axis {axis} stopped at {p}"),
-        Err(s) => format!("STOP OF AXIS {axis} FAILED: {s}"),
-    };
-    e.context(format!("lost track of axis {axis} during the move ({note})"))
-}
-
-fn interrupted_after_stop(d: &mut Dev, axis: u8) -> anyhow::Error {
-    match stop_axis(d, axis) {
-        Ok(pos) => Interrupted(format!(": axis {axis} stopped at {pos}")).into(),
-        Err(e) => Interrupted(format!(": STOP OF AXIS {axis} FAILED: {e}")).into(),
-    }
-}
-
 fn move_axis(
     ctx: &Ctx,
-    d: &mut Dev,
+    d: &mut Controller,
     axis: u8,
     pos: f64,
     relative: bool,
@@ -360,23 +260,8 @@ fn move_axis(
     wait: PacWait,
 ) -> anyhow::Result<()> {
     let pos = finite("POS", pos)?;
-    let code = if relative { 0x0A95 } else { 0x0A94 };
-    // Mode and table ranges first: nothing is read from a controller that
-    // could not move anyway.
-    d.build(code, axis.into(), Some(pos))?;
-    let target = if relative { d.read_f64(0x190C, axis.into())? + pos } else { pos };
-    if !force {
-        let min = d.read_f64(0x1913, axis.into())?;
-        let max = d.read_f64(0x1914, axis.into())?;
-        if target < min || target > max {
-            return Err(usage(format!(
-                "target position {target} is outside axis {axis}'s traverse area {min}..={max} \
-                 (1913 / 1914); nothing was sent (use --force to let the controller check)"
-            )));
-        }
-    }
-    let started = d.send(code, axis.into(), Some(pos))?;
-    let start_position = started.ack.q_par.as_f64();
+    let started = d.start_move(axis, pos, relative, !force).cli()?;
+    let (code, target, start_position) = (started.code, started.target, started.start_position);
     if !wait.wait {
         if ctx.json {
             let mut doc = json!({"axis": axis, "command": def(code).code_hex(), "target": target,
@@ -389,61 +274,19 @@ fn move_axis(
         return Ok(());
     }
     arm_interrupt()?;
-    let clock = std::sync::Arc::clone(d.pac.clock());
-    let t0 = clock.now();
     let limit = Duration::from_secs_f64(wait.wait_timeout.max(0.0));
     let poll = Duration::from_millis(wait.poll);
     let reporter = Reporter::new(ctx, &wait);
-    let mut seen_moving = false;
-    let result = loop {
-        if interrupted() {
-            break Err(interrupted_after_stop(d, axis));
-        }
-        let polled = d.read_i64(0x1910, axis.into()).and_then(|s| Ok((s as u64, d.read_f64(0x190C, axis.into())?)));
-        let (status, position) = match polled {
-            Ok(v) => v,
-            Err(e) => break Err(lost_track(d, axis, e)),
-        };
-        let elapsed = clock.now() - t0;
+    let result = d.wait_move(axis, target, poll, limit, &mut |p| {
+        let (position, status) = (p.position, p.status);
         reporter.report(
-            json!({"axis": axis, "position": position, "status": status, "elapsed_ms": elapsed.as_millis() as u64}),
+            json!({"axis": axis, "position": position, "status": status, "elapsed_ms": p.elapsed.as_millis() as u64}),
             format!("axis {axis} -> {target}: position {position:.3}  {}", table::axis_status_text(status)),
         );
-        match status {
-            1 => seen_moving = true,
-            // A controller may report "in position" for a moment before the
-            // move shows as started; a short grace covers that.
-            0 if seen_moving || (position - target).abs() <= 1e-6 * target.abs().max(1.0) || elapsed >= poll * 4 => {
-                break Ok((position, status, elapsed))
-            }
-            0 => {}
-            other => {
-                let _ = d.pac.transact(&Command::new(0x1909, 0, Par2::Int(0)));
-                break Err(DeviceFault(format!(
-                    "axis {axis} ended the move at {position} with status {other} ({}), target {target}",
-                    table::axis_status_text(other)
-                ))
-                .into());
-            }
-        }
-        if elapsed >= limit {
-            let stopped = stop_axis(d, axis);
-            break Err(anyhow::Error::new(SessionError::Timeout {
-                target: format!("PA-CONTROL axis {axis}"),
-                what: format!(
-                    "the end of the move ({})",
-                    match stopped {
-                        Ok(p) => format!("axis stopped at {p}"),
-                        Err(e) => format!("STOP FAILED: {e}"),
-                    }
-                ),
-                timeout: limit,
-            }));
-        }
-        clock.sleep(poll);
-    };
+        !interrupted()
+    });
     reporter.finish();
-    let (position, status, elapsed) = result?;
+    let device::MoveProgress { position, status, elapsed } = result.cli()?;
     if ctx.json {
         output::json(&json!({"axis": axis, "command": def(code).code_hex(), "target": target,
             "start_position": start_position, "position": position, "status": status,
@@ -459,16 +302,11 @@ fn move_axis(
     Ok(())
 }
 
-fn reference(ctx: &Ctx, d: &mut Dev, axis: u8, wait: PacWait) -> anyhow::Result<()> {
-    let cmd = d.build(0x0A84, axis.into(), None)?;
+fn reference(ctx: &Ctx, d: &mut Controller, axis: u8, wait: PacWait) -> anyhow::Result<()> {
     if !wait.wait {
         // No start-and-return form exists: the drive runs on and the
         // controller answers only polls until it ends.
-        let step = d.pac.start(&cmd).map_err(pac_err)?;
-        let (ack, done) = match step {
-            axisctl::proto::pac::session::Step::Done(a) => (a, true),
-            axisctl::proto::pac::session::Step::NeedPoll { last, .. } => (last, false),
-        };
+        let (ack, done) = d.start_reference(axis).cli()?;
         if ctx.json {
             let mut doc = json!({"axis": axis, "command": "0A84", "done": done});
             merge(&mut doc, status_json(&ack));
@@ -484,10 +322,10 @@ fn reference(ctx: &Ctx, d: &mut Dev, axis: u8, wait: PacWait) -> anyhow::Result<
         return Ok(());
     }
     arm_interrupt()?;
-    d.pac.set_poll_interval(Duration::from_millis(wait.poll));
-    d.pac.set_busy_timeout(Duration::from_secs_f64(wait.wait_timeout.max(0.0)));
+    let poll = Duration::from_millis(wait.poll);
+    let limit = Duration::from_secs_f64(wait.wait_timeout.max(0.0));
     let reporter = Reporter::new(ctx, &wait);
-    let result = d.pac.transact_with(&cmd, &mut |p: &Progress| {
+    let result = d.reference(axis, poll, limit, &mut |p: &Progress| {
         // 0A84's acknowledge date has no meaning (5.2.6.3): only time shows.
         reporter.report(
             json!({"axis": axis, "polls": p.polls, "done": p.ack.be, "status": p.ack.status,
@@ -497,19 +335,8 @@ fn reference(ctx: &Ctx, d: &mut Dev, axis: u8, wait: PacWait) -> anyhow::Result<
         !interrupted()
     });
     reporter.finish();
-    let done = match result {
-        Ok(done) => done,
-        Err(PacError::Abandoned { .. }) => return Err(interrupted_after_stop(d, axis)),
-        Err(e @ PacError::Session(_)) if d.pac.busy_command().is_some() => {
-            let note = match stop_axis(d, axis) {
-                Ok(p) => format!("axis {axis} stopped at {p}"),
-                Err(s) => format!("STOP OF AXIS {axis} FAILED: {s}"),
-            };
-            return Err(pac_err(e).context(note));
-        }
-        Err(e) => return Err(pac_err(e)),
-    };
-    let position = d.read_f64(0x190C, axis.into())?;
+    let done = result.cli()?;
+    let position = d.read_f64(0x190C, axis.into()).cli()?;
     if ctx.json {
         let mut doc = json!({"axis": axis, "command": "0A84", "done": true, "position": position,
                              "polls": done.polls, "elapsed_ms": done.elapsed.as_millis() as u64});
@@ -522,14 +349,11 @@ fn reference(ctx: &Ctx, d: &mut Dev, axis: u8, wait: PacWait) -> anyhow::Result<
 }
 
 /// Everything 1910 / 1921 / 190C / 190D / 1913 / 1914 say about an axis.
-fn axis_json(d: &mut Dev, axis: u8) -> anyhow::Result<serde_json::Value> {
-    let a = i64::from(axis);
-    let position = d.read_f64(0x190C, a)?;
-    let speed = d.read_f64(0x190D, a)?;
-    let status = d.read_i64(0x1910, a)? as u64;
-    let ext_raw = d.read_i64(0x1921, a)? as u32;
-    let min = d.read_f64(0x1913, a)?;
-    let max = d.read_f64(0x1914, a)?;
+fn axis_json(d: &mut Controller, axis: u8) -> anyhow::Result<serde_json::Value> {
+    let state = d.axis_state(axis).cli()?;
+    let area = d.traverse_area(axis).cli()?;
+    let (position, speed, status, ext_raw) = (state.position, state.speed, state.status as u64, state.ext_status);
+    let (min, max) = (area.min, area.max);
     let ext = ExtAxisStatus::decode(ext_raw);
     Ok(json!({"axis": axis, "position": position, "speed": speed, "status": status,
               "status_text": table::axis_status_text(status),
@@ -540,7 +364,7 @@ fn axis_json(d: &mut Dev, axis: u8) -> anyhow::Result<serde_json::Value> {
               "traverse_min": min, "traverse_max": max}))
 }
 
-fn axis_info(ctx: &Ctx, d: &mut Dev, axis: u8) -> anyhow::Result<()> {
+fn axis_info(ctx: &Ctx, d: &mut Controller, axis: u8) -> anyhow::Result<()> {
     let doc = axis_json(d, axis)?;
     if ctx.json {
         output::json(&doc);
@@ -563,34 +387,14 @@ fn axis_info(ctx: &Ctx, d: &mut Dev, axis: u8) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// The configured axes: system parameter 2 in home position (the only mode
-/// that reads parameters), else 1910 on 1, 2, ... until "axis number
-/// unknown" (0x20).
-fn configured_axes(d: &mut Dev) -> anyhow::Result<u8> {
-    if d.status()? == 1 {
-        if let Ok(n) = d.read_i64(0x1700, 2) {
-            return Ok(n.clamp(0, i64::from(table::MAX_AXES)) as u8);
-        }
-    }
-    let mut n = 0;
-    for axis in 1..=table::MAX_AXES {
-        match d.pac.transact(&Command::new(0x1910, axis.into(), Par2::Int(0))) {
-            Ok(_) => n = axis,
-            Err(PacError::Session(SessionError::Device { .. })) if d.pac.last_quit() == Some(0x20) => break,
-            Err(e) => return Err(pac_err(e)),
-        }
-    }
-    Ok(n)
-}
-
-fn axes(ctx: &Ctx, d: &mut Dev) -> anyhow::Result<()> {
-    let n = configured_axes(d)?;
-    let moving = d.read_i64(0x1911, 0)? as u64;
+fn axes(ctx: &Ctx, d: &mut Controller) -> anyhow::Result<()> {
+    let n = d.configured_axes().cli()?;
+    let moving = d.read_i64(0x1911, 0).cli()? as u64;
     let mut list = Vec::new();
     for axis in 1..=n {
         let a = i64::from(axis);
-        let position = d.read_f64(0x190C, a)?;
-        let status = d.read_i64(0x1910, a)? as u64;
+        let position = d.read_f64(0x190C, a).cli()?;
+        let status = d.read_i64(0x1910, a).cli()? as u64;
         list.push(json!({"axis": axis, "position": position, "status": status,
                          "status_text": table::axis_status_text(status)}));
     }
@@ -610,54 +414,28 @@ fn axes(ctx: &Ctx, d: &mut Dev) -> anyhow::Result<()> {
     Ok(())
 }
 
-#[derive(Clone, Copy, PartialEq)]
-enum Element {
-    Input,
-    Output,
-    Flag,
-    SystemFlag,
-}
-
-impl Element {
-    fn key(self) -> &'static str {
-        match self {
-            Self::Input => "input",
-            Self::Output => "output",
-            Self::Flag => "flag",
-            Self::SystemFlag => "system_flag",
-        }
-    }
-
-    /// (read single, read word, write single, write word)
-    fn codes(self) -> (u16, Option<u16>, Option<u16>, Option<u16>) {
-        match self {
-            Self::Input => (0x1900, Some(0x1901), None, None),
-            Self::Output => (0x1902, Some(0x1903), Some(0x0902), Some(0x0903)),
-            Self::Flag => (0x1904, Some(0x1905), Some(0x0904), Some(0x0905)),
-            Self::SystemFlag => (0x1934, None, None, None),
-        }
-    }
-}
-
 /// Decimal, 0x hex or 0b binary.
 fn parse_uint(text: &str) -> anyhow::Result<u64> {
     axisctl::proto::parse_uint(text)
         .ok_or_else(|| usage(format!("{text:?} is not a number (decimal, 0x hex or 0b binary)")))
 }
 
-fn element(ctx: &Ctx, d: &mut Dev, el: Element, number: u16, value: Option<String>, word: bool) -> anyhow::Result<()> {
-    let (read1, readw, write1, writew) = el.codes();
-    let n = i64::from(number);
+fn element(
+    ctx: &Ctx,
+    d: &mut Controller,
+    el: Element,
+    number: u16,
+    value: Option<String>,
+    word: bool,
+) -> anyhow::Result<()> {
     let key = el.key();
     if let Some(text) = value {
-        let code = if word { writew } else { write1 }
-            .ok_or_else(|| usage(format!("{key}s cannot be set over the online interface")))?;
+        el.write_code(word).cli()?;
         let v = parse_uint(&text)?;
-        d.send(code, n, Some(v as f64))?;
+        d.write_element(el, number, v, word).cli()?;
     }
     if word {
-        let code = readw.ok_or_else(|| usage(format!("{key}s have no word read")))?;
-        let w = d.read_i64(code, n)? as u16;
+        let w = d.read_element_word(el, number).cli()?;
         let members = table::word_members(number, w);
         if ctx.json {
             output::json(&json!({key: number, "word": w, "set": members}));
@@ -666,7 +444,7 @@ fn element(ctx: &Ctx, d: &mut Dev, el: Element, number: u16, value: Option<Strin
             println!("{key}s {first}..{}: {w:#06x} {w:016b}  set: {members:?}", first + 15);
         }
     } else {
-        let v = d.read_i64(read1, n)?;
+        let v = d.read_element(el, number).cli()?;
         if ctx.json {
             output::json(&json!({key: number, "state": v}));
         } else {
@@ -676,32 +454,20 @@ fn element(ctx: &Ctx, d: &mut Dev, el: Element, number: u16, value: Option<Strin
     Ok(())
 }
 
-fn reg(ctx: &Ctx, d: &mut Dev, register: &str, value: Option<&str>) -> anyhow::Result<()> {
-    let upper = register.to_ascii_uppercase();
-    let (kind, digits) = ["SN", "SR", "N", "R"]
-        .iter()
-        .find_map(|p| upper.strip_prefix(p).map(|rest| (*p, rest)))
-        .ok_or_else(|| usage(format!("{register:?}: expected N<number>, R<number>, SN<number> or SR<number>")))?;
-    let number: i64 = digits.parse().map_err(|_| usage(format!("{register:?}: bad register number")))?;
-    let (read, write, float) = match kind {
-        "N" => (0x1906, Some(0x0906), false),
-        "R" => (0x1907, Some(0x0907), true),
-        "SN" => (0x1935, None, false),
-        _ => (0x1937, None, true),
-    };
+fn reg(ctx: &Ctx, d: &mut Controller, register: &str, value: Option<&str>) -> anyhow::Result<()> {
+    let reg: Register = register.parse().cli()?;
     if let Some(text) = value {
-        let code = write.ok_or_else(|| usage("system registers SN / SR are read only"))?;
+        reg.write_code().cli()?;
         let v: f64 = text.trim().parse().map_err(|_| usage(format!("{text:?} is not a number")))?;
-        d.send(code, number, Some(finite("value", v)?))?;
+        d.write_register(reg, finite("value", v)?).cli()?;
     }
-    let ack = d.send(read, number, None)?.ack;
-    let name = format!("{kind}{number}");
+    let q_par = d.read_register(reg).cli()?;
     if ctx.json {
         output::json(
-            &json!({"register": name, "type": if float { "float" } else { "int" }, "value": ack.q_par.as_f64()}),
+            &json!({"register": reg.to_string(), "type": if reg.is_float() { "float" } else { "int" }, "value": q_par.as_f64()}),
         );
     } else {
-        println!("{name} = {}", ack.q_par);
+        println!("{reg} = {q_par}");
     }
     Ok(())
 }
@@ -711,25 +477,23 @@ fn parse_value(text: &str) -> anyhow::Result<f64> {
     finite("value", v)
 }
 
-fn sys_param(ctx: &Ctx, d: &mut Dev, name: &str, access: &ParamAccess) -> anyhow::Result<()> {
+fn sys_param(ctx: &Ctx, d: &mut Controller, name: &str, access: &ParamAccess) -> anyhow::Result<()> {
     let p = table::system_param_by_name(name).ok_or_else(|| {
         let names: Vec<_> = table::SYSTEM_PARAMS.iter().filter(|p| !p.unused).map(|p| p.name).collect();
         usage(format!("unknown system parameter {name:?}; known: {}", names.join(", ")))
     })?;
     let n = i64::from(p.number);
     let (what, value) = if access.min {
-        ("min", d.read_i64(0x1702, n)?)
+        ("min", d.read_i64(0x1702, n).cli()?)
     } else if access.max {
-        ("max", d.read_i64(0x1701, n)?)
+        ("max", d.read_i64(0x1701, n).cli()?)
     } else {
         if let Some(text) = &access.value {
             let v = parse_value(text)?;
-            // The controller's own limits, then the table's checks.
-            let (min, max) = (d.read_i64(0x1702, n)?, d.read_i64(0x1701, n)?);
-            d.limits.system_param_limits.insert(n, (min, max));
-            d.send(0x0700, n, Some(v))?;
+            ("value", d.write_system_param(n, v).cli()?)
+        } else {
+            ("value", d.read_i64(0x1700, n).cli()?)
         }
-        ("value", d.read_i64(0x1700, n)?)
     };
     if ctx.json {
         output::json(&json!({"param": p.number, "name": p.name, what: value}));
@@ -739,23 +503,22 @@ fn sys_param(ctx: &Ctx, d: &mut Dev, name: &str, access: &ParamAccess) -> anyhow
     Ok(())
 }
 
-fn axis_param(ctx: &Ctx, d: &mut Dev, axis: u8, name: &str, access: &ParamAccess) -> anyhow::Result<()> {
+fn axis_param(ctx: &Ctx, d: &mut Controller, axis: u8, name: &str, access: &ParamAccess) -> anyhow::Result<()> {
     let p = table::axis_param_by_name(name).ok_or_else(|| {
         usage(format!("unknown axis parameter {name:?}; see `axisctl pac-axis-param --help` or the manual 5.2.3"))
     })?;
     let par1 = table::axis_param_par1(axis, p.number);
     let (what, value) = if access.min {
-        ("min", d.read_f64(0x1802, par1)?)
+        ("min", d.read_f64(0x1802, par1).cli()?)
     } else if access.max {
-        ("max", d.read_f64(0x1801, par1)?)
+        ("max", d.read_f64(0x1801, par1).cli()?)
     } else {
         if let Some(text) = &access.value {
             let v = parse_value(text)?;
-            let (min, max) = (d.read_f64(0x1802, par1)?, d.read_f64(0x1801, par1)?);
-            d.limits.axis_param_limits.insert(par1, (min, max));
-            d.send(0x0800, par1, Some(v))?;
+            ("value", d.write_axis_param(par1, v).cli()?)
+        } else {
+            ("value", d.read_f64(0x1800, par1).cli()?)
         }
-        ("value", d.read_f64(0x1800, par1)?)
     };
     if ctx.json {
         output::json(&json!({"axis": axis, "param": p.number, "name": p.name, "unit": p.unit, what: value}));
@@ -765,12 +528,12 @@ fn axis_param(ctx: &Ctx, d: &mut Dev, axis: u8, name: &str, access: &ParamAccess
     Ok(())
 }
 
-fn raw(ctx: &Ctx, d: &mut Dev, code_text: &str, par1: i64, par2: Option<&str>) -> anyhow::Result<()> {
+fn raw(ctx: &Ctx, d: &mut Controller, code_text: &str, par1: i64, par2: Option<&str>) -> anyhow::Result<()> {
     let known = table::command_by_name(code_text);
     let cmd = match known {
         Some(def) => {
             let v = par2.map(parse_value).transpose()?;
-            d.build(def.code, par1, v)?
+            d.build(def.code, par1, v).cli()?
         }
         None => {
             let hex = code_text.trim_start_matches("0x").trim_start_matches("0X");
@@ -787,29 +550,21 @@ fn raw(ctx: &Ctx, d: &mut Dev, code_text: &str, par1: i64, par2: Option<&str>) -
         }
     };
     let def = known;
-    let stoppable_axis = def
-        .filter(|d| d.motion && d.is_start_and_wait() && d.par1 == table::Par1Kind::Axis)
-        .and_then(|_| u8::try_from(par1).ok());
-    if stoppable_axis.is_some() {
+    let stoppable = device::stoppable_axis(&cmd).is_some();
+    if stoppable {
         arm_interrupt()?;
     }
     let show = !ctx.json && std::io::stderr().is_terminal();
-    let result = d.pac.transact_with(&cmd, &mut |p: &Progress| {
+    let result = d.follow(&cmd, &mut |p: &Progress| {
         if show && !p.ack.be {
             eprint!("\r  BE 0, poll {}: Q_PAR {}   ", p.polls, p.ack.q_par);
         }
-        stoppable_axis.is_none() || !interrupted()
+        !stoppable || !interrupted()
     });
     if show {
         eprint!("\r\x1b[K");
     }
-    let done = match result {
-        Ok(done) => done,
-        Err(PacError::Abandoned { .. }) => {
-            return Err(interrupted_after_stop(d, stoppable_axis.expect("only stoppable commands abandon")))
-        }
-        Err(e) => return Err(pac_err(e)),
-    };
+    let done = result.cli()?;
     let ack = done.ack;
     if ctx.json {
         let mut doc = json!({"command": format!("{:04X}", cmd.code), "name": def.map(|d| d.name), "par1": cmd.par1,
@@ -844,13 +599,5 @@ mod tests {
         assert_eq!(parse_uint("0b101").unwrap(), 5);
         assert_eq!(parse_uint("17906").unwrap(), 17906);
         assert!(parse_uint("x").is_err());
-    }
-
-    #[test]
-    fn modes_all() {
-        assert!(Modes::ALL.contains_all());
-        assert!(!Modes::ONLINE.contains_all());
-        assert!(def(0x190B).modes.contains_all());
-        assert!(!def(0x0A94).modes.contains_all());
     }
 }

@@ -579,3 +579,28 @@ fn the_guide_lists_the_keys_of_the_code() {
     let table = super::keys::markdown_table();
     assert!(guide.contains(&table), "docs/guide.md must contain the key table of src/tui/keys.rs:\n{table}");
 }
+
+/// `pac-auto-start` (0602) from another session, then space: halt-all reads
+/// the mode fresh and sends STOP (0600), which a cached "home position"
+/// would have skipped.
+#[test]
+fn halt_all_stops_a_pac_in_automatic_mode() {
+    let mut rig = Rig::new();
+    rig.round();
+    let shared: Arc<dyn Clock> = Arc::new(rig.clock.clone());
+    let link = Box::new(rig.bench.pac_link(Arc::clone(&shared)));
+    let mut cli = crate::device::pac::Controller::new(Pac::new(link, 9600, SerialFormat::F7N1).with_clock(shared));
+    cli.send(0x0602, 0, None).expect("pac-auto-start");
+    assert_eq!(lock(&rig.bench.pac).status(), 11, "automatic mode runs");
+    rig.key(KeyCode::Char(' '));
+    assert_eq!(lock(&rig.bench.pac).status(), 15, "automatic mode stopped by 0600: {:#?}", rig.app.events);
+    let texts: Vec<_> = rig.app.events.iter().map(|e| e.text.as_str()).collect();
+    assert!(texts.iter().any(|t| t.contains("STOP (0600) sent")), "{texts:#?}");
+    // Stopped means stopped: the program's output stands from now on.
+    let output = lock(&rig.bench.pac).output(16);
+    rig.advance(Duration::from_secs(3));
+    rig.round();
+    let mut pac = lock(&rig.bench.pac);
+    pac.advance(rig.clock.now());
+    assert_eq!(pac.output(16), output, "the automatic program no longer runs");
+}

@@ -1,0 +1,363 @@
+//! The device layer against the simulated controller (the modes it has) and
+//! a fake one (the modes it lacks, a silent line), which also counts what
+//! was sent.
+
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
+
+use super::*;
+use crate::clock::{Clock, VirtualClock};
+use crate::link::mem::{ByteDevice, MemByteLink};
+use crate::link::SerialFormat;
+use crate::proto::pac::{CheckRule, CommandDecoder, Request};
+use crate::session::ErrorKind;
+use crate::sim::pac::PacController;
+
+struct Rig {
+    clock: VirtualClock,
+    sim: Arc<Mutex<PacController>>,
+}
+
+impl Rig {
+    fn new(axes: u8) -> Self {
+        let clock = VirtualClock::new();
+        let sim = Arc::new(Mutex::new(PacController::new(axes, clock.now())));
+        Self { clock, sim }
+    }
+
+    /// A session of its own on the same controller, as a second program would have.
+    fn controller(&self) -> Controller {
+        let clock: Arc<dyn Clock> = Arc::new(self.clock.clone());
+        let link = MemByteLink::new(Box::new(Arc::clone(&self.sim)), Arc::clone(&clock));
+        Controller::new(Pac::new(Box::new(link), 9600, SerialFormat::F7N1).with_clock(clock))
+    }
+
+    fn sim(&self) -> std::sync::MutexGuard<'_, PacController> {
+        let mut s = self.sim.lock().unwrap();
+        s.advance(self.clock.now());
+        s
+    }
+
+    fn run(&self, d: Duration) {
+        self.clock.advance(d);
+    }
+}
+
+/// Answers every command with QUIT 0 and a fixed status, except the codes
+/// it keeps silent on; records the codes it received.
+struct Fake {
+    status: u16,
+    silent: Vec<u16>,
+    seen: Arc<Mutex<Vec<u16>>>,
+    decoder: CommandDecoder,
+}
+
+impl ByteDevice for Fake {
+    fn on_bytes(&mut self, _now: Instant, bytes: &[u8], out: &mut Vec<u8>) {
+        self.decoder.push(bytes);
+        while let Some(Ok(req)) = self.decoder.next() {
+            let Request::Command { command, .. } = req else { continue };
+            self.seen.lock().unwrap().push(command.code);
+            if !self.silent.contains(&command.code) {
+                let ack = Ack {
+                    quit: 0,
+                    be: true,
+                    status: self.status,
+                    error: 0,
+                    q_par: Par2::Int(0),
+                    check_rule: CheckRule::Strict,
+                };
+                out.extend(ack.encode().unwrap());
+            }
+        }
+    }
+}
+
+fn fake(status: u16, silent: &[u16]) -> (Controller, Arc<Mutex<Vec<u16>>>) {
+    let clock = VirtualClock::new();
+    let seen = Arc::new(Mutex::new(Vec::new()));
+    let dev = Fake { status, silent: silent.to_vec(), seen: Arc::clone(&seen), decoder: CommandDecoder::new() };
+    let clock: Arc<dyn Clock> = Arc::new(clock);
+    let link = MemByteLink::new(Box::new(dev), Arc::clone(&clock));
+    let mut pac = Pac::new(Box::new(link), 9600, SerialFormat::F7N1).with_clock(clock);
+    pac.set_retry(crate::session::RetryPolicy { read_retries: 0 });
+    let mut ctl = Controller::new(pac);
+    ctl.set_axes(vec![1, 2]);
+    (ctl, seen)
+}
+
+fn codes(seen: &Arc<Mutex<Vec<u16>>>) -> Vec<u16> {
+    seen.lock().unwrap().clone()
+}
+
+fn targets(steps: &[HaltStep]) -> Vec<HaltTarget> {
+    steps.iter().map(|s| s.target).collect()
+}
+
+/// Online, with `axis` released for moves without a reference drive.
+fn online(ctl: &mut Controller, axis: u8) {
+    ctl.online().unwrap();
+    ctl.send(0x0A83, axis.into(), None).unwrap();
+}
+
+#[test]
+fn halt_all_in_automatic_mode_sends_stop_although_home_was_cached() {
+    let rig = Rig::new(3);
+    let mut ctl = rig.controller();
+    ctl.set_axes(vec![1, 2, 3]);
+    assert_eq!(ctl.status().unwrap(), 1, "home position, now cached");
+    // pac-auto-start from another program.
+    rig.controller().send(0x0602, 0, None).unwrap();
+    assert_eq!(rig.sim().status(), 11);
+    let steps = ctl.halt_all();
+    assert_eq!(targets(&steps), [HaltTarget::Controller]);
+    let text = steps[0].result.as_ref().unwrap();
+    assert_eq!(text, "automatic mode: STOP (0600) sent");
+    assert_eq!(rig.sim().status(), 15, "automatic mode stopped");
+}
+
+#[test]
+fn halt_all_online_stops_every_axis_and_stays_online() {
+    let rig = Rig::new(3);
+    let mut ctl = rig.controller();
+    ctl.set_axes(vec![1, 2, 3]);
+    online(&mut ctl, 1);
+    ctl.start_move(1, 5000.0, false, true).unwrap();
+    rig.run(Duration::from_millis(300));
+    assert_ne!(rig.sim().axis_speed(1), Some(0.0), "axis 1 moving");
+    let steps = ctl.halt_all();
+    assert_eq!(targets(&steps), [1, 2, 3].map(HaltTarget::Axis));
+    assert!(steps.iter().all(|s| s.result.as_deref().ok() == Some("stopped (0A9A)")), "{steps:?}");
+    rig.run(Duration::from_secs(10));
+    assert_eq!(rig.sim().axis_speed(1), Some(0.0), "axis 1 stands");
+    assert_eq!(table::mode_of_status(rig.sim().status()), Some(Mode::Online));
+}
+
+#[test]
+fn halt_all_gives_up_a_reference_drive_and_stops_its_axis_first() {
+    let rig = Rig::new(2);
+    let mut ctl = rig.controller();
+    ctl.set_axes(vec![1, 2]);
+    ctl.online().unwrap();
+    let (_, done) = ctl.start_reference(2).unwrap();
+    assert!(!done);
+    assert!(ctl.ensure_idle().is_err_and(|e| e.kind() == ErrorKind::Usage && e.to_string().contains("only polls")));
+    rig.run(Duration::from_millis(300));
+    let steps = ctl.halt_all();
+    assert_eq!(targets(&steps), [HaltTarget::Axis(2), HaltTarget::Axis(1), HaltTarget::Axis(2)]);
+    assert_eq!(steps[0].result.as_deref().unwrap(), "0A84 given up, axis stopped");
+    assert!(ctl.busy().is_none());
+    assert_eq!(rig.sim().busy(), None);
+    rig.run(Duration::from_secs(10));
+    assert_eq!(rig.sim().axis_speed(2), Some(0.0));
+}
+
+#[test]
+fn halt_all_in_home_position_sends_nothing_but_the_status_read() {
+    let (mut ctl, seen) = fake(1, &[]);
+    let steps = ctl.halt_all();
+    assert_eq!(targets(&steps), [HaltTarget::Controller]);
+    assert!(steps[0].result.as_ref().unwrap().contains("nothing sent"));
+    assert_eq!(codes(&seen), [0x190B]);
+}
+
+#[test]
+fn halt_all_in_manual_mode_is_a_fault_and_sends_nothing() {
+    let (mut ctl, seen) = fake(4, &[]);
+    let steps = ctl.halt_all();
+    let Err(e) = &steps[0].result else { panic!("{steps:?}") };
+    assert!(matches!(e, Error::ManualMode { status: 4 }), "{e:?}");
+    assert_eq!(e.kind(), ErrorKind::Device);
+    assert_eq!(codes(&seen), [0x190B]);
+}
+
+#[test]
+fn halt_all_with_an_unreadable_mode_sends_stop_anyway() {
+    let (mut ctl, seen) = fake(31, &[0x190B]);
+    let steps = ctl.halt_all();
+    assert_eq!(targets(&steps), [HaltTarget::Controller, HaltTarget::Controller]);
+    assert_eq!(steps[0].result.as_ref().unwrap_err().kind(), ErrorKind::Timeout);
+    assert_eq!(steps[1].result.as_deref().unwrap(), "operating mode unreadable: STOP (0600) sent");
+    assert_eq!(codes(&seen), [0x190B, 0x0600]);
+}
+
+#[test]
+fn build_checks_the_mode_except_for_mode_changes_and_reads() {
+    let (mut ctl, seen) = fake(1, &[]);
+    for code in [0x0600, 0x0602, 0x0603, 0x0A41, 0x0A81, 0x190B] {
+        ctl.build(code, 0, None).unwrap();
+    }
+    ctl.build(0x190C, 1, None).unwrap();
+    assert!(codes(&seen).is_empty(), "no mode read for these");
+    let e = ctl.build(0x0A94, 1, Some(5.0)).unwrap_err();
+    assert!(matches!(e, Error::Invalid(validate::ValidationError::NotInMode { .. })), "{e:?}");
+    assert!(e.nothing_sent());
+    assert!(e.to_string().ends_with("; nothing was sent"), "{e}");
+    assert_eq!(codes(&seen), [0x190B], "only the mode was read");
+    assert!(valid_in_every_mode(table::command(0x190B).unwrap()));
+    assert!(!valid_in_every_mode(table::command(0x0A94).unwrap()));
+}
+
+#[test]
+fn axes_known_to_the_dashboard_bound_the_axis_numbers() {
+    let (mut ctl, seen) = fake(31, &[]);
+    let e = ctl.send(0x0A9A, 3, None).unwrap_err();
+    assert!(matches!(e, Error::Invalid(validate::ValidationError::Axis { axis: 3, max: 2 })), "{e:?}");
+    assert!(!codes(&seen).contains(&0x0A9A));
+}
+
+#[test]
+fn targets_are_finite_and_inside_the_traverse_area() {
+    let area = Some(TraverseArea { min: 0.0, max: 1000.0 });
+    assert!(check_target(2, 1000.0, area).is_ok());
+    assert!(check_target(2, 5e9, None).is_ok(), "no area known: the controller checks");
+    let e = check_target(2, f64::NAN, None).unwrap_err();
+    assert_eq!(e.to_string(), "target position NaN is not a finite number; nothing was sent");
+    let e = check_target(2, 1000.5, area).unwrap_err();
+    assert_eq!(
+        e.to_string(),
+        "target position 1000.5 is outside axis 2's traverse area 0..=1000 (1913 / 1914); nothing was sent"
+    );
+    assert_eq!(e.kind(), ErrorKind::Usage);
+}
+
+#[test]
+fn a_move_outside_the_traverse_area_is_not_sent() {
+    let rig = Rig::new(2);
+    let mut ctl = rig.controller();
+    online(&mut ctl, 1);
+    let e = ctl.start_move(1, 99_999.0, false, true).unwrap_err();
+    assert!(matches!(e, Error::OutsideTraverseArea { axis: 1, .. }), "{e:?}");
+    let e = ctl.start_move(1, 99_999.0, true, true).unwrap_err();
+    assert!(matches!(e, Error::OutsideTraverseArea { .. }), "relative, too: {e:?}");
+    rig.run(Duration::from_millis(500));
+    assert_eq!(rig.sim().axis_speed(1), Some(0.0));
+    // Unchecked, the controller refuses it itself (QUIT 0x41).
+    let e = ctl.start_move(1, 99_999.0, false, false).unwrap_err();
+    assert!(matches!(e, Error::Session(SessionError::Device { .. })), "{e:?}");
+    assert_eq!(ctl.session().last_quit(), Some(0x41));
+}
+
+#[test]
+fn a_move_and_its_wait_end_at_the_target() {
+    let rig = Rig::new(2);
+    let mut ctl = rig.controller();
+    online(&mut ctl, 1);
+    let start = ctl.start_move(1, 150.0, true, true).unwrap();
+    assert_eq!((start.code, start.target), (0x0A95, 250.0), "axis 1 stands at 100 after power-up");
+    let mut looks = 0;
+    let end = ctl
+        .wait_move(1, start.target, Duration::from_millis(50), Duration::from_secs(60), &mut |_| {
+            looks += 1;
+            true
+        })
+        .unwrap();
+    assert!((end.position - 250.0).abs() < 1e-6 && end.status == 0, "{end:?}");
+    assert!(looks > 1);
+}
+
+#[test]
+fn a_given_up_wait_stops_the_axis() {
+    let rig = Rig::new(2);
+    let mut ctl = rig.controller();
+    online(&mut ctl, 1);
+    let start = ctl.start_move(1, 9000.0, false, true).unwrap();
+    let mut looks = 0;
+    let e = ctl
+        .wait_move(1, start.target, Duration::from_millis(50), Duration::from_secs(60), &mut |_| {
+            looks += 1;
+            looks < 5
+        })
+        .unwrap_err();
+    let Error::Interrupted(halted) = &e else { panic!("{e:?}") };
+    assert_eq!(halted.axis, 1);
+    assert!(e.to_string().starts_with("interrupted: axis 1 stopped at "), "{e}");
+    assert_eq!(rig.sim().axis_speed(1), Some(0.0), "0A93 waits for standstill");
+}
+
+#[test]
+fn configured_axes_from_the_parameter_or_the_probe() {
+    let rig = Rig::new(5);
+    let mut ctl = rig.controller();
+    assert_eq!(ctl.configured_axes().unwrap(), 5, "system parameter 2 in home position");
+    ctl.online().unwrap();
+    assert_eq!(ctl.configured_axes().unwrap(), 5, "1910 until QUIT 0x20 online");
+}
+
+#[test]
+fn stop_axis_gives_up_a_running_command_first() {
+    let rig = Rig::new(2);
+    let mut ctl = rig.controller();
+    ctl.online().unwrap();
+    ctl.start_reference(1).unwrap();
+    assert_eq!(ctl.stop_axis(1).unwrap(), "running command given up, axis stopped (0A93)");
+    ctl.start_reference(1).unwrap();
+    let text = ctl.stop_axis(2).unwrap();
+    assert!(text.starts_with("0A84 given up, axis 1 stopped (0A93); 0A9A done"), "{text}");
+    assert!(ctl.busy().is_none());
+}
+
+#[test]
+fn an_error_left_after_reset_is_a_fault() {
+    let r = Reset {
+        ack: Ack { quit: 0, be: true, status: 9, error: 7, q_par: Par2::Int(7), check_rule: CheckRule::Strict },
+        left: 7,
+    };
+    let e = r.check().unwrap_err();
+    assert_eq!((e.kind(), e.to_string()), (ErrorKind::Device, "PA-CONTROL error E7 could not be reset".into()));
+    assert!(Reset { left: 0, ..r }.check().is_ok());
+}
+
+#[test]
+fn read_only_elements_and_registers_are_refused_unsent() {
+    let (mut ctl, seen) = fake(1, &[]);
+    let e = ctl.write_element(Element::SystemFlag, 3, 1, false).unwrap_err();
+    assert_eq!(e.to_string(), "system flags SM are read only");
+    let e = ctl.write_element(Element::Input, 3, 1, true).unwrap_err();
+    assert_eq!(e.to_string(), "inputs cannot be set over the online interface");
+    let e = ctl.read_element_word(Element::SystemFlag, 3).unwrap_err();
+    assert_eq!(e.to_string(), "system_flags have no word read");
+    let sr: Register = "sr2".parse().unwrap();
+    assert_eq!((sr.to_string(), sr.is_float()), ("SR2".into(), true));
+    let e = ctl.write_register(sr, 1.0).unwrap_err();
+    assert_eq!((e.kind(), e.to_string()), (ErrorKind::Usage, "system registers SN / SR are read only".into()));
+    assert!(codes(&seen).is_empty());
+    assert!("X5".parse::<Register>().is_err_and(|e| e.to_string().contains("expected N<number>")));
+    assert!("N".parse::<Register>().is_err_and(|e| e.to_string().contains("bad register number")));
+}
+
+#[test]
+fn elements_and_registers_on_the_simulator() {
+    let rig = Rig::new(2);
+    let mut ctl = rig.controller();
+    ctl.write_element(Element::Flag, 5, 1, false).unwrap();
+    assert_eq!(ctl.read_element(Element::Flag, 5).unwrap(), 1);
+    assert_eq!(rig.sim().flag(5), Some(true));
+    let r3: Register = "R3".parse().unwrap();
+    ctl.write_register(r3, 2.5).unwrap();
+    assert_eq!(ctl.read_register(r3).unwrap().as_f64(), 2.5);
+}
+
+#[test]
+fn speeds_and_accelerations_must_be_positive() {
+    let (mut ctl, seen) = fake(31, &[]);
+    for (code, text) in [(0x0A8D, "speed 0 must be greater than 0"), (0x0A8E, "acceleration -1 must be greater than 0")]
+    {
+        let v = if code == 0x0A8D { 0.0 } else { -1.0 };
+        let e = ctl.send(code, 1, Some(v)).unwrap_err();
+        assert_eq!((e.kind(), e.to_string()), (ErrorKind::Usage, text.into()));
+    }
+    assert!(codes(&seen).is_empty(), "refused before the mode read");
+    ctl.send(0x0A8D, 1, Some(10.0)).unwrap();
+    assert_eq!(codes(&seen), [0x190B, 0x0A8D]);
+}
+
+#[test]
+fn halt_all_online_without_known_axes_sends_stop() {
+    let (mut ctl, seen) = fake(31, &[]);
+    ctl.set_axes(Vec::new());
+    let steps = ctl.halt_all();
+    assert_eq!(targets(&steps), [HaltTarget::Controller]);
+    assert_eq!(steps[0].result.as_deref().unwrap(), "online, no axes known: STOP (0600) sent");
+    assert_eq!(codes(&seen), [0x190B, 0x0600]);
+}
