@@ -8,6 +8,7 @@
 //! [`Request::matches`]: crate::proto::powercube::Request::matches
 
 pub mod cdios;
+mod core;
 pub mod pac;
 pub mod powercube;
 

@@ -10,6 +10,7 @@ pub mod flags;
 pub mod frame;
 pub mod limits;
 pub mod rs232;
+pub mod session;
 pub mod table;
 
 pub use frame::{Motion, MotionValue, Request, Response};

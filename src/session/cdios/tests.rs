@@ -6,7 +6,8 @@ use std::time::{Duration, Instant};
 use proptest::prelude::*;
 
 use super::*;
-use crate::clock::VirtualClock;
+use crate::clock::{Clock, VirtualClock};
+use crate::session::RetryPolicy;
 use crate::link::mem::{CanDevice, MemBus};
 use crate::proto::cdios::{GotoMode, StartOption, StopOption};
 
