@@ -12,13 +12,14 @@ use std::sync::Arc;
 use axisctl::link::log::{log_iface, LoggedCanLink, TrafficLog};
 use axisctl::link::{self, CanLink, LinkSpec};
 use axisctl::proto::cdios::{ModuleId as CdiosModule, NodeId};
+use axisctl::session::bus::{CanBus, Route};
 use axisctl::session::cdios::Cdios;
 use axisctl::session::pac::Pac;
 use axisctl::session::powercube::PowerCube;
 use axisctl::tui::cdios::CdiosSource;
 use axisctl::tui::pac::PacSource;
 use axisctl::tui::powercube::CubeSource;
-use axisctl::tui::source::{DeviceSource, Family, SharedCan};
+use axisctl::tui::source::{DeviceSource, Family};
 use axisctl::tui::worker::{MAX_RATE, MIN_RATE};
 use axisctl::tui::LinkPlan;
 
@@ -138,15 +139,17 @@ fn powercube_on(ctx: &Ctx, pc: PowerCube, args: &DashboardArgs) -> anyhow::Resul
 fn can_sources(
     ctx: &Ctx,
     args: &DashboardArgs,
-    link: SharedCan,
+    bus: CanBus,
     families: &[Family],
 ) -> anyhow::Result<Vec<Box<dyn DeviceSource>>> {
     let mut out = Vec::new();
     for f in families {
         match f {
-            Family::PowerCube => out.push(powercube_on(ctx, PowerCube::over_can(Box::new(link.clone())), args)?),
+            Family::PowerCube => {
+                out.push(powercube_on(ctx, PowerCube::over_can(Box::new(bus.port(Route::PowerCube))), args)?)
+            }
             Family::Cdios => {
-                let mut s = Cdios::new(Box::new(link.clone())).with_clock(Arc::clone(&ctx.clock));
+                let mut s = Cdios::new(Box::new(bus.port(Route::Cdios))).with_clock(Arc::clone(&ctx.clock));
                 if let Some(t) = ctx.timeout {
                     s.set_timeout(t);
                 }
@@ -201,7 +204,7 @@ fn plan(ctx: &Ctx, args: &DashboardArgs) -> anyhow::Result<Vec<LinkPlan>> {
             (LinkSpec::Sim, Some(b)) => ("sim CAN".to_string(), Box::new(b.bus.open()) as Box<dyn CanLink>),
             _ => (spec.to_string(), open_can(ctx, &spec)?),
         };
-        let sources = can_sources(ctx, args, SharedCan::new(link), &fams)?;
+        let sources = can_sources(ctx, args, CanBus::new(link, Arc::clone(&ctx.clock)), &fams)?;
         if !sources.is_empty() {
             plans.push(LinkPlan { name, sources });
         }

@@ -7,6 +7,7 @@
 //!
 //! [`Request::matches`]: crate::proto::powercube::Request::matches
 
+pub mod bus;
 pub mod cdios;
 mod core;
 pub mod pac;

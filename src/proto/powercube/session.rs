@@ -10,6 +10,15 @@ use super::rs232::{self, Direction, Rs232Frame};
 use super::{ModuleId, Request, Response};
 use crate::proto::{CanFrame, DecodeError};
 
+/// The module whose acknowledge id (`0x0A0 + M`) `frame` is on, whatever its data.
+pub fn ack_module(frame: &CanFrame) -> Option<ModuleId> {
+    let id = frame.id();
+    if frame.is_extended() || id & !0x1F != pc_can::ACK_BASE {
+        return None;
+    }
+    ModuleId::new((id & 0x1F) as u8)
+}
+
 /// Whether `frame` answers `req` sent to `module`: `Some(Ok)` for its
 /// acknowledge, `Some(Err)` for a frame on the module's acknowledge id that
 /// could be the answer (same command byte) but does not decode, `None` for
@@ -138,6 +147,15 @@ mod tests {
         let answers = ex.into_answers();
         assert_eq!(answers[1], Some(Ok(Response::Simple(CommandId::Home))));
         assert!(matches!(answers[0], Some(Ok(Response::Get { param: 0x27, .. }))));
+    }
+
+    #[test]
+    fn acknowledge_ids_name_their_module() {
+        assert_eq!(ack_module(&f("0B1#FF")), ModuleId::new(17));
+        assert_eq!(ack_module(&f("0A3#")), ModuleId::new(3));
+        for other in ["0A0#00", "0D1#0A27", "181#23", "100#0700", "000000B1#01"] {
+            assert_eq!(ack_module(&f(other)), None, "{other}");
+        }
     }
 
     #[test]

@@ -7,9 +7,9 @@ use proptest::prelude::*;
 
 use super::*;
 use crate::clock::{Clock, VirtualClock};
-use crate::session::RetryPolicy;
 use crate::link::mem::{CanDevice, MemBus};
 use crate::proto::cdios::{GotoMode, StartOption, StopOption};
+use crate::session::RetryPolicy;
 
 type Respond = Box<dyn FnMut(&CanFrame) -> Vec<CanFrame> + Send>;
 
