@@ -418,18 +418,7 @@ fn encode(node: NodeId, address: Address, cmd: &Command) -> Result<[u8; 8], Sess
 
 /// The Device error for an error reply: general error and status bits.
 fn refused(ex: &Exchange, e: &ErrorReply) -> SessionError {
-    let mut parts = Vec::new();
-    match e.general_error() {
-        Some((name, text)) if e.general != 0 => parts.push(format!("general error {} {name} ({text})", e.general)),
-        None => parts.push(format!("general error {} (not in the table)", e.general)),
-        _ => {}
-    }
-    parts.extend(e.flags().iter().map(|f| format!("{} ({})", f.name, f.meaning)));
-    parts.extend(e.unknown_bits().iter().map(|(s, b)| format!("error status {s} bit {b}")));
-    if parts.is_empty() {
-        parts.push("an error reply with no error bits set".into());
-    }
-    SessionError::Device { target: target(ex.node, ex.address), what: describe(&ex.data), reason: parts.join(", ") }
+    SessionError::Device { target: target(ex.node, ex.address), what: describe(&ex.data), refusal: Box::new(e.into()) }
 }
 
 /// `goto absolute position=5000`: the table row, selector and fields of command bytes.

@@ -16,7 +16,7 @@ pub mod powercube;
 use std::time::Duration;
 
 use crate::link::LinkError;
-use crate::proto::DecodeError;
+use crate::proto::{DecodeError, Refusal};
 
 /// What kind of failure, in the contract's exit-code terms.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
@@ -67,8 +67,9 @@ pub enum SessionError {
     Timeout { target: String, what: String, timeout: Duration },
     #[error("malformed answer from {target}: {source}")]
     Malformed { target: String, source: DecodeError },
-    #[error("{target} refused {what}: {reason}")]
-    Device { target: String, what: String, reason: String },
+    #[error("{target} refused {what}: {refusal}")]
+    /// Boxed: a refusal is rare and large, a `Result` is common.
+    Device { target: String, what: String, refusal: Box<Refusal> },
 }
 
 impl SessionError {
@@ -78,6 +79,14 @@ impl SessionError {
             Self::Timeout { .. } => ErrorKind::Timeout,
             Self::Malformed { .. } => ErrorKind::Malformed,
             Self::Device { .. } => ErrorKind::Device,
+        }
+    }
+
+    /// What the device answered, for a refusal.
+    pub fn refusal(&self) -> Option<&Refusal> {
+        match self {
+            Self::Device { refusal, .. } => Some(refusal),
+            _ => None,
         }
     }
 }

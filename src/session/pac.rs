@@ -65,13 +65,16 @@ pub enum PacError {
     /// The command could not be written (a non-finite PAR_2).
     #[error("cannot encode the command: {0}")]
     Encode(String),
+    /// A poll without an unfinished command: nothing was sent.
+    #[error("no command is being processed: there is nothing to poll")]
+    NotBusy,
 }
 
 impl PacError {
     pub fn kind(&self) -> super::ErrorKind {
         match self {
             Self::Session(e) => e.kind(),
-            Self::Busy { .. } | Self::Encode(_) => super::ErrorKind::Usage,
+            Self::Busy { .. } | Self::Encode(_) | Self::NotBusy => super::ErrorKind::Usage,
             Self::Abandoned { .. } => super::ErrorKind::Interrupted,
         }
     }
@@ -230,14 +233,7 @@ impl Pac {
 
     /// Polls the unfinished command once (EOT) and returns the fresh acknowledge.
     pub fn poll(&mut self) -> Result<Step, PacError> {
-        let Some(mut t) = self.busy.take() else {
-            return Err(SessionError::Device {
-                target: TARGET.into(),
-                what: "a poll".into(),
-                reason: "no command is being processed".into(),
-            }
-            .into());
-        };
+        let Some(mut t) = self.busy.take() else { return Err(PacError::NotBusy) };
         let ack = self.send_poll(&mut t)?;
         let step = self.handle(&mut t, ack)?;
         if let Step::NeedPoll { .. } = step {
@@ -295,7 +291,7 @@ impl Pac {
             Err(TransactionError::Device(d)) => Err(SessionError::Device {
                 target: TARGET.into(),
                 what: describe(t.command()),
-                reason: format!("command error 0x{:02X} ({}): {}", d.quit, d.quit, d.text),
+                refusal: Box::new((&d).into()),
             }
             .into()),
             Err(TransactionError::AlreadyDone) => Err(SessionError::Malformed {
