@@ -26,8 +26,8 @@ use super::core::{core_setters, with_read_retries, Core, Retryable};
 use super::{SessionError, TraceEvent};
 use crate::link::CanLink;
 use crate::proto::cdios::session::{incoming, Burst, Exchange, Incoming, Settled, Verdict};
-use crate::proto::cdios::table::{self, DecodedReply};
-use crate::proto::cdios::transport::{self, Answer, AnswerKind};
+use crate::proto::cdios::table::DecodedReply;
+use crate::proto::cdios::transport::{self, Answer};
 use crate::proto::cdios::{
     decode_status, Address, Command, ErrorReply, ModuleId, NodeId, PositionSource, StatusReport, StatusSelector,
 };
@@ -112,7 +112,7 @@ impl Events {
             // Nothing on an answer id can be told apart without its code byte.
             Incoming::Undecodable(e) => core.trace(|| TraceEvent::Received(format!("{frame:<22} ignored ({e})"))),
             Incoming::Event(answer) => {
-                core.trace(|| TraceEvent::Received(format!("{frame:<22} event: {}", describe_answer(&answer))));
+                core.trace(|| TraceEvent::Received(format!("{frame:<22} event: {answer}")));
                 self.push(Event { at: core.now(), answer });
             }
             Incoming::Answer(answer) => return Some(answer),
@@ -232,9 +232,7 @@ impl Cdios {
         let Self { link, core, events, .. } = self;
         events.drain(core, &mut **link)?;
         let frame = ex.frame();
-        core.trace(|| {
-            TraceEvent::Sent(format!("{frame:<22} {} to {}", describe(&ex.data), target(ex.node, ex.address)))
-        });
+        core.trace(|| TraceEvent::Sent(format!("{frame:<22} {ex} to {}", target(ex.node, ex.address))));
         link.send(&frame)?;
         let wait = ex.wait(core.timeout, self.confirm);
         let deadline = core.now() + wait.timeout;
@@ -246,9 +244,9 @@ impl Cdios {
                 Verdict::Refused(e) => (format!("error: {}", e.describe()), Some(Err(Failure::Refused(e)))),
                 Verdict::Malformed(source) => {
                     let e = SessionError::Malformed { target: target(ex.node, ex.address), source };
-                    (describe_answer(&answer), Some(Err(e.into())))
+                    (answer.to_string(), Some(Err(e.into())))
                 }
-                Verdict::Reply => (describe_answer(&answer), Some(Ok(Some(answer)))),
+                Verdict::Reply => (answer.to_string(), Some(Ok(Some(answer)))),
             };
             core.trace(|| TraceEvent::Received(format!("{frame:<22} {note}")));
             match result {
@@ -260,7 +258,7 @@ impl Cdios {
             return r;
         }
         if wait.need_reply {
-            let (what, timeout) = (describe(&ex.data), wait.timeout);
+            let (what, timeout) = (ex.to_string(), wait.timeout);
             return Err(SessionError::Timeout { target: target(ex.node, ex.address), what, timeout }.into());
         }
         core.trace(|| TraceEvent::Note("no error within the window (confirmations are off)".into()));
@@ -317,7 +315,7 @@ impl Cdios {
                 Some(r) => r,
                 // The burst was the first attempt of every read it did not answer.
                 None if burst => {
-                    let (what, timeout) = (describe(d), self.core.timeout);
+                    let (what, timeout) = (ex.to_string(), self.core.timeout);
                     let first = SessionError::Timeout { target: target(node, address), what, timeout };
                     reply_of(node, address, self.exchange(ex, Some(first))?)?
                 }
@@ -339,13 +337,14 @@ impl Cdios {
         let mut burst = Burst::new(node, address, data);
         let frames: Vec<CanFrame> = burst.frames().collect();
         for (f, d) in frames.iter().zip(data) {
-            core.trace(|| TraceEvent::Sent(format!("{f:<22} {} to {}", describe(d), target(node, address))));
+            let ex = Exchange::new(node, address, *d);
+            core.trace(|| TraceEvent::Sent(format!("{f:<22} {ex} to {}", target(node, address))));
         }
         core.burst(&mut **link, &frames, data.len(), |core, frame| {
             let Some(answer) = events.take_answer(core, &frame) else { return false };
             match burst.handle(&answer) {
                 Settled::Read(_) => {
-                    core.trace(|| TraceEvent::Received(format!("{frame:<22} {}", describe_answer(&answer))));
+                    core.trace(|| TraceEvent::Received(format!("{frame:<22} {answer}")));
                     true
                 }
                 Settled::OtherTarget => false,
@@ -418,44 +417,12 @@ fn encode(node: NodeId, address: Address, cmd: &Command) -> Result<[u8; 8], Sess
 
 /// The Device error for an error reply: general error and status bits.
 fn refused(ex: &Exchange, e: &ErrorReply) -> SessionError {
-    SessionError::Device { target: target(ex.node, ex.address), what: describe(&ex.data), refusal: Box::new(e.into()) }
+    SessionError::Device { target: target(ex.node, ex.address), what: ex.to_string(), refusal: Box::new(e.into()) }
 }
 
-/// `goto absolute position=5000`: the table row, selector and fields of command bytes.
-pub fn describe(data: &[u8; 8]) -> String {
-    match table::decode_command(data) {
-        Ok(d) => {
-            let sel = d.def.selector(d.selector).map(|s| s.key).filter(|k| *k != "none");
-            let mut s = d.def.key.to_string();
-            if let Some(k) = sel {
-                s.push(' ');
-                s.push_str(k);
-            }
-            for f in d.fields.iter().filter(|f| !f.key.starts_with("key_")) {
-                s.push_str(&format!(" {}={}", f.key, f.raw));
-            }
-            s
-        }
-        Err(_) => format!("command {:02x?}", data),
-    }
-}
-
-/// A reply or event for humans: `read_position current position=-1200`.
+/// A reply or event for humans (its `Display`; kept for the callers outside the session).
 pub fn describe_answer(a: &Answer) -> String {
-    match a.reply() {
-        Some(Ok(r)) => {
-            let kind = if a.kind == AnswerKind::Event { "event " } else { "" };
-            let mut s = format!("{kind}{}", r.def.map_or("unknown", |d| d.key));
-            for f in &r.fields {
-                s.push_str(&format!(" {}={}", f.key, f.raw));
-            }
-            s
-        }
-        _ => match a.error() {
-            Some(e) => e.describe(),
-            None => format!("{:02x?}", a.data),
-        },
-    }
+    a.to_string()
 }
 
 #[cfg(test)]

@@ -31,10 +31,9 @@ use std::time::Duration;
 use super::core::{core_setters, with_read_retries, Core, Retryable};
 use super::{SessionError, TraceEvent};
 use crate::link::{ByteLink, SerialFormat};
-use crate::proto::pac::frame::{EncodeOptions, FrameError, SOH};
+use crate::proto::pac::frame::{EncodeOptions, FrameError};
 use crate::proto::pac::session::{Outgoing, Step, Transaction, TransactionError, DEFAULT_POLL_INTERVAL};
-use crate::proto::pac::table;
-use crate::proto::pac::{Ack, AckDecoder, CheckRule, Command};
+use crate::proto::pac::{printable, Ack, AckDecoder, CheckRule, Command};
 use crate::proto::DecodeError;
 
 /// Base answer timeout before wire time is added (as for PowerCube RS232;
@@ -264,7 +263,7 @@ impl Pac {
         }
         let t = Transaction::with_options(*cmd, self.options).poll_interval(self.poll_interval);
         let bytes = t.request().map_err(|e| PacError::Encode(e.to_string()))?;
-        self.core.trace(|| TraceEvent::Sent(format!("{}  {}", printable(&bytes), describe(cmd))));
+        self.core.trace(|| TraceEvent::Sent(format!("{}  {cmd}", printable(&bytes))));
         // Half-duplex: anything still buffered belongs to an older exchange.
         self.link.clear_input().map_err(SessionError::from)?;
         self.decoder.clear();
@@ -290,7 +289,7 @@ impl Pac {
             Ok(step) => Ok(step),
             Err(TransactionError::Device(d)) => Err(SessionError::Device {
                 target: TARGET.into(),
-                what: describe(t.command()),
+                what: t.command().to_string(),
                 refusal: Box::new((&d).into()),
             }
             .into()),
@@ -325,7 +324,7 @@ impl Pac {
                 self.busy = Some(t);
                 return Err(SessionError::Timeout {
                     target: TARGET.into(),
-                    what: format!("the end of {} (still BE = 0)", describe(cmd)),
+                    what: format!("the end of {cmd} (still BE = 0)"),
                     timeout: self.busy_timeout,
                 }
                 .into());
@@ -354,7 +353,7 @@ impl Pac {
             while let Some(item) = decoder.next() {
                 match item {
                     Ok(ack) => {
-                        core.trace(|| TraceEvent::Received(describe_ack(&ack)));
+                        core.trace(|| TraceEvent::Received(ack.to_string()));
                         return ControlFlow::Break(Ok(ack));
                     }
                     Err(e @ FrameError::Garbage { .. }) => core.trace(|| TraceEvent::Note(format!("skipped: {e}"))),
@@ -374,53 +373,10 @@ impl Pac {
                 if n > 0 {
                     core.trace(|| TraceEvent::Note(format!("{n} byte(s) of an incomplete frame at the timeout")));
                 }
-                Err(SessionError::Timeout { target: TARGET.into(), what: describe(cmd), timeout }.into())
+                Err(SessionError::Timeout { target: TARGET.into(), what: cmd.to_string(), timeout }.into())
             }
         }
     }
-}
-
-/// `0A87 pos-axis-absolut PAR_1 2 PAR_2 5552.0`, for traces and errors.
-pub fn describe(cmd: &Command) -> String {
-    match table::command(cmd.code) {
-        Some(d) => format!("{:04X} {} ({} {})", cmd.code, d.name, cmd.par1, cmd.par2),
-        None => format!("{:04X} (unknown code) ({} {})", cmd.code, cmd.par1, cmd.par2),
-    }
-}
-
-/// One acknowledge, decoded, with the CHECK rule it matched.
-pub fn describe_ack(ack: &Ack) -> String {
-    let check = match ack.check_rule {
-        CheckRule::Strict => "CHECK without ETX",
-        CheckRule::WithEtx => "CHECK with ETX",
-        CheckRule::Omitted => "CHECK omitted (0)",
-    };
-    let frame = ack.encode().map(|b| printable(&b)).unwrap_or_default();
-    format!(
-        "{frame}  QUIT {} BE {} STATUS {} ({}) ERROR {} Q_PAR {}  [{check}]",
-        ack.quit,
-        u8::from(ack.be),
-        ack.status,
-        table::operating_status_text(ack.status),
-        ack.error,
-        ack.q_par
-    )
-}
-
-/// Control characters by name, the rest as text: `<SOH><STX>0603;0;0;0<ETX>14<EOT>`.
-pub fn printable(bytes: &[u8]) -> String {
-    let mut s = String::new();
-    for &b in bytes {
-        match b {
-            SOH => s.push_str("<SOH>"),
-            0x02 => s.push_str("<STX>"),
-            0x03 => s.push_str("<ETX>"),
-            0x04 => s.push_str("<EOT>"),
-            0x20..=0x7e => s.push(b as char),
-            _ => s.push_str(&format!("<{b:02x}>")),
-        }
-    }
-    s
 }
 
 #[cfg(test)]

@@ -15,7 +15,7 @@ use crate::link::{ByteLink, CanLink};
 use crate::proto::powercube::can::Broadcast;
 use crate::proto::powercube::rs232::{self, Direction};
 use crate::proto::powercube::session::{self as matcher, CanExchange, Rs232Verdict};
-use crate::proto::powercube::table::{ParamDef, ParamType};
+use crate::proto::powercube::table::ParamDef;
 use crate::proto::powercube::{frame::Value, ModuleId, Request, Response};
 use crate::proto::{CanFrame, DecodeError};
 
@@ -109,7 +109,7 @@ impl PowerCube {
     }
 
     fn timeout_error(&self, module: ModuleId, req: &Request) -> SessionError {
-        SessionError::Timeout { target: target(module), what: describe(req), timeout: self.core.timeout }
+        SessionError::Timeout { target: target(module), what: req.to_string(), timeout: self.core.timeout }
     }
 
     /// Sends every request, then collects the answers within one timeout
@@ -150,7 +150,7 @@ impl PowerCube {
         frames.clear();
         frames.extend(exchange.frames());
         for (frame, (m, r)) in frames.iter().zip(reqs) {
-            core.trace(|| TraceEvent::Sent(format!("{frame:<22} {} to module {m}", describe(r))));
+            core.trace(|| TraceEvent::Sent(format!("{frame:<22} {r} to module {m}")));
         }
         let pending = exchange.pending();
         let sent = core.burst(&mut **link, &frames, pending, |core, frame| {
@@ -177,7 +177,7 @@ impl PowerCube {
     fn rs232_transact(&mut self, module: ModuleId, req: &Request) -> Result<Response, SessionError> {
         let mut bytes = Vec::with_capacity(RS232_MAX_FRAME as usize);
         matcher::rs232_request(module, req, &mut bytes);
-        self.core.trace(|| TraceEvent::Sent(format!("{} {} to module {module}", hex(&bytes), describe(req))));
+        self.core.trace(|| TraceEvent::Sent(format!("{} {req} to module {module}", hex(&bytes))));
         let timeout = self.core.timeout;
         let Transport::Rs232 { link, decoder, baud } = &mut self.transport else { unreachable!() };
         // Half-duplex: whatever is still in the buffers belongs to an older exchange.
@@ -387,35 +387,10 @@ pub fn rs232_wire_time(baud: u32, bytes: u32) -> Duration {
     Duration::from_micros(u64::from(bytes) * 10 * 1_000_000 / u64::from(baud.max(1)))
 }
 
-/// A short human description of a request, for traces and errors.
+/// A short human description of a request, for traces and errors (its
+/// `Display`; kept for the callers outside the session).
 pub fn describe(req: &Request) -> String {
-    use crate::proto::powercube::table;
-    match req {
-        Request::GetExtended { param } => {
-            format!("GetExtended {}", table::param(*param).map_or_else(|| format!("{param:#04x}"), |p| p.name.into()))
-        }
-        Request::SetExtended { param, data } => {
-            let name = table::param(*param);
-            let value = name
-                .filter(|p| p.ty != ParamType::FloatStateDio && p.ty != ParamType::FloatTime)
-                .and_then(|p| Value::decode(p.ty, data.as_slice()).ok())
-                .map_or_else(|| format!("{data:?}"), |v| v.to_string());
-            format!("SetExtended {} = {value}", name.map_or_else(|| format!("{param:#04x}"), |p| p.name.into()))
-        }
-        Request::SetMotion(m) => {
-            let name = table::motion(m.id).map_or("motion?", |d| d.name);
-            let v = match m.value {
-                crate::proto::powercube::MotionValue::Float(v) => v.to_string(),
-                crate::proto::powercube::MotionValue::Int32(v) => v.to_string(),
-                crate::proto::powercube::MotionValue::Int16(v) => v.to_string(),
-            };
-            match m.time_ms {
-                Some(t) => format!("SetMotion {name} {v} in {t} ms"),
-                None => format!("SetMotion {name} {v}"),
-            }
-        }
-        other => other.command().name().to_string(),
-    }
+    req.to_string()
 }
 
 fn hex(bytes: &[u8]) -> String {

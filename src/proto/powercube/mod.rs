@@ -6,6 +6,7 @@
 //! config, setup and DIO words.
 
 pub mod can;
+mod display;
 pub mod flags;
 pub mod frame;
 pub mod limits;

@@ -354,14 +354,6 @@ fn a_reply_echoing_an_unknown_selector_is_not_a_match() {
     assert_eq!(e.kind().exit_code(), 4);
 }
 
-#[test]
-fn describe_names_rows_and_fields() {
-    let d = Command::Goto { mode: GotoMode::Relative, position: -5 }.encode(m(1)).unwrap();
-    assert_eq!(describe(&d), "goto relative position=-5");
-    let d = Command::StoreConfiguration { defaults: true }.encode(m(1)).unwrap();
-    assert_eq!(describe(&d), "store_configuration default");
-}
-
 proptest! {
     // Whatever else is on the bus, the session ends with the genuine answer,
     // a matching error, or (if noise was a matching reply) that reply; it never panics.
