@@ -25,7 +25,7 @@ use std::time::{Duration, Instant};
 use super::core::{core_setters, with_read_retries, Core, Retryable};
 use super::{SessionError, TraceEvent};
 use crate::link::CanLink;
-use crate::proto::cdios::session::{incoming, Burst, Exchange, Incoming, Settled, Verdict};
+use crate::proto::cdios::session::{incoming, is_busy, Burst, Exchange, Incoming, Settled, Verdict};
 use crate::proto::cdios::table::DecodedReply;
 use crate::proto::cdios::transport::{self, Answer};
 use crate::proto::cdios::{
@@ -44,10 +44,6 @@ pub const BUSY_RETRY_INTERVAL: Duration = Duration::from_millis(50);
 pub const BUSY_RETRY_LIMIT: Duration = Duration::from_millis(1000);
 /// Events kept for the caller; older ones are dropped (and counted).
 pub const EVENT_QUEUE: usize = 1024;
-
-/// General error codes after which the same read may succeed a little later.
-const GENERAL_INITIALISING: u8 = 4;
-const GENERAL_EEPROM_BUSY: u8 = 8;
 
 /// An unsolicited answer (code | 0x40), as received.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -217,7 +213,7 @@ impl Cdios {
             match self.attempt(ex) {
                 Err(Failure::Refused(e))
                     if ex.is_read()
-                        && matches!(e.general, GENERAL_INITIALISING | GENERAL_EEPROM_BUSY)
+                        && is_busy(&e)
                         && self.core.now() + BUSY_RETRY_INTERVAL - first <= BUSY_RETRY_LIMIT =>
                 {
                     self.core.trace(|| TraceEvent::Note(format!("controller busy, reading again: {}", e.describe())));
@@ -238,20 +234,23 @@ impl Cdios {
         let deadline = core.now() + wait.timeout;
         let answer = core.recv_until(&mut **link, deadline, |core, frame| {
             let Some(answer) = events.take_answer(core, &frame) else { return ControlFlow::Continue(()) };
-            let (note, result) = match ex.handle(&answer) {
-                Verdict::OtherTarget => ("ignored (another node or module)".to_string(), None),
-                Verdict::OtherCommand => ("ignored (answers another command)".to_string(), None),
-                Verdict::Refused(e) => (format!("error: {}", e.describe()), Some(Err(Failure::Refused(e)))),
+            let verdict = ex.handle(&answer);
+            core.trace(|| {
+                TraceEvent::Received(match &verdict {
+                    Verdict::OtherTarget => format!("{frame:<22} ignored (another node or module)"),
+                    Verdict::OtherCommand => format!("{frame:<22} ignored (answers another command)"),
+                    Verdict::Refused(e) => format!("{frame:<22} error: {}", e.describe()),
+                    Verdict::Malformed(_) | Verdict::Reply => format!("{frame:<22} {answer}"),
+                })
+            });
+            match verdict {
+                Verdict::OtherTarget | Verdict::OtherCommand => ControlFlow::Continue(()),
+                Verdict::Refused(e) => ControlFlow::Break(Err(Failure::Refused(e))),
                 Verdict::Malformed(source) => {
                     let e = SessionError::Malformed { target: target(ex.node, ex.address), source };
-                    (answer.to_string(), Some(Err(e.into())))
+                    ControlFlow::Break(Err(e.into()))
                 }
-                Verdict::Reply => (answer.to_string(), Some(Ok(Some(answer)))),
-            };
-            core.trace(|| TraceEvent::Received(format!("{frame:<22} {note}")));
-            match result {
-                Some(r) => ControlFlow::Break(r),
-                None => ControlFlow::Continue(()),
+                Verdict::Reply => ControlFlow::Break(Ok(Some(answer))),
             }
         })?;
         if let Some(r) = answer {

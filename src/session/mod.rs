@@ -1,11 +1,12 @@
 //! Sessions: send a request, wait for the matching answer with a timeout,
 //! ignore foreign traffic, and turn what went wrong into a typed error.
 //!
-//! The matching rules live in `proto` (e.g. [`Request::matches`]); a session
-//! only adds deadlines, the retry policy and tracing. Reads may be retried;
-//! motion commands never are.
-//!
-//! [`Request::matches`]: crate::proto::powercube::Request::matches
+//! The matching rules live in `proto`, sans-IO (`proto::powercube::session`,
+//! `proto::cdios::session`, `proto::pac::session`); a session only moves
+//! bytes or frames, and its core (deadlines, the retry policy, tracing, the
+//! pipelined CAN burst) is shared by the three families. Reads may be
+//! retried; motion commands never are. Families sharing one CAN link do so
+//! through [`bus`], which routes each answer to its family's session.
 
 pub mod bus;
 pub mod cdios;

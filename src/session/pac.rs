@@ -20,7 +20,7 @@
 //!   (the line stays free for a stop): see `pac-move --wait`.
 //! - QUIT != 0 is [`SessionError::Device`] with the manual 6.5 number, hex and
 //!   decimal, and its text.
-//! - Reads (every 1xxx code: get / send) are retried per the [`RetryPolicy`];
+//! - Reads (every 1xxx code: get / send) are retried per the [`RetryPolicy`](super::RetryPolicy);
 //!   nothing else is, least of all motion.
 //! - CHECK is sent per [`CheckRule::Strict`] unless told to include ETX;
 //!   acknowledges are accepted under either rule and the trace says which.

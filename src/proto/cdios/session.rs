@@ -19,6 +19,17 @@ pub const NO_CONFIRM_WINDOW: Duration = Duration::from_millis(50);
 /// the reply message is sent"; this is on top of the normal timeout.
 pub const STORE_TIME: Duration = Duration::from_millis(750);
 
+/// General error codes after which the same read may succeed a little
+/// later: the controller is initialising (the first 500 ms) or writing its
+/// EEPROM.
+const GENERAL_INITIALISING: u8 = 4;
+const GENERAL_EEPROM_BUSY: u8 = 8;
+
+/// Whether an error reply says "busy, ask again" rather than "no".
+pub fn is_busy(e: &ErrorReply) -> bool {
+    matches!(e.general, GENERAL_INITIALISING | GENERAL_EEPROM_BUSY)
+}
+
 /// What a frame on the bus is to a Cdios master.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub enum Incoming {
@@ -259,6 +270,8 @@ mod tests {
         assert_eq!(ex.handle(&answer("181#25010000")), Verdict::OtherCommand);
         let Verdict::Refused(e) = ex.handle(&answer("181#A301000400000000")) else { panic!() };
         assert_eq!((e.command, e.general), (0x23, 4));
+        assert!(is_busy(&e), "general error 4: initialising");
+        assert!(!is_busy(&ErrorReply::new(0x23, 1, 1, 0, 0)), "general error 1: no module");
         assert_eq!(incoming(&f("0A3#0b0464")), Incoming::Foreign, "a PowerCube acknowledge");
         assert!(matches!(incoming(&f("181#")), Incoming::Undecodable(_)));
         assert!(matches!(incoming(&f("181#6100007b00000000")), Incoming::Event(_)));
