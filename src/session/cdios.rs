@@ -416,7 +416,7 @@ fn encode(node: NodeId, address: Address, cmd: &Command) -> Result<[u8; 8], Sess
 
 /// The Device error for an error reply: general error and status bits.
 fn refused(ex: &Exchange, e: &ErrorReply) -> SessionError {
-    SessionError::Device { target: target(ex.node, ex.address), what: ex.to_string(), refusal: Box::new(e.into()) }
+    SessionError::refused(target(ex.node, ex.address), ex.to_string(), e.into())
 }
 
 /// A reply or event for humans (its `Display`; kept for the callers outside the session).

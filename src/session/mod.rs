@@ -83,6 +83,11 @@ impl SessionError {
         }
     }
 
+    /// `target` refused `what`.
+    pub fn refused(target: impl Into<String>, what: impl Into<String>, refusal: Refusal) -> Self {
+        Self::Device { target: target.into(), what: what.into(), refusal: Box::new(refusal) }
+    }
+
     /// What the device answered, for a refusal.
     pub fn refusal(&self) -> Option<&Refusal> {
         match self {

@@ -287,12 +287,9 @@ impl Pac {
         self.last_check = Some(ack.check_rule);
         match t.handle_ack(ack) {
             Ok(step) => Ok(step),
-            Err(TransactionError::Device(d)) => Err(SessionError::Device {
-                target: TARGET.into(),
-                what: t.command().to_string(),
-                refusal: Box::new((&d).into()),
+            Err(TransactionError::Device(d)) => {
+                Err(SessionError::refused(TARGET, t.command().to_string(), (&d).into()).into())
             }
-            .into()),
             Err(TransactionError::AlreadyDone) => Err(SessionError::Malformed {
                 target: TARGET.into(),
                 source: DecodeError::Malformed("acknowledge after the command had finished".into()),
