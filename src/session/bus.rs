@@ -234,4 +234,42 @@ mod tests {
         assert_eq!(cdios.recv(Duration::from_millis(5)).unwrap(), None);
         assert_eq!(clock.now() - t0, Duration::from_millis(5));
     }
+
+    proptest::proptest! {
+        // Whichever port reads first, every frame arrives exactly once, each
+        // family's answers at its own port in bus order.
+        #[test]
+        fn every_frame_reaches_exactly_one_port_in_order(
+            ids in proptest::collection::vec(proptest::sample::select(vec![0x0A3u32, 0x0B1, 0x181, 0x1FF, 0x0C3, 0x201, 0x000]), 0..40),
+            readers in proptest::collection::vec(proptest::bool::ANY, 0..80),
+        ) {
+            let clock: Arc<dyn Clock> = Arc::new(VirtualClock::new());
+            let mem = MemBus::new(Arc::clone(&clock));
+            let mut other = mem.open();
+            let bus = CanBus::new(Box::new(mem.open()), Arc::clone(&clock));
+            let mut ports = [bus.port(Route::PowerCube), bus.port(Route::Cdios)];
+            let sent: Vec<CanFrame> = ids.iter().enumerate().map(|(i, id)| CanFrame::new(*id, &[i as u8]).unwrap()).collect();
+            for frame in &sent {
+                other.send(frame).unwrap();
+            }
+            let mut got: [Vec<CanFrame>; 2] = [Vec::new(), Vec::new()];
+            // Interleaved single reads, then each port drained.
+            for r in readers.iter().map(|r| usize::from(*r)) {
+                got[r].extend(ports[r].recv(Duration::ZERO).unwrap());
+            }
+            for r in [0, 1] {
+                while let Some(frame) = ports[r].recv(Duration::ZERO).unwrap() {
+                    got[r].push(frame);
+                }
+            }
+            for (r, route) in [Route::PowerCube, Route::Cdios].into_iter().enumerate() {
+                let own: Vec<_> = got[r].iter().filter(|f| Route::of(f).is_some()).copied().collect();
+                let expected: Vec<_> = sent.iter().filter(|f| Route::of(f) == Some(route)).copied().collect();
+                proptest::prop_assert_eq!(own, expected);
+            }
+            let mut all: Vec<_> = got.concat();
+            all.sort_by_key(|f| f.data()[0]);
+            proptest::prop_assert_eq!(all, sent);
+        }
+    }
 }
