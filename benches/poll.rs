@@ -14,9 +14,11 @@ use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
 use axisctl::clock::{Clock, SystemClock};
+use axisctl::family::Family;
 use axisctl::link::{self, ByteLink, CanLink, LinkError, LinkSpec, SerialFormat};
 use axisctl::proto::cdios::NodeId;
 use axisctl::proto::CanFrame;
+use axisctl::session::bus::CanBus;
 use axisctl::session::cdios::Cdios;
 use axisctl::session::pac::Pac;
 use axisctl::session::powercube::PowerCube;
@@ -27,7 +29,7 @@ use axisctl::tui::cdios::CdiosSource;
 use axisctl::tui::event::LinkEvent;
 use axisctl::tui::pac::PacSource;
 use axisctl::tui::powercube::CubeSource;
-use axisctl::tui::source::{DeviceSource, SharedCan};
+use axisctl::tui::source::DeviceSource;
 use axisctl::tui::worker::{LinkWorker, MAX_RATE};
 
 /// Wire time seen so far, in bit times, and the frames (or writes) that carried it.
@@ -79,15 +81,17 @@ impl ByteLink for MeteredBytes {
 }
 
 /// The dashboard's CAN sources on one shared link.
-fn can_sources(shared: &SharedCan, families: Vec<&str>) -> Vec<Box<dyn DeviceSource>> {
+fn can_sources(shared: &CanBus, families: Vec<&str>) -> Vec<Box<dyn DeviceSource>> {
     let families = if families.is_empty() { vec!["powercube", "cdios"] } else { families };
     families
         .iter()
         .map(|f| -> Box<dyn DeviceSource> {
             match *f {
-                "powercube" => Box::new(CubeSource::new(PowerCube::over_can(Box::new(shared.clone())), None)),
+                "powercube" => {
+                    Box::new(CubeSource::new(PowerCube::over_can(Box::new(shared.port(Family::PowerCube))), None))
+                }
                 "cdios" => Box::new(CdiosSource::new(
-                    Cdios::new(Box::new(shared.clone())),
+                    Cdios::new(Box::new(shared.port(Family::Cdios))),
                     NodeId::new(1).unwrap(),
                     None,
                     RetryPolicy::default(),
@@ -119,7 +123,7 @@ fn main() {
     let (bit_rate, sources): (u32, Vec<Box<dyn DeviceSource>>) = match &spec {
         LinkSpec::Slcan { bitrate, .. } => {
             let l = link::open_can(&spec).expect("open the CAN link");
-            let shared = SharedCan::new(Box::new(MeteredCan(l, Arc::clone(&meter))));
+            let shared = CanBus::new(Box::new(MeteredCan(l, Arc::clone(&meter))), Arc::clone(&clock));
             (*bitrate, can_sources(&shared, families))
         }
         LinkSpec::Serial { path, baud, format } => {
@@ -150,7 +154,10 @@ fn main() {
                 let pac = Pac::new(l, wire.baud, SerialFormat::F7N1).with_clock(Arc::clone(&clock));
                 (wire.baud, vec![Box::new(PacSource::new(pac, None)) as Box<dyn DeviceSource>])
             } else {
-                let shared = SharedCan::new(Box::new(MeteredCan(Box::new(bench.bus.open()), Arc::clone(&meter))));
+                let shared = CanBus::new(
+                    Box::new(MeteredCan(Box::new(bench.bus.open()), Arc::clone(&meter))),
+                    Arc::clone(&clock),
+                );
                 (wire.bitrate, can_sources(&shared, families))
             }
         }

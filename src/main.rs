@@ -22,8 +22,11 @@ fn main() -> ExitCode {
         Err(e) => {
             let kind = commands::classify(&e);
             if json {
-                let doc = serde_json::json!({"error": {"kind": kind.as_str(), "message": message(&e)}});
-                eprintln!("{doc}");
+                let mut error = serde_json::json!({"kind": kind.as_str(), "message": message(&e)});
+                if let Some(refusal) = refusal(&e) {
+                    error["device"] = serde_json::to_value(refusal).unwrap_or_default();
+                }
+                eprintln!("{}", serde_json::json!({ "error": error }));
             } else {
                 eprintln!("axisctl: {}", message(&e));
             }
@@ -46,6 +49,15 @@ fn message(e: &anyhow::Error) -> String {
         }
     }
     out
+}
+
+/// What the device answered, when the error is its refusal.
+fn refusal(e: &anyhow::Error) -> Option<&axisctl::proto::Refusal> {
+    use axisctl::session::{pac::PacError, SessionError};
+    e.chain().find_map(|c| match c.downcast_ref::<PacError>() {
+        Some(PacError::Session(s)) => s.refusal(),
+        _ => c.downcast_ref::<SessionError>().and_then(SessionError::refusal),
+    })
 }
 
 fn is_broken_pipe(e: &anyhow::Error) -> bool {

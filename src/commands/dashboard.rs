@@ -14,10 +14,11 @@ use axisctl::link::LinkSpec;
 use axisctl::open::{OpenedLink, Opener, SessionOptions};
 use axisctl::proto::cdios::{ModuleId as CdiosModule, NodeId};
 use axisctl::proto::powercube::ModuleId as CubeModule;
+use axisctl::session::bus::CanBus;
 use axisctl::tui::cdios::CdiosSource;
 use axisctl::tui::pac::PacSource;
 use axisctl::tui::powercube::CubeSource;
-use axisctl::tui::source::{DeviceSource, SharedCan};
+use axisctl::tui::source::DeviceSource;
 use axisctl::tui::worker::{MAX_RATE, MIN_RATE};
 use axisctl::tui::LinkPlan;
 
@@ -157,8 +158,8 @@ fn plan(ctx: &Ctx, args: &DashboardArgs) -> anyhow::Result<Vec<LinkPlan>> {
     let mut plans = Vec::new();
     for (spec, can, fams) in links {
         let sources = if can {
-            let bus = SharedCan::new(opener.can(spec, None)?);
-            fams.into_iter().map(|f| source(ctx, args, f, OpenedLink::Can(Box::new(bus.clone())))).collect()
+            let bus = CanBus::new(opener.can(spec, None)?, Arc::clone(&ctx.clock));
+            fams.into_iter().map(|f| source(ctx, args, f, OpenedLink::Can(Box::new(bus.port(f))))).collect()
         } else {
             fams.into_iter()
                 .map(|f| Ok(source(ctx, args, f, opener.open(spec, f)?)))

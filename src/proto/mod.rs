@@ -8,9 +8,11 @@ pub mod candump;
 pub mod cdios;
 pub mod pac;
 pub mod powercube;
+pub mod refusal;
 pub mod slcan;
 
 pub use can::CanFrame;
+pub use refusal::Refusal;
 
 /// Why a sequence of bytes or a frame could not be decoded.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]

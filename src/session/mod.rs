@@ -1,20 +1,23 @@
 //! Sessions: send a request, wait for the matching answer with a timeout,
 //! ignore foreign traffic, and turn what went wrong into a typed error.
 //!
-//! The matching rules live in `proto` (e.g. [`Request::matches`]); a session
-//! only adds deadlines, the retry policy and tracing. Reads may be retried;
-//! motion commands never are.
-//!
-//! [`Request::matches`]: crate::proto::powercube::Request::matches
+//! The matching rules live in `proto`, sans-IO (`proto::powercube::session`,
+//! `proto::cdios::session`, `proto::pac::session`); a session only moves
+//! bytes or frames, and its core (deadlines, the retry policy, tracing, the
+//! pipelined CAN burst) is shared by the three families. Reads may be
+//! retried; motion commands never are. Families sharing one CAN link do so
+//! through [`bus`], which routes each answer to its family's session.
 
+pub mod bus;
 pub mod cdios;
+mod core;
 pub mod pac;
 pub mod powercube;
 
 use std::time::Duration;
 
 use crate::link::LinkError;
-use crate::proto::DecodeError;
+use crate::proto::{DecodeError, Refusal};
 
 /// What kind of failure, in the contract's exit-code terms.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
@@ -65,8 +68,9 @@ pub enum SessionError {
     Timeout { target: String, what: String, timeout: Duration },
     #[error("malformed answer from {target}: {source}")]
     Malformed { target: String, source: DecodeError },
-    #[error("{target} refused {what}: {reason}")]
-    Device { target: String, what: String, reason: String },
+    #[error("{target} refused {what}: {refusal}")]
+    /// Boxed: a refusal is rare and large, a `Result` is common.
+    Device { target: String, what: String, refusal: Box<Refusal> },
 }
 
 impl SessionError {
@@ -76,6 +80,19 @@ impl SessionError {
             Self::Timeout { .. } => ErrorKind::Timeout,
             Self::Malformed { .. } => ErrorKind::Malformed,
             Self::Device { .. } => ErrorKind::Device,
+        }
+    }
+
+    /// `target` refused `what`.
+    pub fn refused(target: impl Into<String>, what: impl Into<String>, refusal: Refusal) -> Self {
+        Self::Device { target: target.into(), what: what.into(), refusal: Box::new(refusal) }
+    }
+
+    /// What the device answered, for a refusal.
+    pub fn refusal(&self) -> Option<&Refusal> {
+        match self {
+            Self::Device { refusal, .. } => Some(refusal),
+            _ => None,
         }
     }
 }

@@ -20,21 +20,20 @@
 //!   (the line stays free for a stop): see `pac-move --wait`.
 //! - QUIT != 0 is [`SessionError::Device`] with the manual 6.5 number, hex and
 //!   decimal, and its text.
-//! - Reads (every 1xxx code: get / send) are retried per the [`RetryPolicy`];
+//! - Reads (every 1xxx code: get / send) are retried per the [`RetryPolicy`](super::RetryPolicy);
 //!   nothing else is, least of all motion.
 //! - CHECK is sent per [`CheckRule::Strict`] unless told to include ETX;
 //!   acknowledges are accepted under either rule and the trace says which.
 
-use std::sync::Arc;
+use std::ops::ControlFlow;
 use std::time::Duration;
 
-use super::{RetryPolicy, SessionError, TraceEvent, Tracer};
-use crate::clock::{Clock, SystemClock};
+use super::core::{core_setters, with_read_retries, Core, Retryable};
+use super::{SessionError, TraceEvent};
 use crate::link::{ByteLink, SerialFormat};
-use crate::proto::pac::frame::{EncodeOptions, FrameError, SOH};
+use crate::proto::pac::frame::{EncodeOptions, FrameError};
 use crate::proto::pac::session::{Outgoing, Step, Transaction, TransactionError, DEFAULT_POLL_INTERVAL};
-use crate::proto::pac::table;
-use crate::proto::pac::{Ack, AckDecoder, CheckRule, Command};
+use crate::proto::pac::{printable, Ack, AckDecoder, CheckRule, Command};
 use crate::proto::DecodeError;
 
 /// Base answer timeout before wire time is added (as for PowerCube RS232;
@@ -65,13 +64,16 @@ pub enum PacError {
     /// The command could not be written (a non-finite PAR_2).
     #[error("cannot encode the command: {0}")]
     Encode(String),
+    /// A poll without an unfinished command: nothing was sent.
+    #[error("no command is being processed: there is nothing to poll")]
+    NotBusy,
 }
 
 impl PacError {
     pub fn kind(&self) -> super::ErrorKind {
         match self {
             Self::Session(e) => e.kind(),
-            Self::Busy { .. } | Self::Encode(_) => super::ErrorKind::Usage,
+            Self::Busy { .. } | Self::Encode(_) | Self::NotBusy => super::ErrorKind::Usage,
             Self::Abandoned { .. } => super::ErrorKind::Interrupted,
         }
     }
@@ -104,9 +106,7 @@ pub struct Pac {
     timeout: Option<Duration>,
     poll_interval: Duration,
     busy_timeout: Duration,
-    retry: RetryPolicy,
-    tracer: Option<Tracer>,
-    clock: Arc<dyn Clock>,
+    core: Core,
     /// A command left unfinished (BE = 0) by an abandoned wait or [`Pac::start`].
     busy: Option<Transaction>,
     last_status: Option<u16>,
@@ -117,6 +117,14 @@ pub struct Pac {
 /// Every read code is 1xxx (get / send, manual 5.1); writes and actions are 0xxx.
 pub fn is_read(code: u16) -> bool {
     code >> 12 == 1
+}
+
+core_setters!(Pac);
+
+impl Retryable for PacError {
+    fn retryable(&self) -> bool {
+        matches!(self, Self::Session(e) if e.retryable())
+    }
 }
 
 impl Pac {
@@ -131,24 +139,12 @@ impl Pac {
             timeout: None,
             poll_interval: DEFAULT_POLL_INTERVAL,
             busy_timeout: DEFAULT_BUSY_TIMEOUT,
-            retry: RetryPolicy::default(),
-            tracer: None,
-            clock: Arc::new(SystemClock),
+            core: Core::new(BASE_TIMEOUT),
             busy: None,
             last_status: None,
             last_quit: None,
             last_check: None,
         }
-    }
-
-    /// The clock deadlines and poll intervals are measured on.
-    pub fn with_clock(mut self, clock: Arc<dyn Clock>) -> Self {
-        self.clock = clock;
-        self
-    }
-
-    pub fn clock(&self) -> &Arc<dyn Clock> {
-        &self.clock
     }
 
     /// A fixed answer timeout instead of 30 ms plus wire time.
@@ -167,14 +163,6 @@ impl Pac {
     /// Overall limit for a command that answers BE = 0.
     pub fn set_busy_timeout(&mut self, timeout: Duration) {
         self.busy_timeout = timeout;
-    }
-
-    pub fn set_retry(&mut self, retry: RetryPolicy) {
-        self.retry = retry;
-    }
-
-    pub fn set_tracer(&mut self, tracer: Tracer) {
-        self.tracer = Some(tracer);
     }
 
     /// Which rule the CHECK of sent commands follows (received ones may
@@ -212,12 +200,6 @@ impl Pac {
         })
     }
 
-    fn trace(&mut self, ev: impl FnOnce() -> TraceEvent) {
-        if let Some(t) = self.tracer.as_mut() {
-            t(ev());
-        }
-    }
-
     /// Sends `cmd` and waits until it is finished (BE = 1), polling while
     /// BE = 0. Reads are retried; nothing else is.
     pub fn transact(&mut self, cmd: &Command) -> Result<Done, PacError> {
@@ -232,21 +214,7 @@ impl Pac {
         cmd: &Command,
         observe: &mut dyn FnMut(&Progress) -> bool,
     ) -> Result<Done, PacError> {
-        let attempts = if is_read(cmd.code) { 1 + self.retry.read_retries } else { 1 };
-        let mut last = None;
-        for attempt in 0..attempts {
-            if attempt > 0 {
-                self.trace(|| TraceEvent::Note(format!("retrying read ({attempt}/{})", attempts - 1)));
-            }
-            match self.run(cmd, observe) {
-                Ok(done) => return Ok(done),
-                Err(PacError::Session(e @ (SessionError::Timeout { .. } | SessionError::Malformed { .. }))) => {
-                    last = Some(e)
-                }
-                Err(e) => return Err(e),
-            }
-        }
-        Err(last.expect("at least one attempt").into())
+        with_read_retries(self, is_read(cmd.code), None, |s| s.run(cmd, observe))
     }
 
     /// Sends `cmd` and returns its first acknowledge. If that says BE = 0 the
@@ -264,14 +232,7 @@ impl Pac {
 
     /// Polls the unfinished command once (EOT) and returns the fresh acknowledge.
     pub fn poll(&mut self) -> Result<Step, PacError> {
-        let Some(mut t) = self.busy.take() else {
-            return Err(SessionError::Device {
-                target: TARGET.into(),
-                what: "a poll".into(),
-                reason: "no command is being processed".into(),
-            }
-            .into());
-        };
+        let Some(mut t) = self.busy.take() else { return Err(PacError::NotBusy) };
         let ack = self.send_poll(&mut t)?;
         let step = self.handle(&mut t, ack)?;
         if let Step::NeedPoll { .. } = step {
@@ -289,7 +250,7 @@ impl Pac {
     pub fn abandon_and_stop(&mut self, stop: &Command) -> Result<Done, PacError> {
         if let Some(t) = self.busy.take() {
             let code = t.command().code;
-            self.trace(|| TraceEvent::Note(format!("abandoning unfinished {code:04X} to send {:04X}", stop.code)));
+            self.core.trace(|| TraceEvent::Note(format!("abandoning unfinished {code:04X} to send {:04X}", stop.code)));
         }
         self.transact(stop)
     }
@@ -302,7 +263,7 @@ impl Pac {
         }
         let t = Transaction::with_options(*cmd, self.options).poll_interval(self.poll_interval);
         let bytes = t.request().map_err(|e| PacError::Encode(e.to_string()))?;
-        self.trace(|| TraceEvent::Sent(format!("{}  {}", printable(&bytes), describe(cmd))));
+        self.core.trace(|| TraceEvent::Sent(format!("{}  {cmd}", printable(&bytes))));
         // Half-duplex: anything still buffered belongs to an older exchange.
         self.link.clear_input().map_err(SessionError::from)?;
         self.decoder.clear();
@@ -313,7 +274,7 @@ impl Pac {
     fn send_poll(&mut self, t: &mut Transaction) -> Result<Ack, PacError> {
         let bytes = t.poll();
         let polls = t.polls();
-        self.trace(|| TraceEvent::Sent(format!("{}  poll {polls}", printable(&bytes))));
+        self.core.trace(|| TraceEvent::Sent(format!("{}  poll {polls}", printable(&bytes))));
         self.link.clear_input().map_err(SessionError::from)?;
         self.decoder.clear();
         self.link.write_all(&bytes).map_err(SessionError::from)?;
@@ -326,12 +287,9 @@ impl Pac {
         self.last_check = Some(ack.check_rule);
         match t.handle_ack(ack) {
             Ok(step) => Ok(step),
-            Err(TransactionError::Device(d)) => Err(SessionError::Device {
-                target: TARGET.into(),
-                what: describe(t.command()),
-                reason: format!("command error 0x{:02X} ({}): {}", d.quit, d.quit, d.text),
+            Err(TransactionError::Device(d)) => {
+                Err(SessionError::refused(TARGET, t.command().to_string(), (&d).into()).into())
             }
-            .into()),
             Err(TransactionError::AlreadyDone) => Err(SessionError::Malformed {
                 target: TARGET.into(),
                 source: DecodeError::Malformed("acknowledge after the command had finished".into()),
@@ -341,12 +299,12 @@ impl Pac {
     }
 
     fn run(&mut self, cmd: &Command, observe: &mut dyn FnMut(&Progress) -> bool) -> Result<Done, PacError> {
-        let start = self.clock.now();
+        let start = self.core.clock.now();
         let mut t = self.begin(cmd)?;
         let mut ack = self.await_ack(cmd)?;
         loop {
             let step = self.handle(&mut t, ack)?;
-            let elapsed = self.clock.now() - start;
+            let elapsed = self.core.clock.now() - start;
             let last = match step {
                 Step::Done(ack) => {
                     observe(&Progress { command: *cmd, ack, polls: t.polls(), elapsed });
@@ -363,12 +321,12 @@ impl Pac {
                 self.busy = Some(t);
                 return Err(SessionError::Timeout {
                     target: TARGET.into(),
-                    what: format!("the end of {} (still BE = 0)", describe(cmd)),
+                    what: format!("the end of {cmd} (still BE = 0)"),
                     timeout: self.busy_timeout,
                 }
                 .into());
             }
-            self.clock.sleep(self.poll_interval);
+            self.core.clock.sleep(self.poll_interval);
             ack = match self.send_poll(&mut t) {
                 Ok(a) => a,
                 Err(e) => {
@@ -385,91 +343,48 @@ impl Pac {
     /// are skipped (traced); a frame with a bad CHECK or bad fields is malformed.
     fn await_ack(&mut self, cmd: &Command) -> Result<Ack, PacError> {
         let timeout = self.answer_timeout(24);
-        let deadline = self.clock.now() + timeout;
-        let mut buf = [0u8; 128];
-        loop {
-            while let Some(item) = self.decoder.next() {
+        let Self { link, core, decoder, .. } = self;
+        let deadline = core.now() + timeout;
+        let ack = core.read_until(&mut **link, deadline, |core, chunk, _| {
+            decoder.push(chunk);
+            while let Some(item) = decoder.next() {
                 match item {
                     Ok(ack) => {
-                        self.trace(|| TraceEvent::Received(describe_ack(&ack)));
-                        return Ok(ack);
+                        core.trace(|| TraceEvent::Received(ack.to_string()));
+                        return ControlFlow::Break(Ok(ack));
                     }
-                    Err(e @ FrameError::Garbage { .. }) => self.trace(|| TraceEvent::Note(format!("skipped: {e}"))),
+                    Err(e @ FrameError::Garbage { .. }) => core.trace(|| TraceEvent::Note(format!("skipped: {e}"))),
                     Err(e) => {
-                        self.trace(|| TraceEvent::Received(format!("bad frame: {e}")));
-                        return Err(SessionError::Malformed {
-                            target: TARGET.into(),
-                            source: DecodeError::Malformed(e.to_string()),
-                        }
-                        .into());
+                        core.trace(|| TraceEvent::Received(format!("bad frame: {e}")));
+                        let source = DecodeError::Malformed(e.to_string());
+                        return ControlFlow::Break(Err(SessionError::Malformed { target: TARGET.into(), source }));
                     }
                 }
             }
-            let now = self.clock.now();
-            if now >= deadline {
-                if self.decoder.buffered() > 0 {
-                    let n = self.decoder.buffered();
-                    self.trace(|| TraceEvent::Note(format!("{n} byte(s) of an incomplete frame at the timeout")));
+            ControlFlow::Continue(())
+        });
+        match ack.map_err(SessionError::from)? {
+            Some(ack) => Ok(ack?),
+            None => {
+                let n = decoder.buffered();
+                if n > 0 {
+                    core.trace(|| TraceEvent::Note(format!("{n} byte(s) of an incomplete frame at the timeout")));
                 }
-                return Err(SessionError::Timeout { target: TARGET.into(), what: describe(cmd), timeout }.into());
+                Err(SessionError::Timeout { target: TARGET.into(), what: cmd.to_string(), timeout }.into())
             }
-            let n = self.link.read(&mut buf, deadline - now).map_err(SessionError::from)?;
-            self.decoder.push(&buf[..n]);
         }
     }
-}
-
-/// `0A87 pos-axis-absolut PAR_1 2 PAR_2 5552.0`, for traces and errors.
-pub fn describe(cmd: &Command) -> String {
-    match table::command(cmd.code) {
-        Some(d) => format!("{:04X} {} ({} {})", cmd.code, d.name, cmd.par1, cmd.par2),
-        None => format!("{:04X} (unknown code) ({} {})", cmd.code, cmd.par1, cmd.par2),
-    }
-}
-
-/// One acknowledge, decoded, with the CHECK rule it matched.
-pub fn describe_ack(ack: &Ack) -> String {
-    let check = match ack.check_rule {
-        CheckRule::Strict => "CHECK without ETX",
-        CheckRule::WithEtx => "CHECK with ETX",
-        CheckRule::Omitted => "CHECK omitted (0)",
-    };
-    let frame = ack.encode().map(|b| printable(&b)).unwrap_or_default();
-    format!(
-        "{frame}  QUIT {} BE {} STATUS {} ({}) ERROR {} Q_PAR {}  [{check}]",
-        ack.quit,
-        u8::from(ack.be),
-        ack.status,
-        table::operating_status_text(ack.status),
-        ack.error,
-        ack.q_par
-    )
-}
-
-/// Control characters by name, the rest as text: `<SOH><STX>0603;0;0;0<ETX>14<EOT>`.
-pub fn printable(bytes: &[u8]) -> String {
-    let mut s = String::new();
-    for &b in bytes {
-        match b {
-            SOH => s.push_str("<SOH>"),
-            0x02 => s.push_str("<STX>"),
-            0x03 => s.push_str("<ETX>"),
-            0x04 => s.push_str("<EOT>"),
-            0x20..=0x7e => s.push(b as char),
-            _ => s.push_str(&format!("<{b:02x}>")),
-        }
-    }
-    s
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::clock::VirtualClock;
+    use crate::clock::{Clock, VirtualClock};
     use crate::link::LinkError;
     use crate::proto::pac::Par2;
+    use crate::session::RetryPolicy;
     use std::collections::VecDeque;
-    use std::sync::Mutex;
+    use std::sync::{Arc, Mutex};
 
     /// A scripted line: each write is recorded and answered with the next
     /// scripted reply (`None`: silence).

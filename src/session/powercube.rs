@@ -5,16 +5,17 @@
 //! request is sent first, then the answers are collected within one timeout,
 //! which is what makes a 31-id scan take one timeout instead of 31.
 
+use std::ops::ControlFlow;
 use std::sync::Arc;
 use std::time::Duration;
 
-use crate::clock::{Clock, SystemClock};
-
-use super::{RetryPolicy, SessionError, TraceEvent, Tracer};
+use super::core::{core_setters, with_read_retries, Core};
+use super::{SessionError, TraceEvent};
 use crate::link::{ByteLink, CanLink};
-use crate::proto::powercube::can::{self as pc_can, Broadcast};
+use crate::proto::powercube::can::Broadcast;
 use crate::proto::powercube::rs232::{self, Direction};
-use crate::proto::powercube::table::{ParamDef, ParamType};
+use crate::proto::powercube::session::{self as matcher, CanExchange, Rs232Verdict};
+use crate::proto::powercube::table::ParamDef;
 use crate::proto::powercube::{frame::Value, ModuleId, Request, Response};
 use crate::proto::{CanFrame, DecodeError};
 
@@ -22,8 +23,6 @@ use crate::proto::{CanFrame, DecodeError};
 pub const CAN_TIMEOUT: Duration = Duration::from_millis(100);
 /// Default RS232 timeout before wire time is added (the vendor library's).
 pub const RS232_BASE_TIMEOUT: Duration = Duration::from_millis(30);
-/// Most stale frames dropped before a CAN request.
-const MAX_DRAIN: usize = 256;
 /// Longest RS232 frame on the wire: STX, ETX and 11 bytes that may all need DLE.
 const RS232_MAX_FRAME: u32 = 24;
 
@@ -34,10 +33,7 @@ enum Transport {
 
 pub struct PowerCube {
     transport: Transport,
-    timeout: Duration,
-    retry: RetryPolicy,
-    tracer: Option<Tracer>,
-    clock: Arc<dyn Clock>,
+    core: Core,
     /// RS232: give up when no answer byte has come this long after the
     /// request has left (absent modules never answer; present ones answer at once).
     answer_start: Option<Duration>,
@@ -45,50 +41,22 @@ pub struct PowerCube {
     frames: Vec<CanFrame>,
 }
 
+core_setters!(PowerCube, timeout);
+
 impl PowerCube {
+    fn with_transport(transport: Transport, timeout: Duration) -> Self {
+        Self { transport, core: Core::new(timeout), answer_start: None, frames: Vec::new() }
+    }
+
     pub fn over_can(link: Box<dyn CanLink>) -> Self {
-        Self {
-            transport: Transport::Can(link),
-            timeout: CAN_TIMEOUT,
-            retry: RetryPolicy::default(),
-            tracer: None,
-            clock: Arc::new(SystemClock),
-            answer_start: None,
-            frames: Vec::new(),
-        }
+        Self::with_transport(Transport::Can(link), CAN_TIMEOUT)
     }
 
     /// `baud` sets the default timeout: 30 ms plus the wire time of the
     /// longest request and answer.
     pub fn over_rs232(link: Box<dyn ByteLink>, baud: u32) -> Self {
         let timeout = RS232_BASE_TIMEOUT + rs232_wire_time(baud, 2 * RS232_MAX_FRAME);
-        Self {
-            transport: Transport::Rs232 { link, decoder: rs232::Decoder::new(), baud },
-            timeout,
-            retry: RetryPolicy::default(),
-            tracer: None,
-            clock: Arc::new(SystemClock),
-            answer_start: None,
-            frames: Vec::new(),
-        }
-    }
-
-    /// The clock deadlines are measured on; links on virtual time pass theirs.
-    pub fn with_clock(mut self, clock: Arc<dyn Clock>) -> Self {
-        self.clock = clock;
-        self
-    }
-
-    pub fn clock(&self) -> &Arc<dyn Clock> {
-        &self.clock
-    }
-
-    pub fn set_timeout(&mut self, timeout: Duration) {
-        self.timeout = timeout;
-    }
-
-    pub fn timeout(&self) -> Duration {
-        self.timeout
+        Self::with_transport(Transport::Rs232 { link, decoder: rs232::Decoder::new(), baud }, timeout)
     }
 
     /// RS232 only: time out early when the answer has not started this long
@@ -96,14 +64,6 @@ impl PowerCube {
     /// the request's wire time plus this, not the whole timeout).
     pub fn set_answer_start_timeout(&mut self, t: Option<Duration>) {
         self.answer_start = t;
-    }
-
-    pub fn set_retry(&mut self, retry: RetryPolicy) {
-        self.retry = retry;
-    }
-
-    pub fn set_tracer(&mut self, tracer: Tracer) {
-        self.tracer = Some(tracer);
     }
 
     pub fn is_can(&self) -> bool {
@@ -118,17 +78,10 @@ impl PowerCube {
         }
     }
 
-    fn trace(&mut self, ev: impl FnOnce() -> TraceEvent) {
-        if let Some(t) = self.tracer.as_mut() {
-            t(ev());
-        }
-    }
-
     /// Sends `req` to `module` and waits for its acknowledge. Reads are
-    /// retried per the [`RetryPolicy`]; nothing else is.
+    /// retried per the [`RetryPolicy`](super::RetryPolicy); nothing else is.
     pub fn transact(&mut self, module: ModuleId, req: &Request) -> Result<Response, SessionError> {
-        let attempts = if req.is_read() { 1 + self.retry.read_retries } else { 1 };
-        self.attempts(module, req, attempts, None)
+        with_read_retries(self, req.is_read(), None, |s| s.transact_once(module, req))
     }
 
     /// The retries of a read whose first attempt went out pipelined
@@ -141,51 +94,22 @@ impl PowerCube {
         req: &Request,
         first: SessionError,
     ) -> Result<Response, SessionError> {
-        let retryable = matches!(first, SessionError::Timeout { .. } | SessionError::Malformed { .. });
-        if !req.is_read() || !retryable || self.retry.read_retries == 0 {
-            return Err(first);
-        }
-        self.attempts(module, req, self.retry.read_retries, Some(first))
-    }
-
-    fn attempts(
-        &mut self,
-        module: ModuleId,
-        req: &Request,
-        attempts: u32,
-        first: Option<SessionError>,
-    ) -> Result<Response, SessionError> {
-        let offset = u32::from(first.is_some());
-        let mut last = first;
-        for attempt in 0..attempts {
-            let retry = attempt + offset;
-            if retry > 0 {
-                let of = self.retry.read_retries;
-                self.trace(|| TraceEvent::Note(format!("retrying read ({retry}/{of})")));
-            }
-            match self.transact_once(module, req) {
-                Ok(r) => return Ok(r),
-                Err(e @ (SessionError::Timeout { .. } | SessionError::Malformed { .. })) => last = Some(e),
-                Err(e) => return Err(e),
-            }
-        }
-        Err(last.expect("at least one attempt"))
+        with_read_retries(self, req.is_read(), Some(first), |s| s.transact_once(module, req))
     }
 
     fn transact_once(&mut self, module: ModuleId, req: &Request) -> Result<Response, SessionError> {
         match self.transport {
             Transport::Can(_) => {
-                let mut answer = [None];
-                self.can_exchange(&[(module, *req)], &mut answer)?;
-                let [answer] = answer;
-                answer.unwrap_or_else(|| Err(self.timeout_error(module, req)))
+                let reqs = [(module, *req)];
+                let [answer] = <[_; 1]>::try_from(self.can_exchange(&reqs)?).expect("one request, one answer");
+                answer
             }
             Transport::Rs232 { .. } => self.rs232_transact(module, req),
         }
     }
 
     fn timeout_error(&self, module: ModuleId, req: &Request) -> SessionError {
-        SessionError::Timeout { target: format!("module {module}"), what: describe(req), timeout: self.timeout }
+        SessionError::Timeout { target: target(module), what: req.to_string(), timeout: self.core.timeout }
     }
 
     /// Sends every request, then collects the answers within one timeout
@@ -197,15 +121,7 @@ impl PowerCube {
         reqs: &[(ModuleId, Request)],
     ) -> Result<Vec<Result<Response, SessionError>>, SessionError> {
         match self.transport {
-            Transport::Can(_) => {
-                let mut answers: Vec<_> = reqs.iter().map(|_| None).collect();
-                self.can_exchange(reqs, &mut answers)?;
-                Ok(answers
-                    .into_iter()
-                    .zip(reqs)
-                    .map(|(a, (m, r))| a.unwrap_or_else(|| Err(self.timeout_error(*m, r))))
-                    .collect())
-            }
+            Transport::Can(_) => self.can_exchange(reqs),
             Transport::Rs232 { .. } => {
                 let mut out = Vec::with_capacity(reqs.len());
                 for (m, r) in reqs {
@@ -219,139 +135,99 @@ impl PowerCube {
         }
     }
 
-    /// The CAN exchange: `answers[i]` is left `None` for a request not answered in time.
+    /// The CAN exchange: one answer per request, a timeout for those not answered in time.
     fn can_exchange(
         &mut self,
         reqs: &[(ModuleId, Request)],
-        answers: &mut [Option<Result<Response, SessionError>>],
-    ) -> Result<(), SessionError> {
+    ) -> Result<Vec<Result<Response, SessionError>>, SessionError> {
         let Transport::Can(link) = &mut self.transport else { unreachable!("CAN only") };
-        // Frames queued before these requests go out cannot answer them: a late answer to an
-        // exchange that timed out would otherwise be taken for the answer to the next request
-        // of the same kind, and every later read would return the value one poll behind.
-        // Bounded: a bus that never falls silent must not starve the request.
-        for _ in 0..MAX_DRAIN {
-            let Some(frame) = link.recv(Duration::ZERO)? else { break };
-            if let Some(t) = self.tracer.as_mut() {
-                t(TraceEvent::Received(format!("{frame:<22} ignored (queued before the request)")));
-            }
-        }
+        let core = &mut self.core;
+        core.drain(&mut **link, |core, frame| {
+            core.trace(|| TraceEvent::Received(format!("{frame:<22} ignored (queued before the request)")));
+        })?;
+        let mut exchange = CanExchange::new(reqs);
         let mut frames = std::mem::take(&mut self.frames);
         frames.clear();
-        frames.extend(reqs.iter().map(|(m, r)| pc_can::request_frame(*m, r)));
-        if let Some(t) = self.tracer.as_mut() {
-            for (frame, (m, r)) in frames.iter().zip(reqs) {
-                t(TraceEvent::Sent(format!("{frame:<22} {} to module {m}", describe(r))));
-            }
+        frames.extend(exchange.frames());
+        for (frame, (m, r)) in frames.iter().zip(reqs) {
+            core.trace(|| TraceEvent::Sent(format!("{frame:<22} {r} to module {m}")));
         }
-        // The whole burst in one go: on an slcan adapter that is one write.
-        let sent = link.send_many(&frames);
+        let pending = exchange.pending();
+        let sent = core.burst(&mut **link, &frames, pending, |core, frame| {
+            let matched = exchange.handle(&frame).is_some();
+            core.trace(|| {
+                TraceEvent::Received(format!("{frame:<22} {}", if matched { "ack" } else { "ignored (not ours)" }))
+            });
+            matched
+        });
         self.frames = frames;
         sent?;
-        let deadline = self.clock.now() + self.timeout;
-        let mut pending = reqs.len();
-        while pending > 0 {
-            let now = self.clock.now();
-            if now >= deadline {
-                break;
-            }
-            let Some(frame) = link.recv(deadline - now)? else { break };
-            let mut matched = false;
-            for (i, (m, r)) in reqs.iter().enumerate() {
-                if answers[i].is_some() {
-                    continue;
-                }
-                match pc_can::ack_from(*m, &frame) {
-                    Some(Ok(resp)) if r.matches(&resp) => {
-                        answers[i] = Some(Ok(resp));
-                        matched = true;
-                    }
-                    // A frame on this module's ack id that does not decode is
-                    // malformed only if it could be the answer we wait for.
-                    Some(Err(e)) if frame.data().first() == Some(&(r.command() as u8)) => {
-                        answers[i] = Some(Err(SessionError::Malformed { target: format!("module {m}"), source: e }));
-                        matched = true;
-                    }
-                    _ => {}
-                }
-                if matched {
-                    pending -= 1;
-                    break;
-                }
-            }
-            if let Some(t) = self.tracer.as_mut() {
-                t(TraceEvent::Received(format!("{frame:<22} {}", if matched { "ack" } else { "ignored (not ours)" })));
-            }
-        }
-        Ok(())
+        Ok(exchange
+            .into_answers()
+            .into_iter()
+            .zip(reqs)
+            .map(|(a, (m, r))| match a {
+                Some(Ok(resp)) => Ok(resp),
+                Some(Err(source)) => Err(SessionError::Malformed { target: target(*m), source }),
+                None => Err(self.timeout_error(*m, r)),
+            })
+            .collect())
     }
 
     fn rs232_transact(&mut self, module: ModuleId, req: &Request) -> Result<Response, SessionError> {
         let mut bytes = Vec::with_capacity(RS232_MAX_FRAME as usize);
-        rs232::encode(Direction::ToModule, module.get(), req.to_payload().as_slice(), &mut bytes);
-        self.trace(|| TraceEvent::Sent(format!("{} {} to module {module}", hex(&bytes), describe(req))));
-        let timeout = self.timeout;
-        let target = || format!("module {module}");
-        let clock = Arc::clone(&self.clock);
+        matcher::rs232_request(module, req, &mut bytes);
+        self.core.trace(|| TraceEvent::Sent(format!("{} {req} to module {module}", hex(&bytes))));
+        let timeout = self.core.timeout;
         let Transport::Rs232 { link, decoder, baud } = &mut self.transport else { unreachable!() };
         // Half-duplex: whatever is still in the buffers belongs to an older exchange.
         link.clear_input()?;
         *decoder = rs232::Decoder::new();
         link.write_all(&bytes)?;
-        let sent = clock.now();
-        let mut deadline = sent + timeout;
-        let mut started = false;
+        let sent = self.core.now();
+        let full = sent + timeout;
         let start_deadline = self.answer_start.map(|t| sent + rs232_wire_time(*baud, bytes.len() as u32) + t);
-        let mut buf = [0u8; 64];
-        loop {
-            while let Some(item) = decoder.next_frame() {
-                let note = match item {
-                    Ok(frame) if frame.dir == Direction::FromModule && frame.module == module.get() => {
-                        let mismatch = frame.declared_len != frame.payload.len() as u8;
-                        match Response::decode(frame.payload.as_slice()) {
-                            Ok(resp) if req.matches(&resp) => {
-                                if let Some(t) = self.tracer.as_mut() {
-                                    let mismatch = if mismatch {
-                                        format!(
-                                            " (TELID says {} bytes, {} framed)",
-                                            frame.declared_len,
-                                            frame.payload.len()
-                                        )
-                                    } else {
-                                        String::new()
-                                    };
-                                    t(TraceEvent::Received(format!("{:?}{mismatch} ack", frame.payload)));
-                                }
-                                return Ok(resp);
-                            }
-                            Ok(_) => format!("{:?} ignored (answers another command)", frame.payload),
-                            Err(e) => return Err(SessionError::Malformed { target: target(), source: e }),
-                        }
-                    }
-                    Ok(frame) => format!("{:?} ignored (module {} {:?})", frame.payload, frame.module, frame.dir),
-                    Err(e @ DecodeError::Checksum { .. }) => {
-                        return Err(SessionError::Malformed { target: target(), source: e })
-                    }
-                    Err(e) => format!("dropped: {e}"),
-                };
-                if let Some(t) = self.tracer.as_mut() {
-                    t(TraceEvent::Received(note));
+        let mut started = false;
+        let answer = self.core.read_until(
+            &mut **link,
+            start_deadline.map_or(full, |sd| full.min(sd)),
+            |core, chunk, deadline| {
+                if !chunk.is_empty() && !started {
+                    started = true;
+                    *deadline = full;
                 }
-            }
-            let now = clock.now();
-            if let Some(sd) = start_deadline.filter(|_| !started) {
-                deadline = deadline.min(sd);
-            }
-            if now >= deadline {
-                return Err(SessionError::Timeout { target: target(), what: describe(req), timeout });
-            }
-            let n = link.read(&mut buf, deadline - now)?;
-            if n > 0 && !started {
-                started = true;
-                deadline = sent + timeout;
-            }
-            decoder.push(&buf[..n]);
-        }
+                decoder.push(chunk);
+                while let Some(item) = decoder.next_frame() {
+                    let note = match (matcher::rs232_verdict(module, req, item.as_ref()), &item) {
+                        (Rs232Verdict::Answer { response, declared_len, framed_len }, Ok(frame)) => {
+                            core.trace(|| {
+                                let mismatch = if declared_len != framed_len {
+                                    format!(" (TELID says {declared_len} bytes, {framed_len} framed)")
+                                } else {
+                                    String::new()
+                                };
+                                TraceEvent::Received(format!("{:?}{mismatch} ack", frame.payload))
+                            });
+                            return ControlFlow::Break(Ok(response));
+                        }
+                        (Rs232Verdict::Malformed(source), _) => {
+                            return ControlFlow::Break(Err(SessionError::Malformed { target: target(module), source }))
+                        }
+                        (Rs232Verdict::OtherCommand, Ok(f)) => {
+                            format!("{:?} ignored (answers another command)", f.payload)
+                        }
+                        (Rs232Verdict::Foreign, Ok(f)) => {
+                            format!("{:?} ignored (module {} {:?})", f.payload, f.module, f.dir)
+                        }
+                        (_, Err(e)) => format!("dropped: {e}"),
+                        (_, Ok(f)) => format!("{:?} ignored", f.payload),
+                    };
+                    core.trace(|| TraceEvent::Received(note));
+                }
+                ControlFlow::Continue(())
+            },
+        )?;
+        answer.unwrap_or_else(|| Err(self.timeout_error(module, req)))
     }
 
     /// Sends a broadcast; broadcasts are never acknowledged, so nothing is awaited.
@@ -360,13 +236,13 @@ impl PowerCube {
             Transport::Can(link) => {
                 let frame = b.frame();
                 link.send(&frame)?;
-                self.trace(|| TraceEvent::Sent(format!("{frame:<22} broadcast {b:?}")));
+                self.core.trace(|| TraceEvent::Sent(format!("{frame:<22} broadcast {b:?}")));
             }
             Transport::Rs232 { link, .. } => {
                 let mut bytes = Vec::new();
                 rs232::encode(Direction::ToModule, 0, &b.payload()[..broadcast_len(b)], &mut bytes);
                 link.write_all(&bytes)?;
-                self.trace(|| TraceEvent::Sent(format!("{} broadcast {b:?}", hex(&bytes))));
+                self.core.trace(|| TraceEvent::Sent(format!("{} broadcast {b:?}", hex(&bytes))));
             }
         }
         Ok(())
@@ -382,6 +258,10 @@ impl PowerCube {
     pub fn set(&mut self, module: ModuleId, param: &ParamDef, value: Value) -> Result<(), SessionError> {
         self.transact(module, &Request::set(param.id, value)).map(|_| ())
     }
+}
+
+fn target(module: ModuleId) -> String {
+    format!("module {module}")
 }
 
 /// Refresh intervals of a keep-alive run, in microseconds.
@@ -450,7 +330,7 @@ impl PowerCube {
         interval: Duration,
         keep_going: &mut dyn FnMut() -> bool,
     ) -> Result<KeepaliveStats, SessionError> {
-        let clock = Arc::clone(&self.clock);
+        let clock = Arc::clone(&self.core.clock);
         let mut hist = GapHistogram::new();
         let mut next = clock.now();
         let mut last: Option<std::time::Instant> = None;
@@ -485,12 +365,12 @@ impl PowerCube {
 pub fn decode_get(module: ModuleId, param: &ParamDef, resp: &Response) -> Result<Value, SessionError> {
     let Response::Get { data, .. } = resp else {
         return Err(SessionError::Malformed {
-            target: format!("module {module}"),
+            target: target(module),
             source: DecodeError::Malformed(format!("expected a GetExtended answer, got {resp:?}")),
         });
     };
     Value::decode(param.ty, data.as_slice())
-        .map_err(|source| SessionError::Malformed { target: format!("module {module}"), source })
+        .map_err(|source| SessionError::Malformed { target: target(module), source })
 }
 
 /// RS232 broadcasts carry only the command byte unless it has a parameter.
@@ -507,35 +387,10 @@ pub fn rs232_wire_time(baud: u32, bytes: u32) -> Duration {
     Duration::from_micros(u64::from(bytes) * 10 * 1_000_000 / u64::from(baud.max(1)))
 }
 
-/// A short human description of a request, for traces and errors.
+/// A short human description of a request, for traces and errors (its
+/// `Display`; kept for the callers outside the session).
 pub fn describe(req: &Request) -> String {
-    use crate::proto::powercube::table;
-    match req {
-        Request::GetExtended { param } => {
-            format!("GetExtended {}", table::param(*param).map_or_else(|| format!("{param:#04x}"), |p| p.name.into()))
-        }
-        Request::SetExtended { param, data } => {
-            let name = table::param(*param);
-            let value = name
-                .filter(|p| p.ty != ParamType::FloatStateDio && p.ty != ParamType::FloatTime)
-                .and_then(|p| Value::decode(p.ty, data.as_slice()).ok())
-                .map_or_else(|| format!("{data:?}"), |v| v.to_string());
-            format!("SetExtended {} = {value}", name.map_or_else(|| format!("{param:#04x}"), |p| p.name.into()))
-        }
-        Request::SetMotion(m) => {
-            let name = table::motion(m.id).map_or("motion?", |d| d.name);
-            let v = match m.value {
-                crate::proto::powercube::MotionValue::Float(v) => v.to_string(),
-                crate::proto::powercube::MotionValue::Int32(v) => v.to_string(),
-                crate::proto::powercube::MotionValue::Int16(v) => v.to_string(),
-            };
-            match m.time_ms {
-                Some(t) => format!("SetMotion {name} {v} in {t} ms"),
-                None => format!("SetMotion {name} {v}"),
-            }
-        }
-        other => other.command().name().to_string(),
-    }
+    req.to_string()
 }
 
 fn hex(bytes: &[u8]) -> String {
@@ -545,7 +400,7 @@ fn hex(bytes: &[u8]) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::clock::VirtualClock;
+    use crate::clock::{Clock, VirtualClock};
     use crate::proto::powercube::table::{ids, param};
     use crate::sim::bench::in_process;
 

@@ -9,7 +9,8 @@ use crossterm::event::{KeyCode, KeyEvent, KeyEventKind};
 
 use super::event::{Event, LinkEvent, LinkId, ToWorker};
 use super::keys::{self, KeyAction};
-use super::source::{Action, DeviceKey, Family, Health, Snapshot};
+use super::source::{Action, DeviceKey, Health, Snapshot};
+use crate::family::Family;
 use crate::proto::powercube::limits;
 use crate::proto::powercube::ModuleId;
 

@@ -1,7 +1,8 @@
 //! The Cdios device source: the 6168 modules of one node, four reads per
 //! poll (status bytes, speed and RPM error, position, setpoint).
 
-use super::source::{Action, CdiosSnap, DeviceKey, DeviceSource, Family, HaltReport, Snapshot, SourceError};
+use super::source::{Action, CdiosSnap, DeviceKey, DeviceSource, HaltReport, Snapshot, SourceError};
+use crate::family::Family;
 use crate::proto::cdios::table;
 use crate::proto::cdios::{
     Address, Command, Direction, GotoMode, ModuleId, NodeId, PositionSource, StartOption, StatusSelector, StopOption,

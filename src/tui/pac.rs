@@ -7,10 +7,9 @@
 //! While a reference drive runs the controller takes only polls, so the
 //! controller line polls it and the axes show as stale with that reason.
 
-use super::source::{
-    Action, DeviceKey, DeviceSource, Family, HaltReport, PacAxisSnap, PacCtrlSnap, Snapshot, SourceError,
-};
+use super::source::{Action, DeviceKey, DeviceSource, HaltReport, PacAxisSnap, PacCtrlSnap, Snapshot, SourceError};
 use crate::device::pac::{self, Controller, Error, HaltTarget, TraverseArea};
+use crate::family::Family;
 use crate::session::pac::Pac;
 
 pub struct PacSource {

@@ -3,7 +3,8 @@
 
 use std::collections::BTreeMap;
 
-use super::source::{Action, CubeSnap, DeviceKey, DeviceSource, Family, HaltReport, Snapshot, SourceError};
+use super::source::{Action, CubeSnap, DeviceKey, DeviceSource, HaltReport, Snapshot, SourceError};
+use crate::family::Family;
 use crate::proto::powercube::can::Broadcast;
 use crate::proto::powercube::flags::config;
 use crate::proto::powercube::limits::{self, Limits};

@@ -3,13 +3,8 @@
 //! worker of a link ([`super::worker`]) drives its sources one call at a
 //! time, so a source never waits on anything but its own transactions.
 
-use std::sync::{Arc, Mutex};
-use std::time::Duration;
-
-pub use crate::family::Family;
-use crate::link::{CanLink, LinkError};
+use crate::family::Family;
 use crate::proto::powercube::limits::Limits;
-use crate::proto::CanFrame;
 use crate::session::SessionError;
 
 /// One device on the dashboard.
@@ -191,29 +186,4 @@ pub trait DeviceSource: Send {
     fn act(&mut self, dev: DeviceKey, action: Action) -> Result<String, SourceError>;
     /// Stops every device of the family, as fast as the link allows.
     fn halt_all(&mut self) -> Vec<HaltReport>;
-}
-
-/// One CAN link shared by several sources of one worker (PowerCube and
-/// Cdios on one bus): the worker runs one transaction at a time, so the
-/// lock is never contended; a session drops the other family's frames it
-/// reads, which are answers to nobody by then.
-#[derive(Clone)]
-pub struct SharedCan(Arc<Mutex<Box<dyn CanLink>>>);
-
-impl SharedCan {
-    pub fn new(link: Box<dyn CanLink>) -> Self {
-        Self(Arc::new(Mutex::new(link)))
-    }
-}
-
-impl CanLink for SharedCan {
-    fn send(&mut self, frame: &CanFrame) -> Result<(), LinkError> {
-        crate::sim::shared::lock(&self.0).send(frame)
-    }
-    fn send_many(&mut self, frames: &[CanFrame]) -> Result<(), LinkError> {
-        crate::sim::shared::lock(&self.0).send_many(frames)
-    }
-    fn recv(&mut self, timeout: Duration) -> Result<Option<CanFrame>, LinkError> {
-        crate::sim::shared::lock(&self.0).recv(timeout)
-    }
 }

@@ -15,15 +15,17 @@ use super::cdios::CdiosSource;
 use super::event::{Event, LinkEvent, ToWorker};
 use super::pac::PacSource;
 use super::powercube::CubeSource;
-use super::source::{DeviceKey, DeviceSource, Family, SharedCan, Snapshot};
+use super::source::{DeviceKey, DeviceSource, Snapshot};
 use super::ui;
 use super::worker::LinkWorker;
 use crate::clock::{Clock, VirtualClock};
+use crate::family::Family;
 use crate::link::mem::Fault;
 use crate::link::SerialFormat;
 use crate::proto::cdios::NodeId;
 use crate::proto::powercube::flags::state;
 use crate::proto::CanFrame;
+use crate::session::bus::CanBus;
 use crate::session::cdios::Cdios;
 use crate::session::pac::Pac;
 use crate::session::powercube::PowerCube;
@@ -51,11 +53,13 @@ impl Rig {
         let clock = VirtualClock::new();
         let shared: Arc<dyn Clock> = Arc::new(clock.clone());
         let bench = Bench::contract(Arc::clone(&shared));
-        let can = SharedCan::new(Box::new(bench.bus.open()));
-        let cube: Box<dyn DeviceSource> =
-            Box::new(CubeSource::new(PowerCube::over_can(Box::new(can.clone())).with_clock(Arc::clone(&shared)), None));
+        let can = CanBus::new(Box::new(bench.bus.open()), Arc::clone(&shared));
+        let cube: Box<dyn DeviceSource> = Box::new(CubeSource::new(
+            PowerCube::over_can(Box::new(can.port(Family::PowerCube))).with_clock(Arc::clone(&shared)),
+            None,
+        ));
         let cdios: Box<dyn DeviceSource> = Box::new(CdiosSource::new(
-            Cdios::new(Box::new(can)).with_clock(Arc::clone(&shared)),
+            Cdios::new(Box::new(can.port(Family::Cdios))).with_clock(Arc::clone(&shared)),
             NodeId::new(1).unwrap(),
             None,
             RetryPolicy::default(),

@@ -27,6 +27,8 @@
 //!   8..24 (serial numbers) is not in our specs and decodes as raw bytes.
 
 pub mod command;
+mod display;
+pub mod session;
 pub mod table;
 pub mod transport;
 

@@ -6,10 +6,12 @@
 //! the sans-IO state machine of one command / acknowledge transaction and
 //! [`validate`] the checks run on a command before it is sent.
 
+mod display;
 pub mod frame;
 pub mod profibus;
 pub mod session;
 pub mod table;
 pub mod validate;
 
+pub use display::printable;
 pub use frame::{Ack, AckDecoder, CheckRule, Command, CommandDecoder, Par2, Request};

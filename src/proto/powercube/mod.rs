@@ -6,10 +6,12 @@
 //! config, setup and DIO words.
 
 pub mod can;
+mod display;
 pub mod flags;
 pub mod frame;
 pub mod limits;
 pub mod rs232;
+pub mod session;
 pub mod table;
 
 pub use frame::{Motion, MotionValue, Request, Response};

@@ -6,9 +6,10 @@ use std::time::{Duration, Instant};
 use proptest::prelude::*;
 
 use super::*;
-use crate::clock::VirtualClock;
+use crate::clock::{Clock, VirtualClock};
 use crate::link::mem::{CanDevice, MemBus};
 use crate::proto::cdios::{GotoMode, StartOption, StopOption};
+use crate::session::RetryPolicy;
 
 type Respond = Box<dyn FnMut(&CanFrame) -> Vec<CanFrame> + Send>;
 
@@ -351,14 +352,6 @@ fn a_reply_echoing_an_unknown_selector_is_not_a_match() {
     let mut rig = Rig::new(|frame| if on_command(frame).is_some() { vec![f("181#2100030000000000")] } else { vec![] });
     let e = rig.session.read_position(node1(), ModuleId::new(0).unwrap(), PositionSource::Current).unwrap_err();
     assert_eq!(e.kind().exit_code(), 4);
-}
-
-#[test]
-fn describe_names_rows_and_fields() {
-    let d = Command::Goto { mode: GotoMode::Relative, position: -5 }.encode(m(1)).unwrap();
-    assert_eq!(describe(&d), "goto relative position=-5");
-    let d = Command::StoreConfiguration { defaults: true }.encode(m(1)).unwrap();
-    assert_eq!(describe(&d), "store_configuration default");
 }
 
 proptest! {
