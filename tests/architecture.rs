@@ -12,14 +12,15 @@ use std::path::{Path, PathBuf};
 const LAYERS: &[(&str, &[&str])] = &[
     ("clock", &[]),
     ("proto", &[]),
-    ("family", &["proto"]),
-    ("link", &["proto", "clock", "family"]),
+    ("link", &["proto", "clock"]),
+    ("family", &["proto", "link"]),
     ("session", &["proto", "link", "clock", "family"]),
     ("sim", &["proto", "link", "clock", "family"]),
-    ("device", &["proto", "link", "session", "clock", "family", "sim"]),
+    ("open", &["proto", "link", "clock", "family", "session", "sim"]),
+    ("device", &["proto", "link", "session", "clock", "family"]),
     // The monitor's describers still come from the session layer.
     ("monitor", &["proto", "family", "session"]),
-    ("tui", &["device", "session", "proto", "link", "clock", "family", "monitor", "sim"]),
+    ("tui", &["device", "session", "proto", "link", "clock", "family", "monitor"]),
 ];
 
 /// Top-level modules of the binary crate (declared in main.rs): not layers

@@ -159,6 +159,12 @@ fn log_records_every_link_of_the_dashboard() {
     t.wait_for("module 17");
     t.wait_for("axis 3");
     t.keys(&["q"]);
+    // Keys typed before the dashboard has left would be read by it.
+    let deadline = Instant::now() + Duration::from_secs(10);
+    while t.display("#{alternate_on}") != "0" {
+        assert!(Instant::now() < deadline, "still on the alternate screen:\n{}", t.capture());
+        std::thread::sleep(Duration::from_millis(50));
+    }
     t.keys(&["echo DO''NE", "Enter"]);
     t.wait_for("DONE");
     let text = std::fs::read_to_string(&log).expect("the log file");
