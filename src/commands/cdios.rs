@@ -14,6 +14,7 @@ use axisctl::proto::cdios::{
 use axisctl::session::cdios::{describe_answer, Cdios, Event};
 use serde_json::{json, Value};
 
+use super::powercube::{waiting, Dev, IntoCli};
 use super::{interrupted, usage, Ctx, DeviceFault, Interrupted};
 use crate::cli::WaitArgs;
 use crate::cli_cdios::{
@@ -110,14 +111,9 @@ fn dev(e: Error) -> anyhow::Error {
     }
 }
 
-/// `.dev()?` instead of `?`: a device error must not reach anyhow unclassified.
-trait Dev<T> {
-    fn dev(self) -> anyhow::Result<T>;
-}
-
-impl<T> Dev<T> for Result<T, Error> {
-    fn dev(self) -> anyhow::Result<T> {
-        self.map_err(dev)
+impl IntoCli for Error {
+    fn into_cli(self) -> anyhow::Error {
+        dev(self)
     }
 }
 
@@ -349,24 +345,12 @@ fn start(
 
 /// The device's wait, with the spinner and Ctrl-C (which fast-stops the motor).
 fn wait_motion(ctx: &Ctx, s: &mut Node, m: ModuleId, wait: WaitArgs, goal: Goal) -> anyhow::Result<WaitEnd> {
-    super::arm_interrupt()?;
-    let spec = WaitSpec {
-        poll: Duration::from_millis(wait.poll),
-        timeout: Duration::from_secs_f64(wait.wait_timeout.max(0.0)),
-        stop_attempts: 1 + ctx.retry.read_retries,
-    };
-    let bar = crate::output::spinner(ctx.json);
-    let what = goal.name();
-    let result = s.wait(m, goal, spec, &interrupted, &mut |pos, r| {
-        if let Some(bar) = &bar {
-            bar.set_message(format!("module {m} {what}: pos {pos}  {}", status_line(ctx, r)));
-            bar.tick();
-        }
-    });
-    if let Some(bar) = bar {
-        bar.finish_and_clear();
-    }
-    result.dev()
+    waiting(ctx, &wait, |t, show| {
+        let spec = WaitSpec { poll: t.poll, timeout: t.timeout, stop_attempts: t.stop_attempts };
+        let progress =
+            &mut |pos, r: &_| show(format!("module {m} {}: pos {pos}  {}", goal.name(), status_line(ctx, r)));
+        s.wait(m, goal, spec, &interrupted, progress).dev()
+    })
 }
 
 fn print_wait_end(ctx: &Ctx, what: &str, end: &WaitEnd, extra: Value) {

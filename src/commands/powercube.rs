@@ -68,15 +68,63 @@ fn dev(e: Error) -> anyhow::Error {
     }
 }
 
-/// `.dev()?` instead of `?`: a device error must not reach anyhow unclassified.
-trait Dev<T> {
+/// A device layer error turned into the CLI's error classes.
+pub(super) trait IntoCli {
+    fn into_cli(self) -> anyhow::Error;
+}
+
+impl IntoCli for Error {
+    fn into_cli(self) -> anyhow::Error {
+        dev(self)
+    }
+}
+
+/// `.dev()?` instead of `?`: a device error must not reach anyhow
+/// unclassified. (Shared with the Cdios commands.)
+pub(super) trait Dev<T> {
     fn dev(self) -> anyhow::Result<T>;
 }
 
-impl<T> Dev<T> for Result<T, Error> {
+impl<T, E: IntoCli> Dev<T> for Result<T, E> {
     fn dev(self) -> anyhow::Result<T> {
-        self.map_err(dev)
+        self.map_err(IntoCli::into_cli)
     }
+}
+
+/// How a `--wait` polls, gives up, and how often it sends the stop that
+/// ends a failed wait.
+pub(super) struct Timing {
+    pub poll: Duration,
+    pub timeout: Duration,
+    pub stop_attempts: u32,
+}
+
+/// Runs a device wait with Ctrl-C armed and the spinner shown (not with
+/// --json); `run` gets the timing and the function that sets the spinner's
+/// message.
+pub(super) fn waiting<T>(
+    ctx: &Ctx,
+    wait: &WaitArgs,
+    run: impl FnOnce(Timing, &dyn Fn(String)) -> anyhow::Result<T>,
+) -> anyhow::Result<T> {
+    super::arm_interrupt()?;
+    let timing = Timing {
+        poll: Duration::from_millis(wait.poll),
+        timeout: Duration::from_secs_f64(wait.wait_timeout.max(0.0)),
+        stop_attempts: 1 + ctx.retry.read_retries,
+    };
+    let bar = crate::output::spinner(ctx.json);
+    let show = |msg: String| {
+        if let Some(bar) = &bar {
+            bar.set_message(msg);
+            bar.tick();
+        }
+    };
+    let out = run(timing, &show);
+    if let Some(bar) = bar {
+        bar.finish_and_clear();
+    }
+    out
 }
 
 fn cubes(ctx: &Ctx) -> anyhow::Result<Cubes> {
@@ -322,24 +370,13 @@ fn home(ctx: &Ctx, target: Target, wait: WaitArgs) -> anyhow::Result<()> {
 
 /// The device's wait, with the spinner and Ctrl-C (which halts the module).
 fn wait_for(ctx: &Ctx, cubes: &mut Cubes, m: ModuleId, wait: WaitArgs, goal: Goal) -> anyhow::Result<WaitEnd> {
-    super::arm_interrupt()?;
-    let spec = WaitSpec {
-        poll: Duration::from_millis(wait.poll),
-        timeout: Duration::from_secs_f64(wait.wait_timeout.max(0.0)),
-        halt_attempts: 1 + ctx.retry.read_retries,
-    };
-    let bar = crate::output::spinner(ctx.json);
-    let what = goal.doing();
-    let result = cubes.wait(m, goal, spec, &interrupted, &mut |pos, cube| {
-        if let Some(bar) = &bar {
-            bar.set_message(format!("module {m} {what}: pos {pos:.4}  {}", state_summary(ctx, cube)));
-            bar.tick();
-        }
-    });
-    if let Some(bar) = bar {
-        bar.finish_and_clear();
-    }
-    result.dev()
+    waiting(ctx, &wait, |t, show| {
+        let spec = WaitSpec { poll: t.poll, timeout: t.timeout, halt_attempts: t.stop_attempts };
+        let what = goal.doing();
+        let progress =
+            &mut |pos: f32, cube| show(format!("module {m} {what}: pos {pos:.4}  {}", state_summary(ctx, cube)));
+        cubes.wait(m, goal, spec, &interrupted, progress).dev()
+    })
 }
 
 fn print_wait_results(ctx: &Ctx, what: &str, results: &[WaitEnd]) {
