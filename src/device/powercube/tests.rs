@@ -199,3 +199,25 @@ fn config_and_param_input_is_checked_before_sending() {
     assert!(dio_outputs("16").is_err());
     assert_eq!(dio_outputs("0b0101").unwrap(), 5);
 }
+
+#[test]
+fn a_jog_is_a_checked_ramp_from_where_the_module_stands() {
+    let mut r = rig();
+    assert_eq!(r.cubes.ramp(id(17), Target::By(0.25)).unwrap(), 0.25);
+    assert_eq!(r.motions_sent(), 1);
+    r.clock.advance(Duration::from_secs(10));
+    assert!(matches!(
+        r.cubes.ramp(id(17), Target::By(1.0)),
+        Err(Error::Limit(LimitError::Exceeds { limit_name: "MaxPos", .. }))
+    ));
+    assert_eq!(r.motions_sent(), 0);
+}
+
+#[test]
+fn force_skips_the_module_limits_but_not_the_wire_checks() {
+    let mut r = rig();
+    r.cubes.move_module(id(3), Move::Cur(1e3), false, true).unwrap();
+    assert_eq!(r.motions_sent(), 1);
+    assert!(r.cubes.move_module(id(3), Move::Cur(f64::NAN), false, true).is_err());
+    assert_eq!(r.motions_sent(), 0);
+}
