@@ -1,20 +1,20 @@
 //! Cdios 6168 commands (`cdios-*`). Every command is built and range-checked
 //! with the protocol table before the link is opened: bad input sends nothing.
 
-use std::collections::BTreeMap;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use axisctl::proto::cdios::table::{self, Field, STATUS_FLAGS};
+use axisctl::device::cdios::config::{self as servo, Request as ConfigRequest};
+use axisctl::device::cdios::{self as device, Error, EventChange, Goal, Node, WaitEnd, WaitSpec};
+use axisctl::proto::cdios::table::{self, STATUS_FLAGS};
 use axisctl::proto::cdios::{
-    decode_status, Address, AnalogOutput, Command, Direction, ErrorReply, GotoMode, ModuleId, NodeId, PositionSource,
-    ServoConfig, ServoPart, StartOption, StatusReport, StopOption, Timers, Traject, ValidationError,
+    decode_status, Command, Direction, ErrorReply, GotoMode, ModuleId, NodeId, PositionSource, StartOption,
+    StatusReport, StopOption, Timers,
 };
-use axisctl::proto::parse_int;
 use axisctl::session::cdios::{describe_answer, Cdios, Event};
-use axisctl::session::SessionError;
 use serde_json::{json, Value};
 
+use super::powercube::{waiting, Dev, IntoCli};
 use super::{interrupted, usage, Ctx, DeviceFault, Interrupted};
 use crate::cli::cdios::{
     CdiosCommand, DirectionArg, ModuleTarget, NodeArgs, PositionKind, StartOptionArg, StopOptionArg,
@@ -51,21 +51,13 @@ pub fn run(ctx: &Ctx, cmd: CdiosCommand) -> anyhow::Result<()> {
                 StopOptionArg::ReleaseEmergency => StopOption::ReleaseEmergency,
                 StopOptionArg::ClearHold => StopOption::ClearHold,
             };
-            simple(ctx, target, "cdios-stop", &[Command::Stop { sync: latched, option }])
+            simple(ctx, target, "cdios-stop", &[device::stop_command(option, latched)])
         }
         CdiosCommand::Enable { target, release_emergency } => {
-            let enable = Command::Start {
-                sync: false,
-                direction: Direction::Forward,
-                option: StartOption::Enable,
-                motor_speed: 0,
-            };
-            let release = Command::Stop { sync: false, option: StopOption::ReleaseEmergency };
-            let cmds: Vec<Command> = if release_emergency { vec![release, enable] } else { vec![enable] };
-            simple(ctx, target, "cdios-enable", &cmds)
+            simple(ctx, target, "cdios-enable", &device::enable_commands(release_emergency))
         }
         CdiosCommand::Disable(t) => {
-            simple(ctx, t, "cdios-disable", &[Command::Stop { sync: false, option: StopOption::Disable }])
+            simple(ctx, t, "cdios-disable", &[device::stop_command(StopOption::Disable, false)])
         }
         CdiosCommand::Config { target, items } => config(ctx, target, &items),
         CdiosCommand::Outputs { target, set, latched } => outputs(ctx, target, set.as_deref(), latched),
@@ -78,18 +70,18 @@ pub fn run(ctx: &Ctx, cmd: CdiosCommand) -> anyhow::Result<()> {
             position_on_change,
             speed_interval,
             speed_on_change,
-        } => events(
-            ctx,
-            target,
-            EventChanges {
-                mask: mask.as_deref(),
-                raw_masks: raw_masks.as_deref(),
+        } => {
+            let change = EventChange::parse(
+                mask.as_deref(),
+                raw_masks.as_deref(),
                 position_interval,
                 position_on_change,
                 speed_interval,
                 speed_on_change,
-            },
-        ),
+            )
+            .dev()?;
+            events(ctx, target, &change)
+        }
         CdiosCommand::Store { target, defaults } => store(ctx, target, defaults),
         CdiosCommand::Watch { target, poll, no_poll, count, duration } => {
             watch(ctx, target, poll, no_poll, count, duration)
@@ -107,33 +99,25 @@ fn module_id(t: &ModuleTarget) -> ModuleId {
     ModuleId::new(t.module).expect("clap checks 0..=15")
 }
 
-fn addr(t: &ModuleTarget) -> Address {
-    Address::Module(module_id(t))
-}
-
-/// A manual range violation: exit 2, nothing sent.
-fn invalid(e: ValidationError) -> anyhow::Error {
-    usage(format!("{e}; nothing was sent"))
-}
-
-/// Encodes (and so range-checks) every command before anything is sent.
-fn check(cmds: &[Command], address: Address) -> anyhow::Result<()> {
-    for c in cmds {
-        c.encode(address).map_err(invalid)?;
+/// A device error in the contract's terms: refusals are usage errors (exit
+/// 2), faults exit 5, session failures keep their kind.
+fn dev(e: Error) -> anyhow::Error {
+    match e {
+        Error::Invalid(_) | Error::Refused(_) => usage(e.to_string()),
+        Error::Faulted { .. } | Error::ConfigRejected { .. } => DeviceFault(e.to_string()).into(),
+        Error::Interrupted { .. } => Interrupted(e.to_string().trim_start_matches("interrupted").into()).into(),
+        Error::Session(s) => s.into(),
+        Error::LostTrack { .. } => anyhow::Error::new(e),
     }
-    Ok(())
 }
 
-/// A user value for a field of a table row, checked against the manual's range.
-fn field_value<T: TryFrom<i64>>(row: &str, key: &str, v: i64) -> anyhow::Result<T> {
-    let field = table::command(row).and_then(|d| d.field(key)).expect("row and field are in the table");
-    field.check(v).map_err(invalid)?;
-    T::try_from(v).map_err(|_| {
-        invalid(ValidationError::OutOfRange { field: field.key, value: v, min: field.min, max: field.max })
-    })
+impl IntoCli for Error {
+    fn into_cli(self) -> anyhow::Error {
+        dev(self)
+    }
 }
 
-fn open(ctx: &Ctx, n: &NodeArgs) -> anyhow::Result<Cdios> {
+fn open(ctx: &Ctx, n: &NodeArgs) -> anyhow::Result<Node> {
     let mut s = Cdios::new(ctx.can_link()?).with_clock(Arc::clone(&ctx.clock));
     if let Some(t) = ctx.timeout {
         s.set_timeout(t);
@@ -144,7 +128,7 @@ fn open(ctx: &Ctx, n: &NodeArgs) -> anyhow::Result<Cdios> {
     if ctx.trace {
         s.set_tracer(Box::new(super::print_trace));
     }
-    Ok(s)
+    Ok(Node::new(s, node_id(n), ctx.retry))
 }
 
 fn status_json(r: &StatusReport) -> Value {
@@ -162,16 +146,11 @@ fn status_line(ctx: &Ctx, r: &StatusReport) -> String {
 
 fn identify(ctx: &Ctx, n: NodeArgs) -> anyhow::Result<()> {
     let node = node_id(&n);
-    let mut s = open(ctx, &n)?;
-    let mut modules = Vec::new();
-    for selector in 0..=7u8 {
-        let r = s.read(node, Address::Controller, &Command::Identify { selector })?;
-        for (i, (ty, ver)) in [("first_type", "first_version"), ("second_type", "second_version")].iter().enumerate() {
-            let t = r.get(ty).unwrap_or(0);
-            let v = r.get(ver).unwrap_or(0);
-            modules.push(json!({"module": 2 * selector + i as u8, "type": t, "version": v, "present": t != 0}));
-        }
-    }
+    let slots = open(ctx, &n)?.identify().dev()?;
+    let modules: Vec<Value> = slots
+        .iter()
+        .map(|s| json!({"module": s.module, "type": s.ty, "version": s.version, "present": s.ty != 0}))
+        .collect();
     if ctx.json {
         output::json(&json!({"node": node, "modules": modules}));
         return Ok(());
@@ -196,8 +175,8 @@ fn identify(ctx: &Ctx, n: NodeArgs) -> anyhow::Result<()> {
 fn status(ctx: &Ctx, t: ModuleTarget) -> anyhow::Result<()> {
     let (node, m) = (node_id(&t.node), module_id(&t));
     let mut s = open(ctx, &t.node)?;
-    let r = s.read_status(node, m)?;
-    let (speed, rpm_error) = s.read_speed(node, m)?;
+    let r = s.status(m).dev()?;
+    let (speed, rpm_error) = s.speed(m).dev()?;
     if ctx.json {
         let mut doc = json!({"node": node, "module": m});
         merge(&mut doc, status_json(&r));
@@ -238,9 +217,9 @@ fn position(ctx: &Ctx, t: ModuleTarget, kind: PositionKind, all: bool) -> anyhow
     let (node, m) = (node_id(&t.node), module_id(&t));
     let mut s = open(ctx, &t.node)?;
     if all {
-        let cur = s.read_position(node, m, PositionSource::Current)?;
-        let latched = s.read_position(node, m, PositionSource::Latched)?;
-        let setpoint = s.read_position(node, m, PositionSource::Setpoint)?;
+        let cur = s.position(m, PositionSource::Current).dev()?;
+        let latched = s.position(m, PositionSource::Latched).dev()?;
+        let setpoint = s.position(m, PositionSource::Setpoint).dev()?;
         if ctx.json {
             output::json(
                 &json!({"node": node, "module": m, "position": cur, "latched": latched, "setpoint": setpoint}),
@@ -250,7 +229,7 @@ fn position(ctx: &Ctx, t: ModuleTarget, kind: PositionKind, all: bool) -> anyhow
         }
         return Ok(());
     }
-    let p = s.read_position(node, m, source_of(kind))?;
+    let p = s.position(m, source_of(kind)).dev()?;
     let name = format!("{kind:?}").to_lowercase();
     if ctx.json {
         output::json(&json!({"node": node, "module": m, "source": name, "position": p}));
@@ -273,30 +252,22 @@ fn report_sent(ctx: &Ctx, node: NodeId, m: ModuleId, what: &str, confirmed: bool
 
 /// Commands sent one after the other, each awaited.
 fn simple(ctx: &Ctx, t: ModuleTarget, what: &str, cmds: &[Command]) -> anyhow::Result<()> {
-    check(cmds, addr(&t))?;
-    let (node, m) = (node_id(&t.node), module_id(&t));
+    let m = module_id(&t);
+    device::check(cmds, m).dev()?;
     let mut s = open(ctx, &t.node)?;
-    let mut confirmed = true;
-    for c in cmds {
-        confirmed &= s.transact(node, addr(&t), c)?.is_some();
-    }
-    report_sent(ctx, node, m, what, confirmed, json!({}));
+    let confirmed = s.send(m, cmds).dev()?;
+    report_sent(ctx, s.id(), m, what, confirmed, json!({}));
     Ok(())
 }
 
 fn set_position(ctx: &Ctx, t: ModuleTarget, position: i64) -> anyhow::Result<()> {
-    let position = field_value::<i32>("set_position", "position", position)?;
+    let position = device::field_value::<i32>("set_position", "position", position).dev()?;
     let (node, m) = (node_id(&t.node), module_id(&t));
     let cmd = Command::SetPosition { position };
-    check(&[cmd], addr(&t))?;
-    let mut s = open(ctx, &t.node)?;
-    let confirmed = s.transact(node, addr(&t), &cmd)?.is_some();
+    device::check(&[cmd], m).dev()?;
+    let confirmed = open(ctx, &t.node)?.send(m, &[cmd]).dev()?;
     report_sent(ctx, node, m, "cdios-set-position", confirmed, json!({"position": position}));
     Ok(())
-}
-
-fn mode_name(mode: GotoMode) -> &'static str {
-    table::command("goto").and_then(|d| d.selector(mode.to_u8())).map_or("?", |s| s.key)
 }
 
 fn goto(
@@ -307,21 +278,12 @@ fn goto(
     speed: Option<i64>,
     wait: WaitArgs,
 ) -> anyhow::Result<()> {
-    let position = field_value::<i32>("goto", "position", position)?;
-    let speed = speed.map(|v| field_value::<u16>("goto_next_speed", "speed", v)).transpose()?;
-    let mut cmds = Vec::new();
-    if let Some(speed) = speed {
-        cmds.push(Command::SetNextGotoSpeed { speed });
-    }
-    cmds.push(Command::Goto { mode, position });
-    check(&cmds, addr(&t))?;
+    let cmds = device::goto_commands(mode, position, speed).dev()?;
     let (node, m) = (node_id(&t.node), module_id(&t));
+    device::check(&cmds, m).dev()?;
     let mut s = open(ctx, &t.node)?;
-    let mut confirmed = true;
-    for c in &cmds {
-        confirmed &= s.transact(node, addr(&t), c)?.is_some();
-    }
-    let mut extra = json!({"mode": mode_name(mode), "requested": position});
+    let confirmed = s.send(m, &cmds).dev()?;
+    let mut extra = json!({"mode": device::mode_name(mode), "requested": position});
     if let Some(v) = speed {
         extra["speed"] = json!(v);
     }
@@ -332,49 +294,28 @@ fn goto(
     if !ctx.json {
         println!(
             "node {node} module {m}: goto {} {position} {}",
-            mode_name(mode),
+            device::mode_name(mode),
             if confirmed { "confirmed" } else { "sent" }
         );
     }
-    // The setpoint is where a relative goto ends.
-    let target = s.read_position(node, m, PositionSource::Setpoint)?;
-    let tolerance = positioning_error(&mut s, node, m)?;
-    let mut seen = false;
-    let end = wait_motion(ctx, &mut s, node, m, wait, "goto", |r, pos| {
-        let active = r.flags.iter().any(|f| *f == "GOTO_ACTIVE" || *f == "TRAJECT_RUNNING");
-        seen |= active;
-        !active && (seen || (i64::from(pos) - i64::from(target)).abs() <= tolerance)
-    })?;
-    print_wait_end(ctx, "cdios-goto", &end, Some(target), extra);
+    let end = wait_motion(ctx, &mut s, m, wait, Goal::Goto)?;
+    print_wait_end(ctx, "cdios-goto", &end, extra);
     Ok(())
 }
 
-/// The configured 'Positioning Error' (20h selector 83h).
-fn positioning_error(s: &mut Cdios, node: NodeId, m: ModuleId) -> anyhow::Result<i64> {
-    let r = s.read(node, Address::Module(m), &Command::ReadServoConfig(ServoPart::Control))?;
-    Ok(r.get("positioning_error").unwrap_or(0))
-}
-
 fn run_traject(ctx: &Ctx, t: ModuleTarget, traject: i64, latched: bool, wait: WaitArgs) -> anyhow::Result<()> {
-    let n = field_value::<u8>("goto_traject", "traject", traject)?;
-    let traject = Traject::from_u8(n).expect("checked 0..=1 by the table");
-    let cmd = Command::GotoTraject { traject, sync: latched };
-    check(&[cmd], addr(&t))?;
+    let cmd = device::traject_command(traject, latched).dev()?;
     let (node, m) = (node_id(&t.node), module_id(&t));
+    device::check(&[cmd], m).dev()?;
     let mut s = open(ctx, &t.node)?;
-    let confirmed = s.transact(node, addr(&t), &cmd)?.is_some();
-    let extra = json!({"traject": n, "latched": latched});
+    let confirmed = s.send(m, &[cmd]).dev()?;
+    let extra = json!({"traject": traject, "latched": latched});
     if !wait.wait {
         report_sent(ctx, node, m, "cdios-traject", confirmed, extra);
         return Ok(());
     }
-    let mut seen = false;
-    let end = wait_motion(ctx, &mut s, node, m, wait, "traject", |r, _| {
-        let active = r.flags.iter().any(|f| *f == "GOTO_ACTIVE" || *f == "TRAJECT_RUNNING");
-        seen |= active;
-        seen && !active
-    })?;
-    print_wait_end(ctx, "cdios-traject", &end, None, extra);
+    let end = wait_motion(ctx, &mut s, m, wait, Goal::Traject)?;
+    print_wait_end(ctx, "cdios-traject", &end, extra);
     Ok(())
 }
 
@@ -394,113 +335,29 @@ fn start(
         StartOptionArg::UntilIndex => StartOption::UntilIndex,
         StartOptionArg::UntilIndexAndZero => StartOption::UntilIndexAndZero,
     };
-    if option == StartOption::ToSpeed && speed.is_none() {
-        return Err(usage("--option to-speed needs --speed RPM; nothing was sent"));
-    }
-    if option != StartOption::ToSpeed && speed.is_some() {
-        return Err(usage("--speed is used only with --option to-speed; nothing was sent"));
-    }
-    let motor_speed = field_value::<u16>("start", "motor_speed", speed.unwrap_or(0))?;
     let direction = match direction {
         DirectionArg::Forward => Direction::Forward,
         DirectionArg::Reverse => Direction::Reverse,
     };
-    simple(ctx, t, "cdios-start", &[Command::Start { sync: latched, direction, option, motor_speed }])
+    let cmd = device::start_command(direction, option, speed, latched).dev()?;
+    simple(ctx, t, "cdios-start", &[cmd])
 }
 
-struct WaitEnd {
-    position: i32,
-    status: StatusReport,
-    elapsed: Duration,
+/// The device's wait, with the spinner and Ctrl-C (which fast-stops the motor).
+fn wait_motion(ctx: &Ctx, s: &mut Node, m: ModuleId, wait: WaitArgs, goal: Goal) -> anyhow::Result<WaitEnd> {
+    waiting(ctx, &wait, |t, show| {
+        let spec = WaitSpec { poll: t.poll, timeout: t.timeout, stop_attempts: t.stop_attempts };
+        let progress =
+            &mut |pos, r: &_| show(format!("module {m} {}: pos {pos}  {}", goal.name(), status_line(ctx, r)));
+        s.wait(m, goal, spec, &interrupted, progress).dev()
+    })
 }
 
-/// Polls status and position until `done`; an error flag ends the wait with
-/// exit 5; Ctrl-C and the wait timeout fast-stop the motor first.
-fn wait_motion(
-    ctx: &Ctx,
-    s: &mut Cdios,
-    node: NodeId,
-    m: ModuleId,
-    wait: WaitArgs,
-    what: &str,
-    mut done: impl FnMut(&StatusReport, i32) -> bool,
-) -> anyhow::Result<WaitEnd> {
-    super::arm_interrupt()?;
-    let clock = Arc::clone(s.clock());
-    let start = clock.now();
-    let limit = Duration::from_secs_f64(wait.wait_timeout.max(0.0));
-    let bar = crate::output::spinner(ctx.json);
-    // Sent again when no confirmation comes: stopping twice is harmless.
-    let attempts = 1 + ctx.retry.read_retries;
-    let stop = |s: &mut Cdios| {
-        let mut last = None;
-        for _ in 0..attempts {
-            match s.transact(node, Address::Module(m), &Command::Stop { sync: false, option: StopOption::FastStop }) {
-                Ok(a) => return Ok(a),
-                Err(e @ (SessionError::Timeout { .. } | SessionError::Malformed { .. })) => last = Some(e),
-                Err(e) => return Err(e),
-            }
-        }
-        Err(last.expect("at least one attempt"))
-    };
-    let result = loop {
-        if interrupted() {
-            break Err(Interrupted(match stop(s) {
-                Ok(_) => format!(": node {node} module {m} stopped (fast stop)"),
-                Err(e) => format!(": STOP OF NODE {node} MODULE {m} FAILED: {e}"),
-            })
-            .into());
-        }
-        let polled = s.read_status(node, m).and_then(|r| Ok((r, s.read_position(node, m, PositionSource::Current)?)));
-        let (r, pos) = match polled {
-            Ok(v) => v,
-            // The motor may still be running: stop it before giving up.
-            Err(e) => {
-                let note = match stop(s) {
-                    Ok(_) => format!("node {node} module {m} stopped (fast stop)"),
-                    Err(h) => format!("STOP OF NODE {node} MODULE {m} FAILED: {h}"),
-                };
-                break Err(anyhow::Error::new(e).context(format!("lost track of the {what} ({note})")));
-            }
-        };
-        let elapsed = clock.now() - start;
-        if let Some(bar) = &bar {
-            bar.set_message(format!("module {m} {what}: pos {pos}  {}", status_line(ctx, &r)));
-            bar.tick();
-        }
-        if !r.errors.is_empty() {
-            let _ = stop(s);
-            break Err(DeviceFault(format!(
-                "node {node} module {m} reports an error during the {what}: {} (status {:02x?})",
-                r.errors.join(", "),
-                r.status
-            ))
-            .into());
-        }
-        if done(&r, pos) {
-            break Ok(WaitEnd { position: pos, status: r, elapsed });
-        }
-        if elapsed >= limit {
-            let _ = stop(s);
-            break Err(anyhow::Error::new(SessionError::Timeout {
-                target: format!("node {node} module {m}"),
-                what: format!("the end of the {what} (motor stopped)"),
-                timeout: limit,
-            }));
-        }
-        s.listen(Duration::from_millis(wait.poll))?;
-    };
-    if let Some(bar) = bar {
-        bar.finish_and_clear();
-    }
-    result
-}
-
-fn print_wait_end(ctx: &Ctx, what: &str, end: &WaitEnd, target: Option<i32>, extra: Value) {
+fn print_wait_end(ctx: &Ctx, what: &str, end: &WaitEnd, extra: Value) {
     if ctx.json {
         let mut doc = json!({"command": what, "done": true, "position": end.position,
                              "elapsed_ms": end.elapsed.as_millis() as u64});
-        if let Some(t) = target {
+        if let Some(t) = end.target {
             doc["target"] = json!(t);
         }
         merge(&mut doc, extra);
@@ -519,141 +376,33 @@ fn print_wait_end(ctx: &Ctx, what: &str, end: &WaitEnd, target: Option<i32>, ext
 
 // ---- configuration ----
 
-/// JSON group and key of a servo configuration field, e.g. `traject0` / `speed2`.
-fn group_of(part: ServoPart) -> String {
-    match part {
-        ServoPart::TrajectEnd(t)
-        | ServoPart::TrajectInitialSpeed(t)
-        | ServoPart::TrajectChangePosition(t, _)
-        | ServoPart::TrajectSpeed(t, _) => format!("traject{}", t.to_u8()),
-        other => format!("{other:?}").to_lowercase(),
-    }
-}
-
-fn key_of(part: ServoPart, field: &Field) -> String {
-    match part {
-        ServoPart::TrajectChangePosition(_, s) | ServoPart::TrajectSpeed(_, s) => {
-            format!("{}{}", field.key, s.to_u8())
-        }
-        _ => field.key.to_string(),
-    }
-}
-
-fn set_row(part: ServoPart) -> &'static table::CommandDef {
-    table::command_for(table::SERVO_CONFIGURATION, part.selector()).expect("every part has a set row")
-}
-
-/// Every configurable field: (part, field, `group.key` name).
-fn config_fields() -> Vec<(ServoPart, &'static Field, String)> {
-    let mut out = Vec::new();
-    for part in ServoPart::all() {
-        for f in set_row(part).value_fields() {
-            out.push((part, f, format!("{}.{}", group_of(part), key_of(part, f))));
-        }
-    }
-    out
-}
-
-const GROUPS: &[&str] = &["speeds", "voltage", "encoder", "control", "inputs", "traject0", "traject1"];
-
-fn norm(s: &str) -> String {
-    s.trim().to_ascii_lowercase().replace('-', "_")
-}
-
-/// `maximum_speed` or `speeds.maximum_speed`; trajects need their group.
-fn find_field(name: &str) -> Option<(ServoPart, &'static Field)> {
-    let n = norm(name);
-    config_fields()
-        .into_iter()
-        .find(|(part, _, full)| {
-            *full == n || (!group_of(*part).starts_with("traject") && full.ends_with(&format!(".{n}")))
-        })
-        .map(|(p, f, _)| (p, f))
-}
-
-/// Field keys and new values of one selector.
-type Assignments = Vec<(&'static str, i64)>;
-
 fn config(ctx: &Ctx, t: ModuleTarget, items: &[String]) -> anyhow::Result<()> {
-    let sets: Vec<&String> = items.iter().filter(|i| i.contains('=')).collect();
-    if !sets.is_empty() && sets.len() != items.len() {
-        return Err(usage("give either parts to show or FIELD=VALUE assignments, not both"));
+    // Every name and value is resolved and checked before anything is sent.
+    match ConfigRequest::parse(items).dev()? {
+        ConfigRequest::Show(groups) => show_config(ctx, &mut open(ctx, &t.node)?, t, &groups),
+        ConfigRequest::Set(changes) => {
+            let mut s = open(ctx, &t.node)?;
+            let groups = s.write_config(module_id(&t), &changes).dev()?;
+            show_config(ctx, &mut s, t, &groups)
+        }
     }
-    if sets.is_empty() {
-        let groups: Vec<String> = if items.is_empty() {
-            GROUPS.iter().map(|g| g.to_string()).collect()
-        } else {
-            items
-                .iter()
-                .map(|i| {
-                    let g = norm(i);
-                    if GROUPS.contains(&g.as_str()) {
-                        Ok(g)
-                    } else {
-                        Err(usage(format!("unknown part {i:?}; parts: {}", GROUPS.join(", "))))
-                    }
-                })
-                .collect::<anyhow::Result<_>>()?
-        };
-        return show_config(ctx, t, &groups);
-    }
-    // Resolve and range-check every assignment before anything is sent.
-    let mut changes: BTreeMap<u8, (ServoPart, Assignments)> = BTreeMap::new();
-    for a in sets {
-        let (name, value) = a.split_once('=').expect("filtered on '='");
-        let (part, field) = find_field(name).ok_or_else(|| {
-            let names: Vec<String> = config_fields().into_iter().map(|(.., n)| n).collect();
-            usage(format!("unknown configuration field {name:?}; fields: {}", names.join(", ")))
-        })?;
-        let v = parse_int(value).ok_or_else(|| usage(format!("{name}: {value:?} is not an integer")))?;
-        field.check(v).map_err(invalid)?;
-        changes.entry(part.selector()).or_insert((part, Vec::new())).1.push((field.key, v));
-    }
-    let node = node_id(&t.node);
-    let mut s = open(ctx, &t.node)?;
-    // Each selector is written whole: read it, change the named fields, write it.
-    let mut writes = Vec::new();
-    for (part, new) in changes.values() {
-        let r = s.read(node, addr(&t), &Command::ReadServoConfig(*part))?;
-        let cfg = ServoConfig::from_values(*part, |k| {
-            new.iter().rev().find(|(nk, _)| *nk == k).map(|(_, v)| *v).or_else(|| r.get(k))
-        })
-        .map_err(|e| DeviceFault(format!("cannot write {}: {e}", group_of(*part))))?;
-        writes.push(Command::SetServoConfig(cfg));
-    }
-    check(&writes, addr(&t))?;
-    for w in &writes {
-        s.transact(node, addr(&t), w)?;
-    }
-    let groups: Vec<String> = {
-        let mut g: Vec<String> = changes.values().map(|(p, _)| group_of(*p)).collect();
-        g.dedup();
-        g
-    };
-    show_config_with(ctx, &mut s, t, &groups)
 }
 
-fn show_config(ctx: &Ctx, t: ModuleTarget, groups: &[String]) -> anyhow::Result<()> {
-    let mut s = open(ctx, &t.node)?;
-    show_config_with(ctx, &mut s, t, groups)
-}
-
-fn show_config_with(ctx: &Ctx, s: &mut Cdios, t: ModuleTarget, groups: &[String]) -> anyhow::Result<()> {
+fn show_config(ctx: &Ctx, s: &mut Node, t: ModuleTarget, groups: &[String]) -> anyhow::Result<()> {
     let (node, m) = (node_id(&t.node), module_id(&t));
     let mut doc = serde_json::Map::new();
     let mut rows = vec![["FIELD", "VALUE", "UNIT", "RANGE"].map(String::from).to_vec()];
-    for part in ServoPart::all().into_iter().filter(|p| groups.contains(&group_of(*p))) {
-        let r = s.read(node, addr(&t), &Command::ReadServoConfig(part))?;
-        let g = doc.entry(group_of(part)).or_insert_with(|| json!({}));
-        for f in set_row(part).value_fields() {
+    for (part, r) in s.read_config(m, groups).dev()? {
+        let g = doc.entry(servo::group_of(part)).or_insert_with(|| json!({}));
+        for f in servo::set_row(part).value_fields() {
             let v = r.get(f.key).unwrap_or(0);
-            g[key_of(part, f)] = json!(v);
+            g[servo::key_of(part, f)] = json!(v);
             let shown = match f.scale {
                 Some(sc) => format!("{v} ({} {})", v as f64 * sc.factor, sc.unit),
                 None => v.to_string(),
             };
             rows.push(vec![
-                format!("{}.{}", group_of(part), key_of(part, f)),
+                format!("{}.{}", servo::group_of(part), servo::key_of(part, f)),
                 shown,
                 f.unit.to_string(),
                 format!("{}..{}", f.min, f.max),
@@ -672,22 +421,9 @@ fn show_config_with(ctx: &Ctx, s: &mut Cdios, t: ModuleTarget, groups: &[String]
 // ---- outputs ----
 
 fn outputs(ctx: &Ctx, t: ModuleTarget, set: Option<&str>, latched: bool) -> anyhow::Result<()> {
-    let set = set
-        .map(|text| {
-            let v = parse_int(text).ok_or_else(|| usage(format!("--set {text:?} is not a number")))?;
-            field_value::<u8>("set_digital_outputs", "outputs", v)
-        })
-        .transpose()?;
+    let set = set.map(device::outputs_value).transpose().dev()?;
     let (node, m) = (node_id(&t.node), module_id(&t));
-    if let Some(o) = set {
-        check(&[Command::SetDigitalOutputs { latched, outputs: o }], addr(&t))?;
-    }
-    let mut s = open(ctx, &t.node)?;
-    if let Some(o) = set {
-        s.transact(node, addr(&t), &Command::SetDigitalOutputs { latched, outputs: o })?;
-    }
-    let r = s.read(node, addr(&t), &Command::GetDigitalOutputs)?;
-    let state = r.get("state").unwrap_or(0) as u8;
+    let state = open(ctx, &t.node)?.outputs(m, set, latched).dev()?;
     let bits: Vec<bool> = (0..4).map(|i| state & (1 << i) != 0).collect();
     if ctx.json {
         output::json(&json!({"node": node, "module": m, "outputs": state, "bits": bits}));
@@ -702,37 +438,16 @@ fn outputs(ctx: &Ctx, t: ModuleTarget, set: Option<&str>, latched: bool) -> anyh
 }
 
 fn analog(ctx: &Ctx, t: ModuleTarget, output: Option<i64>, set: Option<i64>, latched: bool) -> anyhow::Result<()> {
-    let which = |n: i64| match n {
-        1 => Ok(AnalogOutput::One),
-        2 => Ok(AnalogOutput::Two),
-        _ => Err(usage(format!("--output {n}: the 6168 has analog outputs 1 and 2; nothing was sent"))),
-    };
-    let outs: Vec<AnalogOutput> = match output {
-        Some(n) => vec![which(n)?],
-        None => vec![AnalogOutput::One, AnalogOutput::Two],
-    };
-    let set_cmd = match set {
-        Some(v) => Some(Command::SetAnalogOutput {
-            output: outs[0],
-            latched,
-            millivolts: field_value::<i16>("set_analog_output", "value", v)?,
-        }),
-        None => None,
-    };
-    if let Some(c) = set_cmd {
-        check(&[c], addr(&t))?;
-    }
+    let (outs, set) = device::analog_request(output, set, latched).dev()?;
     let (node, m) = (node_id(&t.node), module_id(&t));
-    let mut s = open(ctx, &t.node)?;
-    if let Some(c) = set_cmd {
-        s.transact(node, addr(&t), &c)?;
+    if let Some(c) = set {
+        device::check(&[c], m).dev()?;
     }
-    let mut list = Vec::new();
-    for o in outs {
-        let r = s.read(node, addr(&t), &Command::ReadAnalogOutput { output: o })?;
-        let mv = r.get("value").unwrap_or(0);
-        list.push(json!({"output": o.to_u8(), "millivolts": mv, "volts": mv as f64 / 1000.0}));
-    }
+    let read = open(ctx, &t.node)?.analog(m, &outs, set).dev()?;
+    let list: Vec<Value> = read
+        .iter()
+        .map(|a| json!({"output": a.output, "millivolts": a.millivolts, "volts": a.millivolts as f64 / 1000.0}))
+        .collect();
     if ctx.json {
         output::json(&json!({"node": node, "module": m, "analog": list}));
     } else {
@@ -745,99 +460,14 @@ fn analog(ctx: &Ctx, t: ModuleTarget, output: Option<i64>, set: Option<i64>, lat
 
 // ---- events ----
 
-struct EventChanges<'a> {
-    mask: Option<&'a str>,
-    raw_masks: Option<&'a str>,
-    position_interval: Option<i64>,
-    position_on_change: Option<bool>,
-    speed_interval: Option<i64>,
-    speed_on_change: Option<bool>,
-}
-
-impl EventChanges<'_> {
-    fn any(&self) -> bool {
-        self.mask.is_some()
-            || self.raw_masks.is_some()
-            || self.position_interval.is_some()
-            || self.position_on_change.is_some()
-            || self.speed_interval.is_some()
-            || self.speed_on_change.is_some()
-    }
-}
-
-/// Status flag names to the four mask bytes.
-fn masks_from_names(text: &str) -> anyhow::Result<[u8; 4]> {
-    let mut masks = [0u8; 4];
-    if text.trim().eq_ignore_ascii_case("none") {
-        return Ok(masks);
-    }
-    for name in text.split([',', '|']).map(str::trim).filter(|s| !s.is_empty()) {
-        let f =
-            STATUS_FLAGS.iter().find(|f| f.name.eq_ignore_ascii_case(&name.replace('-', "_"))).ok_or_else(|| {
-                let all: Vec<&str> = STATUS_FLAGS.iter().map(|f| f.name).collect();
-                usage(format!("unknown status flag {name:?}; flags: {}", all.join(", ")))
-            })?;
-        masks[f.byte as usize - 1] |= 1 << f.bit;
-    }
-    Ok(masks)
-}
-
-fn masks_from_raw(text: &str) -> anyhow::Result<[u8; 4]> {
-    let parts: Vec<&str> = text.split(',').map(str::trim).collect();
-    if parts.len() != 4 {
-        return Err(usage(format!("--raw-masks {text:?}: give four bytes M1,M2,M3,M4")));
-    }
-    let mut out = [0u8; 4];
-    for (i, p) in parts.iter().enumerate() {
-        let v = parse_int(p).ok_or_else(|| usage(format!("--raw-masks: {p:?} is not a number")))?;
-        out[i] = field_value::<u8>("set_event_mask", ["mask1", "mask2", "mask3", "mask4"][i], v)?;
-    }
-    Ok(out)
-}
-
-fn mask_flags(masks: [u8; 4]) -> Vec<&'static str> {
-    STATUS_FLAGS.iter().filter(|f| f.is_set(&masks)).map(|f| f.name).collect()
-}
-
-fn events(ctx: &Ctx, t: ModuleTarget, ch: EventChanges) -> anyhow::Result<()> {
-    let new_masks = match (ch.mask, ch.raw_masks) {
-        (Some(n), _) => Some(masks_from_names(n)?),
-        (_, Some(r)) => Some(masks_from_raw(r)?),
-        _ => None,
-    };
-    let pi = ch.position_interval.map(|v| field_value::<u8>("set_event_mask", "position_interval", v)).transpose()?;
-    let si = ch.speed_interval.map(|v| field_value::<u8>("set_event_mask", "speed_interval", v)).transpose()?;
+fn events(ctx: &Ctx, t: ModuleTarget, change: &EventChange) -> anyhow::Result<()> {
     let (node, m) = (node_id(&t.node), module_id(&t));
-    let mut s = open(ctx, &t.node)?;
-    let read = |s: &mut Cdios| -> anyhow::Result<([u8; 4], Timers)> {
-        let r = s.read(node, Address::Module(m), &Command::ReadEventMask)?;
-        let g = |k: &str| r.get(k).unwrap_or(0);
-        Ok((
-            [g("mask1") as u8, g("mask2") as u8, g("mask3") as u8, g("mask4") as u8],
-            Timers {
-                position_interval: g("position_interval") as u8,
-                position_on_change: g("position_on_change") != 0,
-                speed_interval: g("speed_interval") as u8,
-                speed_on_change: g("speed_on_change") != 0,
-            },
-        ))
-    };
-    let (mut masks, mut timers) = read(&mut s)?;
-    if ch.any() {
-        masks = new_masks.unwrap_or(masks);
-        timers.position_interval = pi.unwrap_or(timers.position_interval);
-        timers.speed_interval = si.unwrap_or(timers.speed_interval);
-        timers.position_on_change = ch.position_on_change.unwrap_or(timers.position_on_change);
-        timers.speed_on_change = ch.speed_on_change.unwrap_or(timers.speed_on_change);
-        let cmd = Command::SetEventMask { masks, timers };
-        check(&[cmd], addr(&t))?;
-        s.transact(node, addr(&t), &cmd)?;
-        (masks, timers) = read(&mut s)?;
-    }
+    let setup = open(ctx, &t.node)?.events(m, change).dev()?;
+    let (masks, timers) = (setup.masks, setup.timers);
     let ms = |c: u8| Timers::interval_ms(c).unwrap_or(0.0);
     if ctx.json {
         output::json(&json!({
-            "node": node, "module": m, "masks": masks, "mask_flags": mask_flags(masks),
+            "node": node, "module": m, "masks": masks, "mask_flags": device::mask_flags(masks),
             "timers": {
                 "position_interval": timers.position_interval, "position_interval_ms": ms(timers.position_interval),
                 "position_on_change": timers.position_on_change,
@@ -846,7 +476,7 @@ fn events(ctx: &Ctx, t: ModuleTarget, ch: EventChanges) -> anyhow::Result<()> {
             },
         }));
     } else {
-        let names = mask_flags(masks);
+        let names = device::mask_flags(masks);
         println!("node {node} module {m}: event masks {:02x?}", masks);
         println!("  events on: {}", if names.is_empty() { "-".into() } else { names.join(" ") });
         let every = |c: u8, change: bool| match c {
@@ -862,13 +492,9 @@ fn events(ctx: &Ctx, t: ModuleTarget, ch: EventChanges) -> anyhow::Result<()> {
 // ---- store ----
 
 fn store(ctx: &Ctx, t: ModuleTarget, defaults: bool) -> anyhow::Result<()> {
-    let cmd = Command::StoreConfiguration { defaults };
-    check(&[cmd], addr(&t))?;
     let (node, m) = (node_id(&t.node), module_id(&t));
-    let mut s = open(ctx, &t.node)?;
-    let t0 = s.clock().now();
-    s.transact(node, addr(&t), &cmd)?;
-    let elapsed = s.clock().now() - t0;
+    device::check(&[Command::StoreConfiguration { defaults }], m).dev()?;
+    let elapsed = open(ctx, &t.node)?.store(m, defaults).dev()?;
     if ctx.json {
         output::json(&json!({"node": node, "module": m, "command": "cdios-store", "defaults": defaults,
                              "confirmed": true, "elapsed_ms": elapsed.as_millis() as u64}));
@@ -911,7 +537,8 @@ fn watch(
         return Err(usage("--poll must be at least 1 ms"));
     }
     let (node, m) = (node_id(&t.node), module_id(&t));
-    let mut s = open(ctx, &t.node)?;
+    let mut node_ops = open(ctx, &t.node)?;
+    let s = node_ops.session();
     super::arm_interrupt()?;
     let clock = Arc::clone(s.clock());
     let start = clock.now();

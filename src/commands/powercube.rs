@@ -3,15 +3,15 @@
 
 use std::time::Duration;
 
-use anyhow::{bail, Context as _};
-use axisctl::proto::powercube::can::Broadcast;
-use axisctl::proto::powercube::flags::{self, config, state, FlagWord};
-use axisctl::proto::powercube::frame::{f32_to_f64, parse_int, Value};
-use axisctl::proto::powercube::limits::{self, LimitError, Limits};
-use axisctl::proto::powercube::table::{self, ids, ParamDef};
-use axisctl::proto::powercube::{ModuleId, Motion, MotionValue, Request, Response};
-use axisctl::session::powercube::{decode_get, describe, PowerCube};
-use axisctl::session::SessionError;
+use axisctl::device::powercube::{
+    self as device, param, ConfigChange, Cubes, Error, Goal, Move, Simple, WaitEnd, WaitSpec,
+};
+use axisctl::proto::powercube::flags::{self, FlagWord};
+use axisctl::proto::powercube::frame::{f32_to_f64, Value};
+use axisctl::proto::powercube::limits::LimitError;
+use axisctl::proto::powercube::table::{ids, ParamDef};
+use axisctl::proto::powercube::ModuleId;
+use axisctl::session::powercube::PowerCube;
 use serde_json::json;
 
 use super::{interrupted, usage, Ctx, DeviceFault, Interrupted};
@@ -24,8 +24,8 @@ pub fn run(ctx: &Ctx, cmd: Command) -> anyhow::Result<()> {
         Command::Info(m) => info(ctx, module(m.module)),
         Command::State(m) => show_state(ctx, module(m.module)),
         Command::Home { target, wait } => home(ctx, target, wait),
-        Command::Reset { target } => simple(ctx, target, Request::Reset, Broadcast::Reset),
-        Command::Halt { target } => simple(ctx, target, Request::Halt, Broadcast::Halt),
+        Command::Reset { target } => simple(ctx, target, Simple::Reset),
+        Command::Halt { target } => simple(ctx, target, Simple::Halt),
         Command::MoveRamp { module: m, pos, vel, acc, ticks, force, wait } => {
             move_ramp(ctx, module(m.module), pos, vel, acc, ticks, force, wait)
         }
@@ -47,33 +47,82 @@ fn module(id: u8) -> ModuleId {
     ModuleId::new(id).expect("clap checks 1..=31")
 }
 
-fn param(id: u8) -> &'static ParamDef {
-    table::param(id).expect("ids constants are in the table")
-}
-
-fn get_u32(pc: &mut PowerCube, m: ModuleId, id: u8) -> anyhow::Result<u32> {
-    match pc.get(m, param(id))? {
-        Value::UInt32(v) => Ok(v),
-        other => bail!("{} answered {other:?}, expected UInt32", param(id).name),
+/// A device error in the contract's terms: refusals are usage errors (exit
+/// 2), faults exit 5, session failures keep their kind.
+fn dev(e: Error) -> anyhow::Error {
+    match e {
+        Error::Limit(l @ LimitError::Exceeds { .. }) => usage(format!("{l} (use --force to skip this check)")),
+        Error::Limit(_) | Error::Refused(_) => usage(e.to_string()),
+        Error::NotReady { module, .. } => DeviceFault(format!("{e}: clear it with `axisctl reset -m {module}`")).into(),
+        Error::Faulted { .. } | Error::ConfigNotKept { .. } => DeviceFault(e.to_string()).into(),
+        Error::Interrupted { .. } => Interrupted(e.to_string().trim_start_matches("interrupted").into()).into(),
+        Error::Session(s) => s.into(),
+        Error::Motion { .. } | Error::LostTrack { .. } => anyhow::Error::new(e),
+        Error::UnexpectedType { .. } => anyhow::anyhow!(e.to_string()),
     }
 }
 
-/// Reads several parameters of one module, pipelined on CAN.
-fn get_many(pc: &mut PowerCube, m: ModuleId, defs: &[&'static ParamDef]) -> anyhow::Result<Vec<Value>> {
-    let reqs: Vec<_> = defs.iter().map(|d| (m, Request::GetExtended { param: d.id })).collect();
-    let answers = pc.transact_many(&reqs)?;
-    defs.iter()
-        .zip(answers)
-        .map(|(d, a)| {
-            // A pipelined read that failed is retried one by one; the
-            // pipelined attempt counts as its first.
-            let resp = match a {
-                Ok(r) => r,
-                Err(e) => pc.retry_read(m, &Request::GetExtended { param: d.id }, e)?,
-            };
-            Ok(decode_get(m, d, &resp)?)
-        })
-        .collect()
+/// A device layer error turned into the CLI's error classes.
+pub(super) trait IntoCli {
+    fn into_cli(self) -> anyhow::Error;
+}
+
+impl IntoCli for Error {
+    fn into_cli(self) -> anyhow::Error {
+        dev(self)
+    }
+}
+
+/// `.dev()?` instead of `?`: a device error must not reach anyhow
+/// unclassified. (Shared with the Cdios commands.)
+pub(super) trait Dev<T> {
+    fn dev(self) -> anyhow::Result<T>;
+}
+
+impl<T, E: IntoCli> Dev<T> for Result<T, E> {
+    fn dev(self) -> anyhow::Result<T> {
+        self.map_err(IntoCli::into_cli)
+    }
+}
+
+/// How a `--wait` polls, gives up, and how often it sends the stop that
+/// ends a failed wait.
+pub(super) struct Timing {
+    pub poll: Duration,
+    pub timeout: Duration,
+    pub stop_attempts: u32,
+}
+
+/// Runs a device wait with Ctrl-C armed and the spinner shown (not with
+/// --json); `run` gets the timing and the function that sets the spinner's
+/// message.
+pub(super) fn waiting<T>(
+    ctx: &Ctx,
+    wait: &WaitArgs,
+    run: impl FnOnce(Timing, &dyn Fn(String)) -> anyhow::Result<T>,
+) -> anyhow::Result<T> {
+    super::arm_interrupt()?;
+    let timing = Timing {
+        poll: Duration::from_millis(wait.poll),
+        timeout: Duration::from_secs_f64(wait.wait_timeout.max(0.0)),
+        stop_attempts: 1 + ctx.retry.read_retries,
+    };
+    let bar = crate::output::spinner(ctx.json);
+    let show = |msg: String| {
+        if let Some(bar) = &bar {
+            bar.set_message(msg);
+            bar.tick();
+        }
+    };
+    let out = run(timing, &show);
+    if let Some(bar) = bar {
+        bar.finish_and_clear();
+    }
+    out
+}
+
+fn cubes(ctx: &Ctx) -> anyhow::Result<Cubes> {
+    Ok(Cubes::new(ctx.powercube()?))
 }
 
 fn f64_of(v: &Value) -> f64 {
@@ -103,7 +152,7 @@ fn print_word(ctx: &Ctx, word: &FlagWord, raw: u32) {
 }
 
 fn kind_of(config_word: u32) -> &'static str {
-    if config_word & config::LINEAR != 0 {
+    if device::is_linear(config_word) {
         "linear"
     } else {
         "rotary"
@@ -146,25 +195,19 @@ const SCAN_ANSWER_START: Duration = Duration::from_millis(8);
 
 fn scan(ctx: &Ctx, ids_text: &str) -> anyhow::Result<()> {
     let ids = parse_ids(ids_text)?;
-    let mut pc = ctx.powercube()?;
+    let mut cubes = cubes(ctx)?;
+    let pc = cubes.session();
     // An absent module never answers; a present one starts answering right
     // after the request, so a scan need not wait the whole timeout per id.
     pc.set_answer_start_timeout(Some(SCAN_ANSWER_START.max(pc.timeout() / 8)));
-    let probes: Vec<_> = ids.iter().map(|m| (*m, Request::GetExtended { param: ids::DEF_CUBE_VERSION })).collect();
-    let answers = pc.transact_many(&probes)?;
-    let mut found = Vec::new();
-    for ((m, _), a) in probes.iter().zip(answers) {
-        match a {
-            Ok(resp) => found.push((*m, decode_get(*m, param(ids::DEF_CUBE_VERSION), &resp)?)),
-            Err(SessionError::Timeout { .. }) => {}
-            Err(e) => return Err(e.into()),
-        }
-    }
+    let found = cubes.scan(&ids).dev()?;
     let mut modules = Vec::new();
-    for (m, version) in found {
-        let vals = get_many(&mut pc, m, &[param(ids::DEF_CUBE_SERIAL), param(ids::CONFIG), param(ids::CUBE_STATE)])?;
+    for f in found {
+        let m = f.module;
+        let vals =
+            cubes.get_many(m, &[param(ids::DEF_CUBE_SERIAL), param(ids::CONFIG), param(ids::CUBE_STATE)]).dev()?;
         let [serial, config_word, cube] = [&vals[0], &vals[1], &vals[2]].map(|v| f64_of(v) as u32);
-        let version = f64_of(&version) as u16;
+        let version = f64_of(&f.version) as u16;
         modules.push((m, version, serial, config_word, cube));
     }
     if ctx.json {
@@ -210,7 +253,7 @@ fn state_summary(ctx: &Ctx, cube: u32) -> String {
 }
 
 fn info(ctx: &Ctx, m: ModuleId) -> anyhow::Result<()> {
-    let mut pc = ctx.powercube()?;
+    let mut cubes = cubes(ctx)?;
     let rows: &[u8] = &[
         ids::DEF_CUBE_SERIAL,
         ids::DEF_CUBE_VERSION,
@@ -231,7 +274,7 @@ fn info(ctx: &Ctx, m: ModuleId) -> anyhow::Result<()> {
         ids::CUBE_STATE,
     ];
     let defs: Vec<_> = rows.iter().map(|id| param(*id)).collect();
-    let vals = get_many(&mut pc, m, &defs)?;
+    let vals = cubes.get_many(m, &defs).dev()?;
     let config_word = f64_of(&vals[2]) as u32;
     let cube = f64_of(&vals[16]) as u32;
     let kind = kind_of(config_word);
@@ -265,13 +308,8 @@ fn unit_for(d: &ParamDef, kind: &str) -> String {
     }
 }
 
-fn read_state(pc: &mut PowerCube, m: ModuleId) -> anyhow::Result<u32> {
-    get_u32(pc, m, ids::CUBE_STATE)
-}
-
 fn show_state(ctx: &Ctx, m: ModuleId) -> anyhow::Result<()> {
-    let mut pc = ctx.powercube()?;
-    let cube = read_state(&mut pc, m)?;
+    let cube = cubes(ctx)?.state(m).dev()?;
     if ctx.json {
         let mut doc = word_json(&flags::CUBE_STATE, cube);
         doc["module"] = json!(m);
@@ -285,15 +323,9 @@ fn show_state(ctx: &Ctx, m: ModuleId) -> anyhow::Result<()> {
 }
 
 /// One command to one module, or its broadcast to all.
-fn simple(ctx: &Ctx, target: Target, req: Request, b: Broadcast) -> anyhow::Result<()> {
-    let mut pc = ctx.powercube()?;
-    match target.module {
-        Some(id) => {
-            pc.transact(module(id), &req)?;
-        }
-        None => pc.broadcast(b)?,
-    }
-    report_sent(ctx, target, req.command().name());
+fn simple(ctx: &Ctx, target: Target, cmd: Simple) -> anyhow::Result<()> {
+    cubes(ctx)?.simple(target.module.map(module), cmd).dev()?;
+    report_sent(ctx, target, cmd.name());
     Ok(())
 }
 
@@ -312,148 +344,33 @@ fn report_sent(ctx: &Ctx, target: Target, what: &str) {
 }
 
 fn home(ctx: &Ctx, target: Target, wait: WaitArgs) -> anyhow::Result<()> {
-    let mut pc = ctx.powercube()?;
-    let modules = match target.module {
-        Some(id) => {
-            // No state read first: Home must be exactly one frame, and a
-            // faulted module shows up in --wait anyway.
-            let m = module(id);
-            pc.transact(m, &Request::Home)?;
-            vec![m]
-        }
-        None => {
-            pc.broadcast(Broadcast::Home)?;
-            if wait.wait {
-                present_modules(&mut pc)?
-            } else {
-                vec![]
-            }
-        }
-    };
+    let mut cubes = cubes(ctx)?;
+    cubes.simple(target.module.map(module), Simple::Home).dev()?;
     if !wait.wait {
         report_sent(ctx, target, "Home");
         return Ok(());
     }
+    let modules = match target.module {
+        Some(id) => vec![module(id)],
+        None => cubes.present().dev()?,
+    };
     let mut results = Vec::new();
     for m in modules {
-        let end = wait_until(ctx, &mut pc, m, wait, "homing", |cube, _| {
-            cube & state::HOME_OK != 0 && cube & state::MOTION == 0
-        })?;
-        results.push(end);
+        results.push(wait_for(ctx, &mut cubes, m, wait, Goal::Homed)?);
     }
     print_wait_results(ctx, "Home", &results);
     Ok(())
 }
 
-/// Ids that answer DefCubeVersion (a quick pipelined scan).
-fn present_modules(pc: &mut PowerCube) -> anyhow::Result<Vec<ModuleId>> {
-    let probes: Vec<_> = ModuleId::all().map(|m| (m, Request::GetExtended { param: ids::DEF_CUBE_VERSION })).collect();
-    let answers = pc.transact_many(&probes)?;
-    Ok(probes.iter().zip(answers).filter(|(_, a)| a.is_ok()).map(|((m, _), _)| *m).collect())
-}
-
-/// Motion is refused while the module reports an error or is halted: it
-/// would not move, and the user should reset first.
-fn refuse_if_faulted(pc: &mut PowerCube, m: ModuleId) -> anyhow::Result<()> {
-    if let Some(why) = limits::not_ready(read_state(pc, m)?) {
-        return Err(DeviceFault(format!(
-            "module {m} is not ready ({}): clear it with `axisctl reset -m {m}`",
-            why.join(", ")
-        ))
-        .into());
-    }
-    Ok(())
-}
-
-struct WaitEnd {
-    module: ModuleId,
-    position: f32,
-    cube: u32,
-    elapsed: Duration,
-}
-
-/// Polls CubeState and ActPos until `done`; an error flag ends the wait
-/// with exit 5, Ctrl-C and the wait timeout halt the module first.
-fn wait_until(
-    ctx: &Ctx,
-    pc: &mut PowerCube,
-    m: ModuleId,
-    wait: WaitArgs,
-    what: &str,
-    mut done: impl FnMut(u32, f32) -> bool,
-) -> anyhow::Result<WaitEnd> {
-    super::arm_interrupt()?;
-    let clock = std::sync::Arc::clone(pc.clock());
-    let start = clock.now();
-    let limit = Duration::from_secs_f64(wait.wait_timeout.max(0.0));
-    let bar = crate::output::spinner(ctx.json);
-    let attempts = 1 + ctx.retry.read_retries;
-    let halt = |pc: &mut PowerCube| halt_module(pc, m, attempts);
-    let result = loop {
-        if interrupted() {
-            let halted = halt(pc);
-            break Err(Interrupted(match halted {
-                Ok(_) => format!(": module {m} halted"),
-                Err(e) => format!(": HALT OF MODULE {m} FAILED: {e}"),
-            })
-            .into());
-        }
-        let vals = match get_many(pc, m, &[param(ids::CUBE_STATE), param(ids::ACT_POS)]) {
-            Ok(v) => v,
-            // The module may still be moving: stop it before giving up.
-            Err(e) => {
-                let note = match halt(pc) {
-                    Ok(_) => format!("module {m} halted"),
-                    Err(h) => format!("HALT OF MODULE {m} FAILED: {h}"),
-                };
-                break Err(e.context(format!("lost track of module {m} while {what} ({note})")));
-            }
-        };
-        let (cube, pos) = (f64_of(&vals[0]) as u32, f64_of(&vals[1]) as f32);
-        let elapsed = clock.now() - start;
-        if let Some(bar) = &bar {
-            bar.set_message(format!("module {m} {what}: pos {pos:.4}  {}", state_summary(ctx, cube)));
-            bar.tick();
-        }
-        let d = flags::CUBE_STATE.decode(cube);
-        if d.has_error() {
-            break Err(DeviceFault(format!(
-                "module {m} reports an error while {what}: {} (state {cube:#010x})",
-                d.errors.join(", ")
-            ))
-            .into());
-        }
-        if done(cube, pos) {
-            break Ok(WaitEnd { module: m, position: pos, cube, elapsed });
-        }
-        if elapsed >= limit {
-            let halted = halt(pc).is_ok();
-            break Err(anyhow::Error::new(SessionError::Timeout {
-                target: format!("module {m}"),
-                what: format!("the end of {what} ({})", if halted { "module halted" } else { "HALT FAILED" }),
-                timeout: limit,
-            }));
-        }
-        clock.sleep(Duration::from_millis(wait.poll));
-    };
-    if let Some(bar) = bar {
-        bar.finish_and_clear();
-    }
-    result
-}
-
-/// Halt, sent again when its acknowledge does not come: stopping twice is
-/// harmless, not stopping is not. (Motion commands are never sent twice.)
-fn halt_module(pc: &mut PowerCube, m: ModuleId, attempts: u32) -> Result<Response, SessionError> {
-    let mut last = None;
-    for _ in 0..attempts.max(1) {
-        match pc.transact(m, &Request::Halt) {
-            Ok(r) => return Ok(r),
-            Err(e @ (SessionError::Timeout { .. } | SessionError::Malformed { .. })) => last = Some(e),
-            Err(e) => return Err(e),
-        }
-    }
-    Err(last.expect("at least one attempt"))
+/// The device's wait, with the spinner and Ctrl-C (which halts the module).
+fn wait_for(ctx: &Ctx, cubes: &mut Cubes, m: ModuleId, wait: WaitArgs, goal: Goal) -> anyhow::Result<WaitEnd> {
+    waiting(ctx, &wait, |t, show| {
+        let spec = WaitSpec { poll: t.poll, timeout: t.timeout, halt_attempts: t.stop_attempts };
+        let what = goal.doing();
+        let progress =
+            &mut |pos: f32, cube| show(format!("module {m} {what}: pos {pos:.4}  {}", state_summary(ctx, cube)));
+        cubes.wait(m, goal, spec, &interrupted, progress).dev()
+    })
 }
 
 fn print_wait_results(ctx: &Ctx, what: &str, results: &[WaitEnd]) {
@@ -483,32 +400,16 @@ fn print_wait_results(ctx: &Ctx, what: &str, results: &[WaitEnd]) {
     }
 }
 
-/// The module's own limits, read before any motion command.
-fn read_limits(pc: &mut PowerCube, m: ModuleId, ticks: bool) -> anyhow::Result<Limits> {
-    let defs: Vec<_> = Limits::param_ids(ticks).iter().map(|id| param(*id)).collect();
-    let v = get_many(pc, m, &defs)?;
-    Ok(Limits::from_values([0, 1, 2, 3, 4].map(|i| f64_of(&v[i])), ticks))
-}
-
-/// A refused value: exit 2 naming the limit, nothing sent.
-fn refused(e: LimitError) -> anyhow::Error {
-    match e {
-        LimitError::Exceeds { .. } => usage(format!("{e} (use --force to skip this check)")),
-        other => usage(other.to_string()),
-    }
-}
-
-fn motion_value(v: f64, ticks: bool, what: &'static str) -> anyhow::Result<MotionValue> {
-    limits::motion_value(v, ticks, what).map_err(refused)
-}
-
-fn send_motion(ctx: &Ctx, pc: &mut PowerCube, m: ModuleId, motion: Motion) -> anyhow::Result<Response> {
-    let req = Request::SetMotion(motion);
-    let resp = pc.transact(m, &req).with_context(|| format!("{} to module {m}", describe(&req)))?;
+/// Checks and sends a move; the checks that need no module come before the
+/// link is opened.
+fn send_move(ctx: &Ctx, m: ModuleId, mv: Move, ticks: bool, force: bool) -> anyhow::Result<Cubes> {
+    mv.check(ticks).dev()?;
+    let mut cubes = cubes(ctx)?;
+    let moved = cubes.move_module(m, mv, ticks, force).dev()?;
     if !ctx.json {
-        println!("module {m}: {} acknowledged", describe(&req));
+        println!("module {m}: {} acknowledged", moved.described);
     }
-    Ok(resp)
+    Ok(cubes)
 }
 
 #[allow(clippy::too_many_arguments)]
@@ -522,68 +423,20 @@ fn move_ramp(
     force: bool,
     wait: WaitArgs,
 ) -> anyhow::Result<()> {
-    let target = motion_value(pos, ticks, "target position")?;
-    let vel_v = vel.map(|v| motion_value(v, ticks, "velocity")).transpose()?;
-    let acc_v = acc.map(|a| motion_value(a, ticks, "acceleration")).transpose()?;
-    for (name, v) in [("velocity", vel), ("acceleration", acc)] {
-        if let Some(v) = v {
-            limits::check_positive(name, v).map_err(refused)?;
-        }
-    }
-    let mut pc = ctx.powercube()?;
-    refuse_if_faulted(&mut pc, m)?;
-    if !force {
-        let l = read_limits(&mut pc, m, ticks)?;
-        l.check_pos(pos, m).map_err(refused)?;
-        if let Some(v) = vel {
-            l.check_vel(v, m).map_err(refused)?;
-        }
-        if let Some(a) = acc {
-            l.check_acc(a, m).map_err(refused)?;
-        }
-    }
-    let (vel_id, acc_id) =
-        if ticks { (ids::TARGET_VEL_INC, ids::TARGET_ACC_INC) } else { (ids::TARGET_VEL, ids::TARGET_ACC) };
-    for (id, v) in [(vel_id, vel_v), (acc_id, acc_v)] {
-        if let Some(v) = v {
-            let value = match v {
-                MotionValue::Float(f) => Value::Float(f),
-                MotionValue::Int32(i) => Value::Int32(i),
-                MotionValue::Int16(i) => Value::Int16(i),
-            };
-            pc.set(m, param(id), value)?;
-        }
-    }
-    let motion_id = if ticks { 9 } else { 4 };
-    send_motion(ctx, &mut pc, m, Motion { id: motion_id, value: target, time_ms: None })?;
+    let mut cubes = send_move(ctx, m, Move::Ramp { pos, vel, acc }, ticks, force)?;
     if !wait.wait {
         if ctx.json {
             output::json(&json!({"module": m, "command": "move-ramp", "target": pos, "acknowledged": true}));
         }
         return Ok(());
     }
-    let mut seen_motion = false;
-    // Ticks are converted with IncRatio for the position check.
-    let scale = if ticks { f64_of(&pc.get(m, param(ids::INC_RATIO))?) } else { 1.0 };
-    let goal = if ticks && scale != 0.0 { pos / scale } else { pos };
-    let end = wait_until(ctx, &mut pc, m, wait, "moving", |cube, p| {
-        seen_motion |= cube & state::MOTION != 0;
-        let near = (f64::from(p) - goal).abs() <= 1e-3 * goal.abs().max(1.0);
-        cube & state::MOTION == 0 && cube & state::RAMP_END != 0 && (seen_motion || near)
-    })?;
+    let end = wait_for(ctx, &mut cubes, m, wait, Goal::RampEnd { target: pos, ticks })?;
     print_wait_results(ctx, "move-ramp", &[end]);
     Ok(())
 }
 
 fn move_step(ctx: &Ctx, m: ModuleId, pos: f64, time: u16, ticks: bool, force: bool) -> anyhow::Result<()> {
-    let target = motion_value(pos, ticks, "target position")?;
-    let mut pc = ctx.powercube()?;
-    refuse_if_faulted(&mut pc, m)?;
-    if !force {
-        read_limits(&mut pc, m, ticks)?.check_pos(pos, m).map_err(refused)?;
-    }
-    let id = if ticks { 11 } else { 6 };
-    send_motion(ctx, &mut pc, m, Motion { id, value: target, time_ms: Some(time) })?;
+    send_move(ctx, m, Move::Step { pos, time_ms: time }, ticks, force)?;
     if ctx.json {
         output::json(
             &json!({"module": m, "command": "move-step", "target": pos, "time_ms": time, "acknowledged": true}),
@@ -593,13 +446,7 @@ fn move_step(ctx: &Ctx, m: ModuleId, pos: f64, time: u16, ticks: bool, force: bo
 }
 
 fn move_vel(ctx: &Ctx, m: ModuleId, vel: f64, ticks: bool, force: bool) -> anyhow::Result<()> {
-    let value = motion_value(vel, ticks, "velocity")?;
-    let mut pc = ctx.powercube()?;
-    refuse_if_faulted(&mut pc, m)?;
-    if !force {
-        read_limits(&mut pc, m, ticks)?.check_vel(vel, m).map_err(refused)?;
-    }
-    send_motion(ctx, &mut pc, m, Motion { id: if ticks { 12 } else { 7 }, value, time_ms: None })?;
+    send_move(ctx, m, Move::Vel(vel), ticks, force)?;
     if ctx.json {
         output::json(&json!({"module": m, "command": "move-vel", "velocity": vel, "acknowledged": true}));
     }
@@ -607,40 +454,20 @@ fn move_vel(ctx: &Ctx, m: ModuleId, vel: f64, ticks: bool, force: bool) -> anyho
 }
 
 fn move_cur(ctx: &Ctx, m: ModuleId, amps: f64, force: bool) -> anyhow::Result<()> {
-    limits::check_finite("current", amps).map_err(refused)?;
-    let mut pc = ctx.powercube()?;
-    refuse_if_faulted(&mut pc, m)?;
-    if !force {
-        read_limits(&mut pc, m, false)?.check_cur(amps, m).map_err(refused)?;
-    }
-    send_motion(ctx, &mut pc, m, Motion { id: 8, value: MotionValue::Float(amps as f32), time_ms: None })?;
+    send_move(ctx, m, Move::Cur(amps), false, force)?;
     if ctx.json {
         output::json(&json!({"module": m, "command": "move-cur", "current": amps, "acknowledged": true}));
     }
     Ok(())
 }
 
-fn resolve(text: &str) -> anyhow::Result<&'static ParamDef> {
-    table::resolve_param(text).ok_or_else(|| {
-        usage(format!("unknown parameter {text:?}: use a manual name such as ActPos or an id such as 60 or 0x3c"))
-    })
-}
-
 fn get_param(ctx: &Ctx, m: ModuleId, names: &[String], all: bool) -> anyhow::Result<()> {
-    let defs: Vec<&'static ParamDef> = if all {
-        table::PARAMS.iter().filter(|d| d.access.readable()).collect()
-    } else {
-        let defs = names.iter().map(|n| resolve(n)).collect::<anyhow::Result<Vec<_>>>()?;
-        if let Some(d) = defs.iter().find(|d| !d.access.readable()) {
-            return Err(usage(format!("{} ({:#04x}) is not readable (the manual marks it write-only)", d.name, d.id)));
-        }
-        defs
-    };
-    let mut pc = ctx.powercube()?;
+    let defs = device::readable_params(names, all).dev()?;
+    let mut cubes = cubes(ctx)?;
     // Config rides along so that "rad|m" units resolve for the module's kind.
     let mut with_config = defs.clone();
     with_config.push(param(ids::CONFIG));
-    let mut vals = get_many(&mut pc, m, &with_config)?;
+    let mut vals = cubes.get_many(m, &with_config).dev()?;
     let kind = vals.pop().map_or("rotary", |c| kind_of(f64_of(&c) as u32));
     if ctx.json {
         let mut params = serde_json::Map::new();
@@ -662,13 +489,8 @@ fn get_param(ctx: &Ctx, m: ModuleId, names: &[String], all: bool) -> anyhow::Res
 }
 
 fn set_param(ctx: &Ctx, m: ModuleId, name: &str, text: &str) -> anyhow::Result<()> {
-    let d = resolve(name)?;
-    if !d.access.writable() {
-        return Err(usage(format!("{} ({:#04x}) is read-only; nothing was sent", d.name, d.id)));
-    }
-    let value = Value::parse(d.ty, text).map_err(|e| usage(format!("{}: {e}; nothing was sent", d.name)))?;
-    let mut pc = ctx.powercube()?;
-    pc.set(m, d, value)?;
+    let (d, value) = device::param_write(name, text).dev()?;
+    cubes(ctx)?.set_param(m, d, value).dev()?;
     if ctx.json {
         output::json(&json!({"module": m, "param": d.name, "id": d.id, "type": d.ty.name(), "value": value}));
     } else {
@@ -689,67 +511,31 @@ fn print_config(ctx: &Ctx, m: ModuleId, raw: u32) {
 }
 
 fn get_config(ctx: &Ctx, m: ModuleId) -> anyhow::Result<()> {
-    let mut pc = ctx.powercube()?;
-    let raw = get_u32(&mut pc, m, ids::CONFIG)?;
+    let raw = cubes(ctx)?.get_u32(m, ids::CONFIG).dev()?;
     print_config(ctx, m, raw);
     Ok(())
 }
 
 fn set_config(ctx: &Ctx, m: ModuleId, changes: &[String], raw: Option<&str>) -> anyhow::Result<()> {
-    // Resolve every flag before opening the link: a typo sends nothing.
-    let mut set = 0u32;
-    let mut clear = 0u32;
-    for c in changes {
-        let (on, name) = match c.as_bytes().first() {
-            Some(b'+') => (true, &c[1..]),
-            Some(b'-') => (false, &c[1..]),
-            _ => return Err(usage(format!("{c:?}: write +FLAG to set or -FLAG to clear"))),
-        };
-        let def = flags::CONFIG.flag(name).ok_or_else(|| {
-            usage(format!("unknown Config flag {name:?} (e.g. CONFIGID_MOD_BRAKE_PRESENT or brake-present)"))
-        })?;
-        if on {
-            set |= def.mask
-        } else {
-            clear |= def.mask
+    // Every flag is resolved before the link opens: a typo sends nothing.
+    let change = ConfigChange::parse(changes, raw).dev()?;
+    match cubes(ctx)?.write_config(m, change) {
+        Ok(kept) => {
+            print_config(ctx, m, kept);
+            Ok(())
+        }
+        Err(e) => {
+            if let Error::ConfigNotKept { kept, .. } = e {
+                print_config(ctx, m, kept);
+            }
+            Err(dev(e))
         }
     }
-    let raw = raw
-        .map(|r| {
-            parse_int(r)
-                .and_then(|v| u32::try_from(v).ok())
-                .ok_or_else(|| usage(format!("--raw {r:?} is not a 32-bit value")))
-        })
-        .transpose()?;
-    let mut pc = ctx.powercube()?;
-    let new = match raw {
-        Some(v) => v,
-        None => (get_u32(&mut pc, m, ids::CONFIG)? | set) & !clear,
-    };
-    pc.set(m, param(ids::CONFIG), Value::UInt32(new))?;
-    let readback = get_u32(&mut pc, m, ids::CONFIG)?;
-    print_config(ctx, m, readback);
-    if readback != new {
-        return Err(DeviceFault(format!("module {m} kept Config {readback:#010x} instead of {new:#010x}")).into());
-    }
-    Ok(())
 }
 
 fn dio(ctx: &Ctx, m: ModuleId, out: Option<&str>) -> anyhow::Result<()> {
-    let outputs = out
-        .map(|o| {
-            parse_int(o)
-                .filter(|v| (0..=0xf).contains(v))
-                .ok_or_else(|| usage(format!("--out {o:?} must be a 4-bit mask 0..15 (e.g. 0b0101)")))
-        })
-        .transpose()?;
-    let mut pc = ctx.powercube()?;
-    let mut raw = get_u32(&mut pc, m, ids::DIO_SETUP)?;
-    if let Some(o) = outputs {
-        raw = (raw & !0xf0) | ((o as u32) << 4);
-        pc.set(m, param(ids::DIO_SETUP), Value::UInt32(raw))?;
-        raw = get_u32(&mut pc, m, ids::DIO_SETUP)?;
-    }
+    let outputs = out.map(device::dio_outputs).transpose().dev()?;
+    let raw = cubes(ctx)?.dio(m, outputs).dev()?;
     if ctx.json {
         let mut doc = word_json(&flags::DIO_SETUP, raw);
         doc["module"] = json!(m);
@@ -764,19 +550,11 @@ fn dio(ctx: &Ctx, m: ModuleId, out: Option<&str>) -> anyhow::Result<()> {
 }
 
 fn watchdog(ctx: &Ctx, action: WatchdogAction) -> anyhow::Result<()> {
-    let mut pc = ctx.powercube()?;
+    let mut cubes = cubes(ctx)?;
     match action {
-        WatchdogAction::On(a) | WatchdogAction::Off(a) if !pc.is_can() => {
-            let _ = a;
-            Err(usage("the watchdog is a CAN feature (its refresh is a CAN broadcast)"))
-        }
         WatchdogAction::On(a) => {
             let m = module(a.module);
-            let cfg = get_u32(&mut pc, m, ids::CONFIG)?;
-            if cfg & config::WATCHDOG_ENABLE == 0 {
-                pc.set(m, param(ids::CONFIG), Value::UInt32(cfg | config::WATCHDOG_ENABLE))?;
-            }
-            pc.transact(m, &Request::Watchdog)?;
+            cubes.watchdog_toggle(m, true).dev()?;
             if ctx.json {
                 output::json(&json!({"module": m, "watchdog": "toggled", "config_enabled": true}));
             } else {
@@ -786,7 +564,7 @@ fn watchdog(ctx: &Ctx, action: WatchdogAction) -> anyhow::Result<()> {
         }
         WatchdogAction::Off(a) => {
             let m = module(a.module);
-            pc.transact(m, &Request::Watchdog)?;
+            cubes.watchdog_toggle(m, false).dev()?;
             if ctx.json {
                 output::json(&json!({"module": m, "watchdog": "toggled"}));
             } else {
@@ -794,7 +572,7 @@ fn watchdog(ctx: &Ctx, action: WatchdogAction) -> anyhow::Result<()> {
             }
             Ok(())
         }
-        WatchdogAction::Keepalive { interval, duration } => keepalive(ctx, &mut pc, interval, duration),
+        WatchdogAction::Keepalive { interval, duration } => keepalive(ctx, cubes.session(), interval, duration),
     }
 }
 

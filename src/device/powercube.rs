@@ -1,1 +1,366 @@
-//! powercube operations (see the module above).
+//! PowerCube operations on the modules of one link: state and fault
+//! interpretation, moves with their limit checks, halt / home / reset (one
+//! module or the broadcast), halt-all, parameters, Config and DIO with
+//! readback, the watchdog switch and the waits for the end of a motion.
+//!
+//! Every check that decides whether a frame may go out is made here, before
+//! it goes out; the CLI and the dashboard only word the outcome.
+
+mod error;
+mod moves;
+mod wait;
+
+#[cfg(test)]
+mod tests;
+
+use crate::proto::powercube::can::Broadcast;
+use crate::proto::powercube::flags::{self, config};
+use crate::proto::powercube::frame::{parse_int, Value};
+use crate::proto::powercube::limits::{self, Limits};
+use crate::proto::powercube::table::{self, ids, ParamDef};
+use crate::proto::powercube::{ModuleId, Request};
+use crate::session::powercube::{decode_get, PowerCube};
+use crate::session::SessionError;
+
+pub use error::Error;
+pub use moves::{Move, Moved, Target};
+pub use wait::{Goal, WaitEnd, WaitSpec};
+
+/// A parameter of the table by id; the `ids` constants are all in it.
+pub fn param(id: u8) -> &'static ParamDef {
+    table::param(id).expect("ids constants are in the table")
+}
+
+/// The commands that go to one module or, as a broadcast, to all.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Simple {
+    Home,
+    Reset,
+    Halt,
+}
+
+impl Simple {
+    pub fn request(self) -> Request {
+        match self {
+            Self::Home => Request::Home,
+            Self::Reset => Request::Reset,
+            Self::Halt => Request::Halt,
+        }
+    }
+
+    pub fn broadcast(self) -> Broadcast {
+        match self {
+            Self::Home => Broadcast::Home,
+            Self::Reset => Broadcast::Reset,
+            Self::Halt => Broadcast::Halt,
+        }
+    }
+
+    /// The manual's name of the command (`Home`, `Reset`, `Halt`).
+    pub fn name(self) -> &'static str {
+        self.request().command().name()
+    }
+}
+
+/// The outcome of a halt-all: the broadcast, then each known module's
+/// acknowledged Halt.
+#[derive(Debug)]
+pub struct HaltAll {
+    pub broadcast: Result<(), Error>,
+    pub modules: Vec<(ModuleId, Result<(), Error>)>,
+}
+
+/// What a scan probe found: a module and its DefCubeVersion.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Found {
+    pub module: ModuleId,
+    pub version: Value,
+}
+
+/// A Config change: flags to set and clear, or a whole new word.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct ConfigChange {
+    pub set: u32,
+    pub clear: u32,
+    pub raw: Option<u32>,
+}
+
+impl ConfigChange {
+    /// `+FLAG` / `-FLAG` items and an optional raw word, all resolved before
+    /// anything is sent.
+    pub fn parse(changes: &[String], raw: Option<&str>) -> Result<Self, Error> {
+        let mut out = Self::default();
+        for c in changes {
+            let (on, name) = match c.as_bytes().first() {
+                Some(b'+') => (true, &c[1..]),
+                Some(b'-') => (false, &c[1..]),
+                _ => return Err(Error::Refused(format!("{c:?}: write +FLAG to set or -FLAG to clear"))),
+            };
+            let def = flags::CONFIG.flag(name).ok_or_else(|| {
+                Error::Refused(format!(
+                    "unknown Config flag {name:?} (e.g. CONFIGID_MOD_BRAKE_PRESENT or brake-present)"
+                ))
+            })?;
+            if on {
+                out.set |= def.mask
+            } else {
+                out.clear |= def.mask
+            }
+        }
+        out.raw = raw
+            .map(|r| {
+                parse_int(r)
+                    .and_then(|v| u32::try_from(v).ok())
+                    .ok_or_else(|| Error::Refused(format!("--raw {r:?} is not a 32-bit value")))
+            })
+            .transpose()?;
+        Ok(out)
+    }
+}
+
+/// A parameter name or id resolved against the table.
+pub fn resolve_param(text: &str) -> Result<&'static ParamDef, Error> {
+    table::resolve_param(text).ok_or_else(|| {
+        Error::Refused(format!(
+            "unknown parameter {text:?}: use a manual name such as ActPos or an id such as 60 or 0x3c"
+        ))
+    })
+}
+
+/// The parameters a read asks for: every readable one, or the named ones,
+/// each of which must be readable.
+pub fn readable_params(names: &[String], all: bool) -> Result<Vec<&'static ParamDef>, Error> {
+    if all {
+        return Ok(table::PARAMS.iter().filter(|d| d.access.readable()).collect());
+    }
+    let defs = names.iter().map(|n| resolve_param(n)).collect::<Result<Vec<_>, _>>()?;
+    if let Some(d) = defs.iter().find(|d| !d.access.readable()) {
+        return Err(Error::Refused(format!(
+            "{} ({:#04x}) is not readable (the manual marks it write-only)",
+            d.name, d.id
+        )));
+    }
+    Ok(defs)
+}
+
+/// A parameter write, checked for access and the parameter's wire type.
+pub fn param_write(name: &str, text: &str) -> Result<(&'static ParamDef, Value), Error> {
+    let d = resolve_param(name)?;
+    if !d.access.writable() {
+        return Err(Error::Refused(format!("{} ({:#04x}) is read-only; nothing was sent", d.name, d.id)));
+    }
+    let value = Value::parse(d.ty, text).map_err(|e| Error::Refused(format!("{}: {e}; nothing was sent", d.name)))?;
+    Ok((d, value))
+}
+
+/// The DIO outputs mask 0..15.
+pub fn dio_outputs(text: &str) -> Result<u8, Error> {
+    parse_int(text)
+        .filter(|v| (0..=0xf).contains(v))
+        .map(|v| v as u8)
+        .ok_or_else(|| Error::Refused(format!("--out {text:?} must be a 4-bit mask 0..15 (e.g. 0b0101)")))
+}
+
+/// Whether a Config word describes a linear module.
+pub fn is_linear(config_word: u32) -> bool {
+    config_word & config::LINEAR != 0
+}
+
+/// The PowerCube modules reached through one session.
+pub struct Cubes {
+    pc: PowerCube,
+}
+
+impl Cubes {
+    pub fn new(pc: PowerCube) -> Self {
+        Self { pc }
+    }
+
+    pub fn session(&mut self) -> &mut PowerCube {
+        &mut self.pc
+    }
+
+    /// Reads several parameters of one module, pipelined on CAN. A read the
+    /// burst did not answer is retried one by one (the burst counts as its
+    /// first attempt).
+    pub fn get_many(&mut self, m: ModuleId, defs: &[&'static ParamDef]) -> Result<Vec<Value>, Error> {
+        let reqs: Vec<_> = defs.iter().map(|d| (m, Request::GetExtended { param: d.id })).collect();
+        let answers = self.pc.transact_many(&reqs)?;
+        defs.iter()
+            .zip(answers)
+            .map(|(d, a)| {
+                let resp = match a {
+                    Ok(r) => r,
+                    Err(e) => self.pc.retry_read(m, &Request::GetExtended { param: d.id }, e)?,
+                };
+                Ok(decode_get(m, d, &resp)?)
+            })
+            .collect()
+    }
+
+    /// One pipelined burst, no retries: the first failure fails the lot. A
+    /// poll is repeated anyway, and a late one is worse than a missed one.
+    pub fn read_now(&mut self, m: ModuleId, params: &[u8]) -> Result<Vec<f64>, Error> {
+        let reqs: Vec<_> = params.iter().map(|p| (m, Request::GetExtended { param: *p })).collect();
+        let answers = self.pc.transact_many(&reqs)?;
+        params
+            .iter()
+            .zip(answers)
+            .map(|(p, a)| Ok(decode_get(m, param(*p), &a?)?.as_f64().unwrap_or(f64::NAN)))
+            .collect()
+    }
+
+    pub fn get_u32(&mut self, m: ModuleId, id: u8) -> Result<u32, Error> {
+        match self.pc.get(m, param(id))? {
+            Value::UInt32(v) => Ok(v),
+            other => Err(Error::UnexpectedType { param: param(id).name, got: format!("{other:?}") }),
+        }
+    }
+
+    /// CubeState.
+    pub fn state(&mut self, m: ModuleId) -> Result<u32, Error> {
+        self.get_u32(m, ids::CUBE_STATE)
+    }
+
+    /// Motion is refused while the module reports an error or is halted: it
+    /// would not move, and the user should reset it first.
+    pub fn ensure_ready(&mut self, m: ModuleId) -> Result<(), Error> {
+        match limits::not_ready(self.state(m)?) {
+            Some(why) => Err(Error::NotReady { module: m, why }),
+            None => Ok(()),
+        }
+    }
+
+    /// The module's own limits (units, or encoder ticks).
+    pub fn limits(&mut self, m: ModuleId, ticks: bool) -> Result<Limits, Error> {
+        let defs: Vec<_> = Limits::param_ids(ticks).iter().map(|id| param(*id)).collect();
+        let v = self.get_many(m, &defs)?;
+        Ok(Limits::from_values([0, 1, 2, 3, 4].map(|i| v[i].as_f64().unwrap_or(f64::NAN)), ticks))
+    }
+
+    /// Whether the module is linear, and its limits in units, in one burst
+    /// without retries (what a dashboard poll needs once per module).
+    pub fn kind_and_limits(&mut self, m: ModuleId) -> Result<(bool, Limits), Error> {
+        let mut params = vec![ids::CONFIG];
+        params.extend(Limits::param_ids(false));
+        let v = self.read_now(m, &params)?;
+        Ok((is_linear(v[0] as u32), Limits::from_values([v[1], v[2], v[3], v[4], v[5]], false)))
+    }
+
+    /// The ids among `candidates` that answer DefCubeVersion, with the
+    /// version; a module that does not answer in time is absent, any other
+    /// failure ends the scan.
+    pub fn scan(&mut self, candidates: &[ModuleId]) -> Result<Vec<Found>, Error> {
+        let probes: Vec<_> =
+            candidates.iter().map(|m| (*m, Request::GetExtended { param: ids::DEF_CUBE_VERSION })).collect();
+        let answers = self.pc.transact_many(&probes)?;
+        let mut found = Vec::new();
+        for ((m, _), a) in probes.iter().zip(answers) {
+            match a {
+                Ok(resp) => {
+                    found.push(Found { module: *m, version: decode_get(*m, param(ids::DEF_CUBE_VERSION), &resp)? })
+                }
+                Err(SessionError::Timeout { .. }) => {}
+                Err(e) => return Err(e.into()),
+            }
+        }
+        Ok(found)
+    }
+
+    /// Ids 1..=31 that answer DefCubeVersion (one pipelined probe each; any
+    /// failure counts as absent).
+    pub fn present(&mut self) -> Result<Vec<ModuleId>, Error> {
+        let probes: Vec<_> =
+            ModuleId::all().map(|m| (m, Request::GetExtended { param: ids::DEF_CUBE_VERSION })).collect();
+        let answers = self.pc.transact_many(&probes)?;
+        Ok(probes.iter().zip(answers).filter(|(_, a)| a.is_ok()).map(|((m, _), _)| *m).collect())
+    }
+
+    /// Home, Reset or Halt to one module (acknowledged), or broadcast to all
+    /// (`None`; never acknowledged). Home is exactly one frame: no state is
+    /// read first, a faulted module shows up while waiting.
+    pub fn simple(&mut self, target: Option<ModuleId>, cmd: Simple) -> Result<(), Error> {
+        match target {
+            Some(m) => self.pc.transact(m, &cmd.request()).map(|_| ())?,
+            None => self.pc.broadcast(cmd.broadcast())?,
+        }
+        Ok(())
+    }
+
+    /// Halt, sent again when its acknowledge does not come: stopping twice
+    /// is harmless, not stopping is not. (Motion commands are never sent
+    /// twice.)
+    pub fn halt_retrying(&mut self, m: ModuleId, attempts: u32) -> Result<(), SessionError> {
+        let mut last = None;
+        for _ in 0..attempts.max(1) {
+            match self.pc.transact(m, &Request::Halt) {
+                Ok(_) => return Ok(()),
+                Err(e @ (SessionError::Timeout { .. } | SessionError::Malformed { .. })) => last = Some(e),
+                Err(e) => return Err(e),
+            }
+        }
+        Err(last.expect("at least one attempt"))
+    }
+
+    /// The broadcast first (one frame stops every module on the bus, known
+    /// or not, and needs no answer), then each known module's acknowledged
+    /// Halt, once: a lost acknowledge costs one timeout per module.
+    pub fn halt_all(&mut self, known: &[ModuleId]) -> HaltAll {
+        let broadcast = self.simple(None, Simple::Halt);
+        let modules = known.iter().map(|m| (*m, self.simple(Some(*m), Simple::Halt))).collect();
+        HaltAll { broadcast, modules }
+    }
+
+    pub fn set_param(&mut self, m: ModuleId, d: &'static ParamDef, value: Value) -> Result<(), Error> {
+        Ok(self.pc.set(m, d, value)?)
+    }
+
+    /// Writes Config and reads it back; a module that keeps another word is
+    /// a fault (the caller gets the word it kept inside the error).
+    pub fn write_config(&mut self, m: ModuleId, change: ConfigChange) -> Result<u32, Error> {
+        let wanted = match change.raw {
+            Some(v) => v,
+            None => (self.get_u32(m, ids::CONFIG)? | change.set) & !change.clear,
+        };
+        self.pc.set(m, param(ids::CONFIG), Value::UInt32(wanted))?;
+        let kept = self.get_u32(m, ids::CONFIG)?;
+        if kept != wanted {
+            return Err(Error::ConfigNotKept { module: m, wanted, kept });
+        }
+        Ok(kept)
+    }
+
+    /// DioSetup, after setting the outputs (bits 4..7) when given.
+    pub fn dio(&mut self, m: ModuleId, outputs: Option<u8>) -> Result<u32, Error> {
+        let mut raw = self.get_u32(m, ids::DIO_SETUP)?;
+        if let Some(o) = outputs {
+            raw = (raw & !0xf0) | (u32::from(o & 0xf) << 4);
+            self.pc.set(m, param(ids::DIO_SETUP), Value::UInt32(raw))?;
+            raw = self.get_u32(m, ids::DIO_SETUP)?;
+        }
+        Ok(raw)
+    }
+
+    /// The watchdog is a CAN feature: its refresh is a CAN broadcast.
+    pub fn require_can_for_watchdog(&self) -> Result<(), Error> {
+        if self.pc.is_can() {
+            Ok(())
+        } else {
+            Err(Error::Refused("the watchdog is a CAN feature (its refresh is a CAN broadcast)".into()))
+        }
+    }
+
+    /// Switches the watchdog (0x07 toggles online / offline); `enable` first
+    /// sets CONFIGID_MOD_WATCHDOG_ENABLE when it is not set.
+    pub fn watchdog_toggle(&mut self, m: ModuleId, enable: bool) -> Result<(), Error> {
+        self.require_can_for_watchdog()?;
+        if enable {
+            let cfg = self.get_u32(m, ids::CONFIG)?;
+            if cfg & config::WATCHDOG_ENABLE == 0 {
+                self.pc.set(m, param(ids::CONFIG), Value::UInt32(cfg | config::WATCHDOG_ENABLE))?;
+            }
+        }
+        self.pc.transact(m, &Request::Watchdog)?;
+        Ok(())
+    }
+}

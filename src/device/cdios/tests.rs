@@ -1,0 +1,171 @@
+//! The operations against the simulated contract node (node 1, modules 0
+//! and 1), every frame sent recorded.
+
+use std::sync::{Arc, Mutex};
+use std::time::Duration;
+
+use super::*;
+use crate::clock::{Clock, VirtualClock};
+use crate::link::{CanLink, LinkError};
+use crate::proto::CanFrame;
+use crate::session::ErrorKind;
+use crate::sim::bench::Bench;
+use crate::sim::shared::lock;
+
+/// A link that keeps a copy of every frame sent through it.
+struct Recording {
+    inner: Box<dyn CanLink>,
+    sent: Arc<Mutex<Vec<CanFrame>>>,
+}
+
+impl CanLink for Recording {
+    fn send(&mut self, frame: &CanFrame) -> Result<(), LinkError> {
+        lock(&self.sent).push(*frame);
+        self.inner.send(frame)
+    }
+    fn send_many(&mut self, frames: &[CanFrame]) -> Result<(), LinkError> {
+        lock(&self.sent).extend_from_slice(frames);
+        self.inner.send_many(frames)
+    }
+    fn recv(&mut self, timeout: Duration) -> Result<Option<CanFrame>, LinkError> {
+        self.inner.recv(timeout)
+    }
+}
+
+struct Rig {
+    clock: VirtualClock,
+    bench: Bench,
+    node: Node,
+    sent: Arc<Mutex<Vec<CanFrame>>>,
+}
+
+fn rig() -> Rig {
+    let clock = VirtualClock::new();
+    let shared: Arc<dyn Clock> = Arc::new(clock.clone());
+    let bench = Bench::contract(Arc::clone(&shared));
+    let sent = Arc::new(Mutex::new(Vec::new()));
+    let link = Recording { inner: Box::new(bench.bus.open()), sent: Arc::clone(&sent) };
+    let s = Cdios::new(Box::new(link)).with_clock(shared);
+    Rig { clock, bench, node: Node::new(s, NodeId::new(1).unwrap(), RetryPolicy::default()), sent }
+}
+
+fn id(m: u8) -> ModuleId {
+    ModuleId::new(m).unwrap()
+}
+
+impl Rig {
+    fn motor(&self, m: u8) -> (bool, f64) {
+        let mut node = lock(&self.bench.cdios);
+        node.poll(self.clock.now(), &mut Vec::new());
+        let motor = node.module(m).unwrap();
+        (motor.running(), motor.speed_rpm())
+    }
+
+    /// Enabled, and on a goto long enough to be running for a while.
+    fn long_goto(&mut self, m: u8) {
+        self.node.send(id(m), &enable_commands(false)).unwrap();
+        let cmds = goto_commands(GotoMode::Absolute, 1_000_000, None).unwrap();
+        self.node.send(id(m), &cmds).unwrap();
+        self.clock.advance(Duration::from_millis(200));
+        assert!(self.motor(m).0, "motor {m} running");
+    }
+}
+
+#[test]
+fn values_outside_the_table_send_nothing() {
+    let mut r = rig();
+    for e in [
+        goto_commands(GotoMode::Absolute, 3_000_000_000, None).unwrap_err(),
+        goto_commands(GotoMode::Absolute, 0, Some(40_000)).unwrap_err(),
+        start_command(Direction::Forward, StartOption::ToSpeed, Some(40_000), false).unwrap_err(),
+        traject_command(2, false).unwrap_err(),
+        check_position("goto", 3e9).unwrap_err(),
+    ] {
+        assert!(matches!(e, Error::Invalid(ValidationError::OutOfRange { .. })), "{e:?}");
+        assert_eq!(e.kind(), ErrorKind::Usage);
+        assert!(e.to_string().ends_with("; nothing was sent"), "{e}");
+    }
+    assert!(matches!(check_position("goto", 1.5), Err(Error::Refused(_))));
+    assert!(start_command(Direction::Forward, StartOption::ToSpeed, None, false).is_err());
+    assert!(start_command(Direction::Forward, StartOption::Accelerate, Some(10), false).is_err());
+    // A batch with one bad command: not even the good ones go out.
+    let batch = [
+        Command::SetNextGotoSpeed { speed: 100 },
+        Command::Start {
+            sync: false,
+            direction: Direction::Forward,
+            option: StartOption::ToSpeed,
+            motor_speed: 40_000,
+        },
+    ];
+    let e = r.node.send(id(0), &batch).unwrap_err();
+    assert!(e.nothing_sent(), "{e:?}");
+    assert!(lock(&r.sent).is_empty(), "{:?}", lock(&r.sent));
+}
+
+#[test]
+fn halt_all_stops_every_running_motor() {
+    let mut r = rig();
+    r.long_goto(0);
+    r.long_goto(1);
+    let report = r.node.halt_all(&[id(0), id(1)]);
+    assert_eq!(report.len(), 2);
+    for (m, res) in &report {
+        assert!(matches!(res, Ok(Stopped::FastStop { confirmed: true })), "module {m}: {res:?}");
+    }
+    r.clock.advance(Duration::from_millis(500));
+    for m in [0, 1] {
+        let (running, rpm) = r.motor(m);
+        assert!(!running && rpm == 0.0, "motor {m}: running {running}, {rpm} rpm");
+    }
+    // A second halt-all finds nothing running: no failure either way.
+    for (m, res) in r.node.halt_all(&[id(0), id(1)]) {
+        assert!(res.is_ok(), "module {m}: {res:?}");
+    }
+}
+
+#[test]
+fn an_error_bit_during_a_wait_stops_the_motor_and_is_a_device_fault() {
+    let mut r = rig();
+    r.long_goto(0);
+    lock(&r.bench.cdios).module_mut(0).unwrap().set_emergency(true);
+    let spec = WaitSpec { poll: Duration::from_millis(20), timeout: Duration::from_secs(5), stop_attempts: 1 };
+    let e = r.node.wait(id(0), Goal::Goto, spec, &|| false, &mut |_, _| {}).unwrap_err();
+    assert!(matches!(e, Error::Faulted { .. }), "{e:?}");
+    assert_eq!(e.kind(), ErrorKind::Device);
+    assert!(!r.motor(0).0);
+}
+
+#[test]
+fn an_interrupted_wait_fast_stops_the_motor() {
+    let mut r = rig();
+    r.long_goto(1);
+    let spec = WaitSpec { poll: Duration::from_millis(20), timeout: Duration::from_secs(5), stop_attempts: 1 };
+    let e = r.node.wait(id(1), Goal::Goto, spec, &|| true, &mut |_, _| {}).unwrap_err();
+    assert_eq!(e.to_string(), "interrupted: node 1 module 1 stopped (fast stop)");
+    assert_eq!(e.kind(), ErrorKind::Interrupted);
+    r.clock.advance(Duration::from_millis(500));
+    assert!(!r.motor(1).0);
+}
+
+#[test]
+fn a_scan_finds_the_node_modules_and_keeps_the_retry_policy() {
+    let mut r = rig();
+    assert_eq!(r.node.scan().unwrap(), [id(0), id(1)]);
+    assert_eq!(r.node.poll(id(0)).unwrap().position, 0);
+}
+
+#[test]
+fn config_assignments_are_resolved_and_checked_before_sending() {
+    use config::Request;
+    assert!(matches!(Request::parse(&[]).unwrap(), Request::Show(g) if g.len() == config::GROUPS.len()));
+    assert!(Request::parse(&["speeds".into(), "maximum_speed=1".into()]).is_err());
+    assert!(Request::parse(&["no_such_field=1".into()]).is_err());
+    assert!(matches!(Request::parse(&["maximum_speed=99999999".into()]), Err(Error::Invalid(_))));
+    let Request::Set(changes) = Request::parse(&["speeds.maximum_speed=1000".into()]).unwrap() else { panic!() };
+    let mut r = rig();
+    let groups = r.node.write_config(id(0), &changes).unwrap();
+    assert_eq!(groups, ["speeds"]);
+    let read = r.node.read_config(id(0), &groups).unwrap();
+    assert_eq!(read[0].1.get("maximum_speed"), Some(1000));
+}

@@ -1,0 +1,79 @@
+//! What can go wrong with a PowerCube operation, in the contract's terms:
+//! refused before sending (exit 2), the session's failure (its own kind),
+//! a module fault (exit 5), interrupted (130).
+
+use crate::proto::powercube::limits::LimitError;
+use crate::proto::powercube::ModuleId;
+use crate::session::{ErrorKind, SessionError};
+
+#[derive(Debug, thiserror::Error)]
+pub enum Error {
+    /// A value outside the module's limits or the wire type: nothing was sent.
+    #[error("{0}")]
+    Limit(#[from] LimitError),
+    /// Bad input (a name, a value, an unsupported request): nothing was sent.
+    #[error("{0}")]
+    Refused(String),
+    /// The exchange failed; its kind is the session's.
+    #[error("{0}")]
+    Session(#[from] SessionError),
+    /// A motion command went out and was not acknowledged.
+    #[error("{what} to module {module}")]
+    Motion {
+        what: String,
+        module: ModuleId,
+        #[source]
+        source: SessionError,
+    },
+    /// The module reports an error or is halted: a motion would not move it.
+    /// Nothing was sent.
+    #[error("module {module} is not ready ({})", why.join(", "))]
+    NotReady { module: ModuleId, why: Vec<&'static str> },
+    /// An error flag came up while waiting for the end of a motion.
+    #[error("module {module} reports an error while {what}: {} (state {cube:#010x})", errors.join(", "))]
+    Faulted { module: ModuleId, what: String, errors: Vec<&'static str>, cube: u32 },
+    /// Config was written, and the module kept another word.
+    #[error("module {module} kept Config {kept:#010x} instead of {wanted:#010x}")]
+    ConfigNotKept { module: ModuleId, wanted: u32, kept: u32 },
+    /// A wait lost the module: the read failed (the module was halted first,
+    /// or the halt failed too: `halt_failed`).
+    #[error("lost track of module {module} while {what} ({})", halt_note(*module, halt_failed.as_deref()))]
+    LostTrack {
+        module: ModuleId,
+        what: String,
+        halt_failed: Option<String>,
+        #[source]
+        source: SessionError,
+    },
+    /// Ctrl-C during a wait; the module was halted (or the halt failed).
+    #[error("interrupted: {}", halt_note(*module, halt_failed.as_deref()))]
+    Interrupted { module: ModuleId, halt_failed: Option<String> },
+    /// A parameter answered with another type than the table's.
+    #[error("{param} answered {got}, expected UInt32")]
+    UnexpectedType { param: &'static str, got: String },
+}
+
+/// `module 3 halted`, or the failure in capitals: nobody may miss it.
+pub(super) fn halt_note(m: ModuleId, failed: Option<&str>) -> String {
+    match failed {
+        None => format!("module {m} halted"),
+        Some(e) => format!("HALT OF MODULE {m} FAILED: {e}"),
+    }
+}
+
+impl Error {
+    pub fn kind(&self) -> ErrorKind {
+        match self {
+            Self::Limit(_) | Self::Refused(_) => ErrorKind::Usage,
+            Self::Session(e) | Self::Motion { source: e, .. } | Self::LostTrack { source: e, .. } => e.kind(),
+            Self::NotReady { .. } | Self::Faulted { .. } | Self::ConfigNotKept { .. } => ErrorKind::Device,
+            Self::Interrupted { .. } => ErrorKind::Interrupted,
+            Self::UnexpectedType { .. } => ErrorKind::Other,
+        }
+    }
+
+    /// Whether the error was raised before anything was sent.
+    pub fn nothing_sent(&self) -> bool {
+        matches!(self, Self::Limit(_) | Self::Refused(_) | Self::NotReady { .. })
+    }
+}

@@ -1,0 +1,179 @@
+//! Moves, checked before anything is sent: the value must be finite and fit
+//! the motion's wire type, the module must be ready, and (unless forced)
+//! the value must be within the module's own limits as read from it.
+
+use super::{param, Cubes, Error};
+use crate::proto::powercube::frame::Value;
+use crate::proto::powercube::limits::{self, Limits};
+use crate::proto::powercube::table::ids;
+use crate::proto::powercube::{ModuleId, Motion, MotionValue, Request};
+use crate::session::powercube::describe;
+
+/// One motion command; positions, velocities and accelerations are in units
+/// or, with `ticks`, encoder ticks.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Move {
+    /// FRAMP_MODE (IRAMP_MODE in ticks): a ramp to `pos`, with the target
+    /// velocity and acceleration set first when given.
+    Ramp { pos: f64, vel: Option<f64>, acc: Option<f64> },
+    /// FSTEP_MODE: a step to `pos` in `time_ms`.
+    Step { pos: f64, time_ms: u16 },
+    /// FVEL_MODE: a constant velocity.
+    Vel(f64),
+    /// FCUR_MODE: a constant current in A (never in ticks).
+    Cur(f64),
+}
+
+/// Where a dashboard ramp goes: to a position, or by a step from where the
+/// module is.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Target {
+    To(f64),
+    By(f64),
+}
+
+/// A move that was acknowledged.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Moved {
+    /// The motion command as the trace names it, e.g. `SetMotion FRAMP_MODE 0.75`.
+    pub described: String,
+    /// The position the ramp or step goes to (units or ticks).
+    pub target: Option<f64>,
+}
+
+/// The wire values of a move that passed the checks that need no module.
+struct Wire {
+    value: MotionValue,
+    vel: Option<MotionValue>,
+    acc: Option<MotionValue>,
+}
+
+impl Move {
+    /// The checks that need no module: finite, representable in the
+    /// motion's wire type, ramp velocity and acceleration positive.
+    pub fn check(&self, ticks: bool) -> Result<(), Error> {
+        self.wire(ticks).map(|_| ())
+    }
+
+    fn wire(&self, ticks: bool) -> Result<Wire, Error> {
+        let mv = |v: f64, what| limits::motion_value(v, ticks, what);
+        Ok(match *self {
+            Self::Ramp { pos, vel, acc } => {
+                let value = mv(pos, "target position")?;
+                let vel_v = vel.map(|v| mv(v, "velocity")).transpose()?;
+                let acc_v = acc.map(|a| mv(a, "acceleration")).transpose()?;
+                for (name, v) in [("velocity", vel), ("acceleration", acc)] {
+                    if let Some(v) = v {
+                        limits::check_positive(name, v)?;
+                    }
+                }
+                Wire { value, vel: vel_v, acc: acc_v }
+            }
+            Self::Step { pos, .. } => Wire { value: mv(pos, "target position")?, vel: None, acc: None },
+            Self::Vel(v) => Wire { value: mv(v, "velocity")?, vel: None, acc: None },
+            Self::Cur(a) => {
+                limits::check_finite("current", a)?;
+                Wire { value: MotionValue::Float(a as f32), vel: None, acc: None }
+            }
+        })
+    }
+
+    /// The limits a move is checked against are read in ticks only for the
+    /// tick motions; current has no tick form.
+    fn ticks(&self, ticks: bool) -> bool {
+        ticks && !matches!(self, Self::Cur(_))
+    }
+
+    fn within(&self, l: &Limits, m: ModuleId) -> Result<(), Error> {
+        match *self {
+            Self::Ramp { pos, vel, acc } => {
+                l.check_pos(pos, m)?;
+                if let Some(v) = vel {
+                    l.check_vel(v, m)?;
+                }
+                if let Some(a) = acc {
+                    l.check_acc(a, m)?;
+                }
+            }
+            Self::Step { pos, .. } => l.check_pos(pos, m)?,
+            Self::Vel(v) => l.check_vel(v, m)?,
+            Self::Cur(a) => l.check_cur(a, m)?,
+        }
+        Ok(())
+    }
+
+    /// The motion id of the manual's motion table.
+    fn motion_id(&self, ticks: bool) -> u8 {
+        match (self, ticks) {
+            (Self::Ramp { .. }, false) => 4,
+            (Self::Ramp { .. }, true) => 9,
+            (Self::Step { .. }, false) => 6,
+            (Self::Step { .. }, true) => 11,
+            (Self::Vel(_), false) => 7,
+            (Self::Vel(_), true) => 12,
+            (Self::Cur(_), _) => 8,
+        }
+    }
+
+    fn target(&self) -> Option<f64> {
+        match *self {
+            Self::Ramp { pos, .. } | Self::Step { pos, .. } => Some(pos),
+            Self::Vel(_) | Self::Cur(_) => None,
+        }
+    }
+}
+
+fn value_of(v: MotionValue) -> Value {
+    match v {
+        MotionValue::Float(f) => Value::Float(f),
+        MotionValue::Int32(i) => Value::Int32(i),
+        MotionValue::Int16(i) => Value::Int16(i),
+    }
+}
+
+impl Cubes {
+    /// Checks a move and sends it: wire type, then readiness (the state is
+    /// read), then the module's limits (read from it) unless `force`. A
+    /// refusal sends no motion command; the motion is never sent twice.
+    pub fn move_module(&mut self, m: ModuleId, mv: Move, ticks: bool, force: bool) -> Result<Moved, Error> {
+        let ticks = mv.ticks(ticks);
+        let wire = mv.wire(ticks)?;
+        self.ensure_ready(m)?;
+        if !force {
+            let l = self.limits(m, ticks)?;
+            mv.within(&l, m)?;
+        }
+        let (vel_id, acc_id) =
+            if ticks { (ids::TARGET_VEL_INC, ids::TARGET_ACC_INC) } else { (ids::TARGET_VEL, ids::TARGET_ACC) };
+        for (id, v) in [(vel_id, wire.vel), (acc_id, wire.acc)] {
+            if let Some(v) = v {
+                self.set_param(m, param(id), value_of(v))?;
+            }
+        }
+        let time_ms = match mv {
+            Move::Step { time_ms, .. } => Some(time_ms),
+            _ => None,
+        };
+        let req = Request::SetMotion(Motion { id: mv.motion_id(ticks), value: wire.value, time_ms });
+        let described = describe(&req);
+        match self.session().transact(m, &req) {
+            Ok(_) => Ok(Moved { described, target: mv.target() }),
+            Err(source) => Err(Error::Motion { what: described, module: m, source }),
+        }
+    }
+
+    /// A ramp in units with the module's current velocity and acceleration,
+    /// to a position or by a step from ActPos: checked like
+    /// [`Self::move_module`]. Returns the target position.
+    pub fn ramp(&mut self, m: ModuleId, target: Target) -> Result<f64, Error> {
+        let pos = match target {
+            Target::To(p) => p,
+            Target::By(step) => {
+                limits::check_finite("jog step", step)?;
+                self.read_now(m, &[ids::ACT_POS])?[0] + step
+            }
+        };
+        self.move_module(m, Move::Ramp { pos, vel: None, acc: None }, false, false)?;
+        Ok(pos)
+    }
+}

@@ -1,0 +1,224 @@
+//! The operations against the simulated contract bench (modules 3 and 5
+//! rotary, 17 linear with MaxPos 1), every frame sent recorded.
+
+use std::sync::{Arc, Mutex};
+use std::time::Duration;
+
+use super::*;
+use crate::clock::{Clock, VirtualClock};
+use crate::link::{CanLink, LinkError};
+use crate::proto::powercube::can::{classify, CanMessage};
+use crate::proto::powercube::flags::state;
+use crate::proto::powercube::limits::LimitError;
+use crate::proto::CanFrame;
+use crate::sim::bench::Bench;
+use crate::sim::shared::lock;
+
+/// A link that keeps a copy of every frame sent through it.
+struct Recording {
+    inner: Box<dyn CanLink>,
+    sent: Arc<Mutex<Vec<CanFrame>>>,
+}
+
+impl CanLink for Recording {
+    fn send(&mut self, frame: &CanFrame) -> Result<(), LinkError> {
+        lock(&self.sent).push(*frame);
+        self.inner.send(frame)
+    }
+    fn send_many(&mut self, frames: &[CanFrame]) -> Result<(), LinkError> {
+        lock(&self.sent).extend_from_slice(frames);
+        self.inner.send_many(frames)
+    }
+    fn recv(&mut self, timeout: Duration) -> Result<Option<CanFrame>, LinkError> {
+        self.inner.recv(timeout)
+    }
+}
+
+struct Rig {
+    clock: VirtualClock,
+    bench: Bench,
+    cubes: Cubes,
+    sent: Arc<Mutex<Vec<CanFrame>>>,
+}
+
+fn rig() -> Rig {
+    let clock = VirtualClock::new();
+    let shared: Arc<dyn Clock> = Arc::new(clock.clone());
+    let bench = Bench::contract(Arc::clone(&shared));
+    let sent = Arc::new(Mutex::new(Vec::new()));
+    let link = Recording { inner: Box::new(bench.bus.open()), sent: Arc::clone(&sent) };
+    let cubes = Cubes::new(PowerCube::over_can(Box::new(link)).with_clock(shared));
+    Rig { clock, bench, cubes, sent }
+}
+
+fn id(m: u8) -> ModuleId {
+    ModuleId::new(m).unwrap()
+}
+
+impl Rig {
+    /// The requests and broadcasts sent since the last call.
+    fn take_sent(&self) -> Vec<CanMessage> {
+        lock(&self.sent).drain(..).filter_map(|f| classify(&f).ok().flatten()).collect()
+    }
+
+    fn motions_sent(&self) -> usize {
+        self.take_sent()
+            .iter()
+            .filter(|m| matches!(m, CanMessage::Request { request: Request::SetMotion(_), .. }))
+            .count()
+    }
+
+    fn module(&self, m: u8) -> (u32, f32) {
+        let mut pc = lock(&self.bench.powercube);
+        pc.advance(self.clock.now());
+        let module = pc.module(m).unwrap();
+        (module.cube_state(), module.velocity())
+    }
+}
+
+#[test]
+fn a_target_beyond_max_pos_sends_no_motion() {
+    let mut r = rig();
+    let e = r.cubes.move_module(id(17), Move::Ramp { pos: 5.0, vel: None, acc: None }, false, false).unwrap_err();
+    assert!(matches!(e, Error::Limit(LimitError::Exceeds { limit_name: "MaxPos", .. })), "{e:?}");
+    assert_eq!(e.to_string(), "target position 5 exceeds module 17's MaxPos = 1; nothing was sent");
+    assert_eq!(e.kind(), crate::session::ErrorKind::Usage);
+    assert_eq!(r.motions_sent(), 0);
+    // The same through the dashboard's ramp, and for velocity and current.
+    assert!(matches!(r.cubes.ramp(id(17), Target::To(-1.0)), Err(Error::Limit(LimitError::Exceeds { .. }))));
+    assert!(r.cubes.move_module(id(3), Move::Vel(1e6), false, false).is_err());
+    assert!(r.cubes.move_module(id(3), Move::Cur(1e6), false, false).is_err());
+    assert_eq!(r.motions_sent(), 0);
+    assert_eq!(r.module(17).1, 0.0);
+}
+
+#[test]
+fn values_that_do_not_fit_the_wire_send_nothing_at_all() {
+    let mut r = rig();
+    for (mv, ticks) in [
+        (Move::Ramp { pos: 1.5, vel: None, acc: None }, true),
+        (Move::Ramp { pos: 0.5, vel: Some(0.0), acc: None }, false),
+        (Move::Step { pos: f64::NAN, time_ms: 10 }, false),
+        (Move::Vel(3e9), true),
+        (Move::Cur(f64::INFINITY), false),
+    ] {
+        assert!(mv.check(ticks).is_err(), "{mv:?}");
+        let e = r.cubes.move_module(id(3), mv, ticks, true).unwrap_err();
+        assert!(e.nothing_sent() && matches!(e, Error::Limit(_)), "{e:?}");
+    }
+    assert!(matches!(r.cubes.ramp(id(3), Target::By(f64::NAN)), Err(Error::Limit(LimitError::NotFinite { .. }))));
+    assert!(lock(&r.sent).is_empty(), "not even a read went out");
+}
+
+#[test]
+fn a_faulted_module_takes_no_motion_even_forced() {
+    let mut r = rig();
+    lock(&r.bench.powercube).module_mut(5).unwrap().inject_error(state::TOW_ERROR);
+    let e = r.cubes.move_module(id(5), Move::Vel(0.1), false, true).unwrap_err();
+    let Error::NotReady { module, why } = &e else { panic!("{e:?}") };
+    assert_eq!(module.get(), 5);
+    assert!(why.contains(&"STATE_TOW_ERROR"), "{why:?}");
+    assert_eq!(e.kind(), crate::session::ErrorKind::Device);
+    assert_eq!(r.motions_sent(), 0);
+    r.cubes.simple(Some(id(5)), Simple::Reset).unwrap();
+    r.cubes.move_module(id(5), Move::Vel(0.1), false, false).unwrap();
+    assert_eq!(r.motions_sent(), 1);
+}
+
+#[test]
+fn within_limits_the_move_goes_out_once() {
+    let mut r = rig();
+    let moved = r.cubes.move_module(id(17), Move::Ramp { pos: 0.5, vel: Some(0.05), acc: None }, false, false).unwrap();
+    assert_eq!(moved.target, Some(0.5));
+    assert_eq!(r.motions_sent(), 1);
+    r.clock.advance(Duration::from_millis(200));
+    assert_ne!(r.module(17).1, 0.0, "moving");
+}
+
+#[test]
+fn halt_all_broadcasts_first_then_halts_each_known_module() {
+    let mut r = rig();
+    for m in [3, 17] {
+        r.cubes.move_module(id(m), Move::Vel(0.05), false, false).unwrap();
+    }
+    r.clock.advance(Duration::from_millis(100));
+    assert_ne!(r.module(3).1, 0.0);
+    r.take_sent();
+    let report = r.cubes.halt_all(&[id(3), id(5), id(17)]);
+    assert!(report.broadcast.is_ok());
+    assert_eq!(
+        report.modules.iter().map(|(m, res)| (m.get(), res.is_ok())).collect::<Vec<_>>(),
+        [(3, true), (5, true), (17, true)]
+    );
+    let sent = r.take_sent();
+    assert_eq!(sent[0], CanMessage::Broadcast(Broadcast::Halt), "{sent:?}");
+    let halts: Vec<u8> = sent[1..]
+        .iter()
+        .filter_map(|s| match s {
+            CanMessage::Request { module, request: Request::Halt } => Some(module.get()),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(halts, [3, 5, 17]);
+    for m in [3, 5, 17] {
+        let (cube, vel) = r.module(m);
+        assert_ne!(cube & state::HALTED, 0, "module {m} halted");
+        assert_eq!(vel, 0.0);
+    }
+}
+
+#[test]
+fn a_fault_during_a_wait_is_a_device_error() {
+    let mut r = rig();
+    r.cubes.move_module(id(3), Move::Ramp { pos: 2.0, vel: Some(0.2), acc: None }, false, false).unwrap();
+    lock(&r.bench.powercube).module_mut(3).unwrap().inject_error(state::TOW_ERROR);
+    let spec = WaitSpec { poll: Duration::from_millis(20), timeout: Duration::from_secs(5), halt_attempts: 1 };
+    let e = r.cubes.wait(id(3), Goal::RampEnd { target: 2.0, ticks: false }, spec, &|| false, &mut |_, _| {});
+    let e = e.unwrap_err();
+    assert!(matches!(e, Error::Faulted { .. }) && e.kind() == crate::session::ErrorKind::Device, "{e:?}");
+    assert!(e.to_string().contains("STATE_TOW_ERROR"), "{e}");
+}
+
+#[test]
+fn an_interrupted_wait_halts_the_module() {
+    let mut r = rig();
+    r.cubes.move_module(id(3), Move::Vel(0.1), false, false).unwrap();
+    let spec = WaitSpec { poll: Duration::from_millis(20), timeout: Duration::from_secs(5), halt_attempts: 1 };
+    let e = r.cubes.wait(id(3), Goal::Homed, spec, &|| true, &mut |_, _| {}).unwrap_err();
+    assert_eq!(e.to_string(), "interrupted: module 3 halted");
+    assert_eq!(e.kind(), crate::session::ErrorKind::Interrupted);
+    assert_ne!(r.module(3).0 & state::HALTED, 0);
+}
+
+#[test]
+fn config_and_param_input_is_checked_before_sending() {
+    assert!(ConfigChange::parse(&["brake-present".into()], None).is_err());
+    assert!(ConfigChange::parse(&["+no-such-flag".into()], None).is_err());
+    assert!(ConfigChange::parse(&[], Some("0x1_0000_0000")).is_err());
+    assert!(param_write("ActPos", "1.0").is_err(), "read-only");
+    assert!(param_write("MaxVel", "fast").is_err());
+    assert!(dio_outputs("16").is_err());
+    assert_eq!(dio_outputs("0b0101").unwrap(), 5);
+}
+
+#[test]
+fn a_jog_is_a_checked_ramp_from_where_the_module_stands() {
+    let mut r = rig();
+    assert_eq!(r.cubes.ramp(id(17), Target::By(0.25)).unwrap(), 0.25);
+    assert_eq!(r.motions_sent(), 1);
+    r.clock.advance(Duration::from_secs(10));
+    assert!(matches!(
+        r.cubes.ramp(id(17), Target::By(1.0)),
+        Err(Error::Limit(LimitError::Exceeds { limit_name: "MaxPos", .. }))
+    ));
+    assert_eq!(r.motions_sent(), 0);
+}
+
+#[test]
+fn force_skips_the_module_limits_but_not_the_wire_checks() {
+    let mut r = rig();
+    r.cubes.move_module(id(3), Move::Cur(1e3), false, true).unwrap();
+    assert_eq!(r.motions_sent(), 1);
+    assert!(r.cubes.move_module(id(3), Move::Cur(f64::NAN), false, true).is_err());
+    assert_eq!(r.motions_sent(), 0);
+}
