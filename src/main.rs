@@ -23,7 +23,7 @@ fn main() -> ExitCode {
             let kind = commands::classify(&e);
             if json {
                 let mut error = serde_json::json!({"kind": kind.as_str(), "message": message(&e)});
-                if let Some(refusal) = refusal(&e) {
+                if let Some(refusal) = commands::refusal(&e) {
                     error["device"] = serde_json::to_value(refusal).unwrap_or_default();
                 }
                 eprintln!("{}", serde_json::json!({ "error": error }));
@@ -36,7 +36,8 @@ fn main() -> ExitCode {
 }
 
 /// The error and its causes joined with ": ", leaving out a cause whose text
-/// the message already carries (typed errors quote their source).
+/// the message already carries (typed errors quote their source), and the
+/// command line's advice.
 fn message(e: &anyhow::Error) -> String {
     let mut out = String::new();
     for cause in e.chain() {
@@ -48,16 +49,8 @@ fn message(e: &anyhow::Error) -> String {
             out.push_str(&text);
         }
     }
+    out.push_str(&commands::hint(e).unwrap_or_default());
     out
-}
-
-/// What the device answered, when the error is its refusal.
-fn refusal(e: &anyhow::Error) -> Option<&axisctl::proto::Refusal> {
-    use axisctl::session::{pac::PacError, SessionError};
-    e.chain().find_map(|c| match c.downcast_ref::<PacError>() {
-        Some(PacError::Session(s)) => s.refusal(),
-        _ => c.downcast_ref::<SessionError>().and_then(SessionError::refusal),
-    })
 }
 
 fn is_broken_pipe(e: &anyhow::Error) -> bool {

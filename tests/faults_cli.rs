@@ -321,6 +321,12 @@ fn powercube_tow_error_mid_move_is_exit_5_with_the_flags() {
     assert_eq!(e["error"]["kind"], "device");
     let msg = e["error"]["message"].as_str().unwrap();
     assert!(msg.contains("STATE_TOW_ERROR") && msg.contains("STATE_ERROR"), "{msg}");
+    // The CubeState the module reported, typed, for scripts.
+    let device = &e["error"]["device"];
+    assert_eq!(device["family"], "powercube", "{e}");
+    let errors: Vec<&str> = device["errors"].as_array().unwrap().iter().filter_map(|v| v.as_str()).collect();
+    assert!(errors.contains(&"STATE_TOW_ERROR") && errors.contains(&"STATE_ERROR"), "{e}");
+    assert!(device["cube_state"].as_u64().is_some_and(|c| c & 1 == 1), "STATE_ERROR is bit 0: {e}");
 }
 
 #[test]

@@ -5,7 +5,7 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use axisctl::device::cdios::config::{self as servo, Request as ConfigRequest};
-use axisctl::device::cdios::{self as device, Error, EventChange, Goal, Node, WaitEnd, WaitSpec};
+use axisctl::device::cdios::{self as device, EventChange, Goal, Node, WaitEnd, WaitSpec};
 use axisctl::proto::cdios::table::{self, STATUS_FLAGS};
 use axisctl::proto::cdios::{
     decode_status, Command, Direction, ErrorReply, GotoMode, ModuleId, NodeId, PositionSource, StartOption,
@@ -14,8 +14,8 @@ use axisctl::proto::cdios::{
 use axisctl::session::cdios::{describe_answer, Cdios, Event};
 use serde_json::{json, Value};
 
-use super::powercube::{waiting, Dev, IntoCli};
-use super::{interrupted, usage, Ctx, DeviceFault, Interrupted};
+use super::wait::waiting;
+use super::{interrupted, usage, Ctx};
 use crate::cli::cdios::{
     CdiosCommand, DirectionArg, ModuleTarget, NodeArgs, PositionKind, StartOptionArg, StopOptionArg,
 };
@@ -78,8 +78,7 @@ pub fn run(ctx: &Ctx, cmd: CdiosCommand) -> anyhow::Result<()> {
                 position_on_change,
                 speed_interval,
                 speed_on_change,
-            )
-            .dev()?;
+            )?;
             events(ctx, target, &change)
         }
         CdiosCommand::Store { target, defaults } => store(ctx, target, defaults),
@@ -97,24 +96,6 @@ fn node_id(n: &NodeArgs) -> NodeId {
 
 fn module_id(t: &ModuleTarget) -> ModuleId {
     ModuleId::new(t.module).expect("clap checks 0..=15")
-}
-
-/// A device error in the contract's terms: refusals are usage errors (exit
-/// 2), faults exit 5, session failures keep their kind.
-fn dev(e: Error) -> anyhow::Error {
-    match e {
-        Error::Invalid(_) | Error::Refused(_) => usage(e.to_string()),
-        Error::Faulted { .. } | Error::ConfigRejected { .. } => DeviceFault(e.to_string()).into(),
-        Error::Interrupted { .. } => Interrupted(e.to_string().trim_start_matches("interrupted").into()).into(),
-        Error::Session(s) => s.into(),
-        Error::LostTrack { .. } => anyhow::Error::new(e),
-    }
-}
-
-impl IntoCli for Error {
-    fn into_cli(self) -> anyhow::Error {
-        dev(self)
-    }
 }
 
 fn open(ctx: &Ctx, n: &NodeArgs) -> anyhow::Result<Node> {
@@ -146,7 +127,7 @@ fn status_line(ctx: &Ctx, r: &StatusReport) -> String {
 
 fn identify(ctx: &Ctx, n: NodeArgs) -> anyhow::Result<()> {
     let node = node_id(&n);
-    let slots = open(ctx, &n)?.identify().dev()?;
+    let slots = open(ctx, &n)?.identify()?;
     let modules: Vec<Value> = slots
         .iter()
         .map(|s| json!({"module": s.module, "type": s.ty, "version": s.version, "present": s.ty != 0}))
@@ -175,8 +156,8 @@ fn identify(ctx: &Ctx, n: NodeArgs) -> anyhow::Result<()> {
 fn status(ctx: &Ctx, t: ModuleTarget) -> anyhow::Result<()> {
     let (node, m) = (node_id(&t.node), module_id(&t));
     let mut s = open(ctx, &t.node)?;
-    let r = s.status(m).dev()?;
-    let (speed, rpm_error) = s.speed(m).dev()?;
+    let r = s.status(m)?;
+    let (speed, rpm_error) = s.speed(m)?;
     if ctx.json {
         let mut doc = json!({"node": node, "module": m});
         merge(&mut doc, status_json(&r));
@@ -217,9 +198,9 @@ fn position(ctx: &Ctx, t: ModuleTarget, kind: PositionKind, all: bool) -> anyhow
     let (node, m) = (node_id(&t.node), module_id(&t));
     let mut s = open(ctx, &t.node)?;
     if all {
-        let cur = s.position(m, PositionSource::Current).dev()?;
-        let latched = s.position(m, PositionSource::Latched).dev()?;
-        let setpoint = s.position(m, PositionSource::Setpoint).dev()?;
+        let cur = s.position(m, PositionSource::Current)?;
+        let latched = s.position(m, PositionSource::Latched)?;
+        let setpoint = s.position(m, PositionSource::Setpoint)?;
         if ctx.json {
             output::json(
                 &json!({"node": node, "module": m, "position": cur, "latched": latched, "setpoint": setpoint}),
@@ -229,7 +210,7 @@ fn position(ctx: &Ctx, t: ModuleTarget, kind: PositionKind, all: bool) -> anyhow
         }
         return Ok(());
     }
-    let p = s.position(m, source_of(kind)).dev()?;
+    let p = s.position(m, source_of(kind))?;
     let name = format!("{kind:?}").to_lowercase();
     if ctx.json {
         output::json(&json!({"node": node, "module": m, "source": name, "position": p}));
@@ -253,19 +234,19 @@ fn report_sent(ctx: &Ctx, node: NodeId, m: ModuleId, what: &str, confirmed: bool
 /// Commands sent one after the other, each awaited.
 fn simple(ctx: &Ctx, t: ModuleTarget, what: &str, cmds: &[Command]) -> anyhow::Result<()> {
     let m = module_id(&t);
-    device::check(cmds, m).dev()?;
+    device::check(cmds, m)?;
     let mut s = open(ctx, &t.node)?;
-    let confirmed = s.send(m, cmds).dev()?;
+    let confirmed = s.send(m, cmds)?;
     report_sent(ctx, s.id(), m, what, confirmed, json!({}));
     Ok(())
 }
 
 fn set_position(ctx: &Ctx, t: ModuleTarget, position: i64) -> anyhow::Result<()> {
-    let position = device::field_value::<i32>("set_position", "position", position).dev()?;
+    let position = device::field_value::<i32>("set_position", "position", position)?;
     let (node, m) = (node_id(&t.node), module_id(&t));
     let cmd = Command::SetPosition { position };
-    device::check(&[cmd], m).dev()?;
-    let confirmed = open(ctx, &t.node)?.send(m, &[cmd]).dev()?;
+    device::check(&[cmd], m)?;
+    let confirmed = open(ctx, &t.node)?.send(m, &[cmd])?;
     report_sent(ctx, node, m, "cdios-set-position", confirmed, json!({"position": position}));
     Ok(())
 }
@@ -278,11 +259,11 @@ fn goto(
     speed: Option<i64>,
     wait: WaitArgs,
 ) -> anyhow::Result<()> {
-    let cmds = device::goto_commands(mode, position, speed).dev()?;
+    let cmds = device::goto_commands(mode, position, speed)?;
     let (node, m) = (node_id(&t.node), module_id(&t));
-    device::check(&cmds, m).dev()?;
+    device::check(&cmds, m)?;
     let mut s = open(ctx, &t.node)?;
-    let confirmed = s.send(m, &cmds).dev()?;
+    let confirmed = s.send(m, &cmds)?;
     let mut extra = json!({"mode": device::mode_name(mode), "requested": position});
     if let Some(v) = speed {
         extra["speed"] = json!(v);
@@ -304,11 +285,11 @@ fn goto(
 }
 
 fn run_traject(ctx: &Ctx, t: ModuleTarget, traject: i64, latched: bool, wait: WaitArgs) -> anyhow::Result<()> {
-    let cmd = device::traject_command(traject, latched).dev()?;
+    let cmd = device::traject_command(traject, latched)?;
     let (node, m) = (node_id(&t.node), module_id(&t));
-    device::check(&[cmd], m).dev()?;
+    device::check(&[cmd], m)?;
     let mut s = open(ctx, &t.node)?;
-    let confirmed = s.send(m, &[cmd]).dev()?;
+    let confirmed = s.send(m, &[cmd])?;
     let extra = json!({"traject": traject, "latched": latched});
     if !wait.wait {
         report_sent(ctx, node, m, "cdios-traject", confirmed, extra);
@@ -339,7 +320,7 @@ fn start(
         DirectionArg::Forward => Direction::Forward,
         DirectionArg::Reverse => Direction::Reverse,
     };
-    let cmd = device::start_command(direction, option, speed, latched).dev()?;
+    let cmd = device::start_command(direction, option, speed, latched)?;
     simple(ctx, t, "cdios-start", &[cmd])
 }
 
@@ -349,7 +330,7 @@ fn wait_motion(ctx: &Ctx, s: &mut Node, m: ModuleId, wait: WaitArgs, goal: Goal)
         let spec = WaitSpec { poll: t.poll, timeout: t.timeout, stop_attempts: t.stop_attempts };
         let progress =
             &mut |pos, r: &_| show(format!("module {m} {}: pos {pos}  {}", goal.name(), status_line(ctx, r)));
-        s.wait(m, goal, spec, &interrupted, progress).dev()
+        Ok(s.wait(m, goal, spec, &interrupted, progress)?)
     })
 }
 
@@ -378,11 +359,11 @@ fn print_wait_end(ctx: &Ctx, what: &str, end: &WaitEnd, extra: Value) {
 
 fn config(ctx: &Ctx, t: ModuleTarget, items: &[String]) -> anyhow::Result<()> {
     // Every name and value is resolved and checked before anything is sent.
-    match ConfigRequest::parse(items).dev()? {
+    match ConfigRequest::parse(items)? {
         ConfigRequest::Show(groups) => show_config(ctx, &mut open(ctx, &t.node)?, t, &groups),
         ConfigRequest::Set(changes) => {
             let mut s = open(ctx, &t.node)?;
-            let groups = s.write_config(module_id(&t), &changes).dev()?;
+            let groups = s.write_config(module_id(&t), &changes)?;
             show_config(ctx, &mut s, t, &groups)
         }
     }
@@ -392,7 +373,7 @@ fn show_config(ctx: &Ctx, s: &mut Node, t: ModuleTarget, groups: &[String]) -> a
     let (node, m) = (node_id(&t.node), module_id(&t));
     let mut doc = serde_json::Map::new();
     let mut rows = vec![["FIELD", "VALUE", "UNIT", "RANGE"].map(String::from).to_vec()];
-    for (part, r) in s.read_config(m, groups).dev()? {
+    for (part, r) in s.read_config(m, groups)? {
         let g = doc.entry(servo::group_of(part)).or_insert_with(|| json!({}));
         for f in servo::set_row(part).value_fields() {
             let v = r.get(f.key).unwrap_or(0);
@@ -421,9 +402,9 @@ fn show_config(ctx: &Ctx, s: &mut Node, t: ModuleTarget, groups: &[String]) -> a
 // ---- outputs ----
 
 fn outputs(ctx: &Ctx, t: ModuleTarget, set: Option<&str>, latched: bool) -> anyhow::Result<()> {
-    let set = set.map(device::outputs_value).transpose().dev()?;
+    let set = set.map(device::outputs_value).transpose()?;
     let (node, m) = (node_id(&t.node), module_id(&t));
-    let state = open(ctx, &t.node)?.outputs(m, set, latched).dev()?;
+    let state = open(ctx, &t.node)?.outputs(m, set, latched)?;
     let bits: Vec<bool> = (0..4).map(|i| state & (1 << i) != 0).collect();
     if ctx.json {
         output::json(&json!({"node": node, "module": m, "outputs": state, "bits": bits}));
@@ -438,12 +419,12 @@ fn outputs(ctx: &Ctx, t: ModuleTarget, set: Option<&str>, latched: bool) -> anyh
 }
 
 fn analog(ctx: &Ctx, t: ModuleTarget, output: Option<i64>, set: Option<i64>, latched: bool) -> anyhow::Result<()> {
-    let (outs, set) = device::analog_request(output, set, latched).dev()?;
+    let (outs, set) = device::analog_request(output, set, latched)?;
     let (node, m) = (node_id(&t.node), module_id(&t));
     if let Some(c) = set {
-        device::check(&[c], m).dev()?;
+        device::check(&[c], m)?;
     }
-    let read = open(ctx, &t.node)?.analog(m, &outs, set).dev()?;
+    let read = open(ctx, &t.node)?.analog(m, &outs, set)?;
     let list: Vec<Value> = read
         .iter()
         .map(|a| json!({"output": a.output, "millivolts": a.millivolts, "volts": a.millivolts as f64 / 1000.0}))
@@ -462,7 +443,7 @@ fn analog(ctx: &Ctx, t: ModuleTarget, output: Option<i64>, set: Option<i64>, lat
 
 fn events(ctx: &Ctx, t: ModuleTarget, change: &EventChange) -> anyhow::Result<()> {
     let (node, m) = (node_id(&t.node), module_id(&t));
-    let setup = open(ctx, &t.node)?.events(m, change).dev()?;
+    let setup = open(ctx, &t.node)?.events(m, change)?;
     let (masks, timers) = (setup.masks, setup.timers);
     let ms = |c: u8| Timers::interval_ms(c).unwrap_or(0.0);
     if ctx.json {
@@ -493,8 +474,8 @@ fn events(ctx: &Ctx, t: ModuleTarget, change: &EventChange) -> anyhow::Result<()
 
 fn store(ctx: &Ctx, t: ModuleTarget, defaults: bool) -> anyhow::Result<()> {
     let (node, m) = (node_id(&t.node), module_id(&t));
-    device::check(&[Command::StoreConfiguration { defaults }], m).dev()?;
-    let elapsed = open(ctx, &t.node)?.store(m, defaults).dev()?;
+    device::check(&[Command::StoreConfiguration { defaults }], m)?;
+    let elapsed = open(ctx, &t.node)?.store(m, defaults)?;
     if ctx.json {
         output::json(&json!({"node": node, "module": m, "command": "cdios-store", "defaults": defaults,
                              "confirmed": true, "elapsed_ms": elapsed.as_millis() as u64}));

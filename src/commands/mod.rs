@@ -9,15 +9,19 @@ mod monitor;
 mod pac;
 mod powercube;
 mod sim;
+mod wait;
 
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, OnceLock};
 use std::time::Duration;
 
 use axisctl::clock::{Clock, SystemClock};
+use axisctl::device;
 use axisctl::link::{self, LinkSpec};
 use axisctl::open::{OpenError, Opener, SessionOptions};
-use axisctl::session::pac::Pac;
+use axisctl::proto::powercube::limits::LimitError;
+use axisctl::proto::Refusal;
+use axisctl::session::pac::{Pac, PacError};
 use axisctl::session::powercube::PowerCube;
 use axisctl::session::{ErrorKind, RetryPolicy, TraceEvent};
 use axisctl::sim::bench::{Bench, WireSpeed};
@@ -44,9 +48,14 @@ pub fn usage(msg: impl Into<String>) -> anyhow::Error {
     UsageError(msg.into()).into()
 }
 
-/// The exit-code class of an error anywhere in the chain.
+/// The exit-code class of an error: the first cause in the chain that
+/// knows its class decides (a device layer error knows it whole, including
+/// the session failure it carries).
 pub fn classify(err: &anyhow::Error) -> ErrorKind {
     for cause in err.chain() {
+        if let Some(kind) = device_kind(cause) {
+            return kind;
+        }
         if cause.is::<UsageError>() || cause.is::<link::SpecError>() {
             return ErrorKind::Usage;
         }
@@ -67,6 +76,57 @@ pub fn classify(err: &anyhow::Error) -> ErrorKind {
         }
     }
     ErrorKind::Other
+}
+
+fn device_kind(cause: &(dyn std::error::Error + 'static)) -> Option<ErrorKind> {
+    if let Some(e) = cause.downcast_ref::<device::powercube::Error>() {
+        return Some(e.kind());
+    }
+    if let Some(e) = cause.downcast_ref::<device::pac::Error>() {
+        return Some(e.kind());
+    }
+    if let Some(e) = cause.downcast_ref::<device::cdios::Error>() {
+        return Some(e.kind());
+    }
+    cause.downcast_ref::<PacError>().map(PacError::kind)
+}
+
+/// What the device itself answered, when the error is its refusal or fault.
+pub fn refusal(err: &anyhow::Error) -> Option<Refusal> {
+    err.chain().find_map(|cause| {
+        if let Some(e) = cause.downcast_ref::<device::powercube::Error>() {
+            return e.refusal();
+        }
+        if let Some(e) = cause.downcast_ref::<device::pac::Error>() {
+            return e.refusal();
+        }
+        if let Some(e) = cause.downcast_ref::<device::cdios::Error>() {
+            return e.refusal();
+        }
+        match cause.downcast_ref::<PacError>() {
+            Some(PacError::Session(s)) => s.refusal().cloned(),
+            _ => cause.downcast_ref::<axisctl::session::SessionError>().and_then(|s| s.refusal().cloned()),
+        }
+    })
+}
+
+/// Advice for the command line that the library's message cannot give
+/// (it does not know the CLI's flags): appended to the message.
+pub fn hint(err: &anyhow::Error) -> Option<String> {
+    use device::powercube::Error as Cube;
+    err.chain().find_map(|cause| {
+        match cause.downcast_ref::<Cube>() {
+            Some(Cube::Limit(LimitError::Exceeds { .. })) => return Some(" (use --force to skip this check)".into()),
+            Some(Cube::NotReady { module, .. }) => return Some(format!(": clear it with `axisctl reset -m {module}`")),
+            _ => {}
+        }
+        match cause.downcast_ref::<device::pac::Error>() {
+            Some(device::pac::Error::OutsideTraverseArea { .. }) => {
+                Some(" (use --force to let the controller check)".into())
+            }
+            _ => None,
+        }
+    })
 }
 
 /// What every command gets: the resolved global options.

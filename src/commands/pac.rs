@@ -15,14 +15,13 @@
 use std::io::IsTerminal;
 use std::time::Duration;
 
-use axisctl::device::pac::{self as device, Controller, Element, Error as DevError, Register};
+use axisctl::device::pac::{self as device, Controller, Element, Register};
 use axisctl::proto::pac::table::{self, CommandDef, ExtAxisStatus};
 use axisctl::proto::pac::{Ack, CheckRule, Command, Par2};
-use axisctl::session::pac::{PacError, Progress};
-use axisctl::session::ErrorKind;
+use axisctl::session::pac::Progress;
 use serde_json::json;
 
-use super::{arm_interrupt, interrupted, usage, Ctx, DeviceFault, Interrupted};
+use super::{arm_interrupt, interrupted, usage, Ctx};
 use crate::cli::pac::{PacCommand, PacWait, ParamAccess};
 use crate::output;
 
@@ -93,33 +92,6 @@ fn finite(what: &str, v: f64) -> anyhow::Result<f64> {
     }
 }
 
-/// Session errors keep their exit code (the `SessionError` stays in the
-/// chain); the rest are classed by their kind: refusals before sending are
-/// usage errors, faults exit 5.
-fn pac_err(e: DevError) -> anyhow::Error {
-    match e {
-        DevError::Session(s) => anyhow::Error::new(s),
-        DevError::Stopped { context, source } => pac_err(*source).context(context),
-        DevError::Interrupted(halted) => Interrupted(format!(": {halted}")).into(),
-        DevError::Pac(p @ PacError::Abandoned { .. }) => Interrupted(format!(": {p}")).into(),
-        e @ DevError::OutsideTraverseArea { .. } => usage(format!("{e} (use --force to let the controller check)")),
-        e if e.kind() == ErrorKind::Device => DeviceFault(e.to_string()).into(),
-        e => usage(e.to_string()),
-    }
-}
-
-/// `?` on a device result would wrap the error whole and hide its exit
-/// code from `classify`: results go through this instead.
-trait Cli<T> {
-    fn cli(self) -> anyhow::Result<T>;
-}
-
-impl<T> Cli<T> for Result<T, DevError> {
-    fn cli(self) -> anyhow::Result<T> {
-        self.map_err(pac_err)
-    }
-}
-
 fn status_json(ack: &Ack) -> serde_json::Value {
     json!({"status": ack.status, "status_text": table::operating_status_text(ack.status), "error": ack.error})
 }
@@ -137,7 +109,7 @@ fn check_rule_name(r: CheckRule) -> &'static str {
 
 /// One command, its acknowledge; motion-free or finishing by itself.
 fn simple(ctx: &Ctx, d: &mut Controller, code: u16, par1: i64, value: Option<f64>) -> anyhow::Result<()> {
-    let done = d.send(code, par1, value).cli()?;
+    let done = d.send(code, par1, value)?;
     let def = def(code);
     let ack = done.ack;
     let ack_value = match def.ack {
@@ -175,7 +147,7 @@ fn merge(doc: &mut serde_json::Value, more: serde_json::Value) {
 }
 
 fn state(ctx: &Ctx, d: &mut Controller) -> anyhow::Result<()> {
-    let ack = d.send(0x190B, 0, None).cli()?.ack;
+    let ack = d.send(0x190B, 0, None)?.ack;
     let mode = table::mode_of_status(ack.status).map(|m| m.name());
     if ctx.json {
         let mut doc = status_json(&ack);
@@ -191,7 +163,7 @@ fn state(ctx: &Ctx, d: &mut Controller) -> anyhow::Result<()> {
 }
 
 fn error(ctx: &Ctx, d: &mut Controller) -> anyhow::Result<()> {
-    let ack = d.send(0x1909, 0, None).cli()?.ack;
+    let ack = d.send(0x1909, 0, None)?.ack;
     let number = ack.q_par.as_i64().unwrap_or(i64::from(ack.error));
     if ctx.json {
         let mut doc = status_json(&ack);
@@ -206,7 +178,7 @@ fn error(ctx: &Ctx, d: &mut Controller) -> anyhow::Result<()> {
 }
 
 fn reset_error(ctx: &Ctx, d: &mut Controller) -> anyhow::Result<()> {
-    let reset = d.reset_error().cli()?;
+    let reset = d.reset_error()?;
     let (ack, left) = (reset.ack, reset.left);
     if ctx.json {
         let mut doc = status_json(&ack);
@@ -218,7 +190,7 @@ fn reset_error(ctx: &Ctx, d: &mut Controller) -> anyhow::Result<()> {
     } else {
         println!("{}", ctx.style.error(&format!("error E{left} could not be reset")));
     }
-    reset.check().cli()
+    Ok(reset.check()?)
 }
 
 /// Live progress of a wait: a spinner on a terminal, JSON lines on request.
@@ -260,7 +232,7 @@ fn move_axis(
     wait: PacWait,
 ) -> anyhow::Result<()> {
     let pos = finite("POS", pos)?;
-    let started = d.start_move(axis, pos, relative, !force).cli()?;
+    let started = d.start_move(axis, pos, relative, !force)?;
     let (code, target, start_position) = (started.code, started.target, started.start_position);
     if !wait.wait {
         if ctx.json {
@@ -286,7 +258,7 @@ fn move_axis(
         !interrupted()
     });
     reporter.finish();
-    let device::MoveProgress { position, status, elapsed } = result.cli()?;
+    let device::MoveProgress { position, status, elapsed } = result?;
     if ctx.json {
         output::json(&json!({"axis": axis, "command": def(code).code_hex(), "target": target,
             "start_position": start_position, "position": position, "status": status,
@@ -306,7 +278,7 @@ fn reference(ctx: &Ctx, d: &mut Controller, axis: u8, wait: PacWait) -> anyhow::
     if !wait.wait {
         // No start-and-return form exists: the drive runs on and the
         // controller answers only polls until it ends.
-        let (ack, done) = d.start_reference(axis).cli()?;
+        let (ack, done) = d.start_reference(axis)?;
         if ctx.json {
             let mut doc = json!({"axis": axis, "command": "0A84", "done": done});
             merge(&mut doc, status_json(&ack));
@@ -335,8 +307,8 @@ fn reference(ctx: &Ctx, d: &mut Controller, axis: u8, wait: PacWait) -> anyhow::
         !interrupted()
     });
     reporter.finish();
-    let done = result.cli()?;
-    let position = d.read_f64(0x190C, axis.into()).cli()?;
+    let done = result?;
+    let position = d.read_f64(0x190C, axis.into())?;
     if ctx.json {
         let mut doc = json!({"axis": axis, "command": "0A84", "done": true, "position": position,
                              "polls": done.polls, "elapsed_ms": done.elapsed.as_millis() as u64});
@@ -350,8 +322,8 @@ fn reference(ctx: &Ctx, d: &mut Controller, axis: u8, wait: PacWait) -> anyhow::
 
 /// Everything 1910 / 1921 / 190C / 190D / 1913 / 1914 say about an axis.
 fn axis_json(d: &mut Controller, axis: u8) -> anyhow::Result<serde_json::Value> {
-    let state = d.axis_state(axis).cli()?;
-    let area = d.traverse_area(axis).cli()?;
+    let state = d.axis_state(axis)?;
+    let area = d.traverse_area(axis)?;
     let (position, speed, status, ext_raw) = (state.position, state.speed, state.status as u64, state.ext_status);
     let (min, max) = (area.min, area.max);
     let ext = ExtAxisStatus::decode(ext_raw);
@@ -388,13 +360,13 @@ fn axis_info(ctx: &Ctx, d: &mut Controller, axis: u8) -> anyhow::Result<()> {
 }
 
 fn axes(ctx: &Ctx, d: &mut Controller) -> anyhow::Result<()> {
-    let n = d.configured_axes().cli()?;
-    let moving = d.read_i64(0x1911, 0).cli()? as u64;
+    let n = d.configured_axes()?;
+    let moving = d.read_i64(0x1911, 0)? as u64;
     let mut list = Vec::new();
     for axis in 1..=n {
         let a = i64::from(axis);
-        let position = d.read_f64(0x190C, a).cli()?;
-        let status = d.read_i64(0x1910, a).cli()? as u64;
+        let position = d.read_f64(0x190C, a)?;
+        let status = d.read_i64(0x1910, a)? as u64;
         list.push(json!({"axis": axis, "position": position, "status": status,
                          "status_text": table::axis_status_text(status)}));
     }
@@ -430,12 +402,12 @@ fn element(
 ) -> anyhow::Result<()> {
     let key = el.key();
     if let Some(text) = value {
-        el.write_code(word).cli()?;
+        el.write_code(word)?;
         let v = parse_uint(&text)?;
-        d.write_element(el, number, v, word).cli()?;
+        d.write_element(el, number, v, word)?;
     }
     if word {
-        let w = d.read_element_word(el, number).cli()?;
+        let w = d.read_element_word(el, number)?;
         let members = table::word_members(number, w);
         if ctx.json {
             output::json(&json!({key: number, "word": w, "set": members}));
@@ -444,7 +416,7 @@ fn element(
             println!("{key}s {first}..{}: {w:#06x} {w:016b}  set: {members:?}", first + 15);
         }
     } else {
-        let v = d.read_element(el, number).cli()?;
+        let v = d.read_element(el, number)?;
         if ctx.json {
             output::json(&json!({key: number, "state": v}));
         } else {
@@ -455,13 +427,13 @@ fn element(
 }
 
 fn reg(ctx: &Ctx, d: &mut Controller, register: &str, value: Option<&str>) -> anyhow::Result<()> {
-    let reg: Register = register.parse().cli()?;
+    let reg: Register = register.parse()?;
     if let Some(text) = value {
-        reg.write_code().cli()?;
+        reg.write_code()?;
         let v: f64 = text.trim().parse().map_err(|_| usage(format!("{text:?} is not a number")))?;
-        d.write_register(reg, finite("value", v)?).cli()?;
+        d.write_register(reg, finite("value", v)?)?;
     }
-    let q_par = d.read_register(reg).cli()?;
+    let q_par = d.read_register(reg)?;
     if ctx.json {
         output::json(
             &json!({"register": reg.to_string(), "type": if reg.is_float() { "float" } else { "int" }, "value": q_par.as_f64()}),
@@ -484,15 +456,15 @@ fn sys_param(ctx: &Ctx, d: &mut Controller, name: &str, access: &ParamAccess) ->
     })?;
     let n = i64::from(p.number);
     let (what, value) = if access.min {
-        ("min", d.read_i64(0x1702, n).cli()?)
+        ("min", d.read_i64(0x1702, n)?)
     } else if access.max {
-        ("max", d.read_i64(0x1701, n).cli()?)
+        ("max", d.read_i64(0x1701, n)?)
     } else {
         if let Some(text) = &access.value {
             let v = parse_value(text)?;
-            ("value", d.write_system_param(n, v).cli()?)
+            ("value", d.write_system_param(n, v)?)
         } else {
-            ("value", d.read_i64(0x1700, n).cli()?)
+            ("value", d.read_i64(0x1700, n)?)
         }
     };
     if ctx.json {
@@ -509,15 +481,15 @@ fn axis_param(ctx: &Ctx, d: &mut Controller, axis: u8, name: &str, access: &Para
     })?;
     let par1 = table::axis_param_par1(axis, p.number);
     let (what, value) = if access.min {
-        ("min", d.read_f64(0x1802, par1).cli()?)
+        ("min", d.read_f64(0x1802, par1)?)
     } else if access.max {
-        ("max", d.read_f64(0x1801, par1).cli()?)
+        ("max", d.read_f64(0x1801, par1)?)
     } else {
         if let Some(text) = &access.value {
             let v = parse_value(text)?;
-            ("value", d.write_axis_param(par1, v).cli()?)
+            ("value", d.write_axis_param(par1, v)?)
         } else {
-            ("value", d.read_f64(0x1800, par1).cli()?)
+            ("value", d.read_f64(0x1800, par1)?)
         }
     };
     if ctx.json {
@@ -533,7 +505,7 @@ fn raw(ctx: &Ctx, d: &mut Controller, code_text: &str, par1: i64, par2: Option<&
     let cmd = match known {
         Some(def) => {
             let v = par2.map(parse_value).transpose()?;
-            d.build(def.code, par1, v).cli()?
+            d.build(def.code, par1, v)?
         }
         None => {
             let hex = code_text.trim_start_matches("0x").trim_start_matches("0X");
@@ -564,7 +536,7 @@ fn raw(ctx: &Ctx, d: &mut Controller, code_text: &str, par1: i64, par2: Option<&
     if show {
         eprint!("\r\x1b[K");
     }
-    let done = result.cli()?;
+    let done = result?;
     let ack = done.ack;
     if ctx.json {
         let mut doc = json!({"command": format!("{:04X}", cmd.code), "name": def.map(|d| d.name), "par1": cmd.par1,

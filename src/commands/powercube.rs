@@ -8,13 +8,13 @@ use axisctl::device::powercube::{
 };
 use axisctl::proto::powercube::flags::{self, FlagWord};
 use axisctl::proto::powercube::frame::{f32_to_f64, Value};
-use axisctl::proto::powercube::limits::LimitError;
 use axisctl::proto::powercube::table::{ids, ParamDef};
 use axisctl::proto::powercube::ModuleId;
 use axisctl::session::powercube::PowerCube;
 use serde_json::json;
 
-use super::{interrupted, usage, Ctx, DeviceFault, Interrupted};
+use super::wait::waiting;
+use super::{interrupted, usage, Ctx, Interrupted};
 use crate::cli::{PowerCubeCommand as Command, Target, WaitArgs, WatchdogAction};
 use crate::output;
 
@@ -45,80 +45,6 @@ pub fn run(ctx: &Ctx, cmd: Command) -> anyhow::Result<()> {
 
 fn module(id: u8) -> ModuleId {
     ModuleId::new(id).expect("clap checks 1..=31")
-}
-
-/// A device error in the contract's terms: refusals are usage errors (exit
-/// 2), faults exit 5, session failures keep their kind.
-fn dev(e: Error) -> anyhow::Error {
-    match e {
-        Error::Limit(l @ LimitError::Exceeds { .. }) => usage(format!("{l} (use --force to skip this check)")),
-        Error::Limit(_) | Error::Refused(_) => usage(e.to_string()),
-        Error::NotReady { module, .. } => DeviceFault(format!("{e}: clear it with `axisctl reset -m {module}`")).into(),
-        Error::Faulted { .. } | Error::ConfigNotKept { .. } => DeviceFault(e.to_string()).into(),
-        Error::Interrupted { .. } => Interrupted(e.to_string().trim_start_matches("interrupted").into()).into(),
-        Error::Session(s) => s.into(),
-        Error::Motion { .. } | Error::LostTrack { .. } => anyhow::Error::new(e),
-        Error::UnexpectedType { .. } => anyhow::anyhow!(e.to_string()),
-    }
-}
-
-/// A device layer error turned into the CLI's error classes.
-pub(super) trait IntoCli {
-    fn into_cli(self) -> anyhow::Error;
-}
-
-impl IntoCli for Error {
-    fn into_cli(self) -> anyhow::Error {
-        dev(self)
-    }
-}
-
-/// `.dev()?` instead of `?`: a device error must not reach anyhow
-/// unclassified. (Shared with the Cdios commands.)
-pub(super) trait Dev<T> {
-    fn dev(self) -> anyhow::Result<T>;
-}
-
-impl<T, E: IntoCli> Dev<T> for Result<T, E> {
-    fn dev(self) -> anyhow::Result<T> {
-        self.map_err(IntoCli::into_cli)
-    }
-}
-
-/// How a `--wait` polls, gives up, and how often it sends the stop that
-/// ends a failed wait.
-pub(super) struct Timing {
-    pub poll: Duration,
-    pub timeout: Duration,
-    pub stop_attempts: u32,
-}
-
-/// Runs a device wait with Ctrl-C armed and the spinner shown (not with
-/// --json); `run` gets the timing and the function that sets the spinner's
-/// message.
-pub(super) fn waiting<T>(
-    ctx: &Ctx,
-    wait: &WaitArgs,
-    run: impl FnOnce(Timing, &dyn Fn(String)) -> anyhow::Result<T>,
-) -> anyhow::Result<T> {
-    super::arm_interrupt()?;
-    let timing = Timing {
-        poll: Duration::from_millis(wait.poll),
-        timeout: Duration::from_secs_f64(wait.wait_timeout.max(0.0)),
-        stop_attempts: 1 + ctx.retry.read_retries,
-    };
-    let bar = crate::output::spinner(ctx.json);
-    let show = |msg: String| {
-        if let Some(bar) = &bar {
-            bar.set_message(msg);
-            bar.tick();
-        }
-    };
-    let out = run(timing, &show);
-    if let Some(bar) = bar {
-        bar.finish_and_clear();
-    }
-    out
 }
 
 fn cubes(ctx: &Ctx) -> anyhow::Result<Cubes> {
@@ -200,12 +126,11 @@ fn scan(ctx: &Ctx, ids_text: &str) -> anyhow::Result<()> {
     // An absent module never answers; a present one starts answering right
     // after the request, so a scan need not wait the whole timeout per id.
     pc.set_answer_start_timeout(Some(SCAN_ANSWER_START.max(pc.timeout() / 8)));
-    let found = cubes.scan(&ids).dev()?;
+    let found = cubes.scan(&ids)?;
     let mut modules = Vec::new();
     for f in found {
         let m = f.module;
-        let vals =
-            cubes.get_many(m, &[param(ids::DEF_CUBE_SERIAL), param(ids::CONFIG), param(ids::CUBE_STATE)]).dev()?;
+        let vals = cubes.get_many(m, &[param(ids::DEF_CUBE_SERIAL), param(ids::CONFIG), param(ids::CUBE_STATE)])?;
         let [serial, config_word, cube] = [&vals[0], &vals[1], &vals[2]].map(|v| f64_of(v) as u32);
         let version = f64_of(&f.version) as u16;
         modules.push((m, version, serial, config_word, cube));
@@ -274,7 +199,7 @@ fn info(ctx: &Ctx, m: ModuleId) -> anyhow::Result<()> {
         ids::CUBE_STATE,
     ];
     let defs: Vec<_> = rows.iter().map(|id| param(*id)).collect();
-    let vals = cubes.get_many(m, &defs).dev()?;
+    let vals = cubes.get_many(m, &defs)?;
     let config_word = f64_of(&vals[2]) as u32;
     let cube = f64_of(&vals[16]) as u32;
     let kind = kind_of(config_word);
@@ -309,7 +234,7 @@ fn unit_for(d: &ParamDef, kind: &str) -> String {
 }
 
 fn show_state(ctx: &Ctx, m: ModuleId) -> anyhow::Result<()> {
-    let cube = cubes(ctx)?.state(m).dev()?;
+    let cube = cubes(ctx)?.state(m)?;
     if ctx.json {
         let mut doc = word_json(&flags::CUBE_STATE, cube);
         doc["module"] = json!(m);
@@ -324,7 +249,7 @@ fn show_state(ctx: &Ctx, m: ModuleId) -> anyhow::Result<()> {
 
 /// One command to one module, or its broadcast to all.
 fn simple(ctx: &Ctx, target: Target, cmd: Simple) -> anyhow::Result<()> {
-    cubes(ctx)?.simple(target.module.map(module), cmd).dev()?;
+    cubes(ctx)?.simple(target.module.map(module), cmd)?;
     report_sent(ctx, target, cmd.name());
     Ok(())
 }
@@ -345,14 +270,14 @@ fn report_sent(ctx: &Ctx, target: Target, what: &str) {
 
 fn home(ctx: &Ctx, target: Target, wait: WaitArgs) -> anyhow::Result<()> {
     let mut cubes = cubes(ctx)?;
-    cubes.simple(target.module.map(module), Simple::Home).dev()?;
+    cubes.simple(target.module.map(module), Simple::Home)?;
     if !wait.wait {
         report_sent(ctx, target, "Home");
         return Ok(());
     }
     let modules = match target.module {
         Some(id) => vec![module(id)],
-        None => cubes.present().dev()?,
+        None => cubes.present()?,
     };
     let mut results = Vec::new();
     for m in modules {
@@ -369,7 +294,7 @@ fn wait_for(ctx: &Ctx, cubes: &mut Cubes, m: ModuleId, wait: WaitArgs, goal: Goa
         let what = goal.doing();
         let progress =
             &mut |pos: f32, cube| show(format!("module {m} {what}: pos {pos:.4}  {}", state_summary(ctx, cube)));
-        cubes.wait(m, goal, spec, &interrupted, progress).dev()
+        Ok(cubes.wait(m, goal, spec, &interrupted, progress)?)
     })
 }
 
@@ -403,9 +328,9 @@ fn print_wait_results(ctx: &Ctx, what: &str, results: &[WaitEnd]) {
 /// Checks and sends a move; the checks that need no module come before the
 /// link is opened.
 fn send_move(ctx: &Ctx, m: ModuleId, mv: Move, ticks: bool, force: bool) -> anyhow::Result<Cubes> {
-    mv.check(ticks).dev()?;
+    mv.check(ticks)?;
     let mut cubes = cubes(ctx)?;
-    let moved = cubes.move_module(m, mv, ticks, force).dev()?;
+    let moved = cubes.move_module(m, mv, ticks, force)?;
     if !ctx.json {
         println!("module {m}: {} acknowledged", moved.described);
     }
@@ -462,12 +387,12 @@ fn move_cur(ctx: &Ctx, m: ModuleId, amps: f64, force: bool) -> anyhow::Result<()
 }
 
 fn get_param(ctx: &Ctx, m: ModuleId, names: &[String], all: bool) -> anyhow::Result<()> {
-    let defs = device::readable_params(names, all).dev()?;
+    let defs = device::readable_params(names, all)?;
     let mut cubes = cubes(ctx)?;
     // Config rides along so that "rad|m" units resolve for the module's kind.
     let mut with_config = defs.clone();
     with_config.push(param(ids::CONFIG));
-    let mut vals = cubes.get_many(m, &with_config).dev()?;
+    let mut vals = cubes.get_many(m, &with_config)?;
     let kind = vals.pop().map_or("rotary", |c| kind_of(f64_of(&c) as u32));
     if ctx.json {
         let mut params = serde_json::Map::new();
@@ -489,8 +414,8 @@ fn get_param(ctx: &Ctx, m: ModuleId, names: &[String], all: bool) -> anyhow::Res
 }
 
 fn set_param(ctx: &Ctx, m: ModuleId, name: &str, text: &str) -> anyhow::Result<()> {
-    let (d, value) = device::param_write(name, text).dev()?;
-    cubes(ctx)?.set_param(m, d, value).dev()?;
+    let (d, value) = device::param_write(name, text)?;
+    cubes(ctx)?.set_param(m, d, value)?;
     if ctx.json {
         output::json(&json!({"module": m, "param": d.name, "id": d.id, "type": d.ty.name(), "value": value}));
     } else {
@@ -511,14 +436,14 @@ fn print_config(ctx: &Ctx, m: ModuleId, raw: u32) {
 }
 
 fn get_config(ctx: &Ctx, m: ModuleId) -> anyhow::Result<()> {
-    let raw = cubes(ctx)?.get_u32(m, ids::CONFIG).dev()?;
+    let raw = cubes(ctx)?.get_u32(m, ids::CONFIG)?;
     print_config(ctx, m, raw);
     Ok(())
 }
 
 fn set_config(ctx: &Ctx, m: ModuleId, changes: &[String], raw: Option<&str>) -> anyhow::Result<()> {
     // Every flag is resolved before the link opens: a typo sends nothing.
-    let change = ConfigChange::parse(changes, raw).dev()?;
+    let change = ConfigChange::parse(changes, raw)?;
     match cubes(ctx)?.write_config(m, change) {
         Ok(kept) => {
             print_config(ctx, m, kept);
@@ -528,14 +453,14 @@ fn set_config(ctx: &Ctx, m: ModuleId, changes: &[String], raw: Option<&str>) -> 
             if let Error::ConfigNotKept { kept, .. } = e {
                 print_config(ctx, m, kept);
             }
-            Err(dev(e))
+            Err(e.into())
         }
     }
 }
 
 fn dio(ctx: &Ctx, m: ModuleId, out: Option<&str>) -> anyhow::Result<()> {
-    let outputs = out.map(device::dio_outputs).transpose().dev()?;
-    let raw = cubes(ctx)?.dio(m, outputs).dev()?;
+    let outputs = out.map(device::dio_outputs).transpose()?;
+    let raw = cubes(ctx)?.dio(m, outputs)?;
     if ctx.json {
         let mut doc = word_json(&flags::DIO_SETUP, raw);
         doc["module"] = json!(m);
@@ -554,7 +479,7 @@ fn watchdog(ctx: &Ctx, action: WatchdogAction) -> anyhow::Result<()> {
     match action {
         WatchdogAction::On(a) => {
             let m = module(a.module);
-            cubes.watchdog_toggle(m, true).dev()?;
+            cubes.watchdog_toggle(m, true)?;
             if ctx.json {
                 output::json(&json!({"module": m, "watchdog": "toggled", "config_enabled": true}));
             } else {
@@ -564,7 +489,7 @@ fn watchdog(ctx: &Ctx, action: WatchdogAction) -> anyhow::Result<()> {
         }
         WatchdogAction::Off(a) => {
             let m = module(a.module);
-            cubes.watchdog_toggle(m, false).dev()?;
+            cubes.watchdog_toggle(m, false)?;
             if ctx.json {
                 output::json(&json!({"module": m, "watchdog": "toggled"}));
             } else {

@@ -3,6 +3,7 @@
 //! a module fault (exit 5), interrupted (130).
 
 use crate::proto::cdios::{ModuleId, NodeId, ValidationError};
+use crate::proto::Refusal;
 use crate::session::{ErrorKind, SessionError};
 
 #[derive(Debug, thiserror::Error)]
@@ -48,6 +49,14 @@ fn stop_note(node: NodeId, m: ModuleId, failed: Option<&str>) -> String {
 }
 
 impl Error {
+    /// The error reply the node sent, when the operation failed on one.
+    pub fn refusal(&self) -> Option<Refusal> {
+        match self {
+            Self::Session(e) | Self::LostTrack { source: e, .. } => e.refusal().cloned(),
+            _ => None,
+        }
+    }
+
     pub fn kind(&self) -> ErrorKind {
         match self {
             Self::Invalid(_) | Self::Refused(_) => ErrorKind::Usage,

@@ -6,6 +6,7 @@
 
 use crate::proto::pac::table;
 use crate::proto::pac::validate::ValidationError;
+use crate::proto::Refusal;
 use crate::session::pac::PacError;
 use crate::session::{ErrorKind, SessionError};
 
@@ -72,6 +73,15 @@ impl From<PacError> for Error {
 }
 
 impl Error {
+    /// The controller's refusal (QUIT), when the operation failed on one.
+    pub fn refusal(&self) -> Option<Refusal> {
+        match self {
+            Self::Session(e) | Self::Pac(PacError::Session(e)) => e.refusal().cloned(),
+            Self::Stopped { source, .. } => source.refusal(),
+            _ => None,
+        }
+    }
+
     /// The exit-code class (`cli-contract.md`).
     pub fn kind(&self) -> ErrorKind {
         match self {

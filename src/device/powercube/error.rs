@@ -4,6 +4,7 @@
 
 use crate::proto::powercube::limits::LimitError;
 use crate::proto::powercube::ModuleId;
+use crate::proto::Refusal;
 use crate::session::{ErrorKind, SessionError};
 
 #[derive(Debug, thiserror::Error)]
@@ -62,6 +63,18 @@ pub(super) fn halt_note(m: ModuleId, failed: Option<&str>) -> String {
 }
 
 impl Error {
+    /// What the module itself reported: its CubeState errors, or the
+    /// refusal the session received.
+    pub fn refusal(&self) -> Option<Refusal> {
+        match self {
+            Self::Faulted { cube, .. } => Some(Refusal::powercube(*cube)),
+            Self::Session(e) | Self::Motion { source: e, .. } | Self::LostTrack { source: e, .. } => {
+                e.refusal().cloned()
+            }
+            _ => None,
+        }
+    }
+
     pub fn kind(&self) -> ErrorKind {
         match self {
             Self::Limit(_) | Self::Refused(_) => ErrorKind::Usage,
