@@ -11,7 +11,7 @@ use axisctl::proto::cdios::{
     decode_status, Command, Direction, ErrorReply, GotoMode, ModuleId, NodeId, PositionSource, StartOption,
     StatusReport, StopOption, Timers,
 };
-use axisctl::session::cdios::{describe_answer, Cdios, Event};
+use axisctl::session::cdios::Event;
 use serde_json::{json, Value};
 
 use super::wait::waiting;
@@ -99,16 +99,9 @@ fn module_id(t: &ModuleTarget) -> ModuleId {
 }
 
 fn open(ctx: &Ctx, n: &NodeArgs) -> anyhow::Result<Node> {
-    let mut s = Cdios::new(ctx.can_link()?).with_clock(Arc::clone(&ctx.clock));
-    if let Some(t) = ctx.timeout {
-        s.set_timeout(t);
-    }
-    s.set_retry(ctx.retry);
+    let mut s = ctx.cdios()?;
     s.set_nmt(!n.no_nmt);
     s.set_confirm(!n.no_confirm);
-    if ctx.trace {
-        s.set_tracer(Box::new(super::print_trace));
-    }
     Ok(Node::new(s, node_id(n), ctx.retry))
 }
 
@@ -560,7 +553,7 @@ fn watch(
                 output::json(&event_json(&ev, start));
             } else {
                 let t_ms = ev.at.saturating_duration_since(start).as_millis() as f64 / 1e3;
-                println!("{t_ms:>9.3} event    {}", describe_answer(&ev.answer));
+                println!("{t_ms:>9.3} event    {}", ev.answer);
             }
             lines += 1;
         }

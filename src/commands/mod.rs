@@ -21,10 +21,11 @@ use axisctl::link::{self, LinkSpec};
 use axisctl::open::{OpenError, Opener, SessionOptions};
 use axisctl::proto::powercube::limits::LimitError;
 use axisctl::proto::Refusal;
+use axisctl::session::cdios::Cdios;
 use axisctl::session::pac::{Pac, PacError};
 use axisctl::session::powercube::PowerCube;
 use axisctl::session::{ErrorKind, RetryPolicy, TraceEvent};
-use axisctl::sim::bench::{Bench, WireSpeed};
+use axisctl::sim::bench::WireSpeed;
 
 use crate::cli::{Cli, Command, Global};
 use crate::output::Style;
@@ -135,9 +136,6 @@ pub struct Ctx {
     pub json: bool,
     pub timeout: Option<Duration>,
     pub trace: bool,
-    /// `--log`; the opener logs every link it opens to it.
-    #[allow(dead_code)] // the family commands' API; no command reads it since the opener logs
-    pub log: Option<std::path::PathBuf>,
     pub retry: RetryPolicy,
     pub style: Style,
     pub clock: Arc<dyn Clock>,
@@ -157,7 +155,6 @@ impl Ctx {
             json: g.json,
             timeout: g.timeout.map(Duration::from_millis),
             trace: g.trace,
-            log: g.log.clone(),
             retry: RetryPolicy { read_retries: g.retries },
             style: Style::detect(),
             clock,
@@ -198,15 +195,14 @@ impl Ctx {
         Ok(self.opener.pac(self.link()?, &self.session_options())?)
     }
 
+    /// A Cdios session: a CAN link or the simulated node (`sim`).
+    pub fn cdios(&self) -> anyhow::Result<Cdios> {
+        Ok(self.opener.cdios(self.link()?, &self.session_options())?)
+    }
+
     /// A CAN link (the in-process bench for `sim`), logged with `--log`.
     pub fn can_link(&self) -> anyhow::Result<Box<dyn link::CanLink>> {
         Ok(self.opener.can(self.link()?, None)?)
-    }
-
-    /// A fresh in-process bench, at wire speed if `AXISCTL_SIM_WIRE_SPEED` asks for it.
-    #[allow(dead_code)] // the family commands' API (a bench of their own)
-    pub fn sim_bench(&self) -> anyhow::Result<Bench> {
-        Ok(self.opener.new_bench()?)
     }
 }
 

@@ -2,8 +2,7 @@
 //! PowerCube ids (0x0A1..0x0FF, 0x100) and Cdios ids (NMT 0x000, 0x181.., 0x201..)
 //! do not overlap; everything else is shown raw. Sans-IO: frames in, [`FrameInfo`] out.
 //!
-//! Not under `proto/` yet: PowerCube requests are described by
-//! `session::powercube::describe`, and proto may not import session.
+//! Above `proto/` only because it names frames by the family registry.
 
 use std::collections::BTreeMap;
 
@@ -18,7 +17,6 @@ use crate::proto::powercube::flags;
 use crate::proto::powercube::frame::Value;
 use crate::proto::powercube::{table as pc_table, Response};
 use crate::proto::CanFrame;
-use crate::session::powercube::describe as describe_request;
 
 const PC: Option<Family> = Some(Family::PowerCube);
 const CD: Option<Family> = Some(Family::Cdios);
@@ -109,7 +107,7 @@ fn powercube(frame: &CanFrame) -> Option<FrameInfo> {
     }
     Some(match pc_can::classify(frame) {
         Ok(Some(CanMessage::Request { module, request })) => {
-            let mut i = FrameInfo::new(PC, "request", describe_request(&request));
+            let mut i = FrameInfo::new(PC, "request", request.to_string());
             i.module = Some(module.get());
             i
         }

@@ -419,10 +419,6 @@ fn refused(ex: &Exchange, e: &ErrorReply) -> SessionError {
     SessionError::refused(target(ex.node, ex.address), ex.to_string(), e.into())
 }
 
-/// A reply or event for humans (its `Display`; kept for the callers outside the session).
-pub fn describe_answer(a: &Answer) -> String {
-    a.to_string()
-}
 
 #[cfg(test)]
 mod tests;

@@ -389,10 +389,6 @@ pub fn rs232_wire_time(baud: u32, bytes: u32) -> Duration {
 
 /// A short human description of a request, for traces and errors (its
 /// `Display`; kept for the callers outside the session).
-pub fn describe(req: &Request) -> String {
-    req.to_string()
-}
-
 fn hex(bytes: &[u8]) -> String {
     bytes.iter().map(|b| format!("{b:02x}")).collect::<Vec<_>>().join(" ")
 }

@@ -7,7 +7,6 @@ use crate::proto::powercube::frame::Value;
 use crate::proto::powercube::limits::{self, Limits};
 use crate::proto::powercube::table::ids;
 use crate::proto::powercube::{ModuleId, Motion, MotionValue, Request};
-use crate::session::powercube::describe;
 
 /// One motion command; positions, velocities and accelerations are in units
 /// or, with `ticks`, encoder ticks.
@@ -155,7 +154,7 @@ impl Cubes {
             _ => None,
         };
         let req = Request::SetMotion(Motion { id: mv.motion_id(ticks), value: wire.value, time_ms });
-        let described = describe(&req);
+        let described = req.to_string();
         match self.session().transact(m, &req) {
             Ok(_) => Ok(Moved { described, target: mv.target() }),
             Err(source) => Err(Error::Motion { what: described, module: m, source }),
