@@ -179,7 +179,7 @@ fn state_summary(ctx: &Ctx, cube: u32) -> String {
 
 fn info(ctx: &Ctx, m: ModuleId) -> anyhow::Result<()> {
     let mut cubes = cubes(ctx)?;
-    let rows: &[u8] = &[
+    let identity = [
         ids::DEF_CUBE_SERIAL,
         ids::DEF_CUBE_VERSION,
         ids::CONFIG,
@@ -190,15 +190,8 @@ fn info(ctx: &Ctx, m: ModuleId) -> anyhow::Result<()> {
         ids::MAX_VEL,
         ids::MAX_ACC,
         ids::MAX_CUR,
-        ids::ACT_POS,
-        ids::ACT_VEL,
-        ids::CUR,
-        ids::ACT_F_TEMP,
-        ids::ACT_F_MOTOR_SUPPLY,
-        ids::ACT_F_LOGIC_SUPPLY,
-        ids::CUBE_STATE,
     ];
-    let defs: Vec<_> = rows.iter().map(|id| param(*id)).collect();
+    let defs: Vec<_> = identity.iter().chain(&device::LIVE).map(|id| param(*id)).collect();
     let vals = cubes.get_many(m, &defs)?;
     let config_word = f64_of(&vals[2]) as u32;
     let cube = f64_of(&vals[16]) as u32;

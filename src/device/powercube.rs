@@ -26,6 +26,18 @@ pub use error::Error;
 pub use moves::{Move, Moved, Target};
 pub use wait::{Goal, WaitEnd, WaitSpec};
 
+/// The values that change while a module runs, as a dashboard poll and
+/// `info` read them: position, velocity, current, temperature, supplies, state.
+pub const LIVE: [u8; 7] = [
+    ids::ACT_POS,
+    ids::ACT_VEL,
+    ids::CUR,
+    ids::ACT_F_TEMP,
+    ids::ACT_F_MOTOR_SUPPLY,
+    ids::ACT_F_LOGIC_SUPPLY,
+    ids::CUBE_STATE,
+];
+
 /// A parameter of the table by id; the `ids` constants are all in it.
 pub fn param(id: u8) -> &'static ParamDef {
     table::param(id).expect("ids constants are in the table")

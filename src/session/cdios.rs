@@ -419,6 +419,5 @@ fn refused(ex: &Exchange, e: &ErrorReply) -> SessionError {
     SessionError::refused(target(ex.node, ex.address), ex.to_string(), e.into())
 }
 
-
 #[cfg(test)]
 mod tests;

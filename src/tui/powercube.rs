@@ -8,20 +8,8 @@ use super::source::{Action, CubeSnap, DeviceKey, DeviceSource, HaltReport, Snaps
 use crate::device::powercube::{self as device, Cubes, Simple, Target};
 use crate::family::Family;
 use crate::proto::powercube::limits::Limits;
-use crate::proto::powercube::table::ids;
 use crate::proto::powercube::ModuleId;
 use crate::session::powercube::PowerCube;
-
-/// What one poll reads, in [`CubeSnap`] field order.
-const POLLED: [u8; 7] = [
-    ids::ACT_POS,
-    ids::ACT_VEL,
-    ids::CUR,
-    ids::ACT_F_TEMP,
-    ids::ACT_F_MOTOR_SUPPLY,
-    ids::ACT_F_LOGIC_SUPPLY,
-    ids::CUBE_STATE,
-];
 
 /// Read once per module, and again after an action may have changed it.
 #[derive(Debug, Clone, Copy)]
@@ -105,7 +93,7 @@ impl DeviceSource for CubeSource {
     fn poll(&mut self, dev: DeviceKey) -> Result<Snapshot, SourceError> {
         let m = Self::module(dev)?;
         let s = self.statics(m)?;
-        let v = self.cubes.read_now(m, &POLLED)?;
+        let v = self.cubes.read_now(m, &device::LIVE)?;
         Ok(Snapshot::Cube(CubeSnap {
             linear: s.linear,
             pos: v[0],
