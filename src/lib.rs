@@ -1,16 +1,20 @@
 //! axisctl: commissioning PowerCube, PA-CONTROL and Cdios motion hardware.
 //!
-//! Layers, from the wire up:
-//! - [`proto`]: sans-IO codecs and the protocol tables. No I/O, no clock.
+//! Layers, from the wire up (docs/architecture.md draws them and says what
+//! each may import; tests/architecture.rs checks it):
+//! - [`proto`]: sans-IO codecs, the protocol tables and the answer matchers. No I/O, no clock.
+//! - [`clock`]: real and virtual time.
 //! - [`link`]: transports (SocketCAN, slcan, serial, in-memory) behind small traits.
-//! - [`session`]: request/answer matching with timeouts and the retry policy.
-//! - [`sim`]: clock-driven simulators of the devices.
 //! - [`family`]: the families, declared once (names, links, serial defaults, id ranges,
 //!   decode kinds, dashboard capabilities).
+//! - [`session`]: one core (timeouts, retries, tracing, the pipelined CAN burst) and a thin
+//!   session per family; [`session::bus`] shares one CAN link between families.
+//! - [`sim`]: clock-driven simulators of the devices.
+//! - [`device`]: every operation on a device, written once per family, with its safety rules.
 //! - [`open`]: from a `--link` and a family to a ready link or session, `sim` and `--log` included.
 //! - [`monitor`]: passive decoding of any frame on a CAN bus.
-//! - [`tui`]: the dashboard.
-//! - `cli` and `commands` (binary side): the command line as typed, and the subcommands.
+//! - [`tui`]: the dashboard, adapters over [`device`].
+//! - `cli` and `commands` (binary side): the command line as typed, and thin subcommands.
 
 pub mod clock;
 pub mod device;

@@ -283,6 +283,32 @@ fn cycles(edges: &BTreeMap<Vec<String>, BTreeSet<Vec<String>>>) -> Vec<Vec<Vec<S
     t.out
 }
 
+/// docs/architecture.md's table says what each layer may import: it must
+/// say what this test enforces, layer for layer.
+#[test]
+fn the_architecture_doc_states_these_rules() {
+    let doc = std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("docs/architecture.md")).unwrap();
+    let mut documented = BTreeMap::new();
+    for row in doc.lines().filter(|l| l.starts_with("| `")) {
+        let cells: Vec<&str> = row.split('|').map(str::trim).collect();
+        let layer = cells[1].trim_matches('`').trim_end_matches(".rs").trim_end_matches('/').to_string();
+        let imports: BTreeSet<String> = if cells[3].starts_with("nothing") {
+            BTreeSet::new()
+        } else {
+            cells[3].split(',').map(|c| c.trim().trim_matches('`').to_string()).collect()
+        };
+        documented.insert(layer, imports);
+    }
+    let enforced: BTreeMap<String, BTreeSet<String>> =
+        LAYERS.iter().map(|(l, ok)| (l.to_string(), ok.iter().map(|s| s.to_string()).collect())).collect();
+    assert_eq!(documented, enforced, "docs/architecture.md's table and LAYERS disagree");
+    // Every top-level module of the library is a layer.
+    let lib = std::fs::read_to_string(src().join("lib.rs")).unwrap();
+    let modules: BTreeSet<String> =
+        lib.lines().filter_map(|l| l.strip_prefix("pub mod ")).map(|m| m.trim_end_matches(';').to_string()).collect();
+    assert_eq!(modules, enforced.keys().cloned().collect(), "lib.rs's modules and LAYERS disagree");
+}
+
 #[test]
 fn the_rules_catch_what_they_forbid() {
     // The checker itself: a use tree expands, and a loop of two is a cycle.
