@@ -278,7 +278,6 @@ fn dropped_answers_retry_reads_and_never_motion() {
         rig.set("drop=1");
         assert_eq!(rig.timed(READ_ATTEMPTS, Rig::read), (Err(ErrorKind::Timeout), (3, 0)), "{f:?}");
         assert_eq!(rig.timed(1, Rig::motion), (Err(ErrorKind::Timeout), (0, 1)), "{f:?}");
-        assert_eq!(ErrorKind::Timeout.exit_code(), 4);
         // The line recovers: the next exchange works.
         rig.set("");
         assert_eq!(rig.timed(1, Rig::read), (Ok(()), (1, 0)), "{f:?}");
@@ -367,7 +366,6 @@ fn truncated_answers_are_retried_for_reads_only() {
         let (r, sent) = rig.timed(2, Rig::read);
         assert_eq!(r, Ok(()), "{f:?}: the retry resynchronises");
         assert!(sent.0 == 2 || f == Family::Cdios, "{f:?}: {sent:?}");
-        assert_eq!(ErrorKind::Malformed.exit_code(), 6);
     }
 }
 

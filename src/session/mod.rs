@@ -33,19 +33,6 @@ pub enum ErrorKind {
 }
 
 impl ErrorKind {
-    /// The exit code of `cli-contract.md`.
-    pub fn exit_code(self) -> u8 {
-        match self {
-            Self::Other => 1,
-            Self::Usage => 2,
-            Self::Link => 3,
-            Self::Timeout => 4,
-            Self::Device => 5,
-            Self::Malformed => 6,
-            Self::Interrupted => 130,
-        }
-    }
-
     pub fn as_str(self) -> &'static str {
         match self {
             Self::Usage => "usage",

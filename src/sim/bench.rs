@@ -13,6 +13,7 @@ use super::pac::PacController;
 use super::powercube::{ModuleKind, ModuleSpec, PowerCubeBus};
 use super::shared::{lock, Shared};
 use crate::clock::Clock;
+use crate::family::Family;
 use crate::link::mem::{ByteDevice, CanDevice, MemBus, MemByteLink};
 use crate::proto::cdios::NodeId;
 use crate::proto::powercube::ModuleId;
@@ -162,7 +163,7 @@ impl Bench {
     pub fn pac_link(&self, clock: Arc<dyn Clock>) -> MemByteLink {
         let mut link = MemByteLink::new(Box::new(Arc::clone(&self.pac)), clock);
         if let Some(w) = self.wire {
-            let bits = crate::link::SerialFormat::F7N1.bits_per_char();
+            let bits = Family::Pac.serial_default().map_or(10, |d| d.format.bits_per_char());
             link.set_char_time(Duration::from_secs(bits.into()) / w.baud);
         }
         link

@@ -163,13 +163,13 @@ fn error_reply_is_a_device_error_with_general_text_and_bits() {
     });
     let goto = Command::Goto { mode: GotoMode::Absolute, position: 10 };
     let e = rig.session.transact(node1(), m(1), &goto).unwrap_err();
-    assert_eq!(e.kind().exit_code(), 5);
+    assert_eq!(e.kind(), crate::session::ErrorKind::Device);
     let text = e.to_string();
     // Manual 23h error A3h: bit 1 emergency, bit 7 motor not enabled.
     assert!(text.contains("EMERGENCY") && text.contains("MOTOR_NOT_ENABLED"), "{text}");
     let e = rig.session.read_status(node1(), ModuleId::new(7).unwrap()).unwrap_err();
     assert!(e.to_string().contains("no module at that module id"), "{e}");
-    assert_eq!(e.kind().exit_code(), 5);
+    assert_eq!(e.kind(), crate::session::ErrorKind::Device);
 }
 
 #[test]
@@ -221,7 +221,7 @@ fn reads_are_retried_motion_never() {
         Command::Stop { sync: false, option: StopOption::FastStop },
     ] {
         let e = silent.session.transact(node1(), m(0), &cmd).unwrap_err();
-        assert_eq!(e.kind().exit_code(), 4);
+        assert_eq!(e.kind(), crate::session::ErrorKind::Timeout);
     }
     assert_eq!(silent.sent().len(), 4, "NMT and each motion command once: {:?}", silent.sent());
     silent.session.read_status(node1(), m0).unwrap_err();
@@ -327,7 +327,7 @@ fn busy_read_is_retried_until_the_eeprom_is_done_motion_is_refused() {
     assert!(clock.now() - t0 >= Duration::from_millis(400), "read waited for the EEPROM");
     other.send(&f("201#0500004344530000")).unwrap();
     let e = s.transact(node1(), m(0), &Command::Goto { mode: GotoMode::Absolute, position: 1 }).unwrap_err();
-    assert_eq!(e.kind().exit_code(), 5);
+    assert_eq!(e.kind(), crate::session::ErrorKind::Device);
     assert!(e.to_string().contains("EEPROM"), "{e}");
     let gotos = seen.lock().unwrap().iter().filter(|f| f.data().first() == Some(&0x23)).count();
     assert_eq!(gotos, 1, "motion refused as busy is not repeated");
@@ -351,7 +351,7 @@ fn a_reply_echoing_an_unknown_selector_is_not_a_match() {
     // 21h reply echoing selector 3 answers no read we sent: not a match, so a timeout.
     let mut rig = Rig::new(|frame| if on_command(frame).is_some() { vec![f("181#2100030000000000")] } else { vec![] });
     let e = rig.session.read_position(node1(), ModuleId::new(0).unwrap(), PositionSource::Current).unwrap_err();
-    assert_eq!(e.kind().exit_code(), 4);
+    assert_eq!(e.kind(), crate::session::ErrorKind::Timeout);
 }
 
 proptest! {
@@ -465,6 +465,6 @@ fn read_many_retries_exactly_like_single_reads() {
     silent.session.set_nmt(false);
     silent.session.set_retry(RetryPolicy { read_retries: 0 });
     let e = silent.session.read_many(node1(), m(0), &reads).unwrap_err();
-    assert_eq!(e.kind().exit_code(), 4);
+    assert_eq!(e.kind(), crate::session::ErrorKind::Timeout);
     assert_eq!(silent.sent().len(), 2, "--retries 0: the burst only");
 }
