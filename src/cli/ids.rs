@@ -19,6 +19,31 @@ impl IdList {
     }
 }
 
+/// The list as it would be typed, runs collapsed: `1-31`, `3,5,17`.
+impl std::fmt::Display for IdList {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let mut i = 0;
+        while i < self.0.len() {
+            let start = self.0[i];
+            let mut end = start;
+            while i + 1 < self.0.len() && self.0[i + 1] == end + 1 {
+                i += 1;
+                end += 1;
+            }
+            if start != self.0[0] {
+                f.write_str(",")?;
+            }
+            match end - start {
+                0 => write!(f, "{start}")?,
+                1 => write!(f, "{start},{end}")?,
+                _ => write!(f, "{start}-{end}")?,
+            }
+            i += 1;
+        }
+        Ok(())
+    }
+}
+
 /// Parses a list of ids of `range`; `allow_empty` for lists that may name none.
 pub fn parse_list(text: &str, range: IdRange, allow_empty: bool) -> Result<IdList, String> {
     let mut out = Vec::new();
@@ -68,6 +93,13 @@ mod tests {
         assert_eq!(parse_list("1-4,2", PAC_AXIS, false), Ok(IdList(vec![1, 2, 3, 4])));
         assert_eq!(parse_list("0,15", CDIOS_MODULE, false), Ok(IdList(vec![0, 15])));
         assert_eq!(parse_list("", CDIOS_MODULE, true), Ok(IdList(vec![])));
+    }
+
+    #[test]
+    fn lists_print_as_typed() {
+        for (typed, shown) in [("1-31", "1-31"), ("17,3,5", "3,5,17"), ("1,2,4-6,9", "1,2,4-6,9"), ("", "")] {
+            assert_eq!(parse_list(typed, POWERCUBE_MODULE, true).unwrap().to_string(), shown, "{typed}");
+        }
     }
 
     #[test]

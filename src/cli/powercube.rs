@@ -3,7 +3,7 @@
 
 use clap::{Args, Subcommand};
 
-use super::ids;
+use super::ids::{self, IdList};
 use super::WaitArgs;
 use axisctl::family::POWERCUBE_MODULE;
 
@@ -31,8 +31,8 @@ pub enum PowerCubeCommand {
     /// List the PowerCube modules present on the link
     Scan {
         /// Ids to probe, e.g. 1-31 or 3,5,17
-        #[arg(long, value_name = "LIST", default_value = "1-31")]
-        ids: String,
+        #[arg(long, value_name = "LIST", default_value = "1-31", value_parser = ids::list(POWERCUBE_MODULE))]
+        ids: IdList,
     },
     /// Identity, kind, limits, position and state of one module
     Info(ModuleArg),

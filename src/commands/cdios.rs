@@ -1,6 +1,7 @@
 //! Cdios 6168 commands (`cdios-*`). Every command is built and range-checked
 //! with the protocol table before the link is opened: bad input sends nothing.
 
+use clap::ValueEnum;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
@@ -204,7 +205,7 @@ fn position(ctx: &Ctx, t: ModuleTarget, kind: PositionKind, all: bool) -> anyhow
         return Ok(());
     }
     let p = s.position(m, source_of(kind))?;
-    let name = format!("{kind:?}").to_lowercase();
+    let name = kind.to_possible_value().map(|v| v.get_name().to_string()).unwrap_or_default();
     if ctx.json {
         output::json(&json!({"node": node, "module": m, "source": name, "position": p}));
     } else {
@@ -600,12 +601,7 @@ fn decode_status_bytes(ctx: &Ctx, value: &str) -> anyhow::Result<()> {
     let mut rows = vec![["BIT", "FLAG", "CLASS", "MEANING"].map(String::from).to_vec()];
     for f in STATUS_FLAGS.iter().filter(|f| f.is_set(&status)) {
         let name = if f.class == table::Class::Error { ctx.style.error(f.name) } else { f.name.to_string() };
-        rows.push(vec![
-            format!("status {}.{}", f.byte, f.bit),
-            name,
-            format!("{:?}", f.class).to_lowercase(),
-            f.meaning.into(),
-        ]);
+        rows.push(vec![format!("status {}.{}", f.byte, f.bit), name, f.class.name().into(), f.meaning.into()]);
     }
     if rows.len() > 1 {
         output::table(&rows, ctx.style);

@@ -14,7 +14,8 @@ use axisctl::session::powercube::PowerCube;
 use serde_json::json;
 
 use super::wait::waiting;
-use super::{interrupted, usage, Ctx, Interrupted};
+use super::{interrupted, Ctx, Interrupted};
+use crate::cli::ids::IdList;
 use crate::cli::{PowerCubeCommand as Command, Target, WaitArgs, WatchdogAction};
 use crate::output;
 
@@ -65,7 +66,7 @@ fn print_word(ctx: &Ctx, word: &FlagWord, raw: u32) {
     println!("{} {:#010x}", word.name, raw);
     let mut rows = Vec::new();
     for d in word.set_flags(raw) {
-        rows.push(vec![format!("  {}", ctx.style.flag(d.name, d.class)), format!("{:?}", d.class).to_lowercase()]);
+        rows.push(vec![format!("  {}", ctx.style.flag(d.name, d.class)), d.class.name().into()]);
     }
     if rows.is_empty() {
         println!("  (no flags set)");
@@ -90,37 +91,12 @@ fn version_text(v: u16) -> String {
     format!("{:x}.{:x}.{:02x}", v >> 12, (v >> 8) & 0xf, v & 0xff)
 }
 
-pub(crate) fn parse_ids(text: &str) -> anyhow::Result<Vec<ModuleId>> {
-    let mut out = Vec::new();
-    for part in text.split(',').map(str::trim).filter(|p| !p.is_empty()) {
-        let (a, b) = part.split_once('-').unwrap_or((part, part));
-        let parse = |s: &str| {
-            s.trim()
-                .parse::<u8>()
-                .ok()
-                .and_then(ModuleId::new)
-                .ok_or_else(|| usage(format!("{s:?} in --ids is not a module id 1..31")))
-        };
-        let (a, b) = (parse(a)?, parse(b)?);
-        if a > b {
-            return Err(usage(format!("range {part:?} in --ids runs backwards")));
-        }
-        out.extend((a.get()..=b.get()).filter_map(ModuleId::new));
-    }
-    out.sort();
-    out.dedup();
-    if out.is_empty() {
-        return Err(usage("--ids lists no module"));
-    }
-    Ok(out)
-}
-
 /// How long after a scan request's last byte an RS232 answer must start
 /// (at least; a longer --timeout makes the scan proportionally patient).
 const SCAN_ANSWER_START: Duration = Duration::from_millis(8);
 
-fn scan(ctx: &Ctx, ids_text: &str) -> anyhow::Result<()> {
-    let ids = parse_ids(ids_text)?;
+fn scan(ctx: &Ctx, list: &IdList) -> anyhow::Result<()> {
+    let ids = list.to(ModuleId::new);
     let mut cubes = cubes(ctx)?;
     let pc = cubes.session();
     // An absent module never answers; a present one starts answering right
@@ -147,7 +123,7 @@ fn scan(ctx: &Ctx, ids_text: &str) -> anyhow::Result<()> {
         return Ok(());
     }
     if modules.is_empty() {
-        println!("no PowerCube modules answered on ids {ids_text}");
+        println!("no PowerCube modules answered on ids {list}");
         return Ok(());
     }
     let mut rows = vec![["MODULE", "SERIAL", "VERSION", "KIND", "STATE"].map(String::from).to_vec()];

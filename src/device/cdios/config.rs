@@ -19,7 +19,11 @@ pub fn group_of(part: ServoPart) -> String {
         | ServoPart::TrajectInitialSpeed(t)
         | ServoPart::TrajectChangePosition(t, _)
         | ServoPart::TrajectSpeed(t, _) => format!("traject{}", t.to_u8()),
-        other => format!("{other:?}").to_lowercase(),
+        ServoPart::Speeds => "speeds".into(),
+        ServoPart::Voltage => "voltage".into(),
+        ServoPart::Encoder => "encoder".into(),
+        ServoPart::Control => "control".into(),
+        ServoPart::Inputs => "inputs".into(),
     }
 }
 

@@ -1147,6 +1147,16 @@ pub enum Class {
     Info,
 }
 
+impl Class {
+    /// The name in JSON and on screen (the serde name).
+    pub const fn name(self) -> &'static str {
+        match self {
+            Self::Error => "error",
+            Self::Info => "info",
+        }
+    }
+}
+
 /// One bit of a status or error status byte.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
 pub struct Flag {

@@ -792,3 +792,10 @@ proptest! {
         }
     }
 }
+
+#[test]
+fn class_names_are_the_serde_names() {
+    for c in [table::Class::Error, table::Class::Info] {
+        assert_eq!(serde_json::to_value(c).unwrap(), c.name());
+    }
+}

@@ -25,6 +25,18 @@ pub enum FlagClass {
     Obsolete,
 }
 
+impl FlagClass {
+    /// The name in JSON and on screen (the serde name).
+    pub const fn name(self) -> &'static str {
+        match self {
+            Self::Error => "error",
+            Self::Warning => "warning",
+            Self::Info => "info",
+            Self::Obsolete => "obsolete",
+        }
+    }
+}
+
 /// One flag of a word.
 #[derive(Debug, PartialEq, Eq)]
 pub struct FlagDef {
@@ -773,6 +785,13 @@ impl ProfibusInput {
 mod tests {
     use super::*;
     use proptest::prelude::*;
+
+    #[test]
+    fn class_names_are_the_serde_names() {
+        for c in [FlagClass::Error, FlagClass::Warning, FlagClass::Info, FlagClass::Obsolete] {
+            assert_eq!(serde_json::to_value(c).unwrap(), c.name());
+        }
+    }
 
     /// Bit 27 of CubeState is the one bit the manual names twice.
     const SHARED: &[(&str, u32)] = &[("cube-state", state::LOGIC_VOLT)];
