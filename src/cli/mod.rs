@@ -28,6 +28,12 @@ pub struct Cli {
     pub command: Command,
 }
 
+/// The longest answer timeout: an answer later than a minute is no answer,
+/// and a longer one would leave a stop waiting behind it.
+pub const MAX_TIMEOUT_MS: u64 = 60_000;
+/// The most read retries: each costs a timeout per absent device.
+pub const MAX_RETRIES: u32 = 10;
+
 #[derive(Debug, Args)]
 pub struct Global {
     /// The link: socketcan:IFACE, slcan:TTY[?bitrate=N], serial:TTY[?baud=N&format=F] or sim
@@ -36,8 +42,9 @@ pub struct Global {
     /// Machine output: one JSON document on stdout (JSON Lines for streams)
     #[arg(long, global = true)]
     pub json: bool,
-    /// How long to wait for each answer, in ms (default 100 on CAN, 30 plus wire time on RS232)
-    #[arg(long, global = true, env = "AXISCTL_TIMEOUT", value_name = "MS")]
+    /// How long to wait for each answer, in ms, 1..=60000 (default 100 on CAN, 30 plus wire time on RS232)
+    #[arg(long, global = true, env = "AXISCTL_TIMEOUT", value_name = "MS",
+          value_parser = clap::value_parser!(u64).range(1..=MAX_TIMEOUT_MS))]
     pub timeout: Option<u64>,
     /// Print every frame sent and received, decoded, on stderr
     #[arg(long, global = true)]
@@ -45,8 +52,9 @@ pub struct Global {
     /// Append every CAN frame in candump -l format (serial traffic as hex lines) to FILE
     #[arg(long, global = true, value_name = "FILE")]
     pub log: Option<PathBuf>,
-    /// How often a read is retried after a timeout (motion is never retried)
-    #[arg(long, global = true, value_name = "N", default_value_t = 2)]
+    /// How often a read is retried after a timeout, 0..=10 (motion is never retried)
+    #[arg(long, global = true, value_name = "N", default_value_t = 2,
+          value_parser = clap::value_parser!(u32).range(0..=i64::from(MAX_RETRIES)))]
     pub retries: u32,
     /// PA-CONTROL: send CHECK as the XOR including ETX (default: strictly between STX and ETX)
     #[arg(long, global = true)]

@@ -24,10 +24,10 @@ pub struct PacWait {
     #[arg(long)]
     pub wait: bool,
     /// Give up waiting after this many seconds (the axis is stopped)
-    #[arg(long, value_name = "S", default_value_t = 600.0, requires = "wait")]
-    pub wait_timeout: f64,
+    #[arg(long, value_name = "S", default_value = "600", value_parser = super::wait::wait_timeout, requires = "wait")]
+    pub wait_timeout: std::time::Duration,
     /// Poll interval while waiting, in ms
-    #[arg(long, value_name = "MS", default_value_t = 50, requires = "wait")]
+    #[arg(long, value_name = "MS", default_value_t = 50, value_parser = super::wait::poll_ms(), requires = "wait")]
     pub poll: u64,
     /// Stream one JSON line per poll on stderr: {"progress": {"axis", "position", "status", ...}}
     #[arg(long, requires = "wait")]

@@ -1,5 +1,7 @@
 //! `--wait` and its options, shared by the families' motion commands.
 
+use std::time::Duration;
+
 use clap::Args;
 
 #[derive(Debug, Args, Clone, Copy)]
@@ -8,9 +10,47 @@ pub struct WaitArgs {
     #[arg(long)]
     pub wait: bool,
     /// Give up waiting after this many seconds (the module is halted)
-    #[arg(long, value_name = "S", default_value_t = 120.0, requires = "wait")]
-    pub wait_timeout: f64,
+    #[arg(long, value_name = "S", default_value = "120", value_parser = wait_timeout, requires = "wait")]
+    pub wait_timeout: Duration,
     /// Poll interval while waiting, in ms
-    #[arg(long, value_name = "MS", default_value_t = 20, requires = "wait")]
+    #[arg(long, value_name = "MS", default_value_t = 20, value_parser = poll_ms(), requires = "wait")]
     pub poll: u64,
+}
+
+/// The longest wait a command accepts: a day. Checked before anything is
+/// sent, so that no value makes a wait that cannot end or a timer that
+/// cannot be built once the device moves.
+pub const MAX_WAIT: Duration = Duration::from_secs(24 * 3600);
+
+/// The slowest poll: a wait must notice the end of a move (and Ctrl-C)
+/// within a minute.
+pub const MAX_POLL_MS: u64 = 60_000;
+
+/// `--wait-timeout`: seconds, finite, 0..=[`MAX_WAIT`].
+pub fn wait_timeout(text: &str) -> Result<Duration, String> {
+    let s: f64 = text.trim().parse().map_err(|_| format!("{text:?} is not a number of seconds"))?;
+    if !(0.0..=MAX_WAIT.as_secs_f64()).contains(&s) {
+        return Err(format!("{text} s is outside 0..={} s", MAX_WAIT.as_secs()));
+    }
+    Ok(Duration::from_secs_f64(s))
+}
+
+/// `--poll`: 1..=[`MAX_POLL_MS`] ms.
+pub fn poll_ms() -> clap::builder::RangedU64ValueParser<u64> {
+    clap::value_parser!(u64).range(1..=MAX_POLL_MS)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn wait_timeouts_that_cannot_be_waited_are_refused() {
+        for bad in ["inf", "-inf", "nan", "NaN", "1e300", "-1", "86401", "x", ""] {
+            assert!(wait_timeout(bad).is_err(), "{bad:?} accepted");
+        }
+        assert_eq!(wait_timeout("0"), Ok(Duration::ZERO));
+        assert_eq!(wait_timeout("2.5"), Ok(Duration::from_millis(2500)));
+        assert_eq!(wait_timeout("86400"), Ok(MAX_WAIT));
+    }
 }

@@ -246,7 +246,7 @@ fn move_axis(
         return Ok(());
     }
     arm_interrupt()?;
-    let limit = Duration::from_secs_f64(wait.wait_timeout.max(0.0));
+    let limit = wait.wait_timeout;
     let poll = Duration::from_millis(wait.poll);
     let reporter = Reporter::new(ctx, &wait);
     let result = d.wait_move(axis, target, poll, limit, &mut |p| {
@@ -295,7 +295,7 @@ fn reference(ctx: &Ctx, d: &mut Controller, axis: u8, wait: PacWait) -> anyhow::
     }
     arm_interrupt()?;
     let poll = Duration::from_millis(wait.poll);
-    let limit = Duration::from_secs_f64(wait.wait_timeout.max(0.0));
+    let limit = wait.wait_timeout;
     let reporter = Reporter::new(ctx, &wait);
     let result = d.reference(axis, poll, limit, &mut |p: &Progress| {
         // 0A84's acknowledge date has no meaning (5.2.6.3): only time shows.

@@ -26,7 +26,7 @@ pub(super) fn waiting<T>(
     super::arm_interrupt()?;
     let timing = Timing {
         poll: Duration::from_millis(wait.poll),
-        timeout: Duration::from_secs_f64(wait.wait_timeout.max(0.0)),
+        timeout: wait.wait_timeout,
         stop_attempts: 1 + ctx.retry.read_retries,
     };
     let bar = crate::output::spinner(ctx.json);

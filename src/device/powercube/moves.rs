@@ -70,10 +70,7 @@ impl Move {
             }
             Self::Step { pos, .. } => Wire { value: mv(pos, "target position")?, vel: None, acc: None },
             Self::Vel(v) => Wire { value: mv(v, "velocity")?, vel: None, acc: None },
-            Self::Cur(a) => {
-                limits::check_finite("current", a)?;
-                Wire { value: MotionValue::Float(a as f32), vel: None, acc: None }
-            }
+            Self::Cur(a) => Wire { value: MotionValue::Float(limits::float32("current", a)?), vel: None, acc: None },
         })
     }
 

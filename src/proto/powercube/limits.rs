@@ -30,6 +30,21 @@ pub enum LimitError {
     NotTicks { what: &'static str, value: f64 },
     #[error("{what} must be positive, got {value}")]
     NotPositive { what: &'static str, value: f64 },
+    /// The wire carries a 32-bit float: a larger value would go out as infinity.
+    #[error("{what} {value} does not fit the wire's 32-bit float (|value| <= {})", f32::MAX)]
+    NotFloat32 { what: &'static str, value: f64 },
+}
+
+/// `value` as the 32-bit float the wire carries, refused where it would
+/// become infinite. `--force` skips the module's limits, never this.
+pub fn float32(what: &'static str, value: f64) -> Result<f32, LimitError> {
+    check_finite(what, value)?;
+    let f = value as f32;
+    if f.is_finite() {
+        Ok(f)
+    } else {
+        Err(LimitError::NotFloat32 { what, value })
+    }
 }
 
 fn check(
@@ -128,7 +143,7 @@ pub fn motion_value(v: f64, ticks: bool, what: &'static str) -> Result<MotionVal
         }
         Ok(MotionValue::Int32(v as i32))
     } else {
-        Ok(MotionValue::Float(v as f32))
+        Ok(MotionValue::Float(float32(what, v)?))
     }
 }
 
@@ -141,6 +156,17 @@ mod tests {
     }
 
     const LIN: Limits = Limits { min_pos: 0.0, max_pos: 1.0, max_vel: 0.1, max_acc: 0.5, max_cur: 5.0, ticks: false };
+
+    #[test]
+    fn motion_values_must_fit_the_wire_float() {
+        for v in [1e39, -1e39, f64::MAX, f64::INFINITY, f64::NAN] {
+            assert!(motion_value(v, false, "target position").is_err(), "{v}");
+            assert!(float32("current", v).is_err(), "{v}");
+        }
+        let max = f64::from(f32::MAX);
+        assert_eq!(motion_value(max, false, "velocity"), Ok(MotionValue::Float(f32::MAX)));
+        assert_eq!(float32("current", -max), Ok(f32::MIN));
+    }
 
     #[test]
     fn refusals_name_the_limit_and_say_nothing_was_sent() {
