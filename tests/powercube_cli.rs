@@ -229,3 +229,37 @@ fn decode_is_offline_and_shows_both_names_of_bit_27() {
     let c = run(&["--json", "decode", "config", "brake-present|linear"]).json();
     assert_eq!(c["raw"], 0x0002_0008);
 }
+
+#[test]
+fn def_a0_reads_as_the_vendor_library_reads_it() {
+    let r = run(&["--link", "sim", "--json", "get-param", "-m", "3", "DefA0"]);
+    assert_eq!(r.code, 0, "{}", r.stderr);
+    assert_eq!(r.json()["params"]["DefA0"]["type"], "int16");
+    let all = run(&["--link", "sim", "--json", "get-param", "-m", "3", "--all"]);
+    assert!(all.json()["params"]["DefA0"].is_object(), "--all reads it too");
+}
+
+#[test]
+fn firmware_before_4_6_has_no_temperature_and_supplies() {
+    // Module 3 runs 4.6.01, module 17 keeps 3.5.18.
+    let new = run(&["--link", "sim", "--json", "info", "-m", "3"]);
+    assert_eq!(new.code, 0, "{}", new.stderr);
+    assert_eq!(new.json()["version_text"], "4.6.01");
+    assert_eq!(new.json()["params"]["ActFTemp"], 35.0);
+    let old = run(&["--link", "sim", "--json", "info", "-m", "17"]);
+    assert_eq!(old.code, 0, "{}", old.stderr);
+    assert_eq!(old.json()["version_text"], "3.5.18");
+    for p in ["ActFTemp", "ActFMotorSupply", "ActFLogicSupply"] {
+        assert!(old.json()["params"][p].is_null(), "{p}: {}", old.json());
+    }
+    let text = run(&["--link", "sim", "info", "-m", "17"]);
+    assert!(text.stdout.contains("- (firmware 3.5.18)"), "{}", text.stdout);
+    // Asked by name: refused with the reason, not a timeout.
+    let r = run(&["--link", "sim", "get-param", "-m", "17", "ActFTemp"]);
+    assert_eq!(r.code, 2, "{}", r.stderr);
+    assert!(r.stderr.contains("firmware 3.5.18, which has no ActFTemp"), "{}", r.stderr);
+    let all = run(&["--link", "sim", "--json", "get-param", "-m", "17", "--all"]);
+    assert_eq!(all.code, 0, "{}", all.stderr);
+    assert!(all.json()["params"].get("ActFTemp").is_none());
+    assert!(all.json()["params"]["ActPos"].is_object());
+}

@@ -159,10 +159,7 @@ fn kind_of(config_word: u32) -> &'static str {
     }
 }
 
-/// `3.5.18` from 0x3518.
-fn version_text(v: u16) -> String {
-    format!("{:x}.{:x}.{:02x}", v >> 12, (v >> 8) & 0xf, v & 0xff)
-}
+use device::version_text;
 
 pub(crate) fn parse_ids(text: &str) -> anyhow::Result<Vec<ModuleId>> {
     let mut out = Vec::new();
@@ -274,9 +271,13 @@ fn info(ctx: &Ctx, m: ModuleId) -> anyhow::Result<()> {
         ids::CUBE_STATE,
     ];
     let defs: Vec<_> = rows.iter().map(|id| param(*id)).collect();
-    let vals = cubes.get_many(m, &defs).dev()?;
-    let config_word = f64_of(&vals[2]) as u32;
-    let cube = f64_of(&vals[16]) as u32;
+    // Firmware before 4.6.01 has no temperature and supply voltages: those
+    // rows stay empty (null in JSON).
+    let vals = cubes.get_present(m, &defs).dev()?;
+    let num = |i: usize| vals[i].as_ref().map_or(f64::NAN, f64_of);
+    let config_word = num(2) as u32;
+    let cube = num(16) as u32;
+    let version = num(1) as u16;
     let kind = kind_of(config_word);
     if ctx.json {
         let mut params = serde_json::Map::new();
@@ -284,16 +285,19 @@ fn info(ctx: &Ctx, m: ModuleId) -> anyhow::Result<()> {
             params.insert(d.name.into(), serde_json::to_value(v)?);
         }
         output::json(&json!({
-            "module": m, "kind": kind, "serial": f64_of(&vals[0]) as u32, "version": f64_of(&vals[1]) as u16,
-            "version_text": version_text(f64_of(&vals[1]) as u16), "params": params,
+            "module": m, "kind": kind, "serial": num(0) as u32, "version": version,
+            "version_text": version_text(version), "params": params,
             "config": word_json(&flags::CONFIG, config_word), "state": word_json(&flags::CUBE_STATE, cube),
         }));
         return Ok(());
     }
-    println!("module {m}: {kind}, serial {}, version {}", vals[0], version_text(f64_of(&vals[1]) as u16));
+    println!("module {m}: {kind}, serial {}, version {}", num(0) as u32, version_text(version));
     let mut t = vec![["PARAMETER", "VALUE", "UNIT"].map(String::from).to_vec()];
     for (d, v) in defs.iter().zip(&vals).skip(3).take(13) {
-        t.push(vec![d.name.into(), v.to_string(), unit_for(d, kind)]);
+        match v {
+            Some(v) => t.push(vec![d.name.into(), v.to_string(), unit_for(d, kind)]),
+            None => t.push(vec![d.name.into(), format!("- (firmware {})", version_text(version)), String::new()]),
+        }
     }
     output::table(&t, ctx.style);
     println!("state: {}", state_summary(ctx, cube));
@@ -467,11 +471,11 @@ fn get_param(ctx: &Ctx, m: ModuleId, names: &[String], all: bool) -> anyhow::Res
     // Config rides along so that "rad|m" units resolve for the module's kind.
     let mut with_config = defs.clone();
     with_config.push(param(ids::CONFIG));
-    let mut vals = cubes.get_many(m, &with_config).dev()?;
-    let kind = vals.pop().map_or("rotary", |c| kind_of(f64_of(&c) as u32));
+    let mut vals = cubes.get_params(m, &with_config, all).dev()?;
+    let kind = vals.pop().map_or("rotary", |(_, c)| kind_of(f64_of(&c) as u32));
     if ctx.json {
         let mut params = serde_json::Map::new();
-        for (d, v) in defs.iter().zip(&vals) {
+        for (d, v) in &vals {
             params.insert(
                 d.name.into(),
                 json!({"id": d.id, "type": d.ty.name(), "unit": unit_for(d, kind), "value": serde_json::to_value(v)?}),
@@ -481,7 +485,7 @@ fn get_param(ctx: &Ctx, m: ModuleId, names: &[String], all: bool) -> anyhow::Res
         return Ok(());
     }
     let mut rows = vec![["PARAMETER", "ID", "TYPE", "VALUE", "UNIT"].map(String::from).to_vec()];
-    for (d, v) in defs.iter().zip(&vals) {
+    for (d, v) in &vals {
         rows.push(vec![d.name.into(), format!("{:#04x}", d.id), d.ty.name().into(), v.to_string(), unit_for(d, kind)]);
     }
     output::table(&rows, ctx.style);

@@ -25,10 +25,23 @@
 //! values are in `defaults.rs`: rotary MinPos/MaxPos -3.1/3.1 rad, MaxVel
 //! 1.5 rad/s, MaxAcc 3 rad/s², linear 0..1 m (the manual's ramp to 0.75 must
 //! fit), 0.1 m/s, 0.5 m/s², MaxCur 5 A, 24 V logic, 48 V motor, 35 °C,
-//! version 0x3518, IncRatio = DefPulsesPerTurn * DefGearRatio per output
+//! firmware 4.6.01 (0x4601), IncRatio = DefPulsesPerTurn * DefGearRatio per output
 //! turn (2π rad, or DefLinRatio m).
 //!
-//! Decisions where the manual is silent:
+//! Decisions where the manual is silent (the vendor's library, libm5api,
+//! decides where it has an opinion: what it sends and expects is what real
+//! modules do):
+//!
+//! - **Firmware.** Module 17 keeps firmware 3.5.18 (the contract's `scan`
+//!   shows 13592) and, like real modules before 4.6.01, does not answer
+//!   ActFTemp, ActFMotorSupply and ActFLogicSupply; every other module runs
+//!   4.6.01 and answers them.
+//! - **Commands outside the manual.** The library's padded GetExtended (the
+//!   two bytes and zeros up to 8) is answered like the short one. Its
+//!   SaveParameters (0x10) is not a command of the manual: the module does
+//!   not answer it (and `monitor` shows it as an unknown command id).
+//! - **Current in digits** (ICUR_MODE, ICUR_ACK) is taken in the manual's
+//!   Int16 and in the library's Int32.
 //!
 //! - **Parameters.** GetExtended of a parameter the table marks write-only
 //!   (TargetPos/Vel/Acc) or not readable (DefA0) answers the current value;
@@ -54,7 +67,8 @@
 //!   HOME_OK, sets MOTION and ramps there at |DefHomeVel| / DefHomeAcc, then
 //!   creeps onto the edge for 0.2 s (about 1.7 s in all from power on). At the
 //!   edge ActPos becomes HomeOffset (PosCount keeps counting, RefPosCount
-//!   latches it) and HOME_OK is set; RAMP_END is not (homing is not a ramp).
+//!   latches it) and HOME_OK and RAMP_END are set (the vendor's library
+//!   waits for both at the end of homing).
 //!   With ZERO_MOVE_AFTER_HOK a ramp to 0 follows. The switch (STATE_SWR,
 //!   DioSetup INSWR) is active just past the edge. Home is ignored while
 //!   homing, halted or in error.
@@ -118,7 +132,8 @@
 //!   only by [`Module::inject_error`]), no hard limit switches, no heating.
 //! - **Broadcasts.** Reset, Home, Halt, watchdog refresh, SavePos (stores
 //!   ActFSavedPos) and StartMotion act on every module; ChangeBaudrate is
-//!   ignored. ResetTime zeroes the 16-bit millisecond stamp of ActFPosTime.
+//!   ignored. On RS232 both `[cmd, 0]` (the library's, axisctl's) and the
+//!   command byte alone are taken. ResetTime zeroes the 16-bit millisecond stamp of ActFPosTime.
 
 mod defaults;
 mod module;
@@ -130,7 +145,7 @@ mod tests;
 
 use std::time::Instant;
 
-pub use defaults::{Defaults, DEFAULT_VERSION};
+pub use defaults::{Defaults, DEFAULT_VERSION, LEGACY_MODULE, LEGACY_VERSION};
 pub use module::{Module, SERVO_CYCLE_S, WATCHDOG_PERIOD_S};
 pub use params::{LOGIC_SUPPLY_V, MOTOR_SUPPLY_V, TEMPERATURE_C};
 
@@ -159,9 +174,11 @@ pub struct ModuleSpec {
 }
 
 impl ModuleSpec {
-    /// A module with the bench's version and a serial derived from its id.
+    /// A module with the bench's version (module 17 the legacy one) and a
+    /// serial derived from its id.
     pub fn new(id: ModuleId, kind: ModuleKind) -> Self {
-        Self { id, kind, serial: 12328 + u32::from(id.get()), version: DEFAULT_VERSION }
+        let version = if id.get() == LEGACY_MODULE { LEGACY_VERSION } else { DEFAULT_VERSION };
+        Self { id, kind, serial: 12328 + u32::from(id.get()), version }
     }
 }
 
