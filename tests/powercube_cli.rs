@@ -263,3 +263,72 @@ fn firmware_before_4_6_has_no_temperature_and_supplies() {
     assert!(all.json()["params"].get("ActFTemp").is_none());
     assert!(all.json()["params"]["ActPos"].is_object());
 }
+
+#[test]
+fn synchronized_ramp_of_three_modules_starts_at_the_one_broadcast() {
+    let sim = Sim::start(&["--powercube", "pty-slcan"], 1);
+    let link = sim.link("powercube");
+    for m in ["3", "5", "17"] {
+        assert_eq!(run(&["--link", link, "set-config", "-m", m, "+sync-motion"]).code, 0);
+    }
+    // Alone, a module in sync mode takes its target and holds it.
+    let r = run(&["--link", link, "move-ramp", "-m", "3", "0.3"]);
+    assert_eq!(r.code, 0, "{}", r.stderr);
+    std::thread::sleep(std::time::Duration::from_millis(300));
+    let st = run(&["--link", link, "--json", "state", "-m", "3"]);
+    assert_eq!(st.json()["raw"].as_u64().unwrap() & 0x800, 0, "no motion without the broadcast");
+    // Waiting for it is refused before anything is sent.
+    let r = run(&["--link", link, "--trace", "move-ramp", "-m", "5", "0.3", "--wait"]);
+    assert_eq!(r.code, 2, "{}", r.stderr);
+    assert!(r.stderr.contains("module 5 is in sync mode") && r.stderr.contains("nothing was sent"), "{}", r.stderr);
+    assert!(!r.stderr.contains("SetMotion"), "{}", r.stderr);
+    // Each module's target, then StartMotion once; all end where asked.
+    let r = run(&[
+        "--link",
+        link,
+        "--json",
+        "--trace",
+        "move-ramp",
+        "-m",
+        "3,5,17",
+        "--sync",
+        "0.5",
+        "-0.5",
+        "0.25",
+        "--wait",
+    ]);
+    assert_eq!(r.code, 0, "{}", r.stderr);
+    let sent: Vec<&str> = r.stderr.lines().filter(|l| l.contains("SetMotion") || l.contains("broadcast")).collect();
+    assert_eq!(sent.len(), 4, "{}", r.stderr);
+    assert!(sent[3].contains("100#0F00"), "{sent:?}");
+    let at: Vec<f64> =
+        r.json()["modules"].as_array().unwrap().iter().map(|m| m["position"].as_f64().unwrap()).collect();
+    for (got, want) in at.iter().zip([0.5, -0.5, 0.25]) {
+        assert!((got - want).abs() < 1e-3, "{at:?}");
+    }
+}
+
+#[test]
+fn synchronized_ramp_input_is_checked_before_anything_is_sent() {
+    // Positions must pair with modules; several modules need --sync.
+    for args in [
+        &["move-ramp", "-m", "3,5", "--sync", "0.5"][..],
+        &["move-ramp", "-m", "3,5", "0.5", "0.5"],
+        &["move-ramp", "-m", "3,3", "--sync", "0.5", "0.5"],
+        &["move-ramp", "-m", "3,40", "--sync", "0.5", "0.5"],
+    ] {
+        let mut all = vec!["--link", "sim"];
+        all.extend_from_slice(args);
+        let r = run(&all);
+        assert_eq!(r.code, 2, "{args:?}: {}", r.stderr);
+    }
+    // Not in sync mode (the in-process bench's modules are not): refused.
+    let r = run(&["--link", "sim", "move-ramp", "-m", "3,5", "--sync", "0.5", "0.5"]);
+    assert_eq!(r.code, 2);
+    assert!(r.stderr.contains("+sync-motion"), "{}", r.stderr);
+    // The manual: sync motion is valid only on CAN.
+    let sim = Sim::start(&["--powercube", "pty-serial"], 1);
+    let r = run(&["--link", sim.link("powercube"), "move-ramp", "-m", "3,5", "--sync", "0.5", "0.5"]);
+    assert_eq!(r.code, 2, "{}", r.stderr);
+    assert!(r.stderr.contains("CAN feature"), "{}", r.stderr);
+}

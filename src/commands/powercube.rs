@@ -4,7 +4,7 @@
 use std::time::Duration;
 
 use axisctl::device::powercube::{
-    self as device, param, ConfigChange, Cubes, Error, Goal, Move, Simple, WaitEnd, WaitSpec,
+    self as device, param, ConfigChange, Cubes, Error, Goal, Move, Simple, SyncRamp, WaitEnd, WaitSpec,
 };
 use axisctl::proto::powercube::flags::{self, FlagWord};
 use axisctl::proto::powercube::frame::{f32_to_f64, Value};
@@ -26,8 +26,13 @@ pub fn run(ctx: &Ctx, cmd: Command) -> anyhow::Result<()> {
         Command::Home { target, wait } => home(ctx, target, wait),
         Command::Reset { target } => simple(ctx, target, Simple::Reset),
         Command::Halt { target } => simple(ctx, target, Simple::Halt),
-        Command::MoveRamp { module: m, pos, vel, acc, ticks, force, wait } => {
-            move_ramp(ctx, module(m.module), pos, vel, acc, ticks, force, wait)
+        Command::MoveRamp { modules, pos, vel, acc, ticks, force, sync, wait } => {
+            let ms: Vec<ModuleId> = modules.0.iter().map(|id| module(*id)).collect();
+            match (&ms[..], &pos[..]) {
+                _ if sync => move_ramp_sync(ctx, &ms, &pos, (vel, acc), ticks, force, wait),
+                ([m], [p]) => move_ramp(ctx, *m, *p, vel, acc, ticks, force, wait),
+                _ => Err(usage("several modules or positions move only together: add --sync; nothing was sent")),
+            }
         }
         Command::MoveStep { module: m, pos, time, ticks, force } => {
             move_step(ctx, module(m.module), pos, time, ticks, force)
@@ -53,6 +58,13 @@ fn dev(e: Error) -> anyhow::Error {
     match e {
         Error::Limit(l @ LimitError::Exceeds { .. }) => usage(format!("{l} (use --force to skip this check)")),
         Error::Limit(_) | Error::Refused(_) => usage(e.to_string()),
+        Error::SyncMode { module } => usage(format!(
+            "{e}, so a wait would never end; nothing was sent. Move it with --sync, or clear the flag with \
+             `axisctl set-config -m {module} -sync-motion`"
+        )),
+        Error::NotSyncMode { module } => {
+            usage(format!("{e}; nothing was sent. Set it with `axisctl set-config -m {module} +sync-motion`"))
+        }
         Error::NotReady { module, .. } => DeviceFault(format!("{e}: clear it with `axisctl reset -m {module}`")).into(),
         Error::Faulted { .. } | Error::ConfigNotKept { .. } => DeviceFault(e.to_string()).into(),
         Error::Interrupted { .. } => Interrupted(e.to_string().trim_start_matches("interrupted").into()).into(),
@@ -405,11 +417,12 @@ fn print_wait_results(ctx: &Ctx, what: &str, results: &[WaitEnd]) {
 }
 
 /// Checks and sends a move; the checks that need no module come before the
-/// link is opened.
-fn send_move(ctx: &Ctx, m: ModuleId, mv: Move, ticks: bool, force: bool) -> anyhow::Result<Cubes> {
+/// link is opened. A move to be waited for must start on its own.
+fn send_move(ctx: &Ctx, m: ModuleId, mv: Move, ticks: bool, force: bool, wait: bool) -> anyhow::Result<Cubes> {
     mv.check(ticks).dev()?;
     let mut cubes = cubes(ctx)?;
-    let moved = cubes.move_module(m, mv, ticks, force).dev()?;
+    let moved = if wait { cubes.move_to_wait_for(m, mv, ticks, force) } else { cubes.move_module(m, mv, ticks, force) }
+        .dev()?;
     if !ctx.json {
         println!("module {m}: {} acknowledged", moved.described);
     }
@@ -427,7 +440,7 @@ fn move_ramp(
     force: bool,
     wait: WaitArgs,
 ) -> anyhow::Result<()> {
-    let mut cubes = send_move(ctx, m, Move::Ramp { pos, vel, acc }, ticks, force)?;
+    let mut cubes = send_move(ctx, m, Move::Ramp { pos, vel, acc }, ticks, force, wait.wait)?;
     if !wait.wait {
         if ctx.json {
             output::json(&json!({"module": m, "command": "move-ramp", "target": pos, "acknowledged": true}));
@@ -439,8 +452,45 @@ fn move_ramp(
     Ok(())
 }
 
+/// Several modules, each to its position, started by one broadcast; every
+/// check comes before the first frame.
+fn move_ramp_sync(
+    ctx: &Ctx,
+    ms: &[ModuleId],
+    pos: &[f64],
+    (vel, acc): (Option<f64>, Option<f64>),
+    ticks: bool,
+    force: bool,
+    wait: WaitArgs,
+) -> anyhow::Result<()> {
+    let plan = SyncRamp::new(ms, pos, vel, acc, ticks).dev()?;
+    let mut cubes = cubes(ctx)?;
+    let started = cubes.move_sync(&plan, force).dev()?;
+    if !ctx.json {
+        for (m, moved) in &started {
+            println!("module {m}: {} acknowledged", moved.described);
+        }
+        println!("StartMotion broadcast to all modules");
+    }
+    if !wait.wait {
+        if ctx.json {
+            let list: Vec<_> = started.iter().map(|(m, moved)| json!({"module": m, "target": moved.target})).collect();
+            output::json(&json!({"command": "move-ramp", "sync": true, "modules": list, "broadcast": "StartMotion"}));
+        }
+        return Ok(());
+    }
+    let ends = waiting(ctx, &wait, |t, show| {
+        let spec = WaitSpec { poll: t.poll, timeout: t.timeout, halt_attempts: t.stop_attempts };
+        let progress =
+            &mut |m, pos: f32, cube| show(format!("module {m} moving: pos {pos:.4}  {}", state_summary(ctx, cube)));
+        cubes.wait_sync(&started, ticks, spec, &interrupted, progress).dev()
+    })?;
+    print_wait_results(ctx, "move-ramp", &ends);
+    Ok(())
+}
+
 fn move_step(ctx: &Ctx, m: ModuleId, pos: f64, time: u16, ticks: bool, force: bool) -> anyhow::Result<()> {
-    send_move(ctx, m, Move::Step { pos, time_ms: time }, ticks, force)?;
+    send_move(ctx, m, Move::Step { pos, time_ms: time }, ticks, force, false)?;
     if ctx.json {
         output::json(
             &json!({"module": m, "command": "move-step", "target": pos, "time_ms": time, "acknowledged": true}),
@@ -450,7 +500,7 @@ fn move_step(ctx: &Ctx, m: ModuleId, pos: f64, time: u16, ticks: bool, force: bo
 }
 
 fn move_vel(ctx: &Ctx, m: ModuleId, vel: f64, ticks: bool, force: bool) -> anyhow::Result<()> {
-    send_move(ctx, m, Move::Vel(vel), ticks, force)?;
+    send_move(ctx, m, Move::Vel(vel), ticks, force, false)?;
     if ctx.json {
         output::json(&json!({"module": m, "command": "move-vel", "velocity": vel, "acknowledged": true}));
     }
@@ -458,7 +508,7 @@ fn move_vel(ctx: &Ctx, m: ModuleId, vel: f64, ticks: bool, force: bool) -> anyho
 }
 
 fn move_cur(ctx: &Ctx, m: ModuleId, amps: f64, force: bool) -> anyhow::Result<()> {
-    send_move(ctx, m, Move::Cur(amps), false, force)?;
+    send_move(ctx, m, Move::Cur(amps), false, force, false)?;
     if ctx.json {
         output::json(&json!({"module": m, "command": "move-cur", "current": amps, "acknowledged": true}));
     }

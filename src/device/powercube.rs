@@ -8,6 +8,7 @@
 
 mod error;
 mod moves;
+mod sync;
 mod wait;
 
 #[cfg(test)]
@@ -26,6 +27,7 @@ use crate::session::SessionError;
 
 pub use error::Error;
 pub use moves::{Move, Moved, Target};
+pub use sync::{Loaded, SyncRamp};
 pub use wait::{homed, Goal, WaitEnd, WaitSpec};
 
 /// A parameter of the table by id; the `ids` constants are all in it.

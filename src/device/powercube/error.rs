@@ -29,6 +29,15 @@ pub enum Error {
     /// Nothing was sent.
     #[error("module {module} is not ready ({})", why.join(", "))]
     NotReady { module: ModuleId, why: Vec<&'static str> },
+    /// The module holds motion commands until the start broadcast
+    /// (CONFIGID_MOD_SYNC_MOTION): a wait for one sent alone would never end.
+    /// Nothing was sent.
+    #[error("module {module} is in sync mode (CONFIGID_MOD_SYNC_MOTION): it holds a motion until the start broadcast")]
+    SyncMode { module: ModuleId },
+    /// A synchronized move names a module not in sync mode: it would start
+    /// on its own target. Nothing was sent.
+    #[error("module {module} is not in sync mode (CONFIGID_MOD_SYNC_MOTION): it would start before the others")]
+    NotSyncMode { module: ModuleId },
     /// An error flag came up while waiting for the end of a motion.
     #[error("module {module} reports an error while {what}: {} (state {cube:#010x})", errors.join(", "))]
     Faulted { module: ModuleId, what: String, errors: Vec<&'static str>, cube: u32 },
@@ -64,7 +73,7 @@ pub(super) fn halt_note(m: ModuleId, failed: Option<&str>) -> String {
 impl Error {
     pub fn kind(&self) -> ErrorKind {
         match self {
-            Self::Limit(_) | Self::Refused(_) => ErrorKind::Usage,
+            Self::Limit(_) | Self::Refused(_) | Self::SyncMode { .. } | Self::NotSyncMode { .. } => ErrorKind::Usage,
             Self::Session(e) | Self::Motion { source: e, .. } | Self::LostTrack { source: e, .. } => e.kind(),
             Self::NotReady { .. } | Self::Faulted { .. } | Self::ConfigNotKept { .. } => ErrorKind::Device,
             Self::Interrupted { .. } => ErrorKind::Interrupted,
@@ -74,6 +83,13 @@ impl Error {
 
     /// Whether the error was raised before anything was sent.
     pub fn nothing_sent(&self) -> bool {
-        matches!(self, Self::Limit(_) | Self::Refused(_) | Self::NotReady { .. })
+        matches!(
+            self,
+            Self::Limit(_)
+                | Self::Refused(_)
+                | Self::NotReady { .. }
+                | Self::SyncMode { .. }
+                | Self::NotSyncMode { .. }
+        )
     }
 }

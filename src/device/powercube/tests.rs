@@ -222,3 +222,88 @@ fn force_skips_the_module_limits_but_not_the_wire_checks() {
     assert!(r.cubes.move_module(id(3), Move::Cur(f64::NAN), false, true).is_err());
     assert_eq!(r.motions_sent(), 0);
 }
+
+/// The requests that change something (writes and motions), by module.
+fn changes(sent: &[CanMessage]) -> Vec<(u8, Request)> {
+    sent.iter()
+        .filter_map(|s| match s {
+            CanMessage::Request { module, request } if !request.is_read() => Some((module.get(), *request)),
+            _ => None,
+        })
+        .collect()
+}
+
+impl Rig {
+    fn sync_mode(&mut self, modules: &[u8]) {
+        let change = ConfigChange { set: config::SYNC_MOTION, ..ConfigChange::default() };
+        for m in modules {
+            self.cubes.write_config(id(*m), change).unwrap();
+        }
+        self.take_sent();
+    }
+}
+
+fn three() -> [ModuleId; 3] {
+    [id(3), id(5), id(17)]
+}
+
+#[test]
+fn a_synchronized_ramp_starts_every_module_only_at_the_broadcast() {
+    let mut r = rig();
+    r.sync_mode(&[3, 5, 17]);
+    let plan = SyncRamp::new(&three(), &[0.5, -0.5, 0.25], None, None, false).unwrap();
+    let loaded = r.cubes.load_sync(&plan, false).unwrap();
+    let sent = r.take_sent();
+    assert_eq!(changes(&sent).iter().map(|(m, _)| *m).collect::<Vec<_>>(), [3, 5, 17], "one target each");
+    assert!(!sent.iter().any(|s| matches!(s, CanMessage::Broadcast(_))));
+    r.clock.advance(Duration::from_millis(300));
+    for m in [3, 5, 17] {
+        let (cube, vel) = r.module(m);
+        assert_eq!((cube & state::MOTION, vel), (0, 0.0), "module {m} holds its target");
+    }
+    let started = r.cubes.start_sync(loaded).unwrap();
+    assert_eq!(started.iter().map(|(m, _)| m.get()).collect::<Vec<_>>(), [3, 5, 17]);
+    assert_eq!(r.take_sent(), [CanMessage::Broadcast(Broadcast::StartMotion)]);
+    r.clock.advance(Duration::from_millis(100));
+    for m in [3, 5, 17] {
+        let (cube, vel) = r.module(m);
+        assert!(cube & state::MOTION != 0 && vel != 0.0, "module {m} started");
+    }
+    let spec = WaitSpec { poll: Duration::from_millis(20), timeout: Duration::from_secs(30), halt_attempts: 1 };
+    let ends = r.cubes.wait_sync(&started, false, spec, &|| false, &mut |_, _, _| {}).unwrap();
+    let at: Vec<f32> = ends.iter().map(|e| e.position).collect();
+    assert_eq!(at, [0.5, -0.5, 0.25]);
+}
+
+#[test]
+fn a_synchronized_ramp_checks_every_module_before_the_first_frame() {
+    let mut r = rig();
+    // Module 17 is not in sync mode: it would start on its own.
+    r.sync_mode(&[3, 5]);
+    let plan = SyncRamp::new(&three(), &[0.5, -0.5, 0.25], None, None, false).unwrap();
+    let e = r.cubes.move_sync(&plan, false).unwrap_err();
+    assert!(matches!(e, Error::NotSyncMode { module } if module.get() == 17) && e.nothing_sent(), "{e:?}");
+    // Module 17's target beyond MaxPos.
+    r.sync_mode(&[17]);
+    let plan = SyncRamp::new(&three(), &[0.5, -0.5, 2.0], Some(0.05), None, false).unwrap();
+    let e = r.cubes.move_sync(&plan, false).unwrap_err();
+    assert!(matches!(e, Error::Limit(LimitError::Exceeds { limit_name: "MaxPos", .. })), "{e:?}");
+    assert_eq!(changes(&r.take_sent()), [], "not even TargetVel went out");
+    // Pairing and values, before the link is touched.
+    assert!(SyncRamp::new(&three(), &[0.5, 0.5], None, None, false).is_err());
+    assert!(SyncRamp::new(&[id(3), id(3)], &[0.5, 0.5], None, None, false).is_err());
+    assert!(SyncRamp::new(&[id(3)], &[f64::NAN], None, None, false).is_err());
+}
+
+#[test]
+fn waiting_for_a_module_in_sync_mode_without_a_broadcast_is_refused_before_sending() {
+    let mut r = rig();
+    r.sync_mode(&[3]);
+    let e = r.cubes.move_to_wait_for(id(3), Move::Ramp { pos: 0.5, vel: None, acc: None }, false, false).unwrap_err();
+    assert!(matches!(e, Error::SyncMode { .. }) && e.nothing_sent(), "{e:?}");
+    assert_eq!(e.kind(), crate::session::ErrorKind::Usage);
+    assert_eq!(changes(&r.take_sent()), []);
+    // Not in sync mode: the same call moves.
+    r.cubes.move_to_wait_for(id(5), Move::Ramp { pos: 0.5, vel: None, acc: None }, false, false).unwrap();
+    assert_eq!(r.motions_sent(), 1);
+}
