@@ -236,14 +236,14 @@ impl PowerCube {
             Transport::Can(link) => {
                 let frame = b.frame();
                 link.send(&frame)?;
-                self.core.trace(|| TraceEvent::Sent(format!("{frame:<22} broadcast {b:?}")));
+                self.core.trace(|| TraceEvent::Sent(format!("{frame:<22} broadcast {b}")));
             }
             Transport::Rs232 { link, .. } => {
                 let mut bytes = Vec::new();
                 // `[cmd, param]` as on CAN, as the vendor's library sends it.
                 rs232::encode(Direction::ToModule, 0, &b.payload(), &mut bytes);
                 link.write_all(&bytes)?;
-                self.core.trace(|| TraceEvent::Sent(format!("{} broadcast {b:?}", hex(&bytes))));
+                self.core.trace(|| TraceEvent::Sent(format!("{} broadcast {b}", hex(&bytes))));
             }
         }
         Ok(())
