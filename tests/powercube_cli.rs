@@ -300,7 +300,10 @@ fn synchronized_ramp_of_three_modules_starts_at_the_one_broadcast() {
     assert_eq!(r.code, 0, "{}", r.stderr);
     let sent: Vec<&str> = r.stderr.lines().filter(|l| l.contains("SetMotion") || l.contains("broadcast")).collect();
     assert_eq!(sent.len(), 4, "{}", r.stderr);
-    assert!(sent[3].contains("100#0F00"), "{sent:?}");
+    // docs/guide.md, "Synchronized moves", frame for frame.
+    for (line, frame) in sent.iter().zip(["0E3#0B040000003F", "0E5#0B04000000BF", "0F1#0B040000803E", "100#0F00"]) {
+        assert!(line.contains(frame), "{frame} in {sent:?}");
+    }
     let at: Vec<f64> =
         r.json()["modules"].as_array().unwrap().iter().map(|m| m["position"].as_f64().unwrap()).collect();
     for (got, want) in at.iter().zip([0.5, -0.5, 0.25]) {
