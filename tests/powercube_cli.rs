@@ -335,3 +335,36 @@ fn synchronized_ramp_input_is_checked_before_anything_is_sent() {
     assert_eq!(r.code, 2, "{}", r.stderr);
     assert!(r.stderr.contains("CAN feature"), "{}", r.stderr);
 }
+
+/// `axisctl --trace sim`: a frame the simulator leaves unanswered is named
+/// on its stderr, so the caller waiting out its timeout sees why.
+#[test]
+fn sim_trace_names_the_vendor_librarys_unknown_save_parameters() {
+    use std::io::{BufRead, BufReader, Read};
+
+    use axisctl::link::serial::SerialLink;
+    use axisctl::link::{ByteLink, LinkSpec};
+
+    let mut child = common::bin()
+        .args(["--trace", "sim", "--powercube", "pty-serial"])
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut line = String::new();
+    BufReader::new(child.stdout.take().unwrap()).read_line(&mut line).unwrap();
+    let uri = serde_json::from_str::<serde_json::Value>(&line).unwrap()["link"].as_str().unwrap().to_string();
+    let Ok(LinkSpec::Serial { path, .. }) = uri.parse() else { panic!("{uri}") };
+    let mut link = SerialLink::open(&path, 9600, axisctl::link::SerialFormat::F8N1).unwrap();
+    // The library's SaveParameters to module 3: TELID 04 61, [10] escaped, BCC 75.
+    link.write_all(&[0x02, 0x04, 0x61, 0x10, 0x90, 0x75, 0x03]).unwrap();
+    let mut buf = [0u8; 64];
+    assert_eq!(link.read(&mut buf, std::time::Duration::from_millis(300)).unwrap(), 0, "no answer");
+    unsafe {
+        libc::kill(child.id() as i32, libc::SIGTERM);
+    }
+    let mut err = String::new();
+    child.stderr.take().unwrap().read_to_string(&mut err).unwrap();
+    let _ = child.wait();
+    assert!(err.contains("sim: module 3: [10] not answered: unknown command id 0x10"), "{err}");
+}

@@ -174,10 +174,7 @@ impl Cubes {
     }
 }
 
-/// `3.5.18` from 0x3518.
-pub fn version_text(v: u16) -> String {
-    format!("{:x}.{:x}.{:02x}", v >> 12, (v >> 8) & 0xf, v & 0xff)
-}
+pub use crate::proto::powercube::table::version_text;
 
 /// A parameter write, checked for access and the parameter's wire type.
 pub fn param_write(name: &str, text: &str) -> Result<(&'static ParamDef, Value), Error> {

@@ -403,6 +403,11 @@ pub fn resolve_param(text: &str) -> Option<&'static ParamDef> {
 /// voltages: the vendor's library reads them only from this version on.
 pub const MEASUREMENTS_SINCE: u16 = 0x4601;
 
+/// `3.5.18` from DefCubeVersion 0x3518.
+pub fn version_text(v: u16) -> String {
+    format!("{:x}.{:x}.{:02x}", v >> 12, (v >> 8) & 0xf, v & 0xff)
+}
+
 /// Whether firmware `version` has parameter `id`: older firmware lacks
 /// ActFTemp, ActFMotorSupply and ActFLogicSupply and does not answer them.
 pub fn firmware_has(version: u16, id: u8) -> bool {

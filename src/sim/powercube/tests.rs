@@ -1042,6 +1042,31 @@ mod vendor_library {
         assert!(!rs232(&mut b, &get(17, ids::ACT_POS)).is_empty());
     }
 
+    thread_local! {
+        static TRACED: std::cell::RefCell<Vec<String>> = const { std::cell::RefCell::new(Vec::new()) };
+    }
+
+    #[test]
+    fn the_trace_says_why_a_frame_goes_unanswered() {
+        let mut b = Bench::new();
+        b.bus.set_tracer(Some(|s| TRACED.with(|t| t.borrow_mut().push(s.to_string()))));
+        let mut save = Vec::new();
+        rs232::encode(Direction::ToModule, 3, &[0x10], &mut save);
+        assert!(rs232(&mut b, &save).is_empty());
+        assert!(b.can("0E3#10").is_empty());
+        assert!(b.can(&format!("0D1#0A{:02X}", ids::ACT_F_TEMP)).is_empty());
+        assert!(!b.can("0C3#0A27").is_empty());
+        let traced = TRACED.with(|t| t.take());
+        assert_eq!(
+            traced,
+            [
+                "module 3: [10] not answered: unknown command id 0x10",
+                "module 3: [10] not answered: unknown command id 0x10",
+                "module 17: GetExtended ActFTemp not answered (firmware 3.5.18 has no ActFTemp)",
+            ]
+        );
+    }
+
     #[test]
     fn padded_get_extended_is_answered_and_save_parameters_is_not() {
         let mut b = Bench::new();
