@@ -69,7 +69,7 @@ fn dev(e: Error) -> anyhow::Error {
         Error::Faulted { .. } | Error::ConfigNotKept { .. } => DeviceFault(e.to_string()).into(),
         Error::Interrupted { .. } => Interrupted(e.to_string().trim_start_matches("interrupted").into()).into(),
         Error::Session(s) => s.into(),
-        Error::Motion { .. } | Error::LostTrack { .. } => anyhow::Error::new(e),
+        Error::Motion { .. } | Error::LostTrack { .. } | Error::SyncAborted { .. } => anyhow::Error::new(e),
         Error::UnexpectedType { .. } => anyhow::anyhow!(e.to_string()),
     }
 }

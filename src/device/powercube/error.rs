@@ -38,6 +38,19 @@ pub enum Error {
     /// on its own target. Nothing was sent.
     #[error("module {module} is not in sync mode (CONFIGID_MOD_SYNC_MOTION): it would start before the others")]
     NotSyncMode { module: ModuleId },
+    /// A module of a synchronized move did not take its target: the modules
+    /// given one so far, and that one, were halted (`halted`: whether each
+    /// halt was acknowledged), and no start broadcast was sent.
+    #[error(
+        "the synchronized move was not started: module {module} did not take its target ({})",
+        halted_list(halted)
+    )]
+    SyncAborted {
+        module: ModuleId,
+        halted: Vec<(ModuleId, bool)>,
+        #[source]
+        source: Box<Error>,
+    },
     /// An error flag came up while waiting for the end of a motion.
     #[error("module {module} reports an error while {what}: {} (state {cube:#010x})", errors.join(", "))]
     Faulted { module: ModuleId, what: String, errors: Vec<&'static str>, cube: u32 },
@@ -70,9 +83,22 @@ pub(super) fn halt_note(m: ModuleId, failed: Option<&str>) -> String {
     }
 }
 
+/// `modules 3, 5 halted, no start broadcast sent`, a failed halt in capitals.
+fn halted_list(halted: &[(ModuleId, bool)]) -> String {
+    let ok: Vec<String> = halted.iter().filter(|(_, ok)| *ok).map(|(m, _)| m.to_string()).collect();
+    let mut out = Vec::new();
+    if !ok.is_empty() {
+        out.push(format!("module{} {} halted", if ok.len() == 1 { "" } else { "s" }, ok.join(", ")));
+    }
+    out.extend(halted.iter().filter(|(_, ok)| !*ok).map(|(m, _)| format!("HALT OF MODULE {m} FAILED")));
+    out.push("no start broadcast sent".into());
+    out.join(", ")
+}
+
 impl Error {
     pub fn kind(&self) -> ErrorKind {
         match self {
+            Self::SyncAborted { source, .. } => source.kind(),
             Self::Limit(_) | Self::Refused(_) | Self::SyncMode { .. } | Self::NotSyncMode { .. } => ErrorKind::Usage,
             Self::Session(e) | Self::Motion { source: e, .. } | Self::LostTrack { source: e, .. } => e.kind(),
             Self::NotReady { .. } | Self::Faulted { .. } | Self::ConfigNotKept { .. } => ErrorKind::Device,

@@ -92,10 +92,9 @@ impl Cubes {
             match self.send_move(m, mv, s.ticks, wire) {
                 Ok(done) => moved.push((m, done)),
                 Err(e) => {
-                    for h in moved.iter().map(|(m, _)| *m).chain([m]) {
-                        let _ = self.halt_retrying(h, 2);
-                    }
-                    return Err(e);
+                    let loaded: Vec<ModuleId> = moved.iter().map(|(m, _)| *m).chain([m]).collect();
+                    let halted = loaded.into_iter().map(|h| (h, self.halt_retrying(h, 2).is_ok())).collect();
+                    return Err(Error::SyncAborted { module: m, halted, source: Box::new(e) });
                 }
             }
         }

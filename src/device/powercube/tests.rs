@@ -307,3 +307,80 @@ fn waiting_for_a_module_in_sync_mode_without_a_broadcast_is_refused_before_sendi
     r.cubes.move_to_wait_for(id(5), Move::Ramp { pos: 0.5, vel: None, acc: None }, false, false).unwrap();
     assert_eq!(r.motions_sent(), 1);
 }
+
+/// A link that loses every SetMotion to one module (as a bus losing a frame).
+struct LosesMotionTo {
+    inner: Recording,
+    module: u8,
+}
+
+impl LosesMotionTo {
+    fn keeps(&self, frame: &CanFrame) -> bool {
+        !matches!(classify(frame), Ok(Some(CanMessage::Request { module, request: Request::SetMotion(_) }))
+            if module.get() == self.module)
+    }
+}
+
+impl CanLink for LosesMotionTo {
+    fn send(&mut self, frame: &CanFrame) -> Result<(), LinkError> {
+        if self.keeps(frame) {
+            self.inner.send(frame)
+        } else {
+            lock(&self.inner.sent).push(*frame);
+            Ok(())
+        }
+    }
+    fn send_many(&mut self, frames: &[CanFrame]) -> Result<(), LinkError> {
+        frames.iter().try_for_each(|f| self.send(f))
+    }
+    fn recv(&mut self, timeout: Duration) -> Result<Option<CanFrame>, LinkError> {
+        self.inner.recv(timeout)
+    }
+}
+
+#[test]
+fn a_target_not_taken_halts_the_loaded_modules_and_sends_no_start() {
+    let mut r = rig();
+    r.sync_mode(&[3, 5, 17]);
+    let shared: Arc<dyn Clock> = Arc::new(r.clock.clone());
+    let inner = Recording { inner: Box::new(r.bench.bus.open()), sent: Arc::clone(&r.sent) };
+    let link = LosesMotionTo { inner, module: 17 };
+    let mut cubes = Cubes::new(PowerCube::over_can(Box::new(link)).with_clock(shared));
+    let plan = SyncRamp::new(&three(), &[0.5, -0.5, 0.25], None, None, false).unwrap();
+    let e = cubes.move_sync(&plan, false).unwrap_err();
+    let Error::SyncAborted { module, halted, .. } = &e else { panic!("{e:?}") };
+    assert_eq!(module.get(), 17);
+    assert_eq!(halted.iter().map(|(m, ok)| (m.get(), *ok)).collect::<Vec<_>>(), [(3, true), (5, true), (17, true)]);
+    assert_eq!(
+        e.to_string(),
+        "the synchronized move was not started: module 17 did not take its target \
+         (modules 3, 5, 17 halted, no start broadcast sent)"
+    );
+    assert_eq!(e.kind(), crate::session::ErrorKind::Timeout);
+    let sent = r.take_sent();
+    assert!(!sent.iter().any(|s| matches!(s, CanMessage::Broadcast(_))), "{sent:?}");
+    // What modules 3 and 5 held was dropped: even a start broadcast moves nothing.
+    r.cubes.session().broadcast(Broadcast::StartMotion).unwrap();
+    r.clock.advance(Duration::from_millis(200));
+    for m in [3, 5, 17] {
+        let (cube, vel) = r.module(m);
+        assert!(cube & state::HALTED != 0 && vel == 0.0, "module {m}: {cube:#x}");
+    }
+}
+
+#[test]
+fn a_failed_wait_of_a_synchronized_move_halts_the_other_modules() {
+    let mut r = rig();
+    r.sync_mode(&[3, 5, 17]);
+    let plan = SyncRamp::new(&three(), &[2.0, -2.0, 0.9], Some(0.05), None, false).unwrap();
+    let started = r.cubes.move_sync(&plan, false).unwrap();
+    r.clock.advance(Duration::from_millis(200));
+    lock(&r.bench.powercube).module_mut(3).unwrap().inject_error(state::TOW_ERROR);
+    let spec = WaitSpec { poll: Duration::from_millis(20), timeout: Duration::from_secs(60), halt_attempts: 1 };
+    let e = r.cubes.wait_sync(&started, false, spec, &|| false, &mut |_, _, _| {}).unwrap_err();
+    assert!(matches!(e, Error::Faulted { module, .. } if module.get() == 3), "{e:?}");
+    for m in [5, 17] {
+        let (cube, vel) = r.module(m);
+        assert!(cube & state::HALTED != 0 && vel == 0.0, "module {m} halted with the move: {cube:#x}");
+    }
+}
