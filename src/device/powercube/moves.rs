@@ -195,7 +195,9 @@ impl Cubes {
 
     /// A ramp in units with the module's current velocity and acceleration,
     /// to a position or by a step from ActPos: checked like
-    /// [`Self::move_module`]. Returns the target position.
+    /// [`Self::move_module`]. Returns the target position. A module in sync
+    /// mode is refused: a key press that moves nothing until someone's
+    /// broadcast would start it later, unexpected.
     pub fn ramp(&mut self, m: ModuleId, target: Target) -> Result<f64, Error> {
         let pos = match target {
             Target::To(p) => p,
@@ -204,7 +206,10 @@ impl Cubes {
                 self.read_now(m, &[ids::ACT_POS])?[0] + step
             }
         };
-        self.move_module(m, Move::Ramp { pos, vel: None, acc: None }, false, false)?;
+        let mv = Move::Ramp { pos, vel: None, acc: None };
+        mv.check(false)?;
+        self.ensure_starts_alone(m)?;
+        self.move_module(m, mv, false, false)?;
         Ok(pos)
     }
 }

@@ -303,6 +303,9 @@ fn waiting_for_a_module_in_sync_mode_without_a_broadcast_is_refused_before_sendi
     assert!(matches!(e, Error::SyncMode { .. }) && e.nothing_sent(), "{e:?}");
     assert_eq!(e.kind(), crate::session::ErrorKind::Usage);
     assert_eq!(changes(&r.take_sent()), []);
+    // Nor does the dashboard's ramp send anything to it.
+    assert!(matches!(r.cubes.ramp(id(3), Target::By(0.1)), Err(Error::SyncMode { .. })));
+    assert_eq!(changes(&r.take_sent()), []);
     // Not in sync mode: the same call moves.
     r.cubes.move_to_wait_for(id(5), Move::Ramp { pos: 0.5, vel: None, acc: None }, false, false).unwrap();
     assert_eq!(r.motions_sent(), 1);
