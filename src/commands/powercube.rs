@@ -4,7 +4,7 @@
 use std::time::Duration;
 
 use axisctl::device::powercube::{
-    self as device, param, ConfigChange, Cubes, Error, Goal, Move, Simple, SyncRamp, WaitEnd, WaitSpec,
+    self as device, param, version_text, ConfigChange, Cubes, Error, Goal, Move, Simple, SyncRamp, WaitEnd, WaitSpec,
 };
 use axisctl::proto::powercube::flags::{self, FlagWord};
 use axisctl::proto::powercube::frame::{f32_to_f64, Value};
@@ -170,8 +170,6 @@ fn kind_of(config_word: u32) -> &'static str {
         "rotary"
     }
 }
-
-use device::version_text;
 
 pub(crate) fn parse_ids(text: &str) -> anyhow::Result<Vec<ModuleId>> {
     let mut out = Vec::new();

@@ -25,6 +25,7 @@ use crate::proto::powercube::{ModuleId, Request};
 use crate::session::powercube::{decode_get, PowerCube};
 use crate::session::SessionError;
 
+pub use crate::proto::powercube::table::version_text;
 pub use error::Error;
 pub use moves::{Move, Moved, Target};
 pub use sync::{Loaded, SyncRamp};
@@ -147,35 +148,6 @@ pub fn readable_params(names: &[String], all: bool) -> Result<Vec<&'static Param
     Ok(defs)
 }
 
-impl Cubes {
-    /// The named parameters of one module, or with `all` every readable one
-    /// its firmware has. Naming one its firmware lacks is refused: the
-    /// module would not answer it.
-    pub fn get_params(
-        &mut self,
-        m: ModuleId,
-        defs: &[&'static ParamDef],
-        all: bool,
-    ) -> Result<Vec<(&'static ParamDef, Value)>, Error> {
-        let got = self.get_present(m, defs)?;
-        if !all {
-            if let Some((d, _)) = defs.iter().zip(&got).find(|(_, v)| v.is_none()) {
-                let version = self.version(m)?;
-                return Err(Error::Refused(format!(
-                    "module {m} runs firmware {}, which has no {} ({:#04x}); it came with {}",
-                    version_text(version),
-                    d.name,
-                    d.id,
-                    version_text(table::MEASUREMENTS_SINCE)
-                )));
-            }
-        }
-        Ok(defs.iter().zip(got).filter_map(|(d, v)| Some((*d, v?))).collect())
-    }
-}
-
-pub use crate::proto::powercube::table::version_text;
-
 /// A parameter write, checked for access and the parameter's wire type.
 pub fn param_write(name: &str, text: &str) -> Result<(&'static ParamDef, Value), Error> {
     let d = resolve_param(name)?;
@@ -239,6 +211,31 @@ impl Cubes {
         let asked: Vec<_> = defs.iter().zip(&has).filter(|(_, h)| **h).map(|(d, _)| *d).collect();
         let mut got = self.get_many(m, &asked)?.into_iter();
         Ok(has.iter().map(|h| if *h { got.next() } else { None }).collect())
+    }
+
+    /// The named parameters of one module, or with `all` every readable one
+    /// its firmware has. Naming one its firmware lacks is refused: the
+    /// module would not answer it.
+    pub fn get_params(
+        &mut self,
+        m: ModuleId,
+        defs: &[&'static ParamDef],
+        all: bool,
+    ) -> Result<Vec<(&'static ParamDef, Value)>, Error> {
+        let got = self.get_present(m, defs)?;
+        if !all {
+            if let Some((d, _)) = defs.iter().zip(&got).find(|(_, v)| v.is_none()) {
+                let version = self.version(m)?;
+                return Err(Error::Refused(format!(
+                    "module {m} runs firmware {}, which has no {} ({:#04x}); it came with {}",
+                    version_text(version),
+                    d.name,
+                    d.id,
+                    version_text(table::MEASUREMENTS_SINCE)
+                )));
+            }
+        }
+        Ok(defs.iter().zip(got).filter_map(|(d, v)| Some((*d, v?))).collect())
     }
 
     pub fn session(&mut self) -> &mut PowerCube {

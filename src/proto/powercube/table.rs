@@ -622,6 +622,16 @@ mod tests {
     use super::*;
 
     #[test]
+    fn measurements_come_with_firmware_4_6_01() {
+        assert_eq!(version_text(0x3518), "3.5.18");
+        assert_eq!(version_text(MEASUREMENTS_SINCE), "4.6.01");
+        for id in [ids::ACT_F_TEMP, ids::ACT_F_MOTOR_SUPPLY, ids::ACT_F_LOGIC_SUPPLY] {
+            assert!(!firmware_has(0x3518, id) && !firmware_has(0x4600, id) && firmware_has(0x4601, id));
+        }
+        assert!(firmware_has(0x3518, ids::ACT_POS) && firmware_has(0, ids::DEF_A0));
+    }
+
+    #[test]
     fn params_match_the_manual_table() {
         // Manual 4.6 lists 100 rows, DefHomeOffset 0x00 .. ActFScanPosRisgEdge 0xA3.
         assert_eq!(PARAMS.len(), 100);
