@@ -356,12 +356,12 @@ fn pac_axis_fault_mid_move_is_exit_5_with_the_status() {
 }
 
 /// The polls of a --wait stop being answered: the module is halted before
-/// the command gives up with the poll's exit code. (Answers 1..3 are the
-/// state check, TargetVel and the move; the next four, the poll and its
-/// retries, are lost; the Halt is answered.)
+/// the command gives up with the poll's exit code. (Answers 1..4 are the
+/// Config check (not in sync mode), the state check, TargetVel and the move;
+/// the next four, the poll and its retries, are lost; the Halt is answered.)
 #[test]
 fn a_wait_that_loses_the_module_halts_it_first() {
-    let s = sim(&["--powercube", "pty-slcan"], "drop=1,skip=3,count=4", "1");
+    let s = sim(&["--powercube", "pty-slcan"], "drop=1,skip=4,count=4", "1");
     let link = s.link("powercube");
     let (r, _) = bounded(&["--link", link, "move-ramp", "-m", "3", "2.0", "--vel", "0.2", "--force", "--wait"], 20);
     assert_eq!(r.code, 4, "{}", r.stderr);

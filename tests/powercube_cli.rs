@@ -229,3 +229,142 @@ fn decode_is_offline_and_shows_both_names_of_bit_27() {
     let c = run(&["--json", "decode", "config", "brake-present|linear"]).json();
     assert_eq!(c["raw"], 0x0002_0008);
 }
+
+#[test]
+fn def_a0_reads_as_the_vendor_library_reads_it() {
+    let r = run(&["--link", "sim", "--json", "get-param", "-m", "3", "DefA0"]);
+    assert_eq!(r.code, 0, "{}", r.stderr);
+    assert_eq!(r.json()["params"]["DefA0"]["type"], "int16");
+    let all = run(&["--link", "sim", "--json", "get-param", "-m", "3", "--all"]);
+    assert!(all.json()["params"]["DefA0"].is_object(), "--all reads it too");
+}
+
+#[test]
+fn firmware_before_4_6_has_no_temperature_and_supplies() {
+    // Module 3 runs 4.6.01, module 17 keeps 3.5.18.
+    let new = run(&["--link", "sim", "--json", "info", "-m", "3"]);
+    assert_eq!(new.code, 0, "{}", new.stderr);
+    assert_eq!(new.json()["version_text"], "4.6.01");
+    assert_eq!(new.json()["params"]["ActFTemp"], 35.0);
+    let old = run(&["--link", "sim", "--json", "info", "-m", "17"]);
+    assert_eq!(old.code, 0, "{}", old.stderr);
+    assert_eq!(old.json()["version_text"], "3.5.18");
+    for p in ["ActFTemp", "ActFMotorSupply", "ActFLogicSupply"] {
+        assert!(old.json()["params"][p].is_null(), "{p}: {}", old.json());
+    }
+    let text = run(&["--link", "sim", "info", "-m", "17"]);
+    assert!(text.stdout.contains("- (firmware 3.5.18)"), "{}", text.stdout);
+    // Asked by name: refused with the reason, not a timeout.
+    let r = run(&["--link", "sim", "get-param", "-m", "17", "ActFTemp"]);
+    assert_eq!(r.code, 2, "{}", r.stderr);
+    assert!(r.stderr.contains("firmware 3.5.18, which has no ActFTemp"), "{}", r.stderr);
+    let all = run(&["--link", "sim", "--json", "get-param", "-m", "17", "--all"]);
+    assert_eq!(all.code, 0, "{}", all.stderr);
+    assert!(all.json()["params"].get("ActFTemp").is_none());
+    assert!(all.json()["params"]["ActPos"].is_object());
+}
+
+#[test]
+fn synchronized_ramp_of_three_modules_starts_at_the_one_broadcast() {
+    let sim = Sim::start(&["--powercube", "pty-slcan"], 1);
+    let link = sim.link("powercube");
+    for m in ["3", "5", "17"] {
+        assert_eq!(run(&["--link", link, "set-config", "-m", m, "+sync-motion"]).code, 0);
+    }
+    // Alone, a module in sync mode takes its target and holds it.
+    let r = run(&["--link", link, "move-ramp", "-m", "3", "0.3"]);
+    assert_eq!(r.code, 0, "{}", r.stderr);
+    std::thread::sleep(std::time::Duration::from_millis(300));
+    let st = run(&["--link", link, "--json", "state", "-m", "3"]);
+    assert_eq!(st.json()["raw"].as_u64().unwrap() & 0x800, 0, "no motion without the broadcast");
+    // Waiting for it is refused before anything is sent.
+    let r = run(&["--link", link, "--trace", "move-ramp", "-m", "5", "0.3", "--wait"]);
+    assert_eq!(r.code, 2, "{}", r.stderr);
+    assert!(r.stderr.contains("module 5 is in sync mode") && r.stderr.contains("nothing was sent"), "{}", r.stderr);
+    assert!(!r.stderr.contains("SetMotion"), "{}", r.stderr);
+    // Each module's target, then StartMotion once; all end where asked.
+    let r = run(&[
+        "--link",
+        link,
+        "--json",
+        "--trace",
+        "move-ramp",
+        "-m",
+        "3,5,17",
+        "--sync",
+        "0.5",
+        "-0.5",
+        "0.25",
+        "--wait",
+    ]);
+    assert_eq!(r.code, 0, "{}", r.stderr);
+    let sent: Vec<&str> = r.stderr.lines().filter(|l| l.contains("SetMotion") || l.contains("broadcast")).collect();
+    assert_eq!(sent.len(), 4, "{}", r.stderr);
+    // docs/guide.md, "Synchronized moves", frame for frame.
+    for (line, frame) in sent.iter().zip(["0E3#0B040000003F", "0E5#0B04000000BF", "0F1#0B040000803E", "100#0F00"]) {
+        assert!(line.contains(frame), "{frame} in {sent:?}");
+    }
+    let at: Vec<f64> =
+        r.json()["modules"].as_array().unwrap().iter().map(|m| m["position"].as_f64().unwrap()).collect();
+    for (got, want) in at.iter().zip([0.5, -0.5, 0.25]) {
+        assert!((got - want).abs() < 1e-3, "{at:?}");
+    }
+}
+
+#[test]
+fn synchronized_ramp_input_is_checked_before_anything_is_sent() {
+    // Positions must pair with modules; several modules need --sync.
+    for args in [
+        &["move-ramp", "-m", "3,5", "--sync", "0.5"][..],
+        &["move-ramp", "-m", "3,5", "0.5", "0.5"],
+        &["move-ramp", "-m", "3,3", "--sync", "0.5", "0.5"],
+        &["move-ramp", "-m", "3,40", "--sync", "0.5", "0.5"],
+    ] {
+        let mut all = vec!["--link", "sim"];
+        all.extend_from_slice(args);
+        let r = run(&all);
+        assert_eq!(r.code, 2, "{args:?}: {}", r.stderr);
+    }
+    // Not in sync mode (the in-process bench's modules are not): refused.
+    let r = run(&["--link", "sim", "move-ramp", "-m", "3,5", "--sync", "0.5", "0.5"]);
+    assert_eq!(r.code, 2);
+    assert!(r.stderr.contains("+sync-motion"), "{}", r.stderr);
+    // The manual: sync motion is valid only on CAN.
+    let sim = Sim::start(&["--powercube", "pty-serial"], 1);
+    let r = run(&["--link", sim.link("powercube"), "move-ramp", "-m", "3,5", "--sync", "0.5", "0.5"]);
+    assert_eq!(r.code, 2, "{}", r.stderr);
+    assert!(r.stderr.contains("CAN feature"), "{}", r.stderr);
+}
+
+/// `axisctl --trace sim`: a frame the simulator leaves unanswered is named
+/// on its stderr, so the caller waiting out its timeout sees why.
+#[test]
+fn sim_trace_names_the_vendor_librarys_unknown_save_parameters() {
+    use std::io::{BufRead, BufReader, Read};
+
+    use axisctl::link::serial::SerialLink;
+    use axisctl::link::{ByteLink, LinkSpec};
+
+    let mut child = common::bin()
+        .args(["--trace", "sim", "--powercube", "pty-serial"])
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut line = String::new();
+    BufReader::new(child.stdout.take().unwrap()).read_line(&mut line).unwrap();
+    let uri = serde_json::from_str::<serde_json::Value>(&line).unwrap()["link"].as_str().unwrap().to_string();
+    let Ok(LinkSpec::Serial { path, .. }) = uri.parse() else { panic!("{uri}") };
+    let mut link = SerialLink::open(&path, 9600, axisctl::link::SerialFormat::F8N1).unwrap();
+    // The library's SaveParameters to module 3: TELID 04 61, [10] escaped, BCC 75.
+    link.write_all(&[0x02, 0x04, 0x61, 0x10, 0x90, 0x75, 0x03]).unwrap();
+    let mut buf = [0u8; 64];
+    assert_eq!(link.read(&mut buf, std::time::Duration::from_millis(300)).unwrap(), 0, "no answer");
+    unsafe {
+        libc::kill(child.id() as i32, libc::SIGTERM);
+    }
+    let mut err = String::new();
+    child.stderr.take().unwrap().read_to_string(&mut err).unwrap();
+    let _ = child.wait();
+    assert!(err.contains("sim: module 3: [10] not answered: unknown command id 0x10"), "{err}");
+}

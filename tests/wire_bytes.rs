@@ -75,3 +75,24 @@ fn slcan_home_sends_the_can_frame() {
     let out = child.wait_with_output().unwrap();
     assert_eq!(out.status.code(), Some(0), "{}", String::from_utf8_lossy(&out.stderr));
 }
+
+/// The broadcast a command sends over `serial:`, as the pty sees it.
+fn serial_broadcast(args: &[&str]) -> Vec<u8> {
+    let (mut master, path) = pty::open_pair().unwrap();
+    let link = format!("serial:{path}");
+    let mut all = vec!["--link", &link];
+    all.extend_from_slice(args);
+    let child = common::bin().args(&all).stdout(Stdio::piped()).stderr(Stdio::piped()).spawn().unwrap();
+    let sent = read_until(&mut master, |b| b.last() == Some(&0x03));
+    let out = child.wait_with_output().unwrap();
+    assert_eq!(out.status.code(), Some(0), "{}", String::from_utf8_lossy(&out.stderr));
+    sent
+}
+
+#[test]
+fn serial_broadcasts_carry_cmd_and_a_zero_as_the_vendor_library_sends_them() {
+    // Module 0, length 2, data [02, 00]: TELID 04 02 and the data's 02 escaped.
+    assert_eq!(serial_broadcast(&["halt", "--all"]), [0x02, 0x04, 0x10, 0x82, 0x10, 0x82, 0x00, 0x08, 0x03]);
+    // Reset: data [00, 00], BCC 04 + 02.
+    assert_eq!(serial_broadcast(&["reset", "--all"]), [0x02, 0x04, 0x10, 0x82, 0x00, 0x00, 0x06, 0x03]);
+}

@@ -26,6 +26,22 @@ pub struct Target {
     pub all: bool,
 }
 
+/// Module ids in the order typed (`3,5,17`): positions pair with them by
+/// place, so the list is neither sorted nor deduplicated here.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct ModuleList(pub Vec<u8>);
+
+fn module_list(text: &str) -> Result<ModuleList, String> {
+    let one = |s: &str| {
+        let s = s.trim();
+        s.parse::<u8>()
+            .ok()
+            .filter(|id| POWERCUBE_MODULE.contains(*id))
+            .ok_or_else(|| format!("{s:?} is not a valid {POWERCUBE_MODULE}"))
+    };
+    text.split(',').map(one).collect::<Result<_, _>>().map(ModuleList)
+}
+
 #[derive(Debug, Subcommand)]
 pub enum PowerCubeCommand {
     /// List the PowerCube modules present on the link
@@ -55,13 +71,14 @@ pub enum PowerCubeCommand {
         #[command(flatten)]
         target: Target,
     },
-    /// Ramp (trapezoidal) motion to a position
+    /// Ramp (trapezoidal) motion to a position; with --sync several modules started together
     MoveRamp {
-        #[command(flatten)]
-        module: ModuleArg,
-        /// Target position (rad or m; encoder ticks with --ticks)
-        #[arg(allow_negative_numbers = true)]
-        pos: f64,
+        /// PowerCube module address, 1..31; with --sync a list such as 3,5,17 (one position each, in order)
+        #[arg(short, long = "module", value_name = "ID[,ID...]", value_parser = module_list)]
+        modules: ModuleList,
+        /// Target position (rad or m; encoder ticks with --ticks); with --sync one per module
+        #[arg(allow_negative_numbers = true, required = true, num_args = 1..)]
+        pos: Vec<f64>,
         /// Ramp velocity (TargetVel; units/s or ticks/s)
         #[arg(long)]
         vel: Option<f64>,
@@ -74,6 +91,9 @@ pub enum PowerCubeCommand {
         /// Skip the check against the module's own limits
         #[arg(long)]
         force: bool,
+        /// Synchronized: each module (in sync mode, CAN only) takes its target, then one StartMotion broadcast starts them all
+        #[arg(long)]
+        sync: bool,
         #[command(flatten)]
         wait: WaitArgs,
     },

@@ -1,9 +1,9 @@
 //! `axisctl decode KIND VALUE`: take a raw word apart offline.
 
 use axisctl::family::{self, Family};
+use axisctl::monitor::describe_ack;
 use axisctl::proto::pac::profibus as pac_profibus;
 use axisctl::proto::powercube::flags::{self, ProfibusInput};
-use axisctl::proto::powercube::Response;
 use serde_json::json;
 
 use super::{usage, Ctx};
@@ -70,16 +70,26 @@ fn profibus_image(ctx: &Ctx, value: &str) -> anyhow::Result<()> {
     let bytes = parse_hex_bytes(value)?;
     let img = ProfibusInput::decode(&bytes).map_err(|e| usage(format!("profibus image: {e}")))?;
     let state = img.state();
-    let answer = img.answer_len().ok().and_then(|n| Response::decode(&img.answer[..n]).ok());
+    // Bytes 0..7 are an acknowledge as on CAN: decoded the way `monitor` does.
+    let (decoded, details) = match img.response() {
+        Ok(resp) => {
+            let (text, details) = describe_ack(&resp);
+            (Ok(text), details)
+        }
+        Err(e) => (Err(e.to_string()), serde_json::Value::Null),
+    };
     if ctx.json {
         output::json(&json!({
-            "kind": PROFIBUS_IMAGE, "answer": img.answer, "answer_decoded": answer.map(|a| format!("{a:?}")),
+            "kind": PROFIBUS_IMAGE, "answer": img.answer, "answer_decoded": decoded.as_ref().ok(),
+            "answer_details": details, "answer_error": decoded.as_ref().err(),
             "position_ticks": img.position_ticks, "short_state": img.short_state,
             "flags": state.flags, "errors": state.errors, "ms": img.ms,
         }));
         return Ok(());
     }
-    println!("answer      {:02x?}  {}", img.answer, answer.map(|a| format!("{a:?}")).unwrap_or_default());
+    let hex: Vec<String> = img.answer.iter().map(|b| format!("{b:02x}")).collect();
+    let text = decoded.unwrap_or_else(|e| format!("(not an acknowledge: {e})"));
+    println!("answer      {}  {text}", hex.join(" "));
     println!("position    {} ticks", img.position_ticks);
     println!("short state {:#06x} {}", img.short_state, state.flags.join(" "));
     println!("ms          {}", img.ms);
@@ -88,10 +98,12 @@ fn profibus_image(ctx: &Ctx, value: &str) -> anyhow::Result<()> {
 
 /// A PA-CONTROL Profibus-DP / Interbus-S word or status date: a number
 /// (decimal, 0x hex, 0b binary) or, for the 8-byte CMD images, hex bytes as
-/// the manual prints them (`00 00 00 00 0E 01 00 13`).
+/// the manual prints them (`00 00 00 00 0E 01 00 13`, or the 16 digits run
+/// together: sixteen digits without `0x` are always the bytes).
 fn pac_word(ctx: &Ctx, def: &'static pac_profibus::WordDef, value: &str) -> anyhow::Result<()> {
     let t = value.trim();
-    let raw = if def.bits == 64 && (t.contains(' ') || t.contains(':')) {
+    let run_together = t.len() == 16 && t.chars().all(|c| c.is_ascii_hexdigit());
+    let raw = if def.bits == 64 && (t.contains(' ') || t.contains(':') || run_together) {
         let bytes = parse_hex_bytes(t)?;
         let arr: [u8; 8] =
             bytes.try_into().map_err(|b: Vec<u8>| usage(format!("{} takes 8 bytes, got {}", def.kind, b.len())))?;

@@ -119,6 +119,15 @@ pub fn hint(err: &anyhow::Error) -> Option<String> {
         match cause.downcast_ref::<Cube>() {
             Some(Cube::Limit(LimitError::Exceeds { .. })) => return Some(" (use --force to skip this check)".into()),
             Some(Cube::NotReady { module, .. }) => return Some(format!(": clear it with `axisctl reset -m {module}`")),
+            Some(Cube::SyncMode { module }) => {
+                return Some(format!(
+                    ", so a wait would never end; nothing was sent. Move it with --sync, or clear the flag with \
+                     `axisctl set-config -m {module} -sync-motion`"
+                ))
+            }
+            Some(Cube::NotSyncMode { module }) => {
+                return Some(format!("; nothing was sent. Set it with `axisctl set-config -m {module} +sync-motion`"))
+            }
             _ => {}
         }
         match cause.downcast_ref::<device::pac::Error>() {

@@ -4,7 +4,7 @@
 use std::time::Duration;
 
 use axisctl::device::powercube::{
-    self as device, param, ConfigChange, Cubes, Error, Goal, Move, Simple, WaitEnd, WaitSpec,
+    self as device, param, version_text, ConfigChange, Cubes, Error, Goal, Move, Simple, SyncRamp, WaitEnd, WaitSpec,
 };
 use axisctl::proto::powercube::flags::{self, FlagWord};
 use axisctl::proto::powercube::frame::{f32_to_f64, Value};
@@ -14,7 +14,7 @@ use axisctl::session::powercube::PowerCube;
 use serde_json::json;
 
 use super::wait::waiting;
-use super::{interrupted, Ctx, Interrupted};
+use super::{interrupted, usage, Ctx, Interrupted};
 use crate::cli::ids::IdList;
 use crate::cli::{PowerCubeCommand as Command, Target, WaitArgs, WatchdogAction};
 use crate::output;
@@ -27,8 +27,13 @@ pub fn run(ctx: &Ctx, cmd: Command) -> anyhow::Result<()> {
         Command::Home { target, wait } => home(ctx, target, wait),
         Command::Reset { target } => simple(ctx, target, Simple::Reset),
         Command::Halt { target } => simple(ctx, target, Simple::Halt),
-        Command::MoveRamp { module: m, pos, vel, acc, ticks, force, wait } => {
-            move_ramp(ctx, module(m.module), pos, vel, acc, ticks, force, wait)
+        Command::MoveRamp { modules, pos, vel, acc, ticks, force, sync, wait } => {
+            let ms: Vec<ModuleId> = modules.0.iter().map(|id| module(*id)).collect();
+            match (&ms[..], &pos[..]) {
+                _ if sync => move_ramp_sync(ctx, &ms, &pos, (vel, acc), ticks, force, wait),
+                ([m], [p]) => move_ramp(ctx, *m, *p, vel, acc, ticks, force, wait),
+                _ => Err(usage("several modules or positions move only together: add --sync; nothing was sent")),
+            }
         }
         Command::MoveStep { module: m, pos, time, ticks, force } => {
             move_step(ctx, module(m.module), pos, time, ticks, force)
@@ -84,11 +89,6 @@ fn kind_of(config_word: u32) -> &'static str {
     } else {
         "rotary"
     }
-}
-
-/// `3.5.18` from 0x3518.
-fn version_text(v: u16) -> String {
-    format!("{:x}.{:x}.{:02x}", v >> 12, (v >> 8) & 0xf, v & 0xff)
 }
 
 /// How long after a scan request's last byte an RS232 answer must start
@@ -168,9 +168,13 @@ fn info(ctx: &Ctx, m: ModuleId) -> anyhow::Result<()> {
         ids::MAX_CUR,
     ];
     let defs: Vec<_> = identity.iter().chain(&device::LIVE).map(|id| param(*id)).collect();
-    let vals = cubes.get_many(m, &defs)?;
-    let config_word = f64_of(&vals[2]) as u32;
-    let cube = f64_of(&vals[16]) as u32;
+    // Firmware before 4.6.01 has no temperature and supply voltages: those
+    // rows stay empty (null in JSON).
+    let vals = cubes.get_present(m, &defs)?;
+    let num = |i: usize| vals[i].as_ref().map_or(f64::NAN, f64_of);
+    let config_word = num(2) as u32;
+    let cube = num(16) as u32;
+    let version = num(1) as u16;
     let kind = kind_of(config_word);
     if ctx.json {
         let mut params = serde_json::Map::new();
@@ -178,16 +182,19 @@ fn info(ctx: &Ctx, m: ModuleId) -> anyhow::Result<()> {
             params.insert(d.name.into(), serde_json::to_value(v)?);
         }
         output::json(&json!({
-            "module": m, "kind": kind, "serial": f64_of(&vals[0]) as u32, "version": f64_of(&vals[1]) as u16,
-            "version_text": version_text(f64_of(&vals[1]) as u16), "params": params,
+            "module": m, "kind": kind, "serial": num(0) as u32, "version": version,
+            "version_text": version_text(version), "params": params,
             "config": word_json(&flags::CONFIG, config_word), "state": word_json(&flags::CUBE_STATE, cube),
         }));
         return Ok(());
     }
-    println!("module {m}: {kind}, serial {}, version {}", vals[0], version_text(f64_of(&vals[1]) as u16));
+    println!("module {m}: {kind}, serial {}, version {}", num(0) as u32, version_text(version));
     let mut t = vec![["PARAMETER", "VALUE", "UNIT"].map(String::from).to_vec()];
     for (d, v) in defs.iter().zip(&vals).skip(3).take(13) {
-        t.push(vec![d.name.into(), v.to_string(), unit_for(d, kind)]);
+        match v {
+            Some(v) => t.push(vec![d.name.into(), v.to_string(), unit_for(d, kind)]),
+            None => t.push(vec![d.name.into(), format!("- (firmware {})", version_text(version)), String::new()]),
+        }
     }
     output::table(&t, ctx.style);
     println!("state: {}", state_summary(ctx, cube));
@@ -295,11 +302,12 @@ fn print_wait_results(ctx: &Ctx, what: &str, results: &[WaitEnd]) {
 }
 
 /// Checks and sends a move; the checks that need no module come before the
-/// link is opened.
-fn send_move(ctx: &Ctx, m: ModuleId, mv: Move, ticks: bool, force: bool) -> anyhow::Result<Cubes> {
+/// link is opened. A move to be waited for must start on its own.
+fn send_move(ctx: &Ctx, m: ModuleId, mv: Move, ticks: bool, force: bool, wait: bool) -> anyhow::Result<Cubes> {
     mv.check(ticks)?;
     let mut cubes = cubes(ctx)?;
-    let moved = cubes.move_module(m, mv, ticks, force)?;
+    let moved =
+        if wait { cubes.move_to_wait_for(m, mv, ticks, force) } else { cubes.move_module(m, mv, ticks, force) }?;
     if !ctx.json {
         println!("module {m}: {} acknowledged", moved.described);
     }
@@ -317,7 +325,7 @@ fn move_ramp(
     force: bool,
     wait: WaitArgs,
 ) -> anyhow::Result<()> {
-    let mut cubes = send_move(ctx, m, Move::Ramp { pos, vel, acc }, ticks, force)?;
+    let mut cubes = send_move(ctx, m, Move::Ramp { pos, vel, acc }, ticks, force, wait.wait)?;
     if !wait.wait {
         if ctx.json {
             output::json(&json!({"module": m, "command": "move-ramp", "target": pos, "acknowledged": true}));
@@ -329,8 +337,45 @@ fn move_ramp(
     Ok(())
 }
 
+/// Several modules, each to its position, started by one broadcast; every
+/// check comes before the first frame.
+fn move_ramp_sync(
+    ctx: &Ctx,
+    ms: &[ModuleId],
+    pos: &[f64],
+    (vel, acc): (Option<f64>, Option<f64>),
+    ticks: bool,
+    force: bool,
+    wait: WaitArgs,
+) -> anyhow::Result<()> {
+    let plan = SyncRamp::new(ms, pos, vel, acc, ticks)?;
+    let mut cubes = cubes(ctx)?;
+    let started = cubes.move_sync(&plan, force)?;
+    if !ctx.json {
+        for (m, moved) in &started {
+            println!("module {m}: {} acknowledged", moved.described);
+        }
+        println!("StartMotion broadcast to all modules");
+    }
+    if !wait.wait {
+        if ctx.json {
+            let list: Vec<_> = started.iter().map(|(m, moved)| json!({"module": m, "target": moved.target})).collect();
+            output::json(&json!({"command": "move-ramp", "sync": true, "modules": list, "broadcast": "StartMotion"}));
+        }
+        return Ok(());
+    }
+    let ends = waiting(ctx, &wait, |t, show| {
+        let spec = WaitSpec { poll: t.poll, timeout: t.timeout, halt_attempts: t.stop_attempts };
+        let progress =
+            &mut |m, pos: f32, cube| show(format!("module {m} moving: pos {pos:.4}  {}", state_summary(ctx, cube)));
+        Ok(cubes.wait_sync(&started, ticks, spec, &interrupted, progress)?)
+    })?;
+    print_wait_results(ctx, "move-ramp", &ends);
+    Ok(())
+}
+
 fn move_step(ctx: &Ctx, m: ModuleId, pos: f64, time: u16, ticks: bool, force: bool) -> anyhow::Result<()> {
-    send_move(ctx, m, Move::Step { pos, time_ms: time }, ticks, force)?;
+    send_move(ctx, m, Move::Step { pos, time_ms: time }, ticks, force, false)?;
     if ctx.json {
         output::json(
             &json!({"module": m, "command": "move-step", "target": pos, "time_ms": time, "acknowledged": true}),
@@ -340,7 +385,7 @@ fn move_step(ctx: &Ctx, m: ModuleId, pos: f64, time: u16, ticks: bool, force: bo
 }
 
 fn move_vel(ctx: &Ctx, m: ModuleId, vel: f64, ticks: bool, force: bool) -> anyhow::Result<()> {
-    send_move(ctx, m, Move::Vel(vel), ticks, force)?;
+    send_move(ctx, m, Move::Vel(vel), ticks, force, false)?;
     if ctx.json {
         output::json(&json!({"module": m, "command": "move-vel", "velocity": vel, "acknowledged": true}));
     }
@@ -348,7 +393,7 @@ fn move_vel(ctx: &Ctx, m: ModuleId, vel: f64, ticks: bool, force: bool) -> anyho
 }
 
 fn move_cur(ctx: &Ctx, m: ModuleId, amps: f64, force: bool) -> anyhow::Result<()> {
-    send_move(ctx, m, Move::Cur(amps), false, force)?;
+    send_move(ctx, m, Move::Cur(amps), false, force, false)?;
     if ctx.json {
         output::json(&json!({"module": m, "command": "move-cur", "current": amps, "acknowledged": true}));
     }
@@ -361,11 +406,11 @@ fn get_param(ctx: &Ctx, m: ModuleId, names: &[String], all: bool) -> anyhow::Res
     // Config rides along so that "rad|m" units resolve for the module's kind.
     let mut with_config = defs.clone();
     with_config.push(param(ids::CONFIG));
-    let mut vals = cubes.get_many(m, &with_config)?;
-    let kind = vals.pop().map_or("rotary", |c| kind_of(f64_of(&c) as u32));
+    let mut vals = cubes.get_params(m, &with_config, all)?;
+    let kind = vals.pop().map_or("rotary", |(_, c)| kind_of(f64_of(&c) as u32));
     if ctx.json {
         let mut params = serde_json::Map::new();
-        for (d, v) in defs.iter().zip(&vals) {
+        for (d, v) in &vals {
             params.insert(
                 d.name.into(),
                 json!({"id": d.id, "type": d.ty.name(), "unit": unit_for(d, kind), "value": serde_json::to_value(v)?}),
@@ -375,7 +420,7 @@ fn get_param(ctx: &Ctx, m: ModuleId, names: &[String], all: bool) -> anyhow::Res
         return Ok(());
     }
     let mut rows = vec![["PARAMETER", "ID", "TYPE", "VALUE", "UNIT"].map(String::from).to_vec()];
-    for (d, v) in defs.iter().zip(&vals) {
+    for (d, v) in &vals {
         rows.push(vec![d.name.into(), format!("{:#04x}", d.id), d.ty.name().into(), v.to_string(), unit_for(d, kind)]);
     }
     output::table(&rows, ctx.style);

@@ -103,6 +103,9 @@ pub fn run(ctx: &Ctx, args: &SimArgs) -> anyhow::Result<()> {
         .map(|f| f.parse::<FaultSpec>().map_err(|e| usage(format!("--fault: {e}"))))
         .transpose()?;
     let bench = Bench::new(&cfg, Arc::clone(&ctx.clock));
+    if ctx.trace {
+        axisctl::sim::shared::lock(&bench.powercube).set_tracer(Some(|s| eprintln!("sim: {s}")));
+    }
     if args.wire_speed {
         bench.bus.set_bitrate(Some(args.bitrate));
         serve::precise_timers();

@@ -8,10 +8,13 @@
 
 mod error;
 mod moves;
+mod sync;
 mod wait;
 
 #[cfg(test)]
 mod tests;
+
+use std::collections::BTreeMap;
 
 use crate::proto::powercube::can::Broadcast;
 use crate::proto::powercube::flags::{self, config};
@@ -22,9 +25,11 @@ use crate::proto::powercube::{ModuleId, Request};
 use crate::session::powercube::{decode_get, PowerCube};
 use crate::session::SessionError;
 
+pub use crate::proto::powercube::table::version_text;
 pub use error::Error;
 pub use moves::{Move, Moved, Target};
-pub use wait::{Goal, WaitEnd, WaitSpec};
+pub use sync::{Loaded, SyncRamp};
+pub use wait::{homed, Goal, WaitEnd, WaitSpec};
 
 /// The values that change while a module runs, as a dashboard poll and
 /// `info` read them: position, velocity, current, temperature, supplies, state.
@@ -181,11 +186,68 @@ pub fn is_linear(config_word: u32) -> bool {
 /// The PowerCube modules reached through one session.
 pub struct Cubes {
     pc: PowerCube,
+    /// DefCubeVersion per module id, read once when a read needs it.
+    versions: BTreeMap<u8, u16>,
 }
 
 impl Cubes {
     pub fn new(pc: PowerCube) -> Self {
-        Self { pc }
+        Self { pc, versions: BTreeMap::new() }
+    }
+
+    /// The module's firmware version (DefCubeVersion), read once.
+    pub fn version(&mut self, m: ModuleId) -> Result<u16, Error> {
+        if let Some(v) = self.versions.get(&m.get()) {
+            return Ok(*v);
+        }
+        let v = self.pc.get(m, param(ids::DEF_CUBE_VERSION))?.as_f64().unwrap_or(0.0) as u16;
+        self.versions.insert(m.get(), v);
+        Ok(v)
+    }
+
+    /// Which of `params` the module's firmware has (the version is read only
+    /// when one of them needs a newer firmware).
+    fn has_params(&mut self, m: ModuleId, params: &[u8]) -> Result<Vec<bool>, Error> {
+        if params.iter().all(|p| table::firmware_has(0, *p)) {
+            return Ok(vec![true; params.len()]);
+        }
+        let version = self.version(m)?;
+        Ok(params.iter().map(|p| table::firmware_has(version, *p)).collect())
+    }
+
+    /// Reads the parameters the module's firmware has, in one go; `None` for
+    /// those it lacks (not asked for: the module would not answer).
+    pub fn get_present(&mut self, m: ModuleId, defs: &[&'static ParamDef]) -> Result<Vec<Option<Value>>, Error> {
+        let ids: Vec<u8> = defs.iter().map(|d| d.id).collect();
+        let has = self.has_params(m, &ids)?;
+        let asked: Vec<_> = defs.iter().zip(&has).filter(|(_, h)| **h).map(|(d, _)| *d).collect();
+        let mut got = self.get_many(m, &asked)?.into_iter();
+        Ok(has.iter().map(|h| if *h { got.next() } else { None }).collect())
+    }
+
+    /// The named parameters of one module, or with `all` every readable one
+    /// its firmware has. Naming one its firmware lacks is refused: the
+    /// module would not answer it.
+    pub fn get_params(
+        &mut self,
+        m: ModuleId,
+        defs: &[&'static ParamDef],
+        all: bool,
+    ) -> Result<Vec<(&'static ParamDef, Value)>, Error> {
+        let got = self.get_present(m, defs)?;
+        if !all {
+            if let Some((d, _)) = defs.iter().zip(&got).find(|(_, v)| v.is_none()) {
+                let version = self.version(m)?;
+                return Err(Error::Refused(format!(
+                    "module {m} runs firmware {}, which has no {} ({:#04x}); it came with {}",
+                    version_text(version),
+                    d.name,
+                    d.id,
+                    version_text(table::MEASUREMENTS_SINCE)
+                )));
+            }
+        }
+        Ok(defs.iter().zip(got).filter_map(|(d, v)| Some((*d, v?))).collect())
     }
 
     pub fn session(&mut self) -> &mut PowerCube {
@@ -212,13 +274,18 @@ impl Cubes {
 
     /// One pipelined burst, no retries: the first failure fails the lot. A
     /// poll is repeated anyway, and a late one is worse than a missed one.
+    /// A parameter the module's firmware lacks reads NaN without being asked.
     pub fn read_now(&mut self, m: ModuleId, params: &[u8]) -> Result<Vec<f64>, Error> {
-        let reqs: Vec<_> = params.iter().map(|p| (m, Request::GetExtended { param: *p })).collect();
+        let has = self.has_params(m, params)?;
+        let asked: Vec<u8> = params.iter().zip(&has).filter(|(_, h)| **h).map(|(p, _)| *p).collect();
+        let reqs: Vec<_> = asked.iter().map(|p| (m, Request::GetExtended { param: *p })).collect();
         let answers = self.pc.transact_many(&reqs)?;
-        params
+        let mut got = asked
             .iter()
             .zip(answers)
-            .map(|(p, a)| Ok(decode_get(m, param(*p), &a?)?.as_f64().unwrap_or(f64::NAN)))
+            .map(|(p, a)| -> Result<f64, Error> { Ok(decode_get(m, param(*p), &a?)?.as_f64().unwrap_or(f64::NAN)) });
+        has.iter()
+            .map(|h| if *h { got.next().expect("one answer per asked parameter") } else { Ok(f64::NAN) })
             .collect()
     }
 

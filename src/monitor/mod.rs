@@ -118,7 +118,14 @@ fn powercube(frame: &CanFrame) -> Option<FrameInfo> {
             i.details = details;
             i
         }
-        Ok(Some(CanMessage::Broadcast(b))) => FrameInfo::new(PC, "broadcast", format!("{b:?} to all")),
+        Ok(Some(CanMessage::Broadcast(b))) => {
+            let mut i = FrameInfo::new(PC, "broadcast", format!("{b} to all"));
+            i.details = json!({"command": b.command().name()});
+            if let pc_can::Broadcast::ChangeBaudrate(p) = b {
+                i.details["bitrate"] = json!(pc_can::Broadcast::bitrate(p));
+            }
+            i
+        }
         Ok(None) => return None,
         Err(e) => {
             let mut i = FrameInfo::new(PC, "raw", String::new());
@@ -129,7 +136,9 @@ fn powercube(frame: &CanFrame) -> Option<FrameInfo> {
     })
 }
 
-fn describe_ack(resp: &Response) -> (String, serde_json::Value) {
+/// An acknowledge for humans and as JSON details: the parameter's value by
+/// its table type (flag words with their flags), the motion by name.
+pub fn describe_ack(resp: &Response) -> (String, serde_json::Value) {
     match resp {
         Response::Get { param, data } => {
             let Some(def) = pc_table::param(*param) else {
@@ -286,6 +295,14 @@ mod tests {
         assert_eq!(st.kind, "ack");
         assert!(st.summary.contains("CubeState") && st.summary.contains("STATE_HOME_OK"), "{}", st.summary);
         assert_eq!(d("100#0700").kind, "broadcast");
+        let baud = d("100#0902");
+        assert_eq!(baud.summary, "ChangeBaudrate 500 kbit/s to all");
+        assert_eq!(baud.details["bitrate"], 500_000);
+        assert_eq!(d("100#0200").summary, "Halt to all");
+        // The vendor library's SaveParameters is no command of the manual.
+        let save = d("0E3#10");
+        assert_eq!((save.kind, save.module), ("raw", Some(3)));
+        assert!(save.error.as_deref().unwrap_or("").contains("unknown command id"), "{:?}", save.error);
         let goto = d("201#2301008813000000");
         assert_eq!((goto.family, goto.kind, goto.node, goto.module), (CD, "command", Some(1), Some(1)));
         assert_eq!(d("000#0101").kind, "nmt");

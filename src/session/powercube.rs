@@ -236,13 +236,14 @@ impl PowerCube {
             Transport::Can(link) => {
                 let frame = b.frame();
                 link.send(&frame)?;
-                self.core.trace(|| TraceEvent::Sent(format!("{frame:<22} broadcast {b:?}")));
+                self.core.trace(|| TraceEvent::Sent(format!("{frame:<22} broadcast {b}")));
             }
             Transport::Rs232 { link, .. } => {
                 let mut bytes = Vec::new();
-                rs232::encode(Direction::ToModule, 0, &b.payload()[..broadcast_len(b)], &mut bytes);
+                // `[cmd, param]` as on CAN, as the vendor's library sends it.
+                rs232::encode(Direction::ToModule, 0, &b.payload(), &mut bytes);
                 link.write_all(&bytes)?;
-                self.core.trace(|| TraceEvent::Sent(format!("{} broadcast {b:?}", hex(&bytes))));
+                self.core.trace(|| TraceEvent::Sent(format!("{} broadcast {b}", hex(&bytes))));
             }
         }
         Ok(())
@@ -371,15 +372,6 @@ pub fn decode_get(module: ModuleId, param: &ParamDef, resp: &Response) -> Result
     };
     Value::decode(param.ty, data.as_slice())
         .map_err(|source| SessionError::Malformed { target: target(module), source })
-}
-
-/// RS232 broadcasts carry only the command byte unless it has a parameter.
-fn broadcast_len(b: Broadcast) -> usize {
-    if matches!(b, Broadcast::ChangeBaudrate(_)) {
-        2
-    } else {
-        1
-    }
 }
 
 /// Wire time of `bytes` bytes at `baud` with 10 bits per byte (8N1).

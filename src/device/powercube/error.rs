@@ -30,6 +30,28 @@ pub enum Error {
     /// Nothing was sent.
     #[error("module {module} is not ready ({})", why.join(", "))]
     NotReady { module: ModuleId, why: Vec<&'static str> },
+    /// The module holds motion commands until the start broadcast
+    /// (CONFIGID_MOD_SYNC_MOTION): a wait for one sent alone would never end.
+    /// Nothing was sent.
+    #[error("module {module} is in sync mode (CONFIGID_MOD_SYNC_MOTION): it holds a motion until the start broadcast")]
+    SyncMode { module: ModuleId },
+    /// A synchronized move names a module not in sync mode: it would start
+    /// on its own target. Nothing was sent.
+    #[error("module {module} is not in sync mode (CONFIGID_MOD_SYNC_MOTION): it would start before the others")]
+    NotSyncMode { module: ModuleId },
+    /// A module of a synchronized move did not take its target: the modules
+    /// given one so far, and that one, were halted (`halted`: whether each
+    /// halt was acknowledged), and no start broadcast was sent.
+    #[error(
+        "the synchronized move was not started: module {module} did not take its target ({})",
+        halted_list(halted)
+    )]
+    SyncAborted {
+        module: ModuleId,
+        halted: Vec<(ModuleId, bool)>,
+        #[source]
+        source: Box<Error>,
+    },
     /// An error flag came up while waiting for the end of a motion.
     #[error("module {module} reports an error while {what}: {} (state {cube:#010x})", errors.join(", "))]
     Faulted { module: ModuleId, what: String, errors: Vec<&'static str>, cube: u32 },
@@ -62,12 +84,25 @@ pub(super) fn halt_note(m: ModuleId, failed: Option<&str>) -> String {
     }
 }
 
+/// `modules 3, 5 halted, no start broadcast sent`, a failed halt in capitals.
+fn halted_list(halted: &[(ModuleId, bool)]) -> String {
+    let ok: Vec<String> = halted.iter().filter(|(_, ok)| *ok).map(|(m, _)| m.to_string()).collect();
+    let mut out = Vec::new();
+    if !ok.is_empty() {
+        out.push(format!("module{} {} halted", if ok.len() == 1 { "" } else { "s" }, ok.join(", ")));
+    }
+    out.extend(halted.iter().filter(|(_, ok)| !*ok).map(|(m, _)| format!("HALT OF MODULE {m} FAILED")));
+    out.push("no start broadcast sent".into());
+    out.join(", ")
+}
+
 impl Error {
     /// What the module itself reported: its CubeState errors, or the
     /// refusal the session received.
     pub fn refusal(&self) -> Option<Refusal> {
         match self {
             Self::Faulted { cube, .. } => Some(Refusal::powercube(*cube)),
+            Self::SyncAborted { source, .. } => source.refusal(),
             Self::Session(e) | Self::Motion { source: e, .. } | Self::LostTrack { source: e, .. } => {
                 e.refusal().cloned()
             }
@@ -77,7 +112,8 @@ impl Error {
 
     pub fn kind(&self) -> ErrorKind {
         match self {
-            Self::Limit(_) | Self::Refused(_) => ErrorKind::Usage,
+            Self::SyncAborted { source, .. } => source.kind(),
+            Self::Limit(_) | Self::Refused(_) | Self::SyncMode { .. } | Self::NotSyncMode { .. } => ErrorKind::Usage,
             Self::Session(e) | Self::Motion { source: e, .. } | Self::LostTrack { source: e, .. } => e.kind(),
             Self::NotReady { .. } | Self::Faulted { .. } | Self::ConfigNotKept { .. } => ErrorKind::Device,
             Self::Interrupted { .. } => ErrorKind::Interrupted,
@@ -87,6 +123,13 @@ impl Error {
 
     /// Whether the error was raised before anything was sent.
     pub fn nothing_sent(&self) -> bool {
-        matches!(self, Self::Limit(_) | Self::Refused(_) | Self::NotReady { .. })
+        matches!(
+            self,
+            Self::Limit(_)
+                | Self::Refused(_)
+                | Self::NotReady { .. }
+                | Self::SyncMode { .. }
+                | Self::NotSyncMode { .. }
+        )
     }
 }

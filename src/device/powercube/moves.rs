@@ -3,6 +3,7 @@
 //! the value must be within the module's own limits as read from it.
 
 use super::{param, Cubes, Error};
+use crate::proto::powercube::flags::config;
 use crate::proto::powercube::frame::Value;
 use crate::proto::powercube::limits::{self, Limits};
 use crate::proto::powercube::table::ids;
@@ -41,7 +42,7 @@ pub struct Moved {
 }
 
 /// The wire values of a move that passed the checks that need no module.
-struct Wire {
+pub(super) struct Wire {
     value: MotionValue,
     vel: Option<MotionValue>,
     acc: Option<MotionValue>,
@@ -132,6 +133,29 @@ impl Cubes {
     /// read), then the module's limits (read from it) unless `force`. A
     /// refusal sends no motion command; the motion is never sent twice.
     pub fn move_module(&mut self, m: ModuleId, mv: Move, ticks: bool, force: bool) -> Result<Moved, Error> {
+        let wire = self.checked(m, mv, ticks, force)?;
+        self.send_move(m, mv, ticks, wire)
+    }
+
+    /// [`Self::move_module`] for a caller that waits for the end of the
+    /// motion: a module in sync mode would hold it until a start broadcast
+    /// nobody sends, so it is refused before anything is sent.
+    pub fn move_to_wait_for(&mut self, m: ModuleId, mv: Move, ticks: bool, force: bool) -> Result<Moved, Error> {
+        self.ensure_starts_alone(m)?;
+        self.move_module(m, mv, ticks, force)
+    }
+
+    /// Refuses a module that holds motion commands for the start broadcast
+    /// (CONFIGID_MOD_SYNC_MOTION; the manual: valid only for CAN-Bus).
+    pub fn ensure_starts_alone(&mut self, m: ModuleId) -> Result<(), Error> {
+        if self.session().is_can() && self.get_u32(m, ids::CONFIG)? & config::SYNC_MOTION != 0 {
+            return Err(Error::SyncMode { module: m });
+        }
+        Ok(())
+    }
+
+    /// Every check of [`Self::move_module`], nothing sent but reads.
+    pub(super) fn checked(&mut self, m: ModuleId, mv: Move, ticks: bool, force: bool) -> Result<Wire, Error> {
         let ticks = mv.ticks(ticks);
         let wire = mv.wire(ticks)?;
         self.ensure_ready(m)?;
@@ -139,6 +163,13 @@ impl Cubes {
             let l = self.limits(m, ticks)?;
             mv.within(&l, m)?;
         }
+        Ok(wire)
+    }
+
+    /// Sends a checked move: TargetVel / TargetAcc when given, then the
+    /// motion command, once.
+    pub(super) fn send_move(&mut self, m: ModuleId, mv: Move, ticks: bool, wire: Wire) -> Result<Moved, Error> {
+        let ticks = mv.ticks(ticks);
         let (vel_id, acc_id) =
             if ticks { (ids::TARGET_VEL_INC, ids::TARGET_ACC_INC) } else { (ids::TARGET_VEL, ids::TARGET_ACC) };
         for (id, v) in [(vel_id, wire.vel), (acc_id, wire.acc)] {
@@ -160,7 +191,9 @@ impl Cubes {
 
     /// A ramp in units with the module's current velocity and acceleration,
     /// to a position or by a step from ActPos: checked like
-    /// [`Self::move_module`]. Returns the target position.
+    /// [`Self::move_module`]. Returns the target position. A module in sync
+    /// mode is refused: a key press that moves nothing until someone's
+    /// broadcast would start it later, unexpected.
     pub fn ramp(&mut self, m: ModuleId, target: Target) -> Result<f64, Error> {
         let pos = match target {
             Target::To(p) => p,
@@ -169,7 +202,10 @@ impl Cubes {
                 self.read_now(m, &[ids::ACT_POS])?[0] + step
             }
         };
-        self.move_module(m, Move::Ramp { pos, vel: None, acc: None }, false, false)?;
+        let mv = Move::Ramp { pos, vel: None, acc: None };
+        mv.check(false)?;
+        self.ensure_starts_alone(m)?;
+        self.move_module(m, mv, false, false)?;
         Ok(pos)
     }
 }

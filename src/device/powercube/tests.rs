@@ -222,3 +222,168 @@ fn force_skips_the_module_limits_but_not_the_wire_checks() {
     assert!(r.cubes.move_module(id(3), Move::Cur(f64::NAN), false, true).is_err());
     assert_eq!(r.motions_sent(), 0);
 }
+
+/// The requests that change something (writes and motions), by module.
+fn changes(sent: &[CanMessage]) -> Vec<(u8, Request)> {
+    sent.iter()
+        .filter_map(|s| match s {
+            CanMessage::Request { module, request } if !request.is_read() => Some((module.get(), *request)),
+            _ => None,
+        })
+        .collect()
+}
+
+impl Rig {
+    fn sync_mode(&mut self, modules: &[u8]) {
+        let change = ConfigChange { set: config::SYNC_MOTION, ..ConfigChange::default() };
+        for m in modules {
+            self.cubes.write_config(id(*m), change).unwrap();
+        }
+        self.take_sent();
+    }
+}
+
+fn three() -> [ModuleId; 3] {
+    [id(3), id(5), id(17)]
+}
+
+#[test]
+fn a_synchronized_ramp_starts_every_module_only_at_the_broadcast() {
+    let mut r = rig();
+    r.sync_mode(&[3, 5, 17]);
+    let plan = SyncRamp::new(&three(), &[0.5, -0.5, 0.25], None, None, false).unwrap();
+    let loaded = r.cubes.load_sync(&plan, false).unwrap();
+    let sent = r.take_sent();
+    assert_eq!(changes(&sent).iter().map(|(m, _)| *m).collect::<Vec<_>>(), [3, 5, 17], "one target each");
+    assert!(!sent.iter().any(|s| matches!(s, CanMessage::Broadcast(_))));
+    r.clock.advance(Duration::from_millis(300));
+    for m in [3, 5, 17] {
+        let (cube, vel) = r.module(m);
+        assert_eq!((cube & state::MOTION, vel), (0, 0.0), "module {m} holds its target");
+    }
+    let started = r.cubes.start_sync(loaded).unwrap();
+    assert_eq!(started.iter().map(|(m, _)| m.get()).collect::<Vec<_>>(), [3, 5, 17]);
+    assert_eq!(r.take_sent(), [CanMessage::Broadcast(Broadcast::StartMotion)]);
+    r.clock.advance(Duration::from_millis(100));
+    for m in [3, 5, 17] {
+        let (cube, vel) = r.module(m);
+        assert!(cube & state::MOTION != 0 && vel != 0.0, "module {m} started");
+    }
+    let spec = WaitSpec { poll: Duration::from_millis(20), timeout: Duration::from_secs(30), halt_attempts: 1 };
+    let ends = r.cubes.wait_sync(&started, false, spec, &|| false, &mut |_, _, _| {}).unwrap();
+    let at: Vec<f32> = ends.iter().map(|e| e.position).collect();
+    assert_eq!(at, [0.5, -0.5, 0.25]);
+}
+
+#[test]
+fn a_synchronized_ramp_checks_every_module_before_the_first_frame() {
+    let mut r = rig();
+    // Module 17 is not in sync mode: it would start on its own.
+    r.sync_mode(&[3, 5]);
+    let plan = SyncRamp::new(&three(), &[0.5, -0.5, 0.25], None, None, false).unwrap();
+    let e = r.cubes.move_sync(&plan, false).unwrap_err();
+    assert!(matches!(e, Error::NotSyncMode { module } if module.get() == 17) && e.nothing_sent(), "{e:?}");
+    // Module 17's target beyond MaxPos.
+    r.sync_mode(&[17]);
+    let plan = SyncRamp::new(&three(), &[0.5, -0.5, 2.0], Some(0.05), None, false).unwrap();
+    let e = r.cubes.move_sync(&plan, false).unwrap_err();
+    assert!(matches!(e, Error::Limit(LimitError::Exceeds { limit_name: "MaxPos", .. })), "{e:?}");
+    assert_eq!(changes(&r.take_sent()), [], "not even TargetVel went out");
+    // Pairing and values, before the link is touched.
+    assert!(SyncRamp::new(&three(), &[0.5, 0.5], None, None, false).is_err());
+    assert!(SyncRamp::new(&[id(3), id(3)], &[0.5, 0.5], None, None, false).is_err());
+    assert!(SyncRamp::new(&[id(3)], &[f64::NAN], None, None, false).is_err());
+}
+
+#[test]
+fn waiting_for_a_module_in_sync_mode_without_a_broadcast_is_refused_before_sending() {
+    let mut r = rig();
+    r.sync_mode(&[3]);
+    let e = r.cubes.move_to_wait_for(id(3), Move::Ramp { pos: 0.5, vel: None, acc: None }, false, false).unwrap_err();
+    assert!(matches!(e, Error::SyncMode { .. }) && e.nothing_sent(), "{e:?}");
+    assert_eq!(e.kind(), crate::session::ErrorKind::Usage);
+    assert_eq!(changes(&r.take_sent()), []);
+    // Nor does the dashboard's ramp send anything to it.
+    assert!(matches!(r.cubes.ramp(id(3), Target::By(0.1)), Err(Error::SyncMode { .. })));
+    assert_eq!(changes(&r.take_sent()), []);
+    // Not in sync mode: the same call moves.
+    r.cubes.move_to_wait_for(id(5), Move::Ramp { pos: 0.5, vel: None, acc: None }, false, false).unwrap();
+    assert_eq!(r.motions_sent(), 1);
+}
+
+/// A link that loses every SetMotion to one module (as a bus losing a frame).
+struct LosesMotionTo {
+    inner: Recording,
+    module: u8,
+}
+
+impl LosesMotionTo {
+    fn keeps(&self, frame: &CanFrame) -> bool {
+        !matches!(classify(frame), Ok(Some(CanMessage::Request { module, request: Request::SetMotion(_) }))
+            if module.get() == self.module)
+    }
+}
+
+impl CanLink for LosesMotionTo {
+    fn send(&mut self, frame: &CanFrame) -> Result<(), LinkError> {
+        if self.keeps(frame) {
+            self.inner.send(frame)
+        } else {
+            lock(&self.inner.sent).push(*frame);
+            Ok(())
+        }
+    }
+    fn send_many(&mut self, frames: &[CanFrame]) -> Result<(), LinkError> {
+        frames.iter().try_for_each(|f| self.send(f))
+    }
+    fn recv(&mut self, timeout: Duration) -> Result<Option<CanFrame>, LinkError> {
+        self.inner.recv(timeout)
+    }
+}
+
+#[test]
+fn a_target_not_taken_halts_the_loaded_modules_and_sends_no_start() {
+    let mut r = rig();
+    r.sync_mode(&[3, 5, 17]);
+    let shared: Arc<dyn Clock> = Arc::new(r.clock.clone());
+    let inner = Recording { inner: Box::new(r.bench.bus.open()), sent: Arc::clone(&r.sent) };
+    let link = LosesMotionTo { inner, module: 17 };
+    let mut cubes = Cubes::new(PowerCube::over_can(Box::new(link)).with_clock(shared));
+    let plan = SyncRamp::new(&three(), &[0.5, -0.5, 0.25], None, None, false).unwrap();
+    let e = cubes.move_sync(&plan, false).unwrap_err();
+    let Error::SyncAborted { module, halted, .. } = &e else { panic!("{e:?}") };
+    assert_eq!(module.get(), 17);
+    assert_eq!(halted.iter().map(|(m, ok)| (m.get(), *ok)).collect::<Vec<_>>(), [(3, true), (5, true), (17, true)]);
+    assert_eq!(
+        e.to_string(),
+        "the synchronized move was not started: module 17 did not take its target \
+         (modules 3, 5, 17 halted, no start broadcast sent)"
+    );
+    assert_eq!(e.kind(), crate::session::ErrorKind::Timeout);
+    let sent = r.take_sent();
+    assert!(!sent.iter().any(|s| matches!(s, CanMessage::Broadcast(_))), "{sent:?}");
+    // What modules 3 and 5 held was dropped: even a start broadcast moves nothing.
+    r.cubes.session().broadcast(Broadcast::StartMotion).unwrap();
+    r.clock.advance(Duration::from_millis(200));
+    for m in [3, 5, 17] {
+        let (cube, vel) = r.module(m);
+        assert!(cube & state::HALTED != 0 && vel == 0.0, "module {m}: {cube:#x}");
+    }
+}
+
+#[test]
+fn a_failed_wait_of_a_synchronized_move_halts_the_other_modules() {
+    let mut r = rig();
+    r.sync_mode(&[3, 5, 17]);
+    let plan = SyncRamp::new(&three(), &[2.0, -2.0, 0.9], Some(0.05), None, false).unwrap();
+    let started = r.cubes.move_sync(&plan, false).unwrap();
+    r.clock.advance(Duration::from_millis(200));
+    lock(&r.bench.powercube).module_mut(3).unwrap().inject_error(state::TOW_ERROR);
+    let spec = WaitSpec { poll: Duration::from_millis(20), timeout: Duration::from_secs(60), halt_attempts: 1 };
+    let e = r.cubes.wait_sync(&started, false, spec, &|| false, &mut |_, _, _| {}).unwrap_err();
+    assert!(matches!(e, Error::Faulted { module, .. } if module.get() == 3), "{e:?}");
+    for m in [5, 17] {
+        let (cube, vel) = r.module(m);
+        assert!(cube & state::HALTED != 0 && vel == 0.0, "module {m} halted with the move: {cube:#x}");
+    }
+}

@@ -23,7 +23,8 @@ pub struct WaitSpec {
 /// What a wait is for.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Goal {
-    /// Homing done: STATE_HOME_OK and no motion.
+    /// Homing done: STATE_HOME_OK and no motion, with or without
+    /// RAMP_END (see [`homed`]).
     Homed,
     /// A ramp to `target` (units, or ticks with `ticks`) ended.
     RampEnd { target: f64, ticks: bool },
@@ -109,7 +110,7 @@ impl Cubes {
     /// or stands at the target (a ramp to where it stands never moves).
     fn done_test(&mut self, m: ModuleId, goal: Goal) -> Result<Box<dyn FnMut(u32, f32) -> bool>, Error> {
         Ok(match goal {
-            Goal::Homed => Box::new(|cube, _| cube & state::HOME_OK != 0 && cube & state::MOTION == 0),
+            Goal::Homed => Box::new(|cube, _| homed(cube)),
             Goal::RampEnd { target, ticks } => {
                 // ActPos is in units: a tick target is converted with IncRatio.
                 let scale = if ticks {
@@ -126,5 +127,26 @@ impl Cubes {
                 })
             }
         })
+    }
+}
+
+/// The end of homing. HOME_OK is the evidence that homing is done; RAMP_END
+/// is not asked for: the vendor's library waits for both, but IPA's driver
+/// checks HOME_OK only, so some firmware evidently ends homing without it.
+/// RAMP_END alone proves nothing about homing (a ramp sets it too).
+pub fn homed(cube: u32) -> bool {
+    cube & state::HOME_OK != 0 && cube & state::MOTION == 0
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn homing_ends_on_home_ok_with_or_without_ramp_end() {
+        assert!(homed(state::HOME_OK));
+        assert!(homed(state::HOME_OK | state::RAMP_END));
+        assert!(!homed(state::RAMP_END), "a ramp's end is not the end of homing");
+        assert!(!homed(state::HOME_OK | state::MOTION), "still moving");
     }
 }

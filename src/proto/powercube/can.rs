@@ -56,6 +56,16 @@ impl Broadcast {
         CanFrame::new(BROADCAST_ID, &self.payload()).expect("valid broadcast frame")
     }
 
+    /// The manual's meaning of ChangeBaudrate's parameter, in bit/s.
+    pub fn bitrate(param: u8) -> Option<u32> {
+        match param {
+            1 => Some(250_000),
+            2 => Some(500_000),
+            3 => Some(1_000_000),
+            _ => None,
+        }
+    }
+
     pub fn decode(data: &[u8]) -> Result<Self, DecodeError> {
         let (&cmd, rest) = data.split_first().ok_or(DecodeError::TooShort { need: 1, got: 0 })?;
         let param = rest.first().copied().unwrap_or(0);
@@ -69,6 +79,28 @@ impl Broadcast {
             0x0f => Self::StartMotion,
             other => return Err(DecodeError::Unknown { what: "broadcast command", value: other.into() }),
         })
+    }
+}
+
+/// The manual's names: `Halt`, `WatchdogRefresh`, `ChangeBaudrate 500 kbit/s`.
+impl std::fmt::Display for Broadcast {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let name = match self {
+            Self::Reset => "Reset",
+            Self::Home => "Home",
+            Self::Halt => "Halt",
+            Self::WatchdogRefresh => "WatchdogRefresh",
+            Self::SavePos => "SavePos",
+            Self::StartMotion => "StartMotion",
+            Self::ChangeBaudrate(p) => {
+                return match Self::bitrate(*p) {
+                    Some(b) if b >= 1_000_000 => write!(f, "ChangeBaudrate {} Mbit/s", b / 1_000_000),
+                    Some(b) => write!(f, "ChangeBaudrate {} kbit/s", b / 1000),
+                    None => write!(f, "ChangeBaudrate {p} (not a rate of the manual: 1, 2 or 3)"),
+                }
+            }
+        };
+        f.write_str(name)
     }
 }
 
@@ -158,6 +190,15 @@ mod tests {
             ack_from(m17(), &ext),
             Some(Ok(Response::MotionAckExt { motion: 14, pos: 0.75f32.to_le_bytes(), short_state: 0x20, dio: 0x11 }))
         );
+    }
+
+    #[test]
+    fn broadcasts_say_what_they_mean() {
+        assert_eq!(Broadcast::ChangeBaudrate(2).to_string(), "ChangeBaudrate 500 kbit/s");
+        assert_eq!(Broadcast::ChangeBaudrate(1).to_string(), "ChangeBaudrate 250 kbit/s");
+        assert_eq!(Broadcast::ChangeBaudrate(3).to_string(), "ChangeBaudrate 1 Mbit/s");
+        assert!(Broadcast::ChangeBaudrate(7).to_string().contains("not a rate"));
+        assert_eq!(Broadcast::StartMotion.to_string(), "StartMotion");
     }
 
     #[test]

@@ -347,6 +347,11 @@ impl Request {
             CommandId::RecalcPidParam => exact(0).map(|_| Self::RecalcPidParam)?,
             CommandId::ResetTime => exact(0).map(|_| Self::ResetTime)?,
             CommandId::Watchdog => exact(0).map(|_| Self::Watchdog)?,
+            // The vendor's library pads GetExtended with zeros to 8 bytes;
+            // anything else after the parameter is not a GetExtended.
+            CommandId::GetExtended if rest.len() > 1 && rest[1..].iter().all(|b| *b == 0) => {
+                Self::GetExtended { param: rest[0] }
+            }
             CommandId::GetExtended => exact(1).map(|_| Self::GetExtended { param: rest[0] })?,
             CommandId::SetExtended => {
                 if !(2..=7).contains(&rest.len()) {
@@ -360,8 +365,12 @@ impl Request {
             CommandId::SetMotion => {
                 let (&id, args) = rest.split_first().ok_or(DecodeError::TooShort { need: 2, got: data.len() })?;
                 let def = table::motion(id).ok_or(DecodeError::Unknown { what: "motion id", value: id.into() })?;
+                // The manual's current in digits is an Int16; the vendor's
+                // library sends it as an Int32, which modules evidently take.
+                let wide_digits = def.arg == MotionArg::Int16 && !def.timed && args.len() == 4;
                 let vlen = match def.arg {
                     MotionArg::Float | MotionArg::Int32 => 4,
+                    MotionArg::Int16 if wide_digits => 4,
                     MotionArg::Int16 => 2,
                 };
                 let need = vlen + if def.timed { 2 } else { 0 };
@@ -374,6 +383,9 @@ impl Request {
                 let value = match def.arg {
                     MotionArg::Float => MotionValue::Float(f32::from_le_bytes([args[0], args[1], args[2], args[3]])),
                     MotionArg::Int32 => MotionValue::Int32(i32::from_le_bytes([args[0], args[1], args[2], args[3]])),
+                    MotionArg::Int16 if wide_digits => {
+                        MotionValue::Int32(i32::from_le_bytes([args[0], args[1], args[2], args[3]]))
+                    }
                     MotionArg::Int16 => MotionValue::Int16(i16::from_le_bytes([args[0], args[1]])),
                 };
                 let time_ms = def.timed.then(|| u16::from_le_bytes([args[vlen], args[vlen + 1]]));
@@ -510,6 +522,24 @@ mod tests {
         for r in reqs {
             assert_eq!(Request::decode(r.to_payload().as_slice()), Ok(r));
         }
+    }
+
+    #[test]
+    fn get_extended_padded_with_zeros_is_a_get_extended() {
+        let padded = [0x0a, 0x27, 0, 0, 0, 0, 0, 0];
+        assert_eq!(Request::decode(&padded), Ok(Request::GetExtended { param: 0x27 }));
+        assert_eq!(Request::decode(&[0x0a, 0x27, 0, 1]), Err(DecodeError::TooLong { len: 4 }));
+        assert!(Request::decode(&[0x0a]).is_err());
+    }
+
+    #[test]
+    fn current_in_digits_decodes_in_the_manuals_int16_and_the_vendor_librarys_int32() {
+        // The vendor library's moveCurInc(-100): [0b 0d 9c ff ff ff].
+        let wide = Request::decode(&[0x0b, 0x0d, 0x9c, 0xff, 0xff, 0xff]);
+        assert_eq!(wide, Ok(Request::SetMotion(Motion { id: 13, value: MotionValue::Int32(-100), time_ms: None })));
+        let narrow = Request::decode(&[0x0b, 0x0d, 0x9c, 0xff]);
+        assert_eq!(narrow, Ok(Request::SetMotion(Motion { id: 13, value: MotionValue::Int16(-100), time_ms: None })));
+        assert_eq!(Request::decode(&[0x0b, 0x0d, 0x9c, 0xff, 0xff]), Err(DecodeError::TooLong { len: 5 }));
     }
 
     #[test]

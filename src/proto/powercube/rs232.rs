@@ -388,6 +388,20 @@ mod tests {
     }
 
     #[test]
+    fn broadcasts_are_cmd_and_param_at_address_0() {
+        use crate::proto::powercube::can::Broadcast;
+        let frame = |b: Broadcast| {
+            let mut out = Vec::new();
+            encode(Direction::ToModule, BROADCAST, &b.payload(), &mut out);
+            out
+        };
+        // The vendor library's halt-all, and docs/guide.md's reset-all and StartMotion.
+        assert_eq!(frame(Broadcast::Halt), [0x02, 0x04, 0x10, 0x82, 0x10, 0x82, 0x00, 0x08, 0x03]);
+        assert_eq!(frame(Broadcast::Reset), [0x02, 0x04, 0x10, 0x82, 0x00, 0x00, 0x06, 0x03]);
+        assert_eq!(frame(Broadcast::StartMotion), [0x02, 0x04, 0x10, 0x82, 0x0f, 0x00, 0x15, 0x03]);
+    }
+
+    #[test]
     fn escapes_telid_and_bcc() {
         // Broadcast (module 0) of 2 bytes: TELID 04 02, its low byte escaped.
         let mut out = Vec::new();

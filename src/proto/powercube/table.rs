@@ -205,8 +205,10 @@ pub enum Access {
 }
 
 impl Access {
+    /// A row marked neither way (DefA0) reads like the ROM value it is: the
+    /// vendor's library reads it from real modules.
     pub const fn readable(self) -> bool {
-        matches!(self, Self::Read | Self::ReadWrite)
+        matches!(self, Self::Read | Self::ReadWrite | Self::None)
     }
     pub const fn writable(self) -> bool {
         matches!(self, Self::Write | Self::ReadWrite)
@@ -397,6 +399,21 @@ pub fn resolve_param(text: &str) -> Option<&'static ParamDef> {
 
 /// Parameter ids other code names directly. Each is checked against
 /// [`PARAMS`] by name in the tests, so a typo cannot drift from the table.
+/// The first firmware (4.6.01) that has the measured temperature and supply
+/// voltages: the vendor's library reads them only from this version on.
+pub const MEASUREMENTS_SINCE: u16 = 0x4601;
+
+/// `3.5.18` from DefCubeVersion 0x3518.
+pub fn version_text(v: u16) -> String {
+    format!("{:x}.{:x}.{:02x}", v >> 12, (v >> 8) & 0xf, v & 0xff)
+}
+
+/// Whether firmware `version` has parameter `id`: older firmware lacks
+/// ActFTemp, ActFMotorSupply and ActFLogicSupply and does not answer them.
+pub fn firmware_has(version: u16, id: u8) -> bool {
+    version >= MEASUREMENTS_SINCE || !matches!(id, ids::ACT_F_TEMP | ids::ACT_F_MOTOR_SUPPLY | ids::ACT_F_LOGIC_SUPPLY)
+}
+
 pub mod ids {
     /// `DefHomeOffset`
     pub const DEF_HOME_OFFSET: u8 = 0x00;
@@ -605,6 +622,16 @@ mod tests {
     use super::*;
 
     #[test]
+    fn measurements_come_with_firmware_4_6_01() {
+        assert_eq!(version_text(0x3518), "3.5.18");
+        assert_eq!(version_text(MEASUREMENTS_SINCE), "4.6.01");
+        for id in [ids::ACT_F_TEMP, ids::ACT_F_MOTOR_SUPPLY, ids::ACT_F_LOGIC_SUPPLY] {
+            assert!(!firmware_has(0x3518, id) && !firmware_has(0x4600, id) && firmware_has(0x4601, id));
+        }
+        assert!(firmware_has(0x3518, ids::ACT_POS) && firmware_has(0, ids::DEF_A0));
+    }
+
+    #[test]
     fn params_match_the_manual_table() {
         // Manual 4.6 lists 100 rows, DefHomeOffset 0x00 .. ActFScanPosRisgEdge 0xA3.
         assert_eq!(PARAMS.len(), 100);
@@ -650,6 +677,7 @@ mod tests {
         assert_eq!(row(ids::ACT_F_POS_STATE_DIO).ty, ParamType::FloatStateDio);
         assert_eq!(row(ids::ACT_F_POS_TIME).ty, ParamType::FloatTime);
         assert_eq!(row(ids::DEF_A0).access, Access::None);
+        assert!(row(ids::DEF_A0).access.readable() && !row(ids::DEF_A0).access.writable());
         for id in [ids::TARGET_POS, ids::TARGET_VEL, ids::TARGET_ACC] {
             assert_eq!(row(id).access, Access::Write);
             assert_eq!(row(id).class, ParamClass::Target);

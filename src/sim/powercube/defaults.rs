@@ -5,9 +5,16 @@
 use super::ModuleKind;
 use crate::proto::powercube::flags::{config, setup};
 
-/// Firmware version the bench reports (3.5.18, as `scan` shows in
-/// cli-contract.md: 13592).
-pub const DEFAULT_VERSION: u16 = 0x3518;
+/// Firmware version the bench's modules report (4.6.01): the first that has
+/// the temperature and supply voltages the simulation answers.
+pub const DEFAULT_VERSION: u16 = 0x4601;
+
+/// The older firmware module 17 keeps (3.5.18, as `scan` shows in
+/// cli-contract.md: 13592): it does not answer the 4.6 measurements.
+pub const LEGACY_VERSION: u16 = 0x3518;
+
+/// The module of the contract's bench that keeps [`LEGACY_VERSION`].
+pub const LEGACY_MODULE: u8 = 17;
 
 /// The ROM values, one field per `Def*` parameter plus what the simulation
 /// needs about the bench (home switch distance, servo cycle, scales).

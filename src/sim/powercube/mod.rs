@@ -25,10 +25,24 @@
 //! values are in `defaults.rs`: rotary MinPos/MaxPos -3.1/3.1 rad, MaxVel
 //! 1.5 rad/s, MaxAcc 3 rad/s², linear 0..1 m (the manual's ramp to 0.75 must
 //! fit), 0.1 m/s, 0.5 m/s², MaxCur 5 A, 24 V logic, 48 V motor, 35 °C,
-//! version 0x3518, IncRatio = DefPulsesPerTurn * DefGearRatio per output
+//! firmware 4.6.01 (0x4601), IncRatio = DefPulsesPerTurn * DefGearRatio per output
 //! turn (2π rad, or DefLinRatio m).
 //!
-//! Decisions where the manual is silent:
+//! Decisions where the manual is silent (the vendor's library, libm5api,
+//! decides where it has an opinion: what it sends and expects is what real
+//! modules do):
+//!
+//! - **Firmware.** Module 17 keeps firmware 3.5.18 (the contract's `scan`
+//!   shows 13592) and, like real modules before 4.6.01, does not answer
+//!   ActFTemp, ActFMotorSupply and ActFLogicSupply; every other module runs
+//!   4.6.01 and answers them.
+//! - **Commands outside the manual.** The library's padded GetExtended (the
+//!   two bytes and zeros up to 8) is answered like the short one. Its
+//!   SaveParameters (0x10) is not a command of the manual: the module does
+//!   not answer it ([`PowerCubeBus::set_tracer`] hears why, `monitor` shows
+//!   it as an unknown command id).
+//! - **Current in digits** (ICUR_MODE, ICUR_ACK) is taken in the manual's
+//!   Int16 and in the library's Int32.
 //!
 //! - **Parameters.** GetExtended of a parameter the table marks write-only
 //!   (TargetPos/Vel/Acc) or not readable (DefA0) answers the current value;
@@ -54,7 +68,8 @@
 //!   HOME_OK, sets MOTION and ramps there at |DefHomeVel| / DefHomeAcc, then
 //!   creeps onto the edge for 0.2 s (about 1.7 s in all from power on). At the
 //!   edge ActPos becomes HomeOffset (PosCount keeps counting, RefPosCount
-//!   latches it) and HOME_OK is set; RAMP_END is not (homing is not a ramp).
+//!   latches it) and HOME_OK and RAMP_END are set (the vendor's library
+//!   waits for both at the end of homing).
 //!   With ZERO_MOVE_AFTER_HOK a ramp to 0 follows. The switch (STATE_SWR,
 //!   DioSetup INSWR) is active just past the edge. Home is ignored while
 //!   homing, halted or in error.
@@ -118,7 +133,8 @@
 //!   only by [`Module::inject_error`]), no hard limit switches, no heating.
 //! - **Broadcasts.** Reset, Home, Halt, watchdog refresh, SavePos (stores
 //!   ActFSavedPos) and StartMotion act on every module; ChangeBaudrate is
-//!   ignored. ResetTime zeroes the 16-bit millisecond stamp of ActFPosTime.
+//!   ignored. On RS232 both `[cmd, 0]` (the library's, axisctl's) and the
+//!   command byte alone are taken. ResetTime zeroes the 16-bit millisecond stamp of ActFPosTime.
 
 mod defaults;
 mod module;
@@ -130,16 +146,18 @@ mod tests;
 
 use std::time::Instant;
 
-pub use defaults::{Defaults, DEFAULT_VERSION};
+pub use defaults::{Defaults, DEFAULT_VERSION, LEGACY_MODULE, LEGACY_VERSION};
 pub use module::{Module, SERVO_CYCLE_S, WATCHDOG_PERIOD_S};
 pub use params::{LOGIC_SUPPLY_V, MOTOR_SUPPLY_V, TEMPERATURE_C};
 
 use module::Iface;
 
 use crate::proto::can::CanFrame;
-use crate::proto::powercube::can::{ack_frame, classify, Broadcast, CanMessage};
+use crate::proto::powercube::can::{ack_frame, classify, Broadcast, CanMessage, GET_BASE, PUT_BASE};
 use crate::proto::powercube::rs232::{self, Direction};
+use crate::proto::powercube::table;
 use crate::proto::powercube::ModuleId;
+use crate::proto::powercube::Request;
 
 /// Rotary (rad) or linear (m).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, serde::Serialize)]
@@ -159,10 +177,22 @@ pub struct ModuleSpec {
 }
 
 impl ModuleSpec {
-    /// A module with the bench's version and a serial derived from its id.
+    /// A module with the bench's version (module 17 the legacy one) and a
+    /// serial derived from its id.
     pub fn new(id: ModuleId, kind: ModuleKind) -> Self {
-        Self { id, kind, serial: 12328 + u32::from(id.get()), version: DEFAULT_VERSION }
+        let version = if id.get() == LEGACY_MODULE { LEGACY_VERSION } else { DEFAULT_VERSION };
+        Self { id, kind, serial: 12328 + u32::from(id.get()), version }
     }
+}
+
+/// Where a bus reports, in words, each host frame to one of its modules
+/// that it leaves unanswered (`axisctl --trace sim`): a caller waiting out
+/// its timeout can see why.
+pub type Tracer = fn(&str);
+
+/// A standard id a host sends PowerCube commands on (`0x0C0 + M`, `0x0E0 + M`).
+fn is_request_id(frame: &CanFrame) -> bool {
+    !frame.is_extended() && matches!(frame.id() & !0x1f, GET_BASE | PUT_BASE) && frame.id() & 0x1f != 0
 }
 
 /// Several modules on one bus (CAN, or an RS232 line with addresses).
@@ -171,6 +201,7 @@ pub struct PowerCubeBus {
     /// Sorted by id, ids unique.
     modules: Vec<Module>,
     rs232: rs232::Decoder,
+    tracer: Option<Tracer>,
 }
 
 impl PowerCubeBus {
@@ -182,7 +213,35 @@ impl PowerCubeBus {
                 modules.insert(at, Module::new(spec, now));
             }
         }
-        Self { modules, rs232: rs232::Decoder::new() }
+        Self { modules, rs232: rs232::Decoder::new(), tracer: None }
+    }
+
+    pub fn set_tracer(&mut self, tracer: Option<Tracer>) {
+        self.tracer = tracer;
+    }
+
+    /// Tells the tracer why module `m` does not answer `req`.
+    fn unanswered(&self, m: u8, req: &Request) {
+        let Some(trace) = self.tracer else { return };
+        let why = match (req, self.module(m)) {
+            (Request::GetExtended { param }, Some(module)) => match table::param(*param) {
+                None => " (no such parameter)".to_string(),
+                Some(d) if !table::firmware_has(module.spec().version, *param) => {
+                    format!(" (firmware {} has no {})", table::version_text(module.spec().version), d.name)
+                }
+                Some(_) => String::new(),
+            },
+            _ => String::new(),
+        };
+        trace(&format!("module {m}: {req} not answered{why}"));
+    }
+
+    /// Tells the tracer that a frame to module `m` is no command it knows.
+    fn not_understood(&self, m: u8, data: &[u8], e: &crate::proto::DecodeError) {
+        if let (Some(trace), Some(_)) = (self.tracer, self.module(m)) {
+            let hex: Vec<String> = data.iter().map(|b| format!("{b:02x}")).collect();
+            trace(&format!("module {m}: [{}] not answered: {e}", hex.join(" ")));
+        }
     }
 
     /// The bench of cli-contract.md: rotary modules 3 and 5, linear module 17
@@ -204,11 +263,13 @@ impl PowerCubeBus {
         match classify(frame) {
             Ok(Some(CanMessage::Request { module, request })) => {
                 if let Some(m) = self.module_mut(module.get()) {
-                    if let Some(resp) = m.handle_on(now, &request, Iface::Can) {
-                        out.push(ack_frame(module, &resp));
+                    match m.handle_on(now, &request, Iface::Can) {
+                        Some(resp) => out.push(ack_frame(module, &resp)),
+                        None => self.unanswered(module.get(), &request),
                     }
                 }
             }
+            Err(e) if is_request_id(frame) => self.not_understood((frame.id() & 0x1f) as u8, frame.data(), &e),
             Ok(Some(CanMessage::Broadcast(b))) => self.broadcast(now, b, Iface::Can),
             // Other modules' acknowledges, foreign ids and garbage: a module
             // ignores what it cannot use.
@@ -230,16 +291,26 @@ impl PowerCubeBus {
                 }
                 continue;
             }
-            let Ok(request) = frame.request() else { continue };
+            let request = match frame.request() {
+                Ok(r) => r,
+                Err(e) => {
+                    self.not_understood(frame.module, frame.payload.as_slice(), &e);
+                    continue;
+                }
+            };
             if let Some(m) = self.module_mut(frame.module) {
-                if let Some(resp) = m.handle_on(now, &request, Iface::Rs232) {
-                    rs232::encode_response(frame.module, &resp, out);
+                match m.handle_on(now, &request, Iface::Rs232) {
+                    Some(resp) => rs232::encode_response(frame.module, &resp, out),
+                    None => self.unanswered(frame.module, &request),
                 }
             }
         }
     }
 
     fn broadcast(&mut self, now: Instant, b: Broadcast, iface: Iface) {
+        if let (Some(trace), Broadcast::ChangeBaudrate(_)) = (self.tracer, b) {
+            trace(&format!("broadcast {b} ignored (the simulated bus keeps its rate)"));
+        }
         for m in &mut self.modules {
             m.broadcast_on(now, b, iface);
         }

@@ -459,6 +459,7 @@ impl Module {
                 self.switch_pos = self.home_offset;
                 self.traj = Traj::Hold { pos: self.home_offset };
                 self.home_ok = true;
+                self.ramp_end = true;
                 self.ref_pos_count = self.pos_count();
                 if self.config & config::ZERO_MOVE_AFTER_HOK != 0 {
                     let (v, a) = self.homing_vel_acc();

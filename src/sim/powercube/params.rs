@@ -57,7 +57,7 @@ impl Module {
     /// answered too, with their current value. `None` for ids not in the
     /// table: the module does not answer those.
     pub fn get(&self, param: u8) -> Option<Value> {
-        let def = table::param(param)?;
+        let def = table::param(param).filter(|_| table::firmware_has(self.spec.version, param))?;
         let d = &self.def;
         let k = self.kin();
         let inc = self.inc_ratio();

@@ -131,8 +131,8 @@ fn power_on_state_and_identity() {
     assert_ne!(setup & crate::proto::powercube::flags::setup::CAN, 0);
     assert_eq!(b.getf(3, ids::MAX_POS), f64::from(3.1f32));
     assert_eq!(b.getf(17, ids::MAX_VEL), f64::from(0.1f32));
-    assert_eq!(b.getf(17, ids::ACT_F_TEMP), 35.0);
-    assert_eq!(b.getf(17, ids::ACT_F_MOTOR_SUPPLY), 48.0);
+    assert_eq!(b.getf(3, ids::ACT_F_TEMP), 35.0);
+    assert_eq!(b.getf(3, ids::ACT_F_MOTOR_SUPPLY), 48.0);
     // IncRatio is consistent with the encoder and the gear.
     let inc = b.getf(3, ids::INC_RATIO);
     let expect = b.getf(3, ids::DEF_PULSES_PER_TURN) * b.getf(3, ids::DEF_GEAR_RATIO) / std::f64::consts::TAU;
@@ -143,7 +143,8 @@ fn power_on_state_and_identity() {
 fn every_parameter_answers_in_its_table_type() {
     let b = Bench::new();
     for m in [3, 17] {
-        for def in table::PARAMS {
+        let version = b.bus.module(m).unwrap().spec().version;
+        for def in table::PARAMS.iter().filter(|d| table::firmware_has(version, d.id)) {
             let v = b.bus.module(m).unwrap().get(def.id).unwrap_or_else(|| panic!("{} unanswered", def.name));
             assert_eq!(v.ty(), def.ty, "{}", def.name);
             assert_eq!(v.to_payload().len(), def.ty.size());
@@ -211,7 +212,7 @@ fn homing_takes_time_and_sets_home_ok() {
     b.at(start + total - 0.01);
     assert!(has(b.state(3), state::MOTION));
     b.at(start + total + 0.01);
-    assert_eq!(b.state(3), state::HOME_OK, "homed, at rest, switch edge not active");
+    assert_eq!(b.state(3), state::HOME_OK | state::RAMP_END, "homed, at rest, switch edge not active");
     assert_eq!(b.pos(3), 0.0, "ActPos = HomeOffset at the switch");
     // The raw counter did not jump: it reads the physical travel.
     let inc = b.getf(3, ids::INC_RATIO);
@@ -654,10 +655,14 @@ fn injected_faults_and_what_reset_clears() {
     assert!(has(b.state(5), state::POWERFAULT | state::ERROR));
     b.req(5, Request::Reset);
     assert_eq!(b.state(5), 0);
-    // Bit 27 is POW_SETUP_ERR on 3.5.18 (not resettable), LOGIC_VOLT on others.
+    // Bit 27 is POW_SETUP_ERR on 3.5.18 (module 17: not resettable),
+    // LOGIC_VOLT on others.
+    b.bus.module_mut(17).unwrap().inject_error(state::LOGIC_VOLT);
+    b.req(17, Request::Reset);
+    assert!(has(b.state(17), state::LOGIC_VOLT | state::ERROR));
     b.bus.module_mut(5).unwrap().inject_error(state::LOGIC_VOLT);
     b.req(5, Request::Reset);
-    assert!(has(b.state(5), state::LOGIC_VOLT | state::ERROR));
+    assert_eq!(b.state(5), 0);
     let t = Instant::now();
     let mut newer = Module::new(ModuleSpec { version: 0x3520, ..ModuleSpec::new(mid(9), ModuleKind::Rotary) }, t);
     newer.inject_error(state::LOGIC_VOLT | state::TOW_ERROR);
@@ -896,7 +901,7 @@ proptest! {
         }
         for m in b.bus.modules() {
             prop_assert!(m.position().is_finite());
-            for def in table::PARAMS {
+            for def in table::PARAMS.iter().filter(|d| table::firmware_has(m.spec().version, d.id)) {
                 prop_assert!(m.get(def.id).is_some());
             }
         }
@@ -966,5 +971,113 @@ proptest! {
             prop_assert_eq!(lazy.cube_state(), polled.cube_state());
             prop_assert!((lazy.position() - polled.position()).abs() <= 1e-5, "{} {}", lazy.position(), polled.position());
         }
+    }
+}
+
+/// The vendor library's (libm5api's) exact RS232 frames, where it and the
+/// manual differ.
+mod vendor_library {
+    use super::*;
+
+    fn answer(module: u8, resp: Response) -> Vec<u8> {
+        let mut out = Vec::new();
+        rs232::encode_response(module, &resp, &mut out);
+        out
+    }
+
+    #[test]
+    fn halt_all_of_two_bytes_and_of_one_halt_every_module() {
+        for frame in
+            [&[0x02, 0x04, 0x10, 0x82, 0x10, 0x82, 0x00, 0x08, 0x03][..], &[0x02, 0x04, 0x01, 0x10, 0x82, 0x07, 0x03]]
+        {
+            let mut b = Bench::new();
+            assert!(rs232(&mut b, frame).is_empty(), "broadcasts are never answered");
+            assert!(b.bus.modules().all(|m| m.cube_state() & state::HALTED != 0), "{frame:02x?}");
+        }
+    }
+
+    #[test]
+    fn homing_ends_with_home_ok_and_ramp_end() {
+        let mut b = Bench::new();
+        // Home module 3: 02 04 61 01 bcc 03.
+        let mut home = Vec::new();
+        rs232::encode(Direction::ToModule, 3, &[0x01], &mut home);
+        assert_eq!(rs232(&mut b, &home), answer(3, Response::Simple(table::CommandId::Home)));
+        b.wait(0.5);
+        assert_eq!(b.state(3) & (state::HOME_OK | state::RAMP_END), 0, "neither while homing");
+        b.wait(10.0);
+        assert!(has(b.state(3), state::HOME_OK | state::RAMP_END), "{:#x}", b.state(3));
+    }
+
+    #[test]
+    fn current_in_digits_as_the_librarys_int32() {
+        let mut b = Bench::new();
+        let sent = [0x02, 0x04, 0x66, 0x0b, 0x0d, 0x9c, 0xff, 0xff, 0xff, 0x1f, 0x03];
+        assert_eq!(rs232(&mut b, &sent), answer(3, Response::MotionAck { motion: 13 }));
+        b.wait(0.01);
+        let cur = b.getf(3, ids::CUR);
+        assert!((cur + 100.0 * b.bus.module(3).unwrap().defaults().cur_ratio).abs() < 1e-6, "-100 digits: {cur}");
+        // The manual's Int16 still works.
+        let mut b = Bench::new();
+        let mut narrow = Vec::new();
+        rs232::encode(Direction::ToModule, 3, &[0x0b, 0x0d, 0x9c, 0xff], &mut narrow);
+        assert_eq!(rs232(&mut b, &narrow), answer(3, Response::MotionAck { motion: 13 }));
+        assert!(has(b.state(3), state::MOTION));
+    }
+
+    #[test]
+    fn firmware_version_matches_the_measurements_it_answers() {
+        let mut b = Bench::new();
+        let get = |m: u8, p: u8| {
+            let mut out = Vec::new();
+            rs232::encode_request(m, &Request::GetExtended { param: p }, &mut out);
+            out
+        };
+        assert_eq!(b.get(3, ids::DEF_CUBE_VERSION), Value::UInt16(table::MEASUREMENTS_SINCE));
+        for p in [ids::ACT_F_TEMP, ids::ACT_F_MOTOR_SUPPLY, ids::ACT_F_LOGIC_SUPPLY] {
+            assert!(!rs232(&mut b, &get(3, p)).is_empty(), "4.6.01 answers {p:#x}");
+            assert!(rs232(&mut b, &get(17, p)).is_empty(), "3.5.18 does not answer {p:#x}");
+        }
+        assert_eq!(b.get(17, ids::DEF_CUBE_VERSION), Value::UInt16(LEGACY_VERSION));
+        assert!(!rs232(&mut b, &get(17, ids::ACT_POS)).is_empty());
+    }
+
+    thread_local! {
+        static TRACED: std::cell::RefCell<Vec<String>> = const { std::cell::RefCell::new(Vec::new()) };
+    }
+
+    #[test]
+    fn the_trace_says_why_a_frame_goes_unanswered() {
+        let mut b = Bench::new();
+        b.bus.set_tracer(Some(|s| TRACED.with(|t| t.borrow_mut().push(s.to_string()))));
+        let mut save = Vec::new();
+        rs232::encode(Direction::ToModule, 3, &[0x10], &mut save);
+        assert!(rs232(&mut b, &save).is_empty());
+        assert!(b.can("0E3#10").is_empty());
+        assert!(b.can(&format!("0D1#0A{:02X}", ids::ACT_F_TEMP)).is_empty());
+        assert!(!b.can("0C3#0A27").is_empty());
+        let traced = TRACED.with(|t| t.take());
+        assert_eq!(
+            traced,
+            [
+                "module 3: [10] not answered: unknown command id 0x10",
+                "module 3: [10] not answered: unknown command id 0x10",
+                "module 17: GetExtended ActFTemp not answered (firmware 3.5.18 has no ActFTemp)",
+            ]
+        );
+    }
+
+    #[test]
+    fn padded_get_extended_is_answered_and_save_parameters_is_not() {
+        let mut b = Bench::new();
+        let mut padded = Vec::new();
+        rs232::encode(Direction::ToModule, 3, &[0x0a, ids::DEF_A0, 0, 0, 0, 0, 0, 0], &mut padded);
+        let want = Response::Get { param: ids::DEF_A0, data: b.get(3, ids::DEF_A0).to_payload() };
+        assert_eq!(rs232(&mut b, &padded), answer(3, want));
+        let mut save = Vec::new();
+        rs232::encode(Direction::ToModule, 3, &[0x10], &mut save);
+        assert!(rs232(&mut b, &save).is_empty());
+        // and the line goes on.
+        assert!(!rs232(&mut b, &padded).is_empty());
     }
 }

@@ -161,13 +161,20 @@ fn cube(f: &mut Frame, v: &Values, c: &CubeSnap, mut top: Vec<Line<'static>>, ar
     ));
     top.push(v.line("Velocity", "vel", format!("{:>10.4} {u}/s", c.vel), format!("max {} {u}/s", l.max_vel)));
     top.push(v.line("Current", "cur", format!("{:>10.3} A", c.cur), format!("max {} A", l.max_cur)));
-    top.push(v.line("Temperature", "temp", format!("{:>10.1} °C", c.temp), format!("max acc {} {u}/s²", l.max_acc)));
+    // Firmware before 4.6.01 has no temperature and supplies (NaN): a dash.
+    let measured = |x: f64, unit: &str| if x.is_nan() { "–".to_string() } else { format!("{x:.1} {unit}") };
+    top.push(v.line(
+        "Temperature",
+        "temp",
+        format!("{:>13}", measured(c.temp, "°C")),
+        format!("max acc {} {u}/s²", l.max_acc),
+    ));
     top.push(Line::from(vec![
         Span::raw(format!("{:<13}", "Supply")),
         Span::raw("motor "),
-        Span::styled(format!("{:.1} V", c.motor_v), v.style("motor_v")),
+        Span::styled(measured(c.motor_v, "V"), v.style("motor_v")),
         Span::raw("   logic "),
-        Span::styled(format!("{:.1} V", c.logic_v), v.style("logic_v")),
+        Span::styled(measured(c.logic_v, "V"), v.style("logic_v")),
     ]));
     let [values, flags] = Layout::vertical([Constraint::Length(top.len() as u16), Constraint::Min(3)]).areas(area);
     f.render_widget(Paragraph::new(top), values);

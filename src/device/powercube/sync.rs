@@ -1,0 +1,145 @@
+//! Synchronized ramps (manual 7.2, CONFIGID_MOD_SYNC_MOTION): each module
+//! in sync mode takes its target and holds it, then one StartMotion
+//! broadcast starts them all at once. Every check of every module comes
+//! before the first frame that changes anything; a module that would start
+//! on its own target (sync mode off) is refused, as is a serial link (the
+//! manual: "Valid only for CAN-Bus").
+
+use super::moves::Wire;
+use super::{Cubes, Error, Goal, Move, Moved, WaitEnd, WaitSpec};
+use crate::proto::powercube::can::Broadcast;
+use crate::proto::powercube::flags::config;
+use crate::proto::powercube::table::ids;
+use crate::proto::powercube::ModuleId;
+
+/// A ramp of several modules to their own targets, started together.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SyncRamp {
+    /// In the order given; each module once.
+    pub targets: Vec<(ModuleId, f64)>,
+    pub vel: Option<f64>,
+    pub acc: Option<f64>,
+    pub ticks: bool,
+}
+
+impl SyncRamp {
+    /// One position per module, in the same order; each module once.
+    pub fn new(
+        modules: &[ModuleId],
+        positions: &[f64],
+        vel: Option<f64>,
+        acc: Option<f64>,
+        ticks: bool,
+    ) -> Result<Self, Error> {
+        if modules.len() != positions.len() {
+            return Err(Error::Refused(format!(
+                "{} modules and {} positions: give one position per module, in the same order; nothing was sent",
+                modules.len(),
+                positions.len()
+            )));
+        }
+        if let Some(m) = modules.iter().enumerate().find_map(|(i, m)| modules[..i].contains(m).then_some(m)) {
+            return Err(Error::Refused(format!("module {m} is listed twice; nothing was sent")));
+        }
+        let s = Self { targets: modules.iter().copied().zip(positions.iter().copied()).collect(), vel, acc, ticks };
+        s.check()?;
+        Ok(s)
+    }
+
+    fn ramp(&self, pos: f64) -> Move {
+        Move::Ramp { pos, vel: self.vel, acc: self.acc }
+    }
+
+    /// The checks that need no module (values finite and representable).
+    pub fn check(&self) -> Result<(), Error> {
+        self.targets.iter().try_for_each(|(_, pos)| self.ramp(*pos).check(self.ticks))
+    }
+}
+
+/// Targets every module of a [`SyncRamp`] took and holds until
+/// [`Cubes::start_sync`].
+#[must_use = "the modules hold their targets until the start broadcast"]
+#[derive(Debug)]
+pub struct Loaded {
+    pub moved: Vec<(ModuleId, Moved)>,
+}
+
+impl Cubes {
+    /// Checks every module (CAN link, sync mode, ready, limits unless
+    /// `force`), then gives each its target. If a target is not taken, the
+    /// modules given one so far (and that one) are halted, which drops what
+    /// they hold: no later broadcast may start half a synchronized move.
+    pub fn load_sync(&mut self, s: &SyncRamp, force: bool) -> Result<Loaded, Error> {
+        s.check()?;
+        if !self.session().is_can() {
+            return Err(Error::Refused(
+                "synchronized motion is a CAN feature (the manual: CONFIGID_MOD_SYNC_MOTION is valid only for \
+                 CAN-Bus); nothing was sent"
+                    .into(),
+            ));
+        }
+        let mut wires: Vec<(ModuleId, Move, Wire)> = Vec::new();
+        for &(m, pos) in &s.targets {
+            if self.get_u32(m, ids::CONFIG)? & config::SYNC_MOTION == 0 {
+                return Err(Error::NotSyncMode { module: m });
+            }
+            let mv = s.ramp(pos);
+            let wire = self.checked(m, mv, s.ticks, force)?;
+            wires.push((m, mv, wire));
+        }
+        let mut moved = Vec::new();
+        for (m, mv, wire) in wires {
+            match self.send_move(m, mv, s.ticks, wire) {
+                Ok(done) => moved.push((m, done)),
+                Err(e) => {
+                    let loaded: Vec<ModuleId> = moved.iter().map(|(m, _)| *m).chain([m]).collect();
+                    let halted = loaded.into_iter().map(|h| (h, self.halt_retrying(h, 2).is_ok())).collect();
+                    return Err(Error::SyncAborted { module: m, halted, source: Box::new(e) });
+                }
+            }
+        }
+        Ok(Loaded { moved })
+    }
+
+    /// The one StartMotion broadcast that starts every loaded module.
+    pub fn start_sync(&mut self, loaded: Loaded) -> Result<Vec<(ModuleId, Moved)>, Error> {
+        self.session().broadcast(Broadcast::StartMotion)?;
+        Ok(loaded.moved)
+    }
+
+    /// [`Self::load_sync`], then [`Self::start_sync`].
+    pub fn move_sync(&mut self, s: &SyncRamp, force: bool) -> Result<Vec<(ModuleId, Moved)>, Error> {
+        let loaded = self.load_sync(s, force)?;
+        self.start_sync(loaded)
+    }
+}
+
+impl Cubes {
+    /// Waits for the end of every ramp of a started synchronized move, one
+    /// module after the other. When one wait fails (fault, lost module,
+    /// timeout, interruption), every other module of the move is halted
+    /// before the error is returned: the move is one motion.
+    pub fn wait_sync(
+        &mut self,
+        started: &[(ModuleId, Moved)],
+        ticks: bool,
+        spec: WaitSpec,
+        interrupted: &dyn Fn() -> bool,
+        progress: &mut dyn FnMut(ModuleId, f32, u32),
+    ) -> Result<Vec<WaitEnd>, Error> {
+        let mut ends = Vec::new();
+        for (m, moved) in started {
+            let goal = Goal::RampEnd { target: moved.target.unwrap_or(f64::NAN), ticks };
+            match self.wait(*m, goal, spec, interrupted, &mut |p, c| progress(*m, p, c)) {
+                Ok(end) => ends.push(end),
+                Err(e) => {
+                    for (other, _) in started.iter().filter(|(o, _)| o != m) {
+                        let _ = self.halt_retrying(*other, spec.halt_attempts);
+                    }
+                    return Err(e);
+                }
+            }
+        }
+        Ok(ends)
+    }
+}
