@@ -161,6 +161,42 @@ mod tests {
         }
     }
 
+    // On a bus with one family's port, another family's answers are that
+    // port's to read, as on a link of its own (a monitor-like reader).
+    #[test]
+    fn a_family_without_a_port_is_read_by_whoever_reads() {
+        let clock: Arc<dyn Clock> = Arc::new(VirtualClock::new());
+        let mem = MemBus::new(Arc::clone(&clock));
+        let bus = CanBus::new(Box::new(mem.open()), Arc::clone(&clock));
+        let mut cube = bus.port(Family::PowerCube);
+        let event = f("181#6100007B00000000");
+        mem.open().send(&event).unwrap();
+        assert_eq!(cube.recv(Duration::from_millis(10)).unwrap(), Some(event));
+    }
+
+    // A port nobody reads keeps the newest PORT_QUEUE answers and counts
+    // what it had to drop.
+    #[test]
+    fn a_port_that_does_not_read_drops_its_oldest_answers_and_counts_them() {
+        let clock: Arc<dyn Clock> = Arc::new(VirtualClock::new());
+        let mem = MemBus::new(Arc::clone(&clock));
+        let bus = CanBus::new(Box::new(mem.open()), Arc::clone(&clock));
+        let mut cube = bus.port(Family::PowerCube);
+        let mut cdios = bus.port(Family::Cdios);
+        let mut sender = mem.open();
+        let extra = 3;
+        for i in 0..PORT_QUEUE + extra {
+            let pos = (i as u32).to_le_bytes();
+            sender.send(&CanFrame::new(0x181, &[0x61, 0, 0, pos[0], pos[1], pos[2], pos[3], 0]).unwrap()).unwrap();
+        }
+        // The PowerCube port reads the bus dry: every frame is Cdios's.
+        assert_eq!(cube.recv(Duration::from_millis(10)).unwrap(), None);
+        assert_eq!(cdios.dropped(), extra as u64);
+        let first = cdios.recv(Duration::ZERO).unwrap().unwrap();
+        assert_eq!(first.data()[3], extra as u8, "the oldest were dropped");
+        assert_eq!(cube.dropped(), 0);
+    }
+
     /// Module 3 answers ActPos = 0.75, and the first time a Cdios node 1
     /// sends a position event just before, so that the PowerCube session
     /// reads it while it waits for its answer.
