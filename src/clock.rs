@@ -10,6 +10,12 @@ pub trait Clock: Send + Sync {
     fn now(&self) -> Instant;
     /// Waits (really or virtually) for `d`.
     fn sleep(&self, d: Duration);
+    /// Waits like [`sleep`](Clock::sleep) but wakes early when the motion
+    /// supervisor caught a signal: the poll interval of a wait never delays
+    /// the halt.
+    fn sleep_or_wake(&self, d: Duration) {
+        self.sleep(d);
+    }
 }
 
 /// The operating system's monotonic clock.
@@ -22,6 +28,9 @@ impl Clock for SystemClock {
     }
     fn sleep(&self, d: Duration) {
         std::thread::sleep(d);
+    }
+    fn sleep_or_wake(&self, d: Duration) {
+        crate::device::supervisor::sleep(d);
     }
 }
 

@@ -1,5 +1,8 @@
 use std::process::ExitCode;
 
+use std::io::Write;
+
+use axisctl::device::supervisor;
 use axisctl::session::ErrorKind;
 
 mod cli;
@@ -26,11 +29,17 @@ fn main() -> ExitCode {
                 if let Some(refusal) = commands::refusal(&e) {
                     error["device"] = serde_json::to_value(refusal).unwrap_or_default();
                 }
-                eprintln!("{}", serde_json::json!({ "error": error }));
+                let _ = writeln!(std::io::stderr(), "{}", serde_json::json!({ "error": error }));
             } else {
-                eprintln!("axisctl: {}", message(&e));
+                let _ = writeln!(std::io::stderr(), "axisctl: {}", message(&e));
             }
-            ExitCode::from(commands::exit::code(kind))
+            // A supervised motion that a signal ended exits like the signal
+            // would have (130 SIGINT, 143 SIGTERM, 129 SIGHUP, 131 SIGQUIT).
+            let code = match (kind, supervisor::caught()) {
+                (ErrorKind::Interrupted, Some(sig)) => supervisor::exit_code(sig),
+                _ => commands::exit::code(kind),
+            };
+            ExitCode::from(code)
         }
     }
 }

@@ -2,6 +2,7 @@
 
 use std::io::{IsTerminal, Write};
 
+use axisctl::device::supervisor;
 use axisctl::proto::powercube::flags::FlagClass;
 
 #[derive(Debug, Clone, Copy)]
@@ -68,14 +69,37 @@ pub fn parse_hex_bytes(text: &str) -> Option<Vec<u8>> {
     (0..digits.len()).step_by(2).map(|i| u8::from_str_radix(&digits[i..i + 2], 16).ok()).collect()
 }
 
-/// Prints one JSON document on stdout.
+/// Prints one JSON document on stdout. A failed write is not reported here
+/// (a closed pipe after `| head` is normal); it is recorded for the motion
+/// supervisor, which stops a supervised wait on it.
 pub fn json(value: &serde_json::Value) {
     let mut out = std::io::stdout().lock();
-    // A closed pipe (e.g. `| head`) is not an error worth reporting.
-    if serde_json::to_writer(&mut out, value).is_ok() {
-        let _ = writeln!(out);
+    let written = serde_json::to_writer(&mut out, value).map_err(std::io::Error::from).and_then(|()| writeln!(out));
+    if let Err(e) = written {
+        supervisor::note_output_failure(&e);
     }
 }
+
+/// One line on stdout that never panics: a failed write (a closed pipe,
+/// `/dev/full`) is recorded for the motion supervisor instead.
+pub fn line(args: std::fmt::Arguments) {
+    if let Err(e) = writeln!(std::io::stdout(), "{args}") {
+        supervisor::note_output_failure(&e);
+    }
+}
+
+/// One line on stderr, like [`line`].
+pub fn err_line(args: std::fmt::Arguments) {
+    if let Err(e) = writeln!(std::io::stderr(), "{args}") {
+        supervisor::note_output_failure(&e);
+    }
+}
+
+/// `println!` that never panics; see [`line`].
+macro_rules! say {
+    ($($t:tt)*) => { $crate::output::line(format_args!($($t)*)) };
+}
+pub(crate) use say;
 
 /// Prints rows as an aligned table; the first row is the header.
 pub fn table(rows: &[Vec<String>], style: Style) {

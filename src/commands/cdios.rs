@@ -257,6 +257,11 @@ fn goto(
     let (node, m) = (node_id(&t.node), module_id(&t));
     device::check(&cmds, m)?;
     let mut s = open(ctx, &t.node)?;
+    if wait.wait {
+        // Supervised from before the first byte; without a wait the motion
+        // is one-shot and unsupervised once sent.
+        super::arm_interrupt()?;
+    }
     let confirmed = s.send(m, &cmds)?;
     let mut extra = json!({"mode": device::mode_name(mode), "requested": position});
     if let Some(v) = speed {
@@ -267,7 +272,7 @@ fn goto(
         return Ok(());
     }
     if !ctx.json {
-        println!(
+        crate::output::say!(
             "node {node} module {m}: goto {} {position} {}",
             device::mode_name(mode),
             if confirmed { "confirmed" } else { "sent" }
@@ -283,6 +288,9 @@ fn run_traject(ctx: &Ctx, t: ModuleTarget, traject: i64, latched: bool, wait: Wa
     let (node, m) = (node_id(&t.node), module_id(&t));
     device::check(&[cmd], m)?;
     let mut s = open(ctx, &t.node)?;
+    if wait.wait {
+        super::arm_interrupt()?;
+    }
     let confirmed = s.send(m, &[cmd])?;
     let extra = json!({"traject": traject, "latched": latched});
     if !wait.wait {
@@ -324,7 +332,14 @@ fn wait_motion(ctx: &Ctx, s: &mut Node, m: ModuleId, wait: WaitArgs, goal: Goal)
         let spec = WaitSpec { poll: t.poll, timeout: t.timeout, stop_attempts: t.stop_attempts };
         let progress =
             &mut |pos, r: &_| show(format!("module {m} {}: pos {pos}  {}", goal.name(), status_line(ctx, r)));
-        Ok(s.wait(m, goal, spec, &interrupted, progress)?)
+        let waited = axisctl::device::supervisor::guard(
+            s,
+            |s| s.wait(m, goal, spec, &interrupted, progress),
+            |s| {
+                let _ = s.stop_retrying(m, spec.stop_attempts);
+            },
+        );
+        waited.map_err(|e| super::stopped_by_output(e.into()))
     })
 }
 

@@ -11,12 +11,12 @@ mod powercube;
 mod sim;
 mod wait;
 
-use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::{Arc, OnceLock};
+use std::io::Write;
+use std::sync::Arc;
 use std::time::Duration;
 
 use axisctl::clock::{Clock, SystemClock};
-use axisctl::device;
+use axisctl::device::{self, supervisor};
 use axisctl::link::{self, LinkSpec};
 use axisctl::open::{OpenError, Opener, SessionOptions};
 use axisctl::proto::powercube::limits::LimitError;
@@ -45,6 +45,12 @@ pub struct DeviceFault(pub String);
 #[error("interrupted{0}")]
 pub struct Interrupted(pub String);
 
+/// Progress or a result could not be written during a supervised motion:
+/// the device was halted first ([`ErrorKind::Other`]).
+#[derive(Debug, thiserror::Error)]
+#[error("{0}")]
+pub struct OutputFailed(pub String);
+
 pub fn usage(msg: impl Into<String>) -> anyhow::Error {
     UsageError(msg.into()).into()
 }
@@ -56,6 +62,9 @@ pub fn classify(err: &anyhow::Error) -> ErrorKind {
     for cause in err.chain() {
         if let Some(kind) = device_kind(cause) {
             return kind;
+        }
+        if cause.is::<OutputFailed>() {
+            return ErrorKind::Other;
         }
         if cause.is::<UsageError>() || cause.is::<link::SpecError>() {
             return ErrorKind::Usage;
@@ -215,28 +224,41 @@ impl Ctx {
     }
 }
 
+/// A trace line on stderr. A failed write (a closed pipe, a full disk)
+/// must not panic in the middle of a motion: it is recorded, and a
+/// supervised wait halts on it.
 fn print_trace(ev: TraceEvent) {
-    match ev {
-        TraceEvent::Sent(s) => eprintln!("-> {s}"),
-        TraceEvent::Received(s) => eprintln!("<- {s}"),
-        TraceEvent::Note(s) => eprintln!("   {s}"),
+    let (dir, s) = match ev {
+        TraceEvent::Sent(s) => ("->", s),
+        TraceEvent::Received(s) => ("<-", s),
+        TraceEvent::Note(s) => ("  ", s),
+    };
+    if let Err(e) = writeln!(std::io::stderr(), "{dir} {s}") {
+        supervisor::note_output_failure(&e);
     }
 }
 
-static INTERRUPTED: AtomicBool = AtomicBool::new(false);
-static HANDLER: OnceLock<Result<(), String>> = OnceLock::new();
-
-/// Installs the Ctrl-C handler (only around waits: elsewhere Ctrl-C ends the
-/// process at once, which is safe since nothing moves on our behalf).
+/// Hands the signals to the motion supervisor (before the first byte of a
+/// supervised motion, and around loops that end on Ctrl-C): from then on
+/// SIGINT, SIGTERM, SIGHUP and SIGQUIT are recorded, not fatal. Before it
+/// they end the process at once, which is safe since nothing moves on our
+/// behalf.
 pub fn arm_interrupt() -> anyhow::Result<()> {
-    HANDLER
-        .get_or_init(|| ctrlc::set_handler(|| INTERRUPTED.store(true, Ordering::SeqCst)).map_err(|e| e.to_string()))
-        .clone()
-        .map_err(|e| anyhow::anyhow!("cannot install the Ctrl-C handler: {e}"))
+    Ok(supervisor::arm()?)
 }
 
+/// A signal arrived or the output failed since [`arm_interrupt`].
 pub fn interrupted() -> bool {
-    INTERRUPTED.load(Ordering::SeqCst)
+    supervisor::stop_requested()
+}
+
+/// The error of a supervised wait that ended on a failed output write
+/// rather than on a signal: said as such, not as an interruption.
+pub fn stopped_by_output(err: anyhow::Error) -> anyhow::Error {
+    match (supervisor::caught(), supervisor::output_failure()) {
+        (None, Some(io)) => OutputFailed(format!("output failed ({io}), so the motion was stopped: {err:#}")).into(),
+        _ => err,
+    }
 }
 
 pub fn run(cli: Cli) -> anyhow::Result<()> {

@@ -211,7 +211,7 @@ impl Reporter {
             bar.tick();
         }
         if self.json {
-            eprintln!("{}", json!({ "progress": doc }));
+            crate::output::err_line(format_args!("{}", json!({ "progress": doc })));
         }
     }
 
@@ -232,6 +232,11 @@ fn move_axis(
     wait: PacWait,
 ) -> anyhow::Result<()> {
     let pos = finite("POS", pos)?;
+    if wait.wait {
+        // Supervised from before the first byte; without a wait the move is
+        // one-shot and unsupervised once acknowledged.
+        arm_interrupt()?;
+    }
     let started = d.start_move(axis, pos, relative, !force)?;
     let (code, target, start_position) = (started.code, started.target, started.start_position);
     if !wait.wait {
@@ -245,7 +250,6 @@ fn move_axis(
         }
         return Ok(());
     }
-    arm_interrupt()?;
     let limit = wait.wait_timeout;
     let poll = Duration::from_millis(wait.poll);
     let reporter = Reporter::new(ctx, &wait);
@@ -258,14 +262,14 @@ fn move_axis(
         !interrupted()
     });
     reporter.finish();
-    let device::MoveProgress { position, status, elapsed } = result?;
+    let device::MoveProgress { position, status, elapsed } = result.map_err(|e| super::stopped_by_output(e.into()))?;
     if ctx.json {
         output::json(&json!({"axis": axis, "command": def(code).code_hex(), "target": target,
             "start_position": start_position, "position": position, "status": status,
             "status_text": table::axis_status_text(status), "done": true,
             "elapsed_ms": elapsed.as_millis() as u64}));
     } else {
-        println!(
+        crate::output::say!(
             "axis {axis}: at {position} after {:.2} s ({})",
             elapsed.as_secs_f64(),
             table::axis_status_text(status)
@@ -307,7 +311,7 @@ fn reference(ctx: &Ctx, d: &mut Controller, axis: u8, wait: PacWait) -> anyhow::
         !interrupted()
     });
     reporter.finish();
-    let done = result?;
+    let done = result.map_err(|e| super::stopped_by_output(e.into()))?;
     let position = d.read_f64(0x190C, axis.into())?;
     if ctx.json {
         let mut doc = json!({"axis": axis, "command": "0A84", "done": true, "position": position,

@@ -18,6 +18,8 @@ use super::{interrupted, usage, Ctx, Interrupted};
 use crate::cli::ids::IdList;
 use crate::cli::{PowerCubeCommand as Command, Target, WaitArgs, WatchdogAction};
 use crate::output;
+use crate::output::say;
+use axisctl::device::supervisor;
 
 pub fn run(ctx: &Ctx, cmd: Command) -> anyhow::Result<()> {
     match cmd {
@@ -246,6 +248,10 @@ fn report_sent(ctx: &Ctx, target: Target, what: &str) {
 
 fn home(ctx: &Ctx, target: Target, wait: WaitArgs) -> anyhow::Result<()> {
     let mut cubes = cubes(ctx)?;
+    if wait.wait {
+        // Supervised from before the first byte: a signal now halts.
+        super::arm_interrupt()?;
+    }
     cubes.simple(target.module.map(module), Simple::Home)?;
     if !wait.wait {
         report_sent(ctx, target, "Home");
@@ -270,7 +276,14 @@ fn wait_for(ctx: &Ctx, cubes: &mut Cubes, m: ModuleId, wait: WaitArgs, goal: Goa
         let what = goal.doing();
         let progress =
             &mut |pos: f32, cube| show(format!("module {m} {what}: pos {pos:.4}  {}", state_summary(ctx, cube)));
-        Ok(cubes.wait(m, goal, spec, &interrupted, progress)?)
+        let waited = supervisor::guard(
+            cubes,
+            |c| c.wait(m, goal, spec, &interrupted, progress),
+            |c| {
+                let _ = c.halt_retrying(m, spec.halt_attempts);
+            },
+        );
+        waited.map_err(|e| super::stopped_by_output(e.into()))
     })
 }
 
@@ -290,7 +303,7 @@ fn print_wait_results(ctx: &Ctx, what: &str, results: &[WaitEnd]) {
         }
     } else {
         for r in results {
-            println!(
+            say!(
                 "module {}: {what} done at {:.4} after {:.2} s  [{}]",
                 r.module,
                 r.position,
@@ -306,10 +319,16 @@ fn print_wait_results(ctx: &Ctx, what: &str, results: &[WaitEnd]) {
 fn send_move(ctx: &Ctx, m: ModuleId, mv: Move, ticks: bool, force: bool, wait: bool) -> anyhow::Result<Cubes> {
     mv.check(ticks)?;
     let mut cubes = cubes(ctx)?;
-    let moved =
-        if wait { cubes.move_to_wait_for(m, mv, ticks, force) } else { cubes.move_module(m, mv, ticks, force) }?;
+    let moved = if wait {
+        // Supervised from before the motion byte leaves; without a wait the
+        // motion is one-shot and unsupervised once acknowledged.
+        super::arm_interrupt()?;
+        cubes.move_supervised(m, mv, ticks, force, 1 + ctx.retry.read_retries)
+    } else {
+        cubes.move_module(m, mv, ticks, force)
+    }?;
     if !ctx.json {
-        println!("module {m}: {} acknowledged", moved.described);
+        say!("module {m}: {} acknowledged", moved.described);
     }
     Ok(cubes)
 }
@@ -350,12 +369,15 @@ fn move_ramp_sync(
 ) -> anyhow::Result<()> {
     let plan = SyncRamp::new(ms, pos, vel, acc, ticks)?;
     let mut cubes = cubes(ctx)?;
+    if wait.wait {
+        super::arm_interrupt()?;
+    }
     let started = cubes.move_sync(&plan, force)?;
     if !ctx.json {
         for (m, moved) in &started {
-            println!("module {m}: {} acknowledged", moved.described);
+            say!("module {m}: {} acknowledged", moved.described);
         }
-        println!("StartMotion broadcast to all modules");
+        say!("StartMotion broadcast to all modules");
     }
     if !wait.wait {
         if ctx.json {
@@ -368,7 +390,17 @@ fn move_ramp_sync(
         let spec = WaitSpec { poll: t.poll, timeout: t.timeout, halt_attempts: t.stop_attempts };
         let progress =
             &mut |m, pos: f32, cube| show(format!("module {m} moving: pos {pos:.4}  {}", state_summary(ctx, cube)));
-        Ok(cubes.wait_sync(&started, ticks, spec, &interrupted, progress)?)
+        let modules: Vec<ModuleId> = started.iter().map(|(m, _)| *m).collect();
+        let waited = supervisor::guard(
+            &mut cubes,
+            |c| c.wait_sync(&started, ticks, spec, &interrupted, progress),
+            |c| {
+                for m in &modules {
+                    let _ = c.halt_retrying(*m, spec.halt_attempts);
+                }
+            },
+        );
+        waited.map_err(|e| super::stopped_by_output(e.into()))
     })?;
     print_wait_results(ctx, "move-ramp", &ends);
     Ok(())

@@ -7,3 +7,4 @@
 pub mod cdios;
 pub mod pac;
 pub mod powercube;
+pub mod supervisor;

@@ -26,6 +26,9 @@ pub enum Goal {
     Traject,
 }
 
+/// The longest stretch a wait listens without asking whether to stop.
+const LISTEN_SLICE: std::time::Duration = std::time::Duration::from_millis(20);
+
 impl Goal {
     /// "goto" / "traject", as the messages say.
     pub fn name(self) -> &'static str {
@@ -124,7 +127,16 @@ impl Node {
                     timeout: spec.timeout,
                 }));
             }
-            self.s.listen(spec.poll)?;
+            // Events are read while waiting, in slices short enough that a
+            // stop request acts well within a wire round trip.
+            let until = clock.now() + spec.poll;
+            while !interrupted() {
+                let left = until.saturating_duration_since(clock.now());
+                if left.is_zero() {
+                    break;
+                }
+                self.s.listen(left.min(LISTEN_SLICE))?;
+            }
         }
     }
 }

@@ -121,7 +121,7 @@ impl Controller {
                     timeout: limit,
                 }));
             }
-            clock.sleep(poll);
+            clock.sleep_or_wake(poll);
         }
     }
 

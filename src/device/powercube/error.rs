@@ -26,6 +26,19 @@ pub enum Error {
         #[source]
         source: SessionError,
     },
+    /// A motion under supervision went out and was not acknowledged: the
+    /// module may have taken it, so it was halted.
+    #[error(
+        "{what} to module {module} was not acknowledged; the module may have been moving: {}",
+        halt_note(*module, halt_failed.as_deref())
+    )]
+    MotionUnconfirmed {
+        what: String,
+        module: ModuleId,
+        halt_failed: Option<String>,
+        #[source]
+        source: SessionError,
+    },
     /// The module reports an error or is halted: a motion would not move it.
     /// Nothing was sent.
     #[error("module {module} is not ready ({})", why.join(", "))]
@@ -103,9 +116,10 @@ impl Error {
         match self {
             Self::Faulted { cube, .. } => Some(Refusal::powercube(*cube)),
             Self::SyncAborted { source, .. } => source.refusal(),
-            Self::Session(e) | Self::Motion { source: e, .. } | Self::LostTrack { source: e, .. } => {
-                e.refusal().cloned()
-            }
+            Self::Session(e)
+            | Self::Motion { source: e, .. }
+            | Self::MotionUnconfirmed { source: e, .. }
+            | Self::LostTrack { source: e, .. } => e.refusal().cloned(),
             _ => None,
         }
     }
@@ -114,7 +128,10 @@ impl Error {
         match self {
             Self::SyncAborted { source, .. } => source.kind(),
             Self::Limit(_) | Self::Refused(_) | Self::SyncMode { .. } | Self::NotSyncMode { .. } => ErrorKind::Usage,
-            Self::Session(e) | Self::Motion { source: e, .. } | Self::LostTrack { source: e, .. } => e.kind(),
+            Self::Session(e)
+            | Self::Motion { source: e, .. }
+            | Self::MotionUnconfirmed { source: e, .. }
+            | Self::LostTrack { source: e, .. } => e.kind(),
             Self::NotReady { .. } | Self::Faulted { .. } | Self::ConfigNotKept { .. } => ErrorKind::Device,
             Self::Interrupted { .. } => ErrorKind::Interrupted,
             Self::UnexpectedType { .. } => ErrorKind::Other,

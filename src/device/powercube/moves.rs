@@ -145,6 +145,26 @@ impl Cubes {
         self.move_module(m, mv, ticks, force)
     }
 
+    /// [`Self::move_to_wait_for`] under supervision: a motion that went
+    /// out without its acknowledge may still have been taken, so the module
+    /// is halted (up to `halt_attempts` times) before the error is returned.
+    pub fn move_supervised(
+        &mut self,
+        m: ModuleId,
+        mv: Move,
+        ticks: bool,
+        force: bool,
+        halt_attempts: u32,
+    ) -> Result<Moved, Error> {
+        match self.move_to_wait_for(m, mv, ticks, force) {
+            Err(Error::Motion { what, module, source }) => {
+                let halt_failed = self.halt_retrying(module, halt_attempts).err().map(|e| e.to_string());
+                Err(Error::MotionUnconfirmed { what, module, halt_failed, source })
+            }
+            other => other,
+        }
+    }
+
     /// Refuses a module that holds motion commands for the start broadcast
     /// (CONFIGID_MOD_SYNC_MOTION; the manual: valid only for CAN-Bus).
     pub fn ensure_starts_alone(&mut self, m: ModuleId) -> Result<(), Error> {

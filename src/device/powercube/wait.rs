@@ -101,7 +101,7 @@ impl Cubes {
                     timeout: spec.timeout,
                 }));
             }
-            clock.sleep(spec.poll);
+            clock.sleep_or_wake(spec.poll);
         }
     }
 

@@ -1,0 +1,201 @@
+//! The motion supervisor: what stands between a commanded motion and a
+//! process that ends without stopping it.
+//!
+//! It is armed before the first motion byte leaves. From then on SIGINT,
+//! SIGTERM, SIGHUP and SIGQUIT no longer end the process: the handler only
+//! records the signal and wakes the wait ([`sleep`] sleeps on a pipe the
+//! handler writes to, so a signal cuts any poll interval short). The wait
+//! sees [`stop_requested`], halts the device and returns; the binary then
+//! exits with 128 + the signal's number. A failed output write is recorded
+//! the same way ([`note_output_failure`]): a wait whose progress cannot be
+//! shown halts rather than panics. [`guard`] halts on a panic.
+//!
+//! Before it is armed the signals keep their default action: nothing moves
+//! on our behalf yet. A one-shot motion without a wait is never armed for:
+//! once it is acknowledged the process ends and the axis moves on,
+//! unsupervised.
+
+use std::panic::{self, AssertUnwindSafe};
+use std::sync::atomic::{AtomicBool, AtomicI32, Ordering};
+use std::sync::Mutex;
+use std::time::Duration;
+
+/// The signals that halt a supervised motion.
+pub const SIGNALS: [i32; 4] = [libc::SIGINT, libc::SIGTERM, libc::SIGHUP, libc::SIGQUIT];
+
+static CAUGHT: AtomicI32 = AtomicI32::new(0);
+static WAKE_WRITE: AtomicI32 = AtomicI32::new(-1);
+static WAKE_READ: AtomicI32 = AtomicI32::new(-1);
+static OUTPUT_FAILED: AtomicBool = AtomicBool::new(false);
+static OUTPUT_ERROR: Mutex<Option<String>> = Mutex::new(None);
+static INSTALLED: Mutex<Option<Result<(), String>>> = Mutex::new(None);
+
+/// The supervisor could not take over the signals.
+#[derive(Debug, Clone, thiserror::Error)]
+#[error("cannot install the signal handlers: {0}")]
+pub struct ArmError(String);
+
+extern "C" fn on_signal(sig: libc::c_int) {
+    // Only async-signal-safe work here: an atomic store and a write(2).
+    let _ = CAUGHT.compare_exchange(0, sig, Ordering::SeqCst, Ordering::SeqCst);
+    let fd = WAKE_WRITE.load(Ordering::SeqCst);
+    if fd >= 0 {
+        let byte = 1u8;
+        // SAFETY: fd is the write end of our non-blocking pipe; a full pipe
+        // already wakes the reader, so a failed write loses nothing.
+        unsafe {
+            libc::write(fd, (&byte as *const u8).cast(), 1);
+        }
+    }
+}
+
+/// Takes over the four signals (once per process): from now on they are
+/// recorded instead of ending the process. Call it before the first motion
+/// byte of a supervised motion is sent.
+pub fn arm() -> Result<(), ArmError> {
+    let mut installed = INSTALLED.lock().unwrap_or_else(|e| e.into_inner());
+    if installed.is_none() {
+        *installed = Some(install());
+    }
+    installed.clone().unwrap_or(Ok(())).map_err(ArmError)
+}
+
+fn install() -> Result<(), String> {
+    let mut fds = [-1; 2];
+    // SAFETY: pipe2 writes two descriptors into fds.
+    if unsafe { libc::pipe2(fds.as_mut_ptr(), libc::O_NONBLOCK | libc::O_CLOEXEC) } != 0 {
+        return Err(std::io::Error::last_os_error().to_string());
+    }
+    WAKE_READ.store(fds[0], Ordering::SeqCst);
+    WAKE_WRITE.store(fds[1], Ordering::SeqCst);
+    for sig in SIGNALS {
+        // SAFETY: a zeroed sigaction with our handler; SA_RESTART keeps
+        // blocking reads of the link from failing with EINTR.
+        unsafe {
+            let mut act: libc::sigaction = std::mem::zeroed();
+            act.sa_sigaction = on_signal as extern "C" fn(libc::c_int) as usize;
+            act.sa_flags = libc::SA_RESTART;
+            libc::sigemptyset(&mut act.sa_mask);
+            if libc::sigaction(sig, &act, std::ptr::null_mut()) != 0 {
+                return Err(std::io::Error::last_os_error().to_string());
+            }
+        }
+    }
+    Ok(())
+}
+
+/// The first signal caught since [`arm`], if any.
+pub fn caught() -> Option<i32> {
+    match CAUGHT.load(Ordering::SeqCst) {
+        0 => None,
+        sig => Some(sig),
+    }
+}
+
+/// The exit code a caught signal asks for: 128 + its number (130 for
+/// SIGINT, 143 for SIGTERM, 129 for SIGHUP, 131 for SIGQUIT).
+pub fn exit_code(sig: i32) -> u8 {
+    (128 + sig).clamp(0, 255) as u8
+}
+
+/// A signal's name for messages.
+pub fn signal_name(sig: i32) -> &'static str {
+    match sig {
+        libc::SIGINT => "SIGINT",
+        libc::SIGTERM => "SIGTERM",
+        libc::SIGHUP => "SIGHUP",
+        libc::SIGQUIT => "SIGQUIT",
+        _ => "a signal",
+    }
+}
+
+/// Records that progress or a result could not be written (a closed pipe,
+/// a full disk): a supervised wait then halts instead of going on blind.
+pub fn note_output_failure(err: &std::io::Error) {
+    if !OUTPUT_FAILED.swap(true, Ordering::SeqCst) {
+        *OUTPUT_ERROR.lock().unwrap_or_else(|e| e.into_inner()) = Some(err.to_string());
+    }
+}
+
+/// The first output failure recorded, if any.
+pub fn output_failure() -> Option<String> {
+    if OUTPUT_FAILED.load(Ordering::SeqCst) {
+        OUTPUT_ERROR.lock().unwrap_or_else(|e| e.into_inner()).clone()
+    } else {
+        None
+    }
+}
+
+/// Whether a supervised wait must halt now: a signal was caught or the
+/// output failed.
+pub fn stop_requested() -> bool {
+    caught().is_some() || OUTPUT_FAILED.load(Ordering::SeqCst)
+}
+
+/// Sleeps for `d` or until a signal arrives (or the output failed),
+/// whichever comes first. Before [`arm`] it is a plain sleep.
+pub fn sleep(d: Duration) {
+    let fd = WAKE_READ.load(Ordering::SeqCst);
+    if fd < 0 {
+        std::thread::sleep(d);
+        return;
+    }
+    let deadline = std::time::Instant::now() + d;
+    loop {
+        if stop_requested() {
+            return;
+        }
+        let left = deadline.saturating_duration_since(std::time::Instant::now());
+        if left.is_zero() {
+            return;
+        }
+        let ms = left.as_millis().clamp(1, i32::MAX as u128) as i32;
+        let mut pfd = libc::pollfd { fd, events: libc::POLLIN, revents: 0 };
+        // SAFETY: one valid pollfd.
+        unsafe {
+            libc::poll(&mut pfd, 1, ms);
+        }
+        // Drain the wake bytes; `caught` keeps the signal itself.
+        let mut buf = [0u8; 16];
+        // SAFETY: reading into a local buffer from our non-blocking pipe.
+        while unsafe { libc::read(fd, buf.as_mut_ptr().cast(), buf.len()) } > 0 {}
+    }
+}
+
+/// Runs `body` on the device and halts it with `halt` if `body` panics,
+/// then lets the panic go on: a bug in a wait never leaves an axis moving.
+pub fn guard<D, R>(dev: &mut D, body: impl FnOnce(&mut D) -> R, halt: impl FnOnce(&mut D)) -> R {
+    match panic::catch_unwind(AssertUnwindSafe(|| body(&mut *dev))) {
+        Ok(r) => r,
+        Err(payload) => {
+            let _ = panic::catch_unwind(AssertUnwindSafe(|| halt(dev)));
+            panic::resume_unwind(payload)
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn exit_codes_follow_the_shell_convention() {
+        assert_eq!(exit_code(libc::SIGINT), 130);
+        assert_eq!(exit_code(libc::SIGTERM), 143);
+        assert_eq!(exit_code(libc::SIGHUP), 129);
+        assert_eq!(exit_code(libc::SIGQUIT), 131);
+    }
+
+    #[test]
+    fn a_panic_in_the_body_halts_then_goes_on() {
+        let mut halted = false;
+        let r = panic::catch_unwind(AssertUnwindSafe(|| {
+            guard(&mut halted, |_| panic!("bug in a wait"), |h| *h = true);
+        }));
+        assert!(r.is_err(), "the panic goes on after the halt");
+        assert!(halted, "the device was halted");
+        let mut halted = false;
+        assert_eq!(guard(&mut halted, |_| 7, |h| *h = true), 7);
+        assert!(!halted, "no halt without a panic");
+    }
+}

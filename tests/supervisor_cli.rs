@@ -1,0 +1,206 @@
+//! The motion supervisor through the real binary against `axisctl sim` over
+//! ptys: a signal at the worst instants (between the motion frame and its
+//! acknowledge, during a long poll), every halting signal's exit code, an
+//! output that fails mid-wait, and a lost motion acknowledge under --wait.
+//! After each, the device must stand still. Every process runs under a
+//! deadline: a hang fails the test instead of the suite.
+
+mod common;
+
+use std::io::{BufRead, BufReader, Read};
+use std::process::{Child, Stdio};
+use std::sync::mpsc;
+use std::time::{Duration, Instant};
+
+use common::{Run, Sim};
+
+fn wait_bounded(mut child: Child, secs: u64, what: &[&str]) -> (i32, Option<i32>) {
+    use std::os::unix::process::ExitStatusExt;
+    let deadline = Instant::now() + Duration::from_secs(secs);
+    loop {
+        if let Some(st) = child.try_wait().unwrap() {
+            return (st.code().unwrap_or(-1), st.signal());
+        }
+        if Instant::now() > deadline {
+            let _ = child.kill();
+            let _ = child.wait();
+            panic!("axisctl {what:?} hung for {secs} s");
+        }
+        std::thread::sleep(Duration::from_millis(5));
+    }
+}
+
+fn run_bounded(args: &[&str]) -> Run {
+    let child = common::bin().args(args).stdout(Stdio::piped()).stderr(Stdio::piped()).spawn().unwrap();
+    let out = child.wait_with_output().unwrap();
+    Run {
+        code: out.status.code().unwrap_or(-1),
+        stdout: String::from_utf8_lossy(&out.stdout).into(),
+        stderr: String::from_utf8_lossy(&out.stderr).into(),
+    }
+}
+
+/// Runs axisctl with `--trace` and sends `sig` as soon as a trace line
+/// containing `trigger` shows on stderr, then `after`. Returns the exit code, the signal that ended it (if it died of
+/// one), stderr, and the time from the signal to the exit.
+struct Signalled {
+    code: i32,
+    killed_by: Option<i32>,
+    stderr: String,
+    reaction: Duration,
+}
+
+fn signal_when(args: &[&str], trigger: &str, after: Duration, sig: i32) -> Signalled {
+    let mut all = vec!["--trace"];
+    all.extend_from_slice(args);
+    let mut child = common::bin()
+        .env_remove("AXISCTL_TIMEOUT")
+        .args(&all)
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let (tx, rx) = mpsc::channel();
+    let err = child.stderr.take().unwrap();
+    let trigger = trigger.to_string();
+    let reader = std::thread::spawn(move || {
+        let mut text = String::new();
+        let mut told = false;
+        for line in BufReader::new(err).lines().map_while(Result::ok) {
+            if !told && line.starts_with("-> ") && line.contains(&trigger) {
+                told = true;
+                let _ = tx.send(());
+            }
+            text.push_str(&line);
+            text.push('\n');
+        }
+        text
+    });
+    rx.recv_timeout(Duration::from_secs(10)).expect("the trigger line showed");
+    std::thread::sleep(after);
+    let t0 = Instant::now();
+    unsafe { libc::kill(child.id() as i32, sig) };
+    let (code, killed_by) = wait_bounded(child, 15, args);
+    let reaction = t0.elapsed();
+    Signalled { code, killed_by, stderr: reader.join().unwrap(), reaction }
+}
+
+/// PowerCube module 3 stands: HALTED set and no MOTION.
+fn cube_stands(link: &str) -> bool {
+    let st = run_bounded(&["--link", link, "--json", "state", "-m", "3"]);
+    let raw = st.json()["raw"].as_u64().unwrap();
+    raw & 0x800 == 0 && raw & 0x4 != 0
+}
+
+const RAMP: [&str; 8] = ["move-ramp", "-m", "3", "2.0", "--vel", "0.2", "--force", "--wait"];
+
+fn ramp_args<'a>(link: &'a str, extra: &[&'a str]) -> Vec<&'a str> {
+    let mut all = vec!["--link", link, "--timeout", "3000"];
+    all.extend_from_slice(extra);
+    all.extend_from_slice(&RAMP);
+    all
+}
+
+#[test]
+fn sigint_between_the_motion_frame_and_its_acknowledge_halts_and_exits_130() {
+    // Config, state and TargetVel pass; the SetMotion acknowledge comes 1.5 s late.
+    let s = Sim::start(&["--powercube", "pty-slcan", "--fault", "delay=1500ms,skip=3,count=1"], 1);
+    let link = s.link("powercube");
+    let r = signal_when(&ramp_args(link, &[]), "SetMotion", Duration::from_millis(100), libc::SIGINT);
+    assert_eq!((r.code, r.killed_by), (130, None), "{}", r.stderr);
+    assert!(r.stderr.contains("module 3 halted"), "{}", r.stderr);
+    assert!(cube_stands(link), "module 3 still moving");
+}
+
+#[test]
+fn sigterm_sighup_and_sigquit_during_a_wait_halt_with_their_exit_codes() {
+    let s = Sim::start(&["--powercube", "pty-slcan"], 1);
+    let link = s.link("powercube");
+    for (sig, code) in [(libc::SIGTERM, 143), (libc::SIGHUP, 129), (libc::SIGQUIT, 131)] {
+        let r = signal_when(&ramp_args(link, &[]), "SetMotion", Duration::from_millis(400), sig);
+        assert_eq!((r.code, r.killed_by), (code, None), "signal {sig}: {}", r.stderr);
+        assert!(r.stderr.contains("module 3 halted"), "signal {sig}: {}", r.stderr);
+        assert!(cube_stands(link), "signal {sig}: module 3 still moving");
+        let reset = run_bounded(&["--link", link, "reset", "-m", "3"]);
+        assert_eq!(reset.code, 0, "{}", reset.stderr);
+    }
+}
+
+#[test]
+fn ctrl_c_acts_at_once_whatever_the_poll() {
+    let s = Sim::start(&["--powercube", "pty-slcan"], 1);
+    let link = s.link("powercube");
+    let mut args = ramp_args(link, &[]);
+    args.extend(["--poll", "60000"]);
+    let r = signal_when(&args, "SetMotion", Duration::from_millis(500), libc::SIGINT);
+    assert_eq!(r.code, 130, "{}", r.stderr);
+    assert!(r.reaction < Duration::from_millis(1500), "took {:?} to react", r.reaction);
+    assert!(cube_stands(link), "module 3 still moving");
+}
+
+#[test]
+fn a_full_stdout_mid_wait_halts_and_fails_without_a_panic() {
+    let s = Sim::start(&["--powercube", "pty-slcan"], 1);
+    let link = s.link("powercube");
+    let full = std::fs::OpenOptions::new().write(true).open("/dev/full").unwrap();
+    let child =
+        common::bin().args(ramp_args(link, &[])).stdout(Stdio::from(full)).stderr(Stdio::piped()).spawn().unwrap();
+    let out = child.wait_with_output().unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{stderr}");
+    assert!(stderr.contains("output failed") && stderr.contains("module 3 halted"), "{stderr}");
+    assert!(cube_stands(link), "module 3 still moving");
+}
+
+/// `--trace ... 2>&1 | head`: the reader goes away mid-wait.
+#[test]
+fn a_closed_trace_pipe_mid_wait_halts_without_a_panic() {
+    let s = Sim::start(&["--powercube", "pty-slcan"], 1);
+    let link = s.link("powercube");
+    let mut all = vec!["--trace"];
+    all.extend(ramp_args(link, &[]));
+    let mut child = common::bin().args(&all).stdout(Stdio::null()).stderr(Stdio::piped()).spawn().unwrap();
+    let mut err = child.stderr.take().unwrap();
+    let mut head = [0u8; 200];
+    let _ = err.read(&mut head);
+    std::thread::sleep(Duration::from_millis(300));
+    drop(err);
+    let (code, killed_by) = wait_bounded(child, 15, &all);
+    assert_eq!((code, killed_by), (1, None), "not a panic (101) nor a signal");
+    assert!(cube_stands(link), "module 3 still moving");
+}
+
+#[test]
+fn pac_progress_json_into_a_closed_pipe_stops_the_axis_without_a_panic() {
+    let s = Sim::start(&["--pac", "pty-serial"], 1);
+    let link = s.link("pac");
+    for args in [&["pac-online"][..], &["pac-no-ref", "2"][..]] {
+        let mut all = vec!["--link", link, "--timeout", "1000"];
+        all.extend_from_slice(args);
+        let r = run_bounded(&all);
+        assert_eq!(r.code, 0, "{args:?}: {}", r.stderr);
+    }
+    let args = ["--link", link, "--timeout", "1000", "pac-move", "2", "900", "--wait", "--progress-json"];
+    let mut child = common::bin().args(args).stdout(Stdio::null()).stderr(Stdio::piped()).spawn().unwrap();
+    let mut err = child.stderr.take().unwrap();
+    let mut head = [0u8; 20];
+    let _ = err.read(&mut head);
+    drop(err);
+    let (code, killed_by) = wait_bounded(child, 15, &args);
+    assert_eq!((code, killed_by), (1, None), "not a panic (101) nor a signal");
+    let a = run_bounded(&["--link", link, "--timeout", "1000", "--json", "pac-axis", "2"]);
+    assert_eq!(a.code, 0, "{}", a.stderr);
+    assert_ne!(a.json()["status"], 1, "not moving: {}", a.stdout);
+}
+
+/// Config, state and TargetVel pass; the SetMotion acknowledge is lost. The
+/// module took the motion, so it must be halted and the message must say so.
+#[test]
+fn a_lost_motion_acknowledge_under_wait_halts_and_says_so() {
+    let s = Sim::start(&["--powercube", "pty-slcan", "--fault", "drop=1,skip=3,count=1"], 1);
+    let link = s.link("powercube");
+    let r = run_bounded(&ramp_args(link, &[]));
+    assert_eq!(r.code, 4, "{}", r.stderr);
+    assert!(r.stderr.contains("may have been moving") && r.stderr.contains("module 3 halted"), "{}", r.stderr);
+    assert!(cube_stands(link), "module 3 still moving");
+}
