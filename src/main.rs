@@ -20,7 +20,15 @@ fn main() -> ExitCode {
     };
     let json = cli.global.json;
     match commands::run(cli) {
-        Ok(()) => ExitCode::SUCCESS,
+        // The traffic log never fails the traffic (a halt must not wait for
+        // it), so a log that could not be written is reported here.
+        Ok(()) => match supervisor::log_failure() {
+            Some(e) => {
+                let _ = writeln!(std::io::stderr(), "axisctl: cannot write the --log file: {e}");
+                ExitCode::from(commands::exit::code(ErrorKind::Other))
+            }
+            None => ExitCode::SUCCESS,
+        },
         Err(e) if is_broken_pipe(&e) => ExitCode::SUCCESS,
         Err(e) => {
             let kind = commands::classify(&e);

@@ -204,3 +204,34 @@ fn a_lost_motion_acknowledge_under_wait_halts_and_says_so() {
     assert!(r.stderr.contains("may have been moving") && r.stderr.contains("module 3 halted"), "{}", r.stderr);
     assert!(cube_stands(link), "module 3 still moving");
 }
+
+/// The disk under `--log` fills up mid-wait (a file size limit here): the
+/// traffic goes on, the module is halted, and the failure is reported after.
+#[test]
+fn a_log_that_fills_the_disk_mid_wait_never_blocks_the_halt() {
+    use std::os::unix::process::CommandExt;
+    let s = Sim::start(&["--powercube", "pty-slcan"], 1);
+    let link = s.link("powercube");
+    let log = std::env::temp_dir().join(format!("axisctl-sup-{}-full.log", std::process::id()));
+    let _ = std::fs::remove_file(&log);
+    let mut all = vec!["--log", log.to_str().unwrap()];
+    all.extend(ramp_args(link, &[]));
+    let mut cmd = common::bin();
+    cmd.args(&all).stdout(Stdio::null()).stderr(Stdio::piped());
+    // SAFETY: only async-signal-safe calls between fork and exec.
+    unsafe {
+        cmd.pre_exec(|| {
+            // Writes past 1000 bytes fail with EFBIG instead of killing the process.
+            libc::signal(libc::SIGXFSZ, libc::SIG_IGN);
+            let lim = libc::rlimit { rlim_cur: 1000, rlim_max: 1000 };
+            libc::setrlimit(libc::RLIMIT_FSIZE, &lim);
+            Ok(())
+        });
+    }
+    let out = cmd.spawn().unwrap().wait_with_output().unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    let _ = std::fs::remove_file(&log);
+    assert_eq!(out.status.code(), Some(1), "{stderr}");
+    assert!(stderr.contains("--log") && stderr.contains("module 3 halted"), "{stderr}");
+    assert!(cube_stands(link), "module 3 still moving");
+}

@@ -28,6 +28,7 @@ static WAKE_WRITE: AtomicI32 = AtomicI32::new(-1);
 static WAKE_READ: AtomicI32 = AtomicI32::new(-1);
 static OUTPUT_FAILED: AtomicBool = AtomicBool::new(false);
 static OUTPUT_ERROR: Mutex<Option<String>> = Mutex::new(None);
+static LOG_ERROR: Mutex<Option<String>> = Mutex::new(None);
 static INSTALLED: Mutex<Option<Result<(), String>>> = Mutex::new(None);
 
 /// The supervisor could not take over the signals.
@@ -115,6 +116,23 @@ pub fn note_output_failure(err: &std::io::Error) {
     if !OUTPUT_FAILED.swap(true, Ordering::SeqCst) {
         *OUTPUT_ERROR.lock().unwrap_or_else(|e| e.into_inner()) = Some(err.to_string());
     }
+}
+
+/// Records that the traffic log (`--log`) could not be written. The traffic
+/// goes on (a halt must never wait for the log); a supervised wait halts as
+/// on any output failure, and the binary reports [`log_failure`] at the end.
+pub fn note_log_failure(err: &std::io::Error) {
+    let mut log = LOG_ERROR.lock().unwrap_or_else(|e| e.into_inner());
+    if log.is_none() {
+        *log = Some(err.to_string());
+        drop(log);
+        note_output_failure(&std::io::Error::new(err.kind(), format!("--log: {err}")));
+    }
+}
+
+/// The first failed write of the traffic log, if any.
+pub fn log_failure() -> Option<String> {
+    LOG_ERROR.lock().unwrap_or_else(|e| e.into_inner()).clone()
 }
 
 /// The first output failure recorded, if any.

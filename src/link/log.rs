@@ -106,6 +106,20 @@ impl TrafficLog {
         out.flush()?;
         Ok(())
     }
+
+    /// Logs without failing the traffic: a log that cannot be written (a
+    /// full disk) must never stand between the tool and a halt frame. The
+    /// failure goes to the motion supervisor, which halts a supervised
+    /// motion on it and has it reported once the device is safe.
+    fn record(&self, written: Result<(), LinkError>) {
+        if let Err(e) = written {
+            let io = match e {
+                LinkError::Io(io) => io,
+                other => std::io::Error::other(other.to_string()),
+            };
+            crate::device::supervisor::note_log_failure(&io);
+        }
+    }
 }
 
 /// `(secs.micros) tx 02 06 21`
@@ -142,18 +156,20 @@ impl<L> LoggedCanLink<L> {
 impl<L: CanLink> CanLink for LoggedCanLink<L> {
     fn send(&mut self, frame: &CanFrame) -> Result<(), LinkError> {
         self.inner.send(frame)?;
-        self.log.can_frame(frame)
+        self.log.record(self.log.can_frame(frame));
+        Ok(())
     }
 
     fn send_many(&mut self, frames: &[CanFrame]) -> Result<(), LinkError> {
         self.inner.send_many(frames)?;
-        frames.iter().try_for_each(|f| self.log.can_frame(f))
+        self.log.record(frames.iter().try_for_each(|f| self.log.can_frame(f)));
+        Ok(())
     }
 
     fn recv(&mut self, timeout: Duration) -> Result<Option<CanFrame>, LinkError> {
         let got = self.inner.recv(timeout)?;
         if let Some(f) = &got {
-            self.log.can_frame(f)?;
+            self.log.record(self.log.can_frame(f));
         }
         Ok(got)
     }
@@ -179,12 +195,13 @@ impl<L> LoggedByteLink<L> {
 impl<L: ByteLink> ByteLink for LoggedByteLink<L> {
     fn write_all(&mut self, bytes: &[u8]) -> Result<(), LinkError> {
         self.inner.write_all(bytes)?;
-        self.log.bytes(Direction::Tx, bytes)
+        self.log.record(self.log.bytes(Direction::Tx, bytes));
+        Ok(())
     }
 
     fn read(&mut self, buf: &mut [u8], timeout: Duration) -> Result<usize, LinkError> {
         let n = self.inner.read(buf, timeout)?;
-        self.log.bytes(Direction::Rx, &buf[..n])?;
+        self.log.record(self.log.bytes(Direction::Rx, &buf[..n]));
         Ok(n)
     }
 
@@ -251,6 +268,34 @@ mod tests {
             self.0.clear();
             Ok(())
         }
+    }
+
+    /// A log on a full disk.
+    struct Full;
+
+    impl Write for Full {
+        fn write(&mut self, _buf: &[u8]) -> std::io::Result<usize> {
+            Err(std::io::Error::from_raw_os_error(libc::ENOSPC))
+        }
+        fn flush(&mut self) -> std::io::Result<()> {
+            Ok(())
+        }
+    }
+
+    /// A full disk must not stop a frame (the halt above all): the traffic
+    /// goes on and the failure is left for the supervisor to report.
+    #[test]
+    fn a_log_that_cannot_be_written_never_stops_the_traffic() {
+        let mut can = LoggedCanLink::new(Loop(VecDeque::new()), TrafficLog::from_writer(Full, "can0"));
+        let halt = CanFrame::new(0x0E3, &[0x01]).unwrap();
+        can.send(&halt).expect("the frame goes out");
+        can.send_many(std::slice::from_ref(&halt)).expect("the frames go out");
+        assert!(can.recv(Duration::ZERO).expect("the answer comes in").is_some());
+        let mut serial = LoggedByteLink::new(Bytes(VecDeque::new()), TrafficLog::from_writer(Full, "serial0"));
+        serial.write_all(b"\x02").expect("the bytes go out");
+        let mut buf = [0u8; 4];
+        assert_eq!(serial.read(&mut buf, Duration::ZERO).expect("the bytes come in"), 1);
+        assert!(crate::device::supervisor::log_failure().is_some(), "the failure is kept for the report");
     }
 
     #[test]
