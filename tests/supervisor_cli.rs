@@ -235,3 +235,24 @@ fn a_log_that_fills_the_disk_mid_wait_never_blocks_the_halt() {
     assert!(stderr.contains("--log") && stderr.contains("module 3 halted"), "{stderr}");
     assert!(cube_stands(link), "module 3 still moving");
 }
+
+/// pac-online (1 answer) and pac-no-ref (2) pass, then the state read of
+/// pac-move; the 0A94 acknowledge is lost. The axis took the move, so it
+/// must be stopped and the message must say so.
+#[test]
+fn pac_lost_move_acknowledge_under_wait_stops_the_axis_and_says_so() {
+    let s = Sim::start(&["--pac", "pty-serial", "--fault", "drop=1,skip=4,count=1"], 1);
+    let link = s.link("pac");
+    for args in [&["pac-online"][..], &["pac-no-ref", "2"][..]] {
+        let mut all = vec!["--link", link, "--timeout", "1000"];
+        all.extend_from_slice(args);
+        let r = run_bounded(&all);
+        assert_eq!(r.code, 0, "{args:?}: {}", r.stderr);
+    }
+    let r = run_bounded(&["--link", link, "--timeout", "1000", "pac-move", "2", "100", "--force", "--wait"]);
+    assert_eq!(r.code, 4, "{}", r.stderr);
+    assert!(r.stderr.contains("may have been moving") && r.stderr.contains("axis 2 stopped"), "{}", r.stderr);
+    let a = run_bounded(&["--link", link, "--timeout", "1000", "--json", "pac-axis", "2"]);
+    assert_eq!(a.code, 0, "{}", a.stderr);
+    assert_ne!(a.json()["status"], 1, "not moving: {}", a.stdout);
+}

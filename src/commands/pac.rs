@@ -237,7 +237,11 @@ fn move_axis(
         // one-shot and unsupervised once acknowledged.
         arm_interrupt()?;
     }
-    let started = d.start_move(axis, pos, relative, !force)?;
+    let started = if wait.wait {
+        d.start_move_supervised(axis, pos, relative, !force)
+    } else {
+        d.start_move(axis, pos, relative, !force)
+    }?;
     let (code, target, start_position) = (started.code, started.target, started.start_position);
     if !wait.wait {
         if ctx.json {

@@ -63,6 +63,27 @@ impl Controller {
         Ok(MoveStart { code, target, start_position: ack.q_par.as_f64(), ack })
     }
 
+    /// [`Self::start_move`] under supervision: a move command that went out
+    /// without an acknowledge (lost, late or garbled) may still have been
+    /// taken, so the axis is stopped before the error is returned. A refusal
+    /// (QUIT) and every check before sending need no stop.
+    pub fn start_move_supervised(&mut self, axis: u8, pos: f64, relative: bool, check_area: bool) -> Result<MoveStart> {
+        let code = if relative { 0x0A95 } else { 0x0A94 };
+        let target = if relative { None } else { Some(pos) };
+        match self.start_move(axis, pos, relative, check_area) {
+            Err(e @ Error::Session(SessionError::Timeout { .. } | SessionError::Malformed { .. })) => {
+                // A read before the move may be what timed out: stopping an
+                // axis that never moved is harmless.
+                let halted = self.halt_axis(axis);
+                let what = target.map_or_else(|| format!("{code:04X}"), |t| format!("{code:04X} to {t}"));
+                let context =
+                    format!("the move {what} was not acknowledged; axis {axis} may have been moving ({halted})");
+                Err(Error::Stopped { context, source: Box::new(e) })
+            }
+            other => other,
+        }
+    }
+
     /// Follows a started move every `poll` (1910, 190C) until the axis stands
     /// (status 0), faults, or `limit` passes. `observe` sees each look and
     /// returns `false` to give up. Every way out but arrival stops the axis.
