@@ -256,3 +256,19 @@ fn pac_lost_move_acknowledge_under_wait_stops_the_axis_and_says_so() {
     assert_eq!(a.code, 0, "{}", a.stderr);
     assert_ne!(a.json()["status"], 1, "not moving: {}", a.stdout);
 }
+
+/// cdios-enable (1 answer) passes; the goto's answer is lost. The motor
+/// took the goto, so it must be stopped and the message must say so.
+#[test]
+fn cdios_lost_goto_answer_under_wait_stops_the_motor_and_says_so() {
+    let s = Sim::start(&["--cdios", "pty-slcan", "--fault", "drop=1,skip=1,count=1"], 1);
+    let link = s.link("cdios");
+    let on = run_bounded(&["--link", link, "cdios-enable", "-m", "0"]);
+    assert_eq!(on.code, 0, "{}", on.stderr);
+    let r = run_bounded(&["--link", link, "cdios-goto", "-m", "0", "1000000", "--wait"]);
+    assert_eq!(r.code, 4, "{}", r.stderr);
+    assert!(r.stderr.contains("may have been moving") && r.stderr.contains("stopped (fast stop)"), "{}", r.stderr);
+    let st = run_bounded(&["--link", link, "--json", "cdios-status", "-m", "0"]);
+    let flags = st.json()["flags"].to_string();
+    assert!(!flags.contains("GOTO_ACTIVE") && !flags.contains("RUNNING_FORWARD"), "{flags}");
+}

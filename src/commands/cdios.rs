@@ -262,7 +262,7 @@ fn goto(
         // is one-shot and unsupervised once sent.
         super::arm_interrupt()?;
     }
-    let confirmed = s.send(m, &cmds)?;
+    let confirmed = if wait.wait { s.send_supervised(m, &cmds, 1 + ctx.retry.read_retries) } else { s.send(m, &cmds) }?;
     let mut extra = json!({"mode": device::mode_name(mode), "requested": position});
     if let Some(v) = speed {
         extra["speed"] = json!(v);
@@ -291,7 +291,8 @@ fn run_traject(ctx: &Ctx, t: ModuleTarget, traject: i64, latched: bool, wait: Wa
     if wait.wait {
         super::arm_interrupt()?;
     }
-    let confirmed = s.send(m, &[cmd])?;
+    let confirmed =
+        if wait.wait { s.send_supervised(m, &[cmd], 1 + ctx.retry.read_retries) } else { s.send(m, &[cmd]) }?;
     let extra = json!({"traject": traject, "latched": latched});
     if !wait.wait {
         report_sent(ctx, node, m, "cdios-traject", confirmed, extra);

@@ -177,6 +177,21 @@ impl Node {
         Ok(confirmed)
     }
 
+    /// [`Self::send`] under supervision: a motion command that went out
+    /// without its answer may still have been taken, so the motor is
+    /// stopped (up to `stop_attempts` times) before the error is returned.
+    /// An error reply from the node needs no stop.
+    pub fn send_supervised(&mut self, m: ModuleId, cmds: &[Command], stop_attempts: u32) -> Result<bool, Error> {
+        match self.send(m, cmds) {
+            Err(Error::Session(source)) if source.refusal().is_none() => {
+                let stop_failed = self.stop_retrying(m, stop_attempts).err().map(|e| e.to_string());
+                let what = "motion command, not acknowledged: the module may have been moving".into();
+                Err(Error::LostTrack { node: self.node, module: m, what, stop_failed, source })
+            }
+            other => other,
+        }
+    }
+
     pub fn status(&mut self, m: ModuleId) -> Result<StatusReport, Error> {
         Ok(self.s.read_status(self.node, m)?)
     }
