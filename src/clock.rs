@@ -3,6 +3,8 @@
 //! Simulators and polling loops take a [`Clock`] so that tests of homing,
 //! ramps and watchdogs run on virtual time and finish instantly.
 
+pub mod stop;
+
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
@@ -30,7 +32,7 @@ impl Clock for SystemClock {
         std::thread::sleep(d);
     }
     fn sleep_or_wake(&self, d: Duration) {
-        crate::device::supervisor::sleep(d);
+        stop::sleep(d);
     }
 }
 

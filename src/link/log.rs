@@ -117,7 +117,7 @@ impl TrafficLog {
                 LinkError::Io(io) => io,
                 other => std::io::Error::other(other.to_string()),
             };
-            crate::device::supervisor::note_log_failure(&io);
+            crate::clock::stop::note_log_failure(&io);
         }
     }
 }
@@ -295,7 +295,7 @@ mod tests {
         serial.write_all(b"\x02").expect("the bytes go out");
         let mut buf = [0u8; 4];
         assert_eq!(serial.read(&mut buf, Duration::ZERO).expect("the bytes come in"), 1);
-        assert!(crate::device::supervisor::log_failure().is_some(), "the failure is kept for the report");
+        assert!(crate::clock::stop::log_failure().is_some(), "the failure is kept for the report");
     }
 
     #[test]

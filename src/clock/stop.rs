@@ -1,0 +1,169 @@
+//! Why a supervised wait must stop now, kept below every layer that can
+//! notice it: a caught signal (SIGINT, SIGTERM, SIGHUP, SIGQUIT), a failed
+//! output write, a failed traffic-log write. A caught signal also wakes
+//! [`sleep`], so a poll interval never delays the halt. The policy (when to
+//! arm, what to halt) is the motion supervisor's, `device::supervisor`.
+
+use std::sync::atomic::{AtomicBool, AtomicI32, Ordering};
+use std::sync::Mutex;
+use std::time::Duration;
+
+/// The signals that halt a supervised motion.
+pub const SIGNALS: [i32; 4] = [libc::SIGINT, libc::SIGTERM, libc::SIGHUP, libc::SIGQUIT];
+
+static CAUGHT: AtomicI32 = AtomicI32::new(0);
+static WAKE_WRITE: AtomicI32 = AtomicI32::new(-1);
+static WAKE_READ: AtomicI32 = AtomicI32::new(-1);
+static OUTPUT_FAILED: AtomicBool = AtomicBool::new(false);
+static OUTPUT_ERROR: Mutex<Option<String>> = Mutex::new(None);
+static LOG_ERROR: Mutex<Option<String>> = Mutex::new(None);
+static INSTALLED: Mutex<Option<Result<(), String>>> = Mutex::new(None);
+
+/// The signals could not be taken over.
+#[derive(Debug, Clone, thiserror::Error)]
+#[error("cannot install the signal handlers: {0}")]
+pub struct ArmError(String);
+
+extern "C" fn on_signal(sig: libc::c_int) {
+    // Only async-signal-safe work here: an atomic store and a write(2).
+    let _ = CAUGHT.compare_exchange(0, sig, Ordering::SeqCst, Ordering::SeqCst);
+    let fd = WAKE_WRITE.load(Ordering::SeqCst);
+    if fd >= 0 {
+        let byte = 1u8;
+        // SAFETY: fd is the write end of our non-blocking pipe; a full pipe
+        // already wakes the reader, so a failed write loses nothing.
+        unsafe {
+            libc::write(fd, (&byte as *const u8).cast(), 1);
+        }
+    }
+}
+
+/// Takes over the four signals (once per process): from now on they are
+/// recorded instead of ending the process. Call it before the first motion
+/// byte of a supervised motion is sent.
+pub fn arm() -> Result<(), ArmError> {
+    let mut installed = INSTALLED.lock().unwrap_or_else(|e| e.into_inner());
+    if installed.is_none() {
+        *installed = Some(install());
+    }
+    installed.clone().unwrap_or(Ok(())).map_err(ArmError)
+}
+
+fn install() -> Result<(), String> {
+    let mut fds = [-1; 2];
+    // SAFETY: pipe2 writes two descriptors into fds.
+    if unsafe { libc::pipe2(fds.as_mut_ptr(), libc::O_NONBLOCK | libc::O_CLOEXEC) } != 0 {
+        return Err(std::io::Error::last_os_error().to_string());
+    }
+    WAKE_READ.store(fds[0], Ordering::SeqCst);
+    WAKE_WRITE.store(fds[1], Ordering::SeqCst);
+    for sig in SIGNALS {
+        // SAFETY: a zeroed sigaction with our handler; SA_RESTART keeps
+        // blocking reads of the link from failing with EINTR.
+        unsafe {
+            let mut act: libc::sigaction = std::mem::zeroed();
+            act.sa_sigaction = on_signal as extern "C" fn(libc::c_int) as usize;
+            act.sa_flags = libc::SA_RESTART;
+            libc::sigemptyset(&mut act.sa_mask);
+            if libc::sigaction(sig, &act, std::ptr::null_mut()) != 0 {
+                return Err(std::io::Error::last_os_error().to_string());
+            }
+        }
+    }
+    Ok(())
+}
+
+/// The first signal caught since [`arm`], if any.
+pub fn caught() -> Option<i32> {
+    match CAUGHT.load(Ordering::SeqCst) {
+        0 => None,
+        sig => Some(sig),
+    }
+}
+
+/// The exit code a caught signal asks for: 128 + its number (130 for
+/// SIGINT, 143 for SIGTERM, 129 for SIGHUP, 131 for SIGQUIT).
+pub fn exit_code(sig: i32) -> u8 {
+    (128 + sig).clamp(0, 255) as u8
+}
+
+/// A signal's name for messages.
+pub fn signal_name(sig: i32) -> &'static str {
+    match sig {
+        libc::SIGINT => "SIGINT",
+        libc::SIGTERM => "SIGTERM",
+        libc::SIGHUP => "SIGHUP",
+        libc::SIGQUIT => "SIGQUIT",
+        _ => "a signal",
+    }
+}
+
+/// Records that progress or a result could not be written (a closed pipe,
+/// a full disk): a supervised wait then halts instead of going on blind.
+pub fn note_output_failure(err: &std::io::Error) {
+    if !OUTPUT_FAILED.swap(true, Ordering::SeqCst) {
+        *OUTPUT_ERROR.lock().unwrap_or_else(|e| e.into_inner()) = Some(err.to_string());
+    }
+}
+
+/// Records that the traffic log (`--log`) could not be written. The traffic
+/// goes on (a halt must never wait for the log); a supervised wait halts as
+/// on any output failure, and the binary reports [`log_failure`] at the end.
+pub fn note_log_failure(err: &std::io::Error) {
+    let mut log = LOG_ERROR.lock().unwrap_or_else(|e| e.into_inner());
+    if log.is_none() {
+        *log = Some(err.to_string());
+        drop(log);
+        note_output_failure(&std::io::Error::new(err.kind(), format!("--log: {err}")));
+    }
+}
+
+/// The first failed write of the traffic log, if any.
+pub fn log_failure() -> Option<String> {
+    LOG_ERROR.lock().unwrap_or_else(|e| e.into_inner()).clone()
+}
+
+/// The first output failure recorded, if any.
+pub fn output_failure() -> Option<String> {
+    if OUTPUT_FAILED.load(Ordering::SeqCst) {
+        OUTPUT_ERROR.lock().unwrap_or_else(|e| e.into_inner()).clone()
+    } else {
+        None
+    }
+}
+
+/// Whether a supervised wait must halt now: a signal was caught or the
+/// output failed.
+pub fn stop_requested() -> bool {
+    caught().is_some() || OUTPUT_FAILED.load(Ordering::SeqCst)
+}
+
+/// Sleeps for `d` or until a signal arrives (or the output failed),
+/// whichever comes first. Before [`arm`] it is a plain sleep.
+pub fn sleep(d: Duration) {
+    let fd = WAKE_READ.load(Ordering::SeqCst);
+    if fd < 0 {
+        std::thread::sleep(d);
+        return;
+    }
+    let deadline = std::time::Instant::now() + d;
+    loop {
+        if stop_requested() {
+            return;
+        }
+        let left = deadline.saturating_duration_since(std::time::Instant::now());
+        if left.is_zero() {
+            return;
+        }
+        let ms = left.as_millis().clamp(1, i32::MAX as u128) as i32;
+        let mut pfd = libc::pollfd { fd, events: libc::POLLIN, revents: 0 };
+        // SAFETY: one valid pollfd.
+        unsafe {
+            libc::poll(&mut pfd, 1, ms);
+        }
+        // Drain the wake bytes; `caught` keeps the signal itself.
+        let mut buf = [0u8; 16];
+        // SAFETY: reading into a local buffer from our non-blocking pipe.
+        while unsafe { libc::read(fd, buf.as_mut_ptr().cast(), buf.len()) } > 0 {}
+    }
+}
