@@ -272,3 +272,15 @@ fn cdios_lost_goto_answer_under_wait_stops_the_motor_and_says_so() {
     let flags = st.json()["flags"].to_string();
     assert!(!flags.contains("GOTO_ACTIVE") && !flags.contains("RUNNING_FORWARD"), "{flags}");
 }
+
+/// The Home acknowledge is lost under --wait: the module may be homing, so
+/// it is halted and the message says so.
+#[test]
+fn a_lost_home_acknowledge_under_wait_halts_and_says_so() {
+    let s = Sim::start(&["--powercube", "pty-slcan", "--fault", "drop=1,count=1"], 1);
+    let link = s.link("powercube");
+    let r = run_bounded(&["--link", link, "--timeout", "1000", "home", "-m", "3", "--wait"]);
+    assert_eq!(r.code, 4, "{}", r.stderr);
+    assert!(r.stderr.contains("may have been moving") && r.stderr.contains("module 3 halted"), "{}", r.stderr);
+    assert!(cube_stands(link), "module 3 still homing");
+}

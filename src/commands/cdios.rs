@@ -356,7 +356,7 @@ fn print_wait_end(ctx: &Ctx, what: &str, end: &WaitEnd, extra: Value) {
         merge(&mut st, doc);
         output::json(&st);
     } else {
-        println!(
+        crate::output::say!(
             "{what} done at {} after {:.2} s  {}",
             end.position,
             end.elapsed.as_secs_f64(),

@@ -323,7 +323,7 @@ fn reference(ctx: &Ctx, d: &mut Controller, axis: u8, wait: PacWait) -> anyhow::
         merge(&mut doc, status_json(&done.ack));
         output::json(&doc);
     } else {
-        println!("axis {axis}: referenced, at {position} after {:.2} s", done.elapsed.as_secs_f64());
+        crate::output::say!("axis {axis}: referenced, at {position} after {:.2} s", done.elapsed.as_secs_f64());
     }
     Ok(())
 }

@@ -252,7 +252,10 @@ fn home(ctx: &Ctx, target: Target, wait: WaitArgs) -> anyhow::Result<()> {
         // Supervised from before the first byte: a signal now halts.
         super::arm_interrupt()?;
     }
-    cubes.simple(target.module.map(module), Simple::Home)?;
+    match target.module.map(module) {
+        Some(m) if wait.wait => cubes.home_supervised(m, 1 + ctx.retry.read_retries)?,
+        m => cubes.simple(m, Simple::Home)?,
+    }
     if !wait.wait {
         report_sent(ctx, target, "Home");
         return Ok(());

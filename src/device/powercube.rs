@@ -366,6 +366,19 @@ impl Cubes {
         Ok(())
     }
 
+    /// Home to one module under supervision: a Home without its
+    /// acknowledge may still have been taken, so the module is halted before
+    /// the error is returned.
+    pub fn home_supervised(&mut self, m: ModuleId, halt_attempts: u32) -> Result<(), Error> {
+        match self.pc.transact(m, &Simple::Home.request()) {
+            Ok(_) => Ok(()),
+            Err(source) => {
+                let halt_failed = self.halt_retrying(m, halt_attempts).err().map(|e| e.to_string());
+                Err(Error::MotionUnconfirmed { what: "Home".into(), module: m, halt_failed, source })
+            }
+        }
+    }
+
     /// Halt, sent again when its acknowledge does not come: stopping twice
     /// is harmless, not stopping is not. (Motion commands are never sent
     /// twice.)
