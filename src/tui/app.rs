@@ -42,7 +42,24 @@ pub struct EventLine {
     pub at: Instant,
     pub level: Level,
     pub text: String,
+    /// How many times it happened ([`App::log_folded`]); 1 for most lines.
+    pub count: u32,
 }
+
+impl EventLine {
+    /// The text with its count when it happened more than once.
+    pub fn shown(&self) -> String {
+        if self.count > 1 {
+            format!("{} (×{})", self.text, self.count)
+        } else {
+            self.text.clone()
+        }
+    }
+}
+
+/// How far back [`App::log_folded`] looks for the same line: enough for a
+/// few devices flapping between "no answer" and "answers again" at once.
+pub const FOLD_WINDOW: usize = 32;
 
 /// A link and its worker, as the status bar shows it.
 #[derive(Debug, Clone)]
@@ -165,7 +182,7 @@ impl App {
     }
 
     pub fn log(&mut self, level: Level, text: impl Into<String>) {
-        self.events.push_back(EventLine { at: self.now, level, text: text.into() });
+        self.events.push_back(EventLine { at: self.now, level, text: text.into(), count: 1 });
         while self.events.len() > EVENT_LINES {
             self.events.pop_front();
         }
@@ -173,6 +190,21 @@ impl App {
             // Keep the lines the user scrolled to in place.
             self.scroll = (self.scroll + 1).min(self.events.len().saturating_sub(1));
         }
+    }
+
+    /// As [`log`](Self::log), but a line already among the last
+    /// [`FOLD_WINDOW`] moves to the bottom with its count raised: at a few
+    /// percent frame loss, devices flap between "no answer" and "answers
+    /// again", and one line each with a count keeps the pane readable.
+    pub fn log_folded(&mut self, level: Level, text: String) {
+        let n = self.events.len();
+        let hit = (n.saturating_sub(FOLD_WINDOW)..n).rev().find(|&i| self.events[i].text == text);
+        let Some(i) = hit else { return self.log(level, text) };
+        let mut line = self.events.remove(i).expect("found above");
+        line.count += 1;
+        line.at = self.now;
+        line.level = level;
+        self.events.push_back(line);
     }
 
     /// Why a device's data is not current, or `None` when it is.
@@ -277,7 +309,7 @@ impl App {
                 }
                 self.now = self.now.max(at);
                 if let Some((level, text)) = note {
-                    self.log(level, text);
+                    self.log_folded(level, text);
                 }
             }
             LinkEvent::Acted { device, what, at, result, .. } => {

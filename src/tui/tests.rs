@@ -608,3 +608,29 @@ fn halt_all_stops_a_pac_in_automatic_mode() {
     pac.advance(rig.clock.now());
     assert_eq!(pac.output(16), output, "the automatic program no longer runs");
 }
+
+/// A flapping CAN link (answers, then nothing, again and again): each
+/// device's "no answer" and "answers again" stay one line each, with a count.
+#[test]
+fn a_flapping_link_folds_its_events_with_a_count() {
+    let mut rig = Rig::new();
+    rig.round();
+    let before = rig.app.events.len();
+    for _ in 0..10 {
+        rig.bench.bus.set_fault(Some(Box::new(Silence)));
+        rig.advance(Duration::from_millis(100));
+        rig.round();
+        rig.bench.bus.set_fault(None);
+        rig.advance(Duration::from_millis(100));
+        rig.round();
+    }
+    let lines: Vec<_> = rig.app.events.iter().skip(before).collect();
+    let cube = DeviceKey::Cube(3).label();
+    let again: Vec<_> = lines.iter().filter(|e| e.text == format!("{cube}: answers again")).collect();
+    assert_eq!(again.len(), 1, "{lines:?}");
+    assert_eq!(again[0].count, 10);
+    assert!(again[0].shown().ends_with("(×10)"), "{}", again[0].shown());
+    let lost: Vec<_> = lines.iter().filter(|e| e.text.starts_with(&format!("{cube}: ")) && e.count == 10).collect();
+    assert_eq!(lost.len(), 2, "no answer and answers again, ten times each: {lines:?}");
+    assert_eq!(lines.len(), 10, "one pair of lines per flapping device (3 PowerCubes, 2 Cdios): {lines:?}");
+}

@@ -131,7 +131,7 @@ fn draw_events(f: &mut Frame, app: &App, area: Rect) {
     let mut start = end;
     while start > 0 {
         let e = &app.events[start - 1];
-        let need = (8 + e.text.chars().count()).div_ceil(inner_w).max(1);
+        let need = (8 + e.shown().chars().count()).div_ceil(inner_w).max(1);
         if rows + need > inner_h && rows > 0 {
             break;
         }
@@ -150,7 +150,7 @@ fn draw_events(f: &mut Frame, app: &App, area: Rect) {
             };
             Line::from(vec![
                 Span::styled(format!("{:02}:{:04.1} ", (t / 60.0) as u64, t % 60.0), DIM),
-                Span::styled(e.text.clone(), style),
+                Span::styled(e.shown(), style),
             ])
         })
         .collect();
