@@ -33,7 +33,14 @@ pub fn run(ctx: &Ctx, args: &DashboardArgs) -> anyhow::Result<()> {
     if !std::io::stdout().is_terminal() || !std::io::stdin().is_terminal() {
         return Err(usage("the dashboard needs a terminal (stdin and stdout); for scripts use the other commands"));
     }
-    axisctl::tui::run(plans, args.rate, Arc::clone(&ctx.clock))
+    let r = axisctl::tui::run(plans, args.rate, Arc::clone(&ctx.clock));
+    if let Some(t) = r.as_ref().err().and_then(|e| e.downcast_ref::<axisctl::tui::Terminated>()) {
+        // The terminal is restored by now; exit as a shell reports a
+        // process ended by the signal (143 SIGTERM, 129 SIGHUP).
+        eprintln!("axisctl: {t}");
+        std::process::exit(128 + t.signal);
+    }
+    r
 }
 
 /// Which link each family is on, in registry order; a family left out has none.

@@ -153,6 +153,9 @@ pub struct App {
     pub quit: bool,
     /// The user moved the selection: it follows its device as others appear.
     pub chosen: bool,
+    /// Devices this dashboard sent a motion to (home, jog, go to), with
+    /// their link: what SIGTERM / SIGHUP halt before the dashboard exits.
+    pub moved: Vec<(LinkId, DeviceKey)>,
 }
 
 impl App {
@@ -170,6 +173,7 @@ impl App {
             now,
             quit: false,
             chosen: false,
+            moved: Vec::new(),
         }
     }
 
@@ -242,9 +246,33 @@ impl App {
                 self.on_link(l);
                 vec![]
             }
-            Event::Key(k) if k.kind != KeyEventKind::Release => self.on_key(k),
+            Event::Key(k) if k.kind != KeyEventKind::Release => {
+                let out = self.on_key(k);
+                for o in &out {
+                    if let ToWorker::Act(key, Action::Home | Action::Jog(_) | Action::MoveTo(_)) = o.msg {
+                        if !self.moved.contains(&(o.link, key)) {
+                            self.moved.push((o.link, key));
+                        }
+                    }
+                }
+                out
+            }
             Event::Key(_) => vec![],
+            Event::Terminate(signal) => self.terminate(signal),
         }
+    }
+
+    /// The terminal closed or the process is told to end: nobody will watch
+    /// the axes any more, so what this dashboard set moving is halted (each
+    /// worker runs its halts before it sees Quit). Other devices are left
+    /// alone, as `q` leaves them all.
+    fn terminate(&mut self, signal: i32) -> Vec<Outgoing> {
+        let name = signal_name(signal);
+        self.log(Level::Warn, format!("{name}: halting what this dashboard moved, then quitting"));
+        let mut out: Vec<Outgoing> =
+            self.moved.iter().map(|&(link, key)| Outgoing { link, msg: ToWorker::Act(key, Action::Halt) }).collect();
+        out.extend(self.quit());
+        out
     }
 
     fn on_link(&mut self, ev: LinkEvent) {
@@ -561,4 +589,13 @@ pub fn changed_fields(old: &Snapshot, new: &Snapshot) -> Vec<&'static str> {
         _ => {}
     }
     out
+}
+
+/// SIGTERM / SIGHUP by name, for the event pane and the exit message.
+pub fn signal_name(signal: i32) -> String {
+    match signal {
+        libc::SIGTERM => "SIGTERM".into(),
+        libc::SIGHUP => "SIGHUP".into(),
+        n => format!("signal {n}"),
+    }
 }

@@ -17,6 +17,8 @@ pub enum Event {
     Link(LinkEvent),
     /// Time passes: ages data, ends highlights. Carries the clock's now.
     Tick(Instant),
+    /// SIGTERM or SIGHUP (its number): halt what the dashboard moved, quit.
+    Terminate(i32),
 }
 
 /// What a link worker reports.

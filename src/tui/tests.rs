@@ -634,3 +634,29 @@ fn a_flapping_link_folds_its_events_with_a_count() {
     assert_eq!(lost.len(), 2, "no answer and answers again, ten times each: {lines:?}");
     assert_eq!(lines.len(), 10, "one pair of lines per flapping device (3 PowerCubes, 2 Cdios): {lines:?}");
 }
+
+/// SIGTERM / SIGHUP: the axis this dashboard set moving is halted before the
+/// workers quit; a module it did not move is left alone, as `q` leaves it.
+#[test]
+fn terminate_halts_what_the_dashboard_moved_then_quits() {
+    let mut rig = Rig::new();
+    rig.round();
+    rig.select(DeviceKey::Cube(17));
+    rig.key(KeyCode::Char('g'));
+    rig.keys("0.5");
+    rig.key(KeyCode::Enter);
+    rig.advance(Duration::from_millis(300));
+    rig.round();
+    assert_ne!(rig.cube(17).1, 0.0, "module 17 moving");
+    assert_eq!(rig.app.moved, [(0, DeviceKey::Cube(17))]);
+    let outs = rig.app.handle(Event::Terminate(libc::SIGTERM));
+    assert!(rig.app.quit);
+    let msgs: Vec<_> = outs.iter().filter(|o| o.link == 0).map(|o| o.msg.clone()).collect();
+    assert_eq!(msgs, [ToWorker::Act(DeviceKey::Cube(17), super::source::Action::Halt), ToWorker::Quit]);
+    let mut events = Vec::new();
+    assert!(rig.workers[0].handle(msgs, &mut |ev| events.push(ev)), "the worker quits after the halt");
+    let (cube, vel) = rig.cube(17);
+    assert_ne!(cube & state::HALTED, 0, "module 17 halted");
+    assert_eq!(vel, 0.0);
+    assert!(rig.app.events.iter().any(|e| e.text.starts_with("SIGTERM: halting")), "{:?}", rig.app.events);
+}
