@@ -355,6 +355,22 @@ impl App {
                     lv.period = Some(period);
                 }
             }
+            LinkEvent::Down { link, why } => {
+                let name = self.links[link].name.clone();
+                let first = self.links[link].ended.is_none();
+                self.links[link].ended = Some(format!("link lost: {why}"));
+                let text = format!("{name}: link lost ({why}); reopening");
+                if first {
+                    self.log(Level::Error, text);
+                } else {
+                    self.log_folded(Level::Error, text);
+                }
+            }
+            LinkEvent::Reopened { link } => {
+                self.links[link].ended = None;
+                let name = self.links[link].name.clone();
+                self.log(Level::Info, format!("{name}: reopened"));
+            }
             LinkEvent::Ended { link, why } => {
                 let name = self.links[link].name.clone();
                 self.links[link].ended = Some(why.clone());
@@ -463,6 +479,10 @@ impl App {
             KeyAction::ScrollDown => {
                 self.scroll = self.scroll.saturating_sub(5);
                 vec![]
+            }
+            KeyAction::Rescan => {
+                self.log(Level::Info, "rescan sent to every link");
+                self.to_all(ToWorker::Rescan)
             }
             KeyAction::Help => {
                 self.mode = Mode::Help;
