@@ -60,6 +60,9 @@ pub fn cdios_target_range() -> (i64, i64) {
 pub struct LinkPlan {
     pub name: String,
     pub sources: Vec<Box<dyn DeviceSource>>,
+    /// How to open the link again when it is lost (`None`: never, e.g. the
+    /// in-process simulator, which cannot go away).
+    pub reopen: Option<worker::Reopen>,
 }
 
 /// The dashboard ended on SIGTERM or SIGHUP, after halting what it moved;
@@ -166,7 +169,11 @@ where
     for (i, plan) in plans.into_iter().enumerate() {
         let families = plan.sources.iter().map(|s| s.family()).collect();
         links.push(LinkView::new(plan.name, families, rate));
-        let (wtx, h) = worker::spawn(LinkWorker::new(i, plan.sources, Arc::clone(&clock), rate), tx.clone());
+        let mut w = LinkWorker::new(i, plan.sources, Arc::clone(&clock), rate);
+        if let Some(reopen) = plan.reopen {
+            w = w.with_reopen(reopen);
+        }
+        let (wtx, h) = worker::spawn(w, tx.clone());
         senders.push(wtx);
         handles.push(h);
     }
