@@ -369,7 +369,7 @@ impl App {
             LinkEvent::Reopened { link } => {
                 self.links[link].ended = None;
                 let name = self.links[link].name.clone();
-                self.log(Level::Info, format!("{name}: reopened"));
+                self.log_folded(Level::Info, format!("{name}: reopened"));
             }
             LinkEvent::Ended { link, why } => {
                 let name = self.links[link].name.clone();

@@ -56,6 +56,9 @@ pub struct LinkWorker {
     /// Rounds in a row in which no device answered.
     silent_rounds: u32,
     down: Option<Down>,
+    /// The devices polled when the link was lost: polled again after the
+    /// reopen even if the scan misses them (a module still powering up).
+    lost: Vec<DeviceKey>,
 }
 
 impl LinkWorker {
@@ -70,6 +73,7 @@ impl LinkWorker {
             reopen: None,
             silent_rounds: 0,
             down: None,
+            lost: Vec::new(),
         }
     }
 
@@ -97,7 +101,7 @@ impl LinkWorker {
         }
         self.silent_rounds = 0;
         self.sources.clear();
-        self.devices.clear();
+        self.lost = self.devices.drain(..).map(|d| d.1).collect();
         self.down = Some(Down { next_try: self.clock.now() + BACKOFF_MIN, backoff: BACKOFF_MIN });
         out(LinkEvent::Down { link: self.link, why: format!("no device answered for {DOWN_AFTER} rounds") });
     }
@@ -114,7 +118,17 @@ impl LinkWorker {
                 self.sources = sources;
                 self.down = None;
                 out(LinkEvent::Reopened { link: self.link });
-                out(self.discover());
+                let mut ev = self.discover();
+                for key in std::mem::take(&mut self.lost) {
+                    let source = self.sources.iter().position(|s| s.family() == key.family());
+                    if let (Some(i), false) = (source, self.devices.iter().any(|d| d.1 == key)) {
+                        self.devices.push((i, key));
+                    }
+                }
+                if let LinkEvent::Discovered { devices, .. } = &mut ev {
+                    *devices = self.devices.iter().map(|d| d.1).collect();
+                }
+                out(ev);
             }
             Err(why) => {
                 let backoff = (down.backoff * 2).min(BACKOFF_MAX);
