@@ -106,6 +106,13 @@ impl Opener {
         Self { clock, log: None, wire: Ok(None), bench: OnceLock::new() }
     }
 
+    /// An opener with the same clock, log and wire settings, for opening a
+    /// lost link again from another thread (the dashboard's workers). Its
+    /// `sim` links reach a bench of their own, not this one's.
+    pub fn fresh(&self) -> Self {
+        Self { clock: Arc::clone(&self.clock), log: self.log.clone(), wire: self.wire.clone(), bench: OnceLock::new() }
+    }
+
     /// Appends the traffic of every link opened from now on to `path`.
     pub fn with_log(mut self, path: Option<PathBuf>) -> Self {
         self.log = path;

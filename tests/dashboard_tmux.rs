@@ -180,3 +180,53 @@ fn log_records_every_link_of_the_dashboard() {
     assert!(text.lines().any(|l| l.contains(") tx 01 02 ")), "no PA-CONTROL request in the log:\n{text}");
     assert!(text.lines().any(|l| l.contains(") rx 01 02 ")), "no PA-CONTROL answer in the log:\n{text}");
 }
+
+/// The dashboard's process: the one child of the pane's shell.
+fn dashboard_pid(t: &Tmux) -> i32 {
+    let shell = t.display("#{pane_pid}");
+    let deadline = Instant::now() + Duration::from_secs(5);
+    loop {
+        let children = std::fs::read_to_string(format!("/proc/{shell}/task/{shell}/children")).unwrap_or_default();
+        if let Some(pid) = children.split_whitespace().next() {
+            return pid.parse().unwrap();
+        }
+        assert!(Instant::now() < deadline, "no dashboard process under the shell {shell}");
+        std::thread::sleep(Duration::from_millis(50));
+    }
+}
+
+/// SIGTERM and SIGHUP (terminal closed, SSH dropped) while an axis the
+/// dashboard started moves: the dashboard says it halted what it moved,
+/// leaves raw mode and the alternate screen, and exits 128 + the signal.
+fn ends_on(signal: i32, name: &str, code: i32) {
+    let t = Tmux::start(80, 24);
+    t.wait_for("READY$");
+    t.keys(&[&format!("{} --link sim dashboard", env!("CARGO_BIN_EXE_axisctl")), "Enter"]);
+    t.wait_for("module 17");
+    t.keys(&["h"]);
+    t.wait_for("Home acknowledged");
+    let pid = dashboard_pid(&t);
+    // SAFETY: kill(2) on the pid of the dashboard this test started.
+    assert_eq!(unsafe { libc::kill(pid, signal) }, 0);
+    let deadline = Instant::now() + Duration::from_secs(10);
+    while t.display("#{alternate_on}") != "0" {
+        assert!(Instant::now() < deadline, "still on the alternate screen after {name}:\n{}", t.capture());
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    t.keys(&["s=$?; stty -a | tr ' ' '\\n' | grep -x -e icanon -e -icanon; echo code=$s DO''NE", "Enter"]);
+    let screen = t.wait_for("DONE");
+    assert!(screen.contains(&format!("{name}: halted what the dashboard moved")), "{screen}");
+    let lines: Vec<&str> = screen.lines().map(str::trim).collect();
+    assert!(lines.contains(&"icanon") && !lines.contains(&"-icanon"), "terminal left in raw mode:\n{screen}");
+    assert!(screen.contains(&format!("code={code} DONE")), "{name} exits {code}:\n{screen}");
+}
+
+#[test]
+fn sigterm_halts_restores_the_terminal_and_exits_143() {
+    ends_on(libc::SIGTERM, "SIGTERM", 143);
+}
+
+#[test]
+fn sighup_halts_restores_the_terminal_and_exits_129() {
+    ends_on(libc::SIGHUP, "SIGHUP", 129);
+}

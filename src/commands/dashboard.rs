@@ -19,7 +19,7 @@ use axisctl::tui::cdios::CdiosSource;
 use axisctl::tui::pac::PacSource;
 use axisctl::tui::powercube::CubeSource;
 use axisctl::tui::source::DeviceSource;
-use axisctl::tui::worker::{MAX_RATE, MIN_RATE};
+use axisctl::tui::worker::{Reopen, MAX_RATE, MIN_RATE};
 use axisctl::tui::LinkPlan;
 
 use super::{usage, Ctx};
@@ -33,7 +33,14 @@ pub fn run(ctx: &Ctx, args: &DashboardArgs) -> anyhow::Result<()> {
     if !std::io::stdout().is_terminal() || !std::io::stdin().is_terminal() {
         return Err(usage("the dashboard needs a terminal (stdin and stdout); for scripts use the other commands"));
     }
-    axisctl::tui::run(plans, args.rate, Arc::clone(&ctx.clock))
+    let r = axisctl::tui::run(plans, args.rate, Arc::clone(&ctx.clock));
+    if let Some(t) = r.as_ref().err().and_then(|e| e.downcast_ref::<axisctl::tui::Terminated>()) {
+        // The terminal is restored by now; exit as a shell reports a
+        // process ended by the signal (143 SIGTERM, 129 SIGHUP).
+        eprintln!("axisctl: {t}");
+        std::process::exit(128 + t.signal);
+    }
+    r
 }
 
 /// Which link each family is on, in registry order; a family left out has none.
@@ -111,24 +118,64 @@ fn assign(ctx: &Ctx, args: &DashboardArgs) -> anyhow::Result<Assignment> {
 }
 
 /// The device source of `family` on an opened link.
-fn source(ctx: &Ctx, args: &DashboardArgs, family: Family, link: OpenedLink) -> Box<dyn DeviceSource> {
-    let opener = ctx.opener();
-    // The screen is the trace: frames printed on stderr would tear it.
-    let opts = SessionOptions { trace: None, ..ctx.session_options() };
-    match (family, link) {
-        (Family::PowerCube, link) => {
-            let modules = args.modules.as_ref().map(|l| l.to(CubeModule::new));
-            Box::new(CubeSource::new(opener.powercube_on(link, &opts), modules))
+/// What the device sources are built with, owned: a lost link is opened
+/// again on its worker's thread, long after the arguments are gone.
+#[derive(Clone)]
+struct Setup {
+    opts: SessionOptions,
+    modules: Option<Vec<CubeModule>>,
+    axes: Option<Vec<u8>>,
+    node: NodeId,
+    cdios_modules: Option<Vec<CdiosModule>>,
+    retry: axisctl::session::RetryPolicy,
+}
+
+impl Setup {
+    fn new(ctx: &Ctx, args: &DashboardArgs) -> Self {
+        Self {
+            // The screen is the trace: frames printed on stderr would tear it.
+            opts: SessionOptions { trace: None, ..ctx.session_options() },
+            modules: args.modules.as_ref().map(|l| l.to(CubeModule::new)),
+            axes: args.axes.as_ref().map(|l| l.0.clone()),
+            node: NodeId::new(args.node).expect("clap checks the node range"),
+            cdios_modules: args.cdios_modules.as_ref().map(|l| l.to(CdiosModule::new)),
+            retry: ctx.retry,
         }
-        (Family::Pac, OpenedLink::Serial(line)) => {
-            Box::new(PacSource::new(opener.pac_on(line, &opts), args.axes.as_ref().map(|l| l.0.clone())))
+    }
+
+    fn source(&self, opener: &Opener, family: Family, link: OpenedLink) -> Box<dyn DeviceSource> {
+        match (family, link) {
+            (Family::PowerCube, link) => {
+                Box::new(CubeSource::new(opener.powercube_on(link, &self.opts), self.modules.clone()))
+            }
+            (Family::Pac, OpenedLink::Serial(line)) => {
+                Box::new(PacSource::new(opener.pac_on(line, &self.opts), self.axes.clone()))
+            }
+            (Family::Cdios, OpenedLink::Can(link)) => Box::new(CdiosSource::new(
+                opener.cdios_on(link, &self.opts),
+                self.node,
+                self.cdios_modules.clone(),
+                self.retry,
+            )),
+            (f, _) => unreachable!("assign checked that the link fits the {f}"),
         }
-        (Family::Cdios, OpenedLink::Can(link)) => {
-            let node = NodeId::new(args.node).expect("clap checks the node range");
-            let modules = args.cdios_modules.as_ref().map(|l| l.to(CdiosModule::new));
-            Box::new(CdiosSource::new(opener.cdios_on(link, &opts), node, modules, ctx.retry))
+    }
+
+    /// Opens `spec` and builds the sources of `fams` on it.
+    fn open(
+        &self,
+        opener: &Opener,
+        clock: &Arc<dyn axisctl::clock::Clock>,
+        spec: &LinkSpec,
+        can: bool,
+        fams: &[Family],
+    ) -> anyhow::Result<Vec<Box<dyn DeviceSource>>> {
+        if can {
+            let bus = CanBus::new(opener.can(spec, None)?, Arc::clone(clock));
+            Ok(fams.iter().map(|&f| self.source(opener, f, OpenedLink::Can(Box::new(bus.port(f))))).collect())
+        } else {
+            fams.iter().map(|&f| Ok(self.source(opener, f, opener.open(spec, f)?))).collect()
         }
-        (f, _) => unreachable!("assign checked that the link fits the {f}"),
     }
 }
 
@@ -155,17 +202,17 @@ fn plan(ctx: &Ctx, args: &DashboardArgs) -> anyhow::Result<Vec<LinkPlan>> {
             None => links.push((spec, can, vec![*f])),
         }
     }
+    let setup = Setup::new(ctx, args);
     let mut plans = Vec::new();
     for (spec, can, fams) in links {
-        let sources = if can {
-            let bus = CanBus::new(opener.can(spec, None)?, Arc::clone(&ctx.clock));
-            fams.into_iter().map(|f| source(ctx, args, f, OpenedLink::Can(Box::new(bus.port(f))))).collect()
-        } else {
-            fams.into_iter()
-                .map(|f| Ok(source(ctx, args, f, opener.open(spec, f)?)))
-                .collect::<anyhow::Result<Vec<_>>>()?
-        };
-        plans.push(LinkPlan { name: link_name(spec, can), sources });
+        let sources = setup.open(opener, &ctx.clock, spec, can, &fams)?;
+        // A real link is opened again from the same path when it is lost;
+        // the in-process simulator cannot go away.
+        let reopen: Option<Reopen> = (*spec != LinkSpec::Sim).then(|| {
+            let (setup, opener, clock, spec) = (setup.clone(), opener.fresh(), Arc::clone(&ctx.clock), spec.clone());
+            Box::new(move || setup.open(&opener, &clock, &spec, can, &fams).map_err(|e| format!("{e:#}"))) as Reopen
+        });
+        plans.push(LinkPlan { name: link_name(spec, can), sources, reopen });
     }
     Ok(plans)
 }

@@ -1,6 +1,8 @@
 //! A Lawicel / slcan USB-CAN adapter (CANable, USBtin, CANUSB) as a [`CanLink`].
 //!
-//! Opening runs `C` (ignore the answer: closing a closed channel is an error on
+//! Opening first re-synchronises ([`RESYNC`]: a few CRs end a half line left by a
+//! client that died mid-write, and the reply to `V` marks where stale replies
+//! end), then runs `C` (ignore the answer: closing a closed channel is an error on
 //! Lawicel adapters), `S<n>`, `O`. Adapters differ in what they acknowledge
 //! (see [`crate::proto::slcan`]): the answer to `C` tells which kind this is. An
 //! adapter that answers nothing within [`PROBE`] (CANable 1.x firmware) is driven
@@ -11,7 +13,7 @@ use std::time::{Duration, Instant};
 
 use super::serial::SerialLink;
 use super::{ByteLink, CanLink, LinkError, SerialFormat};
-use crate::proto::slcan::{Command, LineDecoder, SlcanEvent};
+use crate::proto::slcan::{Command, LineDecoder, SlcanEvent, RESYNC};
 use crate::proto::CanFrame;
 
 /// How long to wait for the answer to the first command before deciding the
@@ -69,6 +71,7 @@ impl<B: ByteLink> SlcanLink<B> {
             out: Vec::new(),
         };
         link.io.clear_input()?;
+        link.resync()?;
         link.command(Command::Close)?;
         link.acks = link.wait_reply(PROBE)?.is_some();
         link.command(set_bitrate)?;
@@ -104,6 +107,22 @@ impl<B: ByteLink> SlcanLink<B> {
     /// BEL replies received since opening.
     pub fn adapter_errors(&self) -> u64 {
         self.adapter_errors
+    }
+
+    /// Ends whatever half line the adapter holds and skips every reply up to the
+    /// answer to `V`. Without it, a `C` glued to a dead client's half line is
+    /// rejected, the channel stays open and `S<n>` is refused. An adapter that
+    /// does not answer `V` costs [`PROBE`], and its stale replies (if any) are
+    /// left for the setup, as before.
+    fn resync(&mut self) -> Result<(), LinkError> {
+        self.io.write_all(RESYNC)?;
+        let deadline = Instant::now() + PROBE;
+        while let Some(ev) = self.next_event(deadline)? {
+            if matches!(&ev, SlcanEvent::Other(line) if line.starts_with('V')) {
+                break;
+            }
+        }
+        Ok(())
     }
 
     fn command(&mut self, cmd: Command) -> Result<(), LinkError> {
@@ -354,6 +373,22 @@ mod tests {
         assert_eq!(server.stop().bitrate(), 250_000);
     }
 
+    #[test]
+    fn opening_after_a_client_died_mid_line_works_the_first_time() {
+        let server = Server::start(AckStyle::Lawicel, ack_on_a0);
+        // A crashed client: channel open, then half a transmit line.
+        let mut first = SerialLink::open(&server.path, TTY_BAUD, SerialFormat::F8N1).unwrap();
+        first.write_all(b"S8\rO\rt0E3").unwrap();
+        thread::sleep(Duration::from_millis(50));
+        drop(first);
+        let mut second = open(&server.path, 250_000).unwrap();
+        assert!(second.adapter_acks());
+        second.send(&CanFrame::new(0x0E3, &[0x00]).unwrap()).unwrap();
+        assert_eq!(second.recv(Duration::from_secs(2)).unwrap(), Some(CanFrame::new(0x0A3, &[0x00]).unwrap()));
+        drop(second);
+        assert_eq!(server.stop().bitrate(), 250_000);
+    }
+
     /// A byte link that answers the handshake with a script, for adapter misbehaviour.
     struct Scripted {
         replies: VecDeque<&'static [u8]>,
@@ -386,17 +421,20 @@ mod tests {
 
     #[test]
     fn bel_on_open_is_an_adapter_error() {
-        let err = SlcanLink::new(scripted(&[b"\x07", b"\r", b"\x07"]), 1_000_000).unwrap_err();
+        let err = SlcanLink::new(scripted(&[b"V1013\r", b"\x07", b"\r", b"\x07"]), 1_000_000).unwrap_err();
         assert!(matches!(&err, LinkError::Adapter(m) if m.contains("open")), "{err}");
-        let err = SlcanLink::new(scripted(&[b"\r", b"\x07"]), 125_000).unwrap_err();
+        let err = SlcanLink::new(scripted(&[b"V1013\r", b"\r", b"\x07"]), 125_000).unwrap_err();
         assert!(matches!(&err, LinkError::Adapter(m) if m.contains("125000") && m.contains("S4")), "{err}");
         assert!(matches!(SlcanLink::new(scripted(&[]), 42), Err(LinkError::Adapter(_))));
     }
 
     #[test]
     fn stale_frames_during_setup_are_dropped_and_bel_after_transmit_is_reported() {
-        let mut link =
-            SlcanLink::new(scripted(&[b"t0B1101\r\x07", b"\r", b"t0B1102\r\r", b"\x07"]), 1_000_000).unwrap();
+        let mut link = SlcanLink::new(
+            scripted(&[b"\x07\r\x07V1013\r", b"t0B1101\r\x07", b"\r", b"t0B1102\r\r", b"\x07"]),
+            1_000_000,
+        )
+        .unwrap();
         assert!(link.adapter_acks());
         link.send(&CanFrame::new(0x0F1, &[1]).unwrap()).unwrap();
         let err = link.recv(Duration::from_millis(10)).unwrap_err();
@@ -406,7 +444,7 @@ mod tests {
 
     #[test]
     fn garbage_between_frames_is_counted_and_skipped() {
-        let mut link = SlcanLink::new(scripted(&[b"\r", b"\r", b"\r"]), 1_000_000).unwrap();
+        let mut link = SlcanLink::new(scripted(&[b"V1013\r", b"\r", b"\r", b"\r"]), 1_000_000).unwrap();
         link.io.incoming.extend_from_slice(b"t0B\r\xff\xff\rt0B1103\r");
         assert_eq!(link.recv(Duration::from_millis(10)).unwrap(), Some(CanFrame::new(0x0B1, &[3]).unwrap()));
         assert_eq!(link.decode_errors(), 2);

@@ -29,6 +29,13 @@ pub const BEL: u8 = 0x07;
 /// Anything longer than this is garbage and is skipped up to the next CR.
 pub const MAX_LINE: usize = 96;
 
+/// What a host sends before its first command to re-synchronise with an adapter
+/// that may hold half a line from a client that died mid-write: the CRs end that
+/// line (the adapter rejects it, BEL, or ignores it), and `V`, which every
+/// firmware answers, marks where the stale replies end: everything read before
+/// the `V` line belongs to the dead client.
+pub const RESYNC: &[u8] = b"\r\r\rV\r";
+
 /// The slcan bitrates S0..S8.
 pub const SLCAN_BITRATES: [u32; 9] = [10_000, 20_000, 50_000, 100_000, 125_000, 250_000, 500_000, 800_000, 1_000_000];
 
@@ -787,6 +794,19 @@ mod tests {
         assert_eq!(run(&mut a, &long), b"\x07");
         assert_eq!(run(&mut a, b"C\rO\rr1232\r"), b"\r\rz\r");
         assert_eq!(a.remote_transmits(), 1);
+    }
+
+    #[test]
+    fn resync_ends_a_half_line_before_the_setup() {
+        // A client died in the middle of a transmit line, channel left open.
+        let mut a = Adapter::new(AckStyle::Lawicel);
+        run(&mut a, b"O\rt0F1");
+        let mut out = run(&mut a, RESYNC);
+        assert_eq!(out, b"\x07V1013\r", "the half line is rejected, then V marks the sync point");
+        out = run(&mut a, b"C\rS6\rO\r");
+        assert_eq!(out, b"\r\r\r", "C, S6 and O all accepted");
+        assert_eq!(a.bitrate(), 500_000);
+        assert!(a.is_open());
     }
 
     #[test]

@@ -3,7 +3,14 @@
 //!
 //! - The line is half-duplex and acknowledges do not name the command they
 //!   answer, so stale input is dropped before each command and the first
-//!   acknowledge after it is taken as its answer.
+//!   acknowledge after it that can answer it ([`Transaction::could_answer`]:
+//!   the command's data type) is taken as its answer. While the line's state
+//!   is unknown (a new session: the last client may have been killed with an
+//!   answer on its way; or after a skipped stale acknowledge) the session
+//!   first waits for the line to fall quiet for an answer timeout, dropping
+//!   what arrives, so a late answer cannot shift every later exchange by one.
+//!   A timeout does not make the line unknown: waiting there would let the
+//!   late answer of one try be taken for the answer of the next.
 //! - While an acknowledge says BE = 0 the session polls with a lone EOT every
 //!   [`Pac::set_poll_interval`] until BE = 1 or the overall busy timeout
 //!   ([`Pac::set_busy_timeout`], generous by default: moves and reference
@@ -112,7 +119,14 @@ pub struct Pac {
     last_status: Option<u16>,
     last_quit: Option<u16>,
     last_check: Option<CheckRule>,
+    /// An answer to some older exchange may still be on its way: wait for a
+    /// quiet line before the next request ([`Pac::settle`]).
+    line_unknown: bool,
 }
+
+/// Longest wait for a quiet line: a line that never falls quiet is not
+/// waited out for ever, the answer check still guards the exchange.
+const MAX_SETTLE: Duration = Duration::from_secs(1);
 
 /// Every read code is 1xxx (get / send, manual 5.1); writes and actions are 0xxx.
 pub fn is_read(code: u16) -> bool {
@@ -144,6 +158,7 @@ impl Pac {
             last_status: None,
             last_quit: None,
             last_check: None,
+            line_unknown: true,
         }
     }
 
@@ -222,7 +237,7 @@ impl Pac {
     /// command is refused. Never retried.
     pub fn start(&mut self, cmd: &Command) -> Result<Step, PacError> {
         let mut t = self.begin(cmd)?;
-        let ack = self.await_ack(t.command())?;
+        let ack = self.await_ack(&t)?;
         let step = self.handle(&mut t, ack)?;
         if let Step::NeedPoll { .. } = step {
             self.busy = Some(t);
@@ -265,6 +280,7 @@ impl Pac {
         let bytes = t.request().map_err(|e| PacError::Encode(e.to_string()))?;
         self.core.trace(|| TraceEvent::Sent(format!("{}  {cmd}", printable(&bytes))));
         // Half-duplex: anything still buffered belongs to an older exchange.
+        self.settle()?;
         self.link.clear_input().map_err(SessionError::from)?;
         self.decoder.clear();
         self.link.write_all(&bytes).map_err(SessionError::from)?;
@@ -275,10 +291,37 @@ impl Pac {
         let bytes = t.poll();
         let polls = t.polls();
         self.core.trace(|| TraceEvent::Sent(format!("{}  poll {polls}", printable(&bytes))));
+        self.settle()?;
         self.link.clear_input().map_err(SessionError::from)?;
         self.decoder.clear();
         self.link.write_all(&bytes).map_err(SessionError::from)?;
-        self.await_ack(t.command())
+        self.await_ack(t)
+    }
+
+    /// While the line's state is unknown, reads and drops input until nothing
+    /// has come for an answer timeout (at most [`MAX_SETTLE`]): an answer still
+    /// on its way is not yet in the buffer that clearing the input empties.
+    fn settle(&mut self) -> Result<(), PacError> {
+        if !self.line_unknown {
+            return Ok(());
+        }
+        let quiet = self.answer_timeout(MAX_ACK_CHARS as usize);
+        let Self { link, core, .. } = self;
+        let limit = core.now() + MAX_SETTLE;
+        let mut dropped = 0usize;
+        core.read_until(&mut **link, (core.now() + quiet).min(limit), |core, chunk, deadline| {
+            if !chunk.is_empty() {
+                dropped += chunk.len();
+                *deadline = (core.now() + quiet).min(limit);
+            }
+            ControlFlow::<()>::Continue(())
+        })
+        .map_err(SessionError::from)?;
+        if dropped > 0 {
+            self.core.trace(|| TraceEvent::Note(format!("dropped {dropped} stale byte(s) before the request")));
+        }
+        self.line_unknown = false;
+        Ok(())
     }
 
     fn handle(&mut self, t: &mut Transaction, ack: Ack) -> Result<Step, PacError> {
@@ -301,7 +344,7 @@ impl Pac {
     fn run(&mut self, cmd: &Command, observe: &mut dyn FnMut(&Progress) -> bool) -> Result<Done, PacError> {
         let start = self.core.clock.now();
         let mut t = self.begin(cmd)?;
-        let mut ack = self.await_ack(cmd)?;
+        let mut ack = self.await_ack(&t)?;
         loop {
             let step = self.handle(&mut t, ack)?;
             let elapsed = self.core.clock.now() - start;
@@ -341,14 +384,25 @@ impl Pac {
 
     /// The first acknowledge within the answer timeout. Bytes outside frames
     /// are skipped (traced); a frame with a bad CHECK or bad fields is malformed.
-    fn await_ack(&mut self, cmd: &Command) -> Result<Ack, PacError> {
+    /// An acknowledge that cannot be `t`'s answer is skipped (traced) and the
+    /// wait goes on; the line is then settled before the next request.
+    fn await_ack(&mut self, t: &Transaction) -> Result<Ack, PacError> {
+        let cmd = t.command();
         let timeout = self.answer_timeout(24);
-        let Self { link, core, decoder, .. } = self;
+        let Self { link, core, decoder, line_unknown, .. } = self;
         let deadline = core.now() + timeout;
         let ack = core.read_until(&mut **link, deadline, |core, chunk, _| {
             decoder.push(chunk);
             while let Some(item) = decoder.next() {
                 match item {
+                    Ok(ack) if !t.could_answer(&ack) => {
+                        core.trace(|| {
+                            TraceEvent::Note(format!(
+                                "skipped: {ack} cannot answer {cmd} (stale, of an older exchange)"
+                            ))
+                        });
+                        *line_unknown = true;
+                    }
                     Ok(ack) => {
                         core.trace(|| TraceEvent::Received(ack.to_string()));
                         return ControlFlow::Break(Ok(ack));
@@ -393,6 +447,9 @@ mod tests {
         written: Arc<Mutex<Vec<Vec<u8>>>>,
         replies: Arc<Mutex<VecDeque<Option<Vec<u8>>>>>,
         pending: Arc<Mutex<Vec<u8>>>,
+        /// An answer on its way when the session starts: clearing the input
+        /// does not reach it, it shows up at the next read.
+        inflight: Arc<Mutex<Vec<u8>>>,
     }
 
     struct ScriptLink {
@@ -410,6 +467,8 @@ mod tests {
         }
         fn read(&mut self, buf: &mut [u8], timeout: Duration) -> Result<usize, LinkError> {
             let mut p = self.s.pending.lock().unwrap();
+            let late: Vec<u8> = self.s.inflight.lock().unwrap().drain(..).collect();
+            p.splice(0..0, late);
             if p.is_empty() {
                 self.clock.advance(timeout);
                 return Ok(0);
@@ -544,6 +603,34 @@ mod tests {
         assert!(matches!(pac.poll().unwrap(), Step::Done(_)));
         assert!(pac.busy_command().is_none());
         assert!(pac.poll().is_err(), "nothing left to poll");
+    }
+
+    fn read_1910(pac: &mut Pac) -> Par2 {
+        pac.transact(&Command::new(0x1910, 1, Par2::Int(0))).unwrap().ack.q_par
+    }
+
+    // A client killed mid-exchange at 9600 baud: the answer to its 190C
+    // (a position, float) reaches the line after this 1910 was sent.
+    #[test]
+    fn an_acknowledge_that_cannot_answer_the_request_is_skipped() {
+        let stale = ack(0, true, 31, Par2::Float(161.477), CheckRule::Strict);
+        let mine = ack(0, true, 31, Par2::Int(7), CheckRule::Strict);
+        let (mut pac, s, _) =
+            session(vec![Some([stale, mine].concat()), Some(ack(0, true, 31, Par2::Int(8), CheckRule::Strict))]);
+        assert_eq!(read_1910(&mut pac), Par2::Int(7));
+        assert_eq!(read_1910(&mut pac), Par2::Int(8), "no offset left for the next exchange");
+        assert_eq!(written(&s).len(), 2);
+    }
+
+    // The same, with an answer of the same type on its way when the session
+    // starts: only waiting for a quiet line tells it from the real answer.
+    #[test]
+    fn an_answer_on_its_way_at_the_start_is_drained() {
+        let replies = (7..9).map(|v| Some(ack(0, true, 31, Par2::Int(v), CheckRule::Strict))).collect();
+        let (mut pac, s, _) = session(replies);
+        *s.inflight.lock().unwrap() = ack(0, true, 31, Par2::Int(99), CheckRule::Strict);
+        assert_eq!(read_1910(&mut pac), Par2::Int(7));
+        assert_eq!(read_1910(&mut pac), Par2::Int(8));
     }
 
     #[test]

@@ -42,7 +42,24 @@ pub struct EventLine {
     pub at: Instant,
     pub level: Level,
     pub text: String,
+    /// How many times it happened ([`App::log_folded`]); 1 for most lines.
+    pub count: u32,
 }
+
+impl EventLine {
+    /// The text with its count when it happened more than once.
+    pub fn shown(&self) -> String {
+        if self.count > 1 {
+            format!("{} (×{})", self.text, self.count)
+        } else {
+            self.text.clone()
+        }
+    }
+}
+
+/// How far back [`App::log_folded`] looks for the same line: enough for a
+/// few devices flapping between "no answer" and "answers again" at once.
+pub const FOLD_WINDOW: usize = 32;
 
 /// A link and its worker, as the status bar shows it.
 #[derive(Debug, Clone)]
@@ -136,6 +153,9 @@ pub struct App {
     pub quit: bool,
     /// The user moved the selection: it follows its device as others appear.
     pub chosen: bool,
+    /// Devices this dashboard sent a motion to (home, jog, go to), with
+    /// their link: what SIGTERM / SIGHUP halt before the dashboard exits.
+    pub moved: Vec<(LinkId, DeviceKey)>,
 }
 
 impl App {
@@ -153,6 +173,7 @@ impl App {
             now,
             quit: false,
             chosen: false,
+            moved: Vec::new(),
         }
     }
 
@@ -165,7 +186,7 @@ impl App {
     }
 
     pub fn log(&mut self, level: Level, text: impl Into<String>) {
-        self.events.push_back(EventLine { at: self.now, level, text: text.into() });
+        self.events.push_back(EventLine { at: self.now, level, text: text.into(), count: 1 });
         while self.events.len() > EVENT_LINES {
             self.events.pop_front();
         }
@@ -173,6 +194,21 @@ impl App {
             // Keep the lines the user scrolled to in place.
             self.scroll = (self.scroll + 1).min(self.events.len().saturating_sub(1));
         }
+    }
+
+    /// As [`log`](Self::log), but a line already among the last
+    /// [`FOLD_WINDOW`] moves to the bottom with its count raised: at a few
+    /// percent frame loss, devices flap between "no answer" and "answers
+    /// again", and one line each with a count keeps the pane readable.
+    pub fn log_folded(&mut self, level: Level, text: String) {
+        let n = self.events.len();
+        let hit = (n.saturating_sub(FOLD_WINDOW)..n).rev().find(|&i| self.events[i].text == text);
+        let Some(i) = hit else { return self.log(level, text) };
+        let mut line = self.events.remove(i).expect("found above");
+        line.count += 1;
+        line.at = self.now;
+        line.level = level;
+        self.events.push_back(line);
     }
 
     /// Why a device's data is not current, or `None` when it is.
@@ -210,9 +246,33 @@ impl App {
                 self.on_link(l);
                 vec![]
             }
-            Event::Key(k) if k.kind != KeyEventKind::Release => self.on_key(k),
+            Event::Key(k) if k.kind != KeyEventKind::Release => {
+                let out = self.on_key(k);
+                for o in &out {
+                    if let ToWorker::Act(key, Action::Home | Action::Jog(_) | Action::MoveTo(_)) = o.msg {
+                        if !self.moved.contains(&(o.link, key)) {
+                            self.moved.push((o.link, key));
+                        }
+                    }
+                }
+                out
+            }
             Event::Key(_) => vec![],
+            Event::Terminate(signal) => self.terminate(signal),
         }
+    }
+
+    /// The terminal closed or the process is told to end: nobody will watch
+    /// the axes any more, so what this dashboard set moving is halted (each
+    /// worker runs its halts before it sees Quit). Other devices are left
+    /// alone, as `q` leaves them all.
+    fn terminate(&mut self, signal: i32) -> Vec<Outgoing> {
+        let name = signal_name(signal);
+        self.log(Level::Warn, format!("{name}: halting what this dashboard moved, then quitting"));
+        let mut out: Vec<Outgoing> =
+            self.moved.iter().map(|&(link, key)| Outgoing { link, msg: ToWorker::Act(key, Action::Halt) }).collect();
+        out.extend(self.quit());
+        out
     }
 
     fn on_link(&mut self, ev: LinkEvent) {
@@ -277,7 +337,7 @@ impl App {
                 }
                 self.now = self.now.max(at);
                 if let Some((level, text)) = note {
-                    self.log(level, text);
+                    self.log_folded(level, text);
                 }
             }
             LinkEvent::Acted { device, what, at, result, .. } => {
@@ -294,6 +354,22 @@ impl App {
                 if !period.is_zero() {
                     lv.period = Some(period);
                 }
+            }
+            LinkEvent::Down { link, why } => {
+                let name = self.links[link].name.clone();
+                let first = self.links[link].ended.is_none();
+                self.links[link].ended = Some(format!("link lost: {why}"));
+                let text = format!("{name}: link lost ({why}); reopening");
+                if first {
+                    self.log(Level::Error, text);
+                } else {
+                    self.log_folded(Level::Error, text);
+                }
+            }
+            LinkEvent::Reopened { link } => {
+                self.links[link].ended = None;
+                let name = self.links[link].name.clone();
+                self.log_folded(Level::Info, format!("{name}: reopened"));
             }
             LinkEvent::Ended { link, why } => {
                 let name = self.links[link].name.clone();
@@ -403,6 +479,10 @@ impl App {
             KeyAction::ScrollDown => {
                 self.scroll = self.scroll.saturating_sub(5);
                 vec![]
+            }
+            KeyAction::Rescan => {
+                self.log(Level::Info, "rescan sent to every link");
+                self.to_all(ToWorker::Rescan)
             }
             KeyAction::Help => {
                 self.mode = Mode::Help;
@@ -529,4 +609,13 @@ pub fn changed_fields(old: &Snapshot, new: &Snapshot) -> Vec<&'static str> {
         _ => {}
     }
     out
+}
+
+/// SIGTERM / SIGHUP by name, for the event pane and the exit message.
+pub fn signal_name(signal: i32) -> String {
+    match signal {
+        libc::SIGTERM => "SIGTERM".into(),
+        libc::SIGHUP => "SIGHUP".into(),
+        n => format!("signal {n}"),
+    }
 }

@@ -17,6 +17,8 @@ pub enum Event {
     Link(LinkEvent),
     /// Time passes: ages data, ends highlights. Carries the clock's now.
     Tick(Instant),
+    /// SIGTERM or SIGHUP (its number): halt what the dashboard moved, quit.
+    Terminate(i32),
 }
 
 /// What a link worker reports.
@@ -32,6 +34,10 @@ pub enum LinkEvent {
     /// One round over every device: how long it took, and the time since the
     /// previous round started (the achieved poll period).
     Cycle { link: LinkId, busy: Duration, period: Duration },
+    /// The link stopped answering and was closed; the worker reopens it.
+    Down { link: LinkId, why: String },
+    /// The lost link is open again; a [`LinkEvent::Discovered`] follows.
+    Reopened { link: LinkId },
     /// The worker stopped (its link failed for good, or it panicked).
     Ended { link: LinkId, why: String },
 }
@@ -44,5 +50,7 @@ pub enum ToWorker {
     HaltAll,
     /// Polls per second wanted.
     SetRate(f64),
+    /// Discover the devices again (modules that missed the start).
+    Rescan,
     Quit,
 }

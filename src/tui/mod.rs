@@ -8,7 +8,9 @@
 //! - [`keys`]: the key bindings, declared once.
 //!
 //! The terminal is restored by a guard on every way out of [`run`] and by a
-//! panic hook when the UI thread panics.
+//! panic hook when the UI thread panics. SIGTERM and SIGHUP (terminal
+//! closed, SSH dropped) halt what the dashboard moved, restore the terminal
+//! and end [`run`] with [`Terminated`].
 
 pub mod app;
 pub mod cdios;
@@ -24,7 +26,7 @@ pub mod worker;
 mod tests;
 
 use std::io::{self, Stdout};
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicI32, Ordering};
 use std::sync::mpsc;
 use std::sync::Arc;
 use std::time::Duration;
@@ -58,6 +60,45 @@ pub fn cdios_target_range() -> (i64, i64) {
 pub struct LinkPlan {
     pub name: String,
     pub sources: Vec<Box<dyn DeviceSource>>,
+    /// How to open the link again when it is lost (`None`: never, e.g. the
+    /// in-process simulator, which cannot go away).
+    pub reopen: Option<worker::Reopen>,
+}
+
+/// The dashboard ended on SIGTERM or SIGHUP, after halting what it moved;
+/// the binary exits 128 + `signal`, as a shell reports a process killed by it.
+#[derive(Debug, thiserror::Error)]
+#[error("{}: halted what the dashboard moved and quit", app::signal_name(*.signal))]
+pub struct Terminated {
+    pub signal: i32,
+}
+
+/// The last SIGTERM / SIGHUP received, 0 for none; set by the handler.
+static SIGNAL: AtomicI32 = AtomicI32::new(0);
+
+extern "C" fn on_signal(signal: libc::c_int) {
+    // Only an atomic store: all a signal handler may safely do here.
+    SIGNAL.store(signal, Ordering::SeqCst);
+}
+
+/// Catches SIGTERM and SIGHUP, which would otherwise kill the dashboard in
+/// raw mode with an axis it started still moving. The UI loop wakes at
+/// least every [`TICK`] and looks at [`SIGNAL`].
+fn catch_termination() -> io::Result<()> {
+    for signal in [libc::SIGTERM, libc::SIGHUP] {
+        // SAFETY: the handler only stores to an atomic (async-signal-safe);
+        // the sigaction struct is zeroed, then filled with valid values.
+        let r = unsafe {
+            let mut sa: libc::sigaction = std::mem::zeroed();
+            sa.sa_sigaction = on_signal as extern "C" fn(libc::c_int) as libc::sighandler_t;
+            libc::sigemptyset(&mut sa.sa_mask);
+            libc::sigaction(signal, &sa, std::ptr::null_mut())
+        };
+        if r != 0 {
+            return Err(io::Error::last_os_error());
+        }
+    }
+    Ok(())
 }
 
 /// Set while the terminal is in raw mode on the alternate screen.
@@ -98,6 +139,7 @@ fn install_panic_hook() {
 /// Runs the dashboard until the user quits.
 pub fn run(plans: Vec<LinkPlan>, rate: f64, clock: Arc<dyn Clock>) -> anyhow::Result<()> {
     install_panic_hook();
+    catch_termination()?;
     enable_raw_mode()?;
     TERMINAL_TAKEN.store(true, Ordering::SeqCst);
     let _guard = TerminalGuard;
@@ -127,7 +169,11 @@ where
     for (i, plan) in plans.into_iter().enumerate() {
         let families = plan.sources.iter().map(|s| s.family()).collect();
         links.push(LinkView::new(plan.name, families, rate));
-        let (wtx, h) = worker::spawn(LinkWorker::new(i, plan.sources, Arc::clone(&clock), rate), tx.clone());
+        let mut w = LinkWorker::new(i, plan.sources, Arc::clone(&clock), rate);
+        if let Some(reopen) = plan.reopen {
+            w = w.with_reopen(reopen);
+        }
+        let (wtx, h) = worker::spawn(w, tx.clone());
         senders.push(wtx);
         handles.push(h);
     }
@@ -158,10 +204,27 @@ where
     // redrawn at most every FRAME for them, at once for a key.
     let mut drawn_at: Option<std::time::Instant> = None;
     let mut key_pressed = true;
+    let mut terminated = None;
     loop {
+        // Before drawing: after SIGHUP the terminal is gone and a draw fails.
+        let signal = SIGNAL.swap(0, Ordering::SeqCst);
+        if signal != 0 {
+            terminated = Some(signal);
+            for out in app.handle(Event::Terminate(signal)) {
+                let _ = senders[out.link].send(out.msg);
+            }
+            break;
+        }
         let since = drawn_at.map(|t| t.elapsed());
         let wait = if key_pressed || since.is_none_or(|s| s >= FRAME) {
-            terminal.draw(|f| ui::draw(f, &app))?;
+            if let Err(e) = terminal.draw(|f| ui::draw(f, &app)) {
+                // The terminal went away with its SIGHUP on the way: halt first.
+                std::thread::sleep(Duration::from_millis(50));
+                if SIGNAL.load(Ordering::SeqCst) != 0 {
+                    continue;
+                }
+                return Err(e.into());
+            }
             drawn_at = Some(std::time::Instant::now());
             TICK
         } else {
@@ -195,12 +258,16 @@ where
     for s in &senders {
         let _ = s.send(ToWorker::Quit);
     }
-    // Workers finish their current transaction; do not hang on a dead link.
+    // Workers finish their current transaction (and the halts a signal
+    // asked for); do not hang on a dead link.
     let deadline = std::time::Instant::now() + Duration::from_secs(2);
     for h in handles {
         while !h.is_finished() && std::time::Instant::now() < deadline {
             std::thread::sleep(Duration::from_millis(5));
         }
     }
-    Ok(())
+    match terminated {
+        Some(signal) => Err(Terminated { signal }.into()),
+        None => Ok(()),
+    }
 }

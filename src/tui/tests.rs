@@ -608,3 +608,139 @@ fn halt_all_stops_a_pac_in_automatic_mode() {
     pac.advance(rig.clock.now());
     assert_eq!(pac.output(16), output, "the automatic program no longer runs");
 }
+
+/// A flapping CAN link (answers, then nothing, again and again): each
+/// device's "no answer" and "answers again" stay one line each, with a count.
+#[test]
+fn a_flapping_link_folds_its_events_with_a_count() {
+    let mut rig = Rig::new();
+    rig.round();
+    let before = rig.app.events.len();
+    for _ in 0..10 {
+        rig.bench.bus.set_fault(Some(Box::new(Silence)));
+        rig.advance(Duration::from_millis(100));
+        rig.round();
+        rig.bench.bus.set_fault(None);
+        rig.advance(Duration::from_millis(100));
+        rig.round();
+    }
+    let lines: Vec<_> = rig.app.events.iter().skip(before).collect();
+    let cube = DeviceKey::Cube(3).label();
+    let again: Vec<_> = lines.iter().filter(|e| e.text == format!("{cube}: answers again")).collect();
+    assert_eq!(again.len(), 1, "{lines:?}");
+    assert_eq!(again[0].count, 10);
+    assert!(again[0].shown().ends_with("(×10)"), "{}", again[0].shown());
+    let lost: Vec<_> = lines.iter().filter(|e| e.text.starts_with(&format!("{cube}: ")) && e.count == 10).collect();
+    assert_eq!(lost.len(), 2, "no answer and answers again, ten times each: {lines:?}");
+    assert_eq!(lines.len(), 10, "one pair of lines per flapping device (3 PowerCubes, 2 Cdios): {lines:?}");
+}
+
+/// SIGTERM / SIGHUP: the axis this dashboard set moving is halted before the
+/// workers quit; a module it did not move is left alone, as `q` leaves it.
+#[test]
+fn terminate_halts_what_the_dashboard_moved_then_quits() {
+    let mut rig = Rig::new();
+    rig.round();
+    rig.select(DeviceKey::Cube(17));
+    rig.key(KeyCode::Char('g'));
+    rig.keys("0.5");
+    rig.key(KeyCode::Enter);
+    rig.advance(Duration::from_millis(300));
+    rig.round();
+    assert_ne!(rig.cube(17).1, 0.0, "module 17 moving");
+    assert_eq!(rig.app.moved, [(0, DeviceKey::Cube(17))]);
+    let outs = rig.app.handle(Event::Terminate(libc::SIGTERM));
+    assert!(rig.app.quit);
+    let msgs: Vec<_> = outs.iter().filter(|o| o.link == 0).map(|o| o.msg.clone()).collect();
+    assert_eq!(msgs, [ToWorker::Act(DeviceKey::Cube(17), super::source::Action::Halt), ToWorker::Quit]);
+    let mut events = Vec::new();
+    assert!(rig.workers[0].handle(msgs, &mut |ev| events.push(ev)), "the worker quits after the halt");
+    let (cube, vel) = rig.cube(17);
+    assert_ne!(cube & state::HALTED, 0, "module 17 halted");
+    assert_eq!(vel, 0.0);
+    assert!(rig.app.events.iter().any(|e| e.text.starts_with("SIGTERM: halting")), "{:?}", rig.app.events);
+}
+
+/// The CAN sources of the contract bench on a fresh link of its bus.
+fn can_sources(bus: &crate::link::mem::MemBus, clock: &Arc<dyn Clock>) -> Vec<Box<dyn DeviceSource>> {
+    let can = CanBus::new(Box::new(bus.open()), Arc::clone(clock));
+    vec![Box::new(CubeSource::new(
+        PowerCube::over_can(Box::new(can.port(Family::PowerCube))).with_clock(Arc::clone(clock)),
+        None,
+    ))]
+}
+
+/// The adapter goes away: after a few silent rounds the worker closes the
+/// link (its sources, which own it, are dropped), tries again with backoff,
+/// and once the link answers again the devices come back by themselves.
+#[test]
+fn a_lost_link_is_closed_reopened_with_backoff_and_its_devices_come_back() {
+    let mut rig = Rig::new();
+    let shared: Arc<dyn Clock> = Arc::new(rig.clock.clone());
+    let bus = rig.bench.bus.clone();
+    let opens = Arc::new(std::sync::atomic::AtomicUsize::new(0));
+    let (count, reopen_clock) = (Arc::clone(&opens), Arc::clone(&shared));
+    let fail = Arc::new(std::sync::atomic::AtomicBool::new(true));
+    let failing = Arc::clone(&fail);
+    let worker =
+        LinkWorker::new(0, can_sources(&bus, &shared), Arc::clone(&shared), 10.0).with_reopen(Box::new(move || {
+            count.fetch_add(1, std::sync::atomic::Ordering::SeqCst);
+            if failing.load(std::sync::atomic::Ordering::SeqCst) {
+                return Err("no such device".into());
+            }
+            Ok(can_sources(&bus, &reopen_clock))
+        }));
+    rig.workers[0] = worker;
+    let ev = rig.workers[0].discover();
+    rig.feed(ev);
+    rig.round();
+    assert!(rig.app.stale(rig.app.device(DeviceKey::Cube(3)).unwrap()).is_none());
+    rig.bench.bus.set_fault(Some(Box::new(Silence)));
+    for _ in 0..super::worker::DOWN_AFTER {
+        rig.advance(Duration::from_millis(100));
+        rig.round();
+    }
+    assert!(rig.workers[0].is_down(), "{:?}", rig.app.events);
+    assert!(rig.app.events.iter().any(|e| e.text.contains("link lost")), "{:?}", rig.app.events);
+    // Backoff: no try before BACKOFF_MIN, then one failing try, then a longer wait.
+    rig.round();
+    assert_eq!(opens.load(std::sync::atomic::Ordering::SeqCst), 0);
+    rig.advance(super::worker::BACKOFF_MIN);
+    rig.round();
+    assert_eq!(opens.load(std::sync::atomic::Ordering::SeqCst), 1);
+    rig.advance(super::worker::BACKOFF_MIN);
+    rig.round();
+    assert_eq!(opens.load(std::sync::atomic::Ordering::SeqCst), 1, "the wait doubled");
+    // The adapter is back, the modules still silent during its scan: they
+    // are polled all the same, and answer a moment later.
+    fail.store(false, std::sync::atomic::Ordering::SeqCst);
+    rig.advance(super::worker::BACKOFF_MIN * 2);
+    rig.round();
+    assert_eq!(opens.load(std::sync::atomic::Ordering::SeqCst), 2);
+    assert!(!rig.workers[0].is_down());
+    rig.bench.bus.set_fault(None);
+    rig.advance(Duration::from_millis(100));
+    rig.round();
+    let d = rig.app.device(DeviceKey::Cube(3)).unwrap();
+    assert!(rig.app.stale(d).is_none(), "module 3 current again: {:?}", rig.app.events);
+    assert!(rig.app.events.iter().any(|e| e.text.ends_with("reopened")), "{:?}", rig.app.events);
+}
+
+/// A module that missed the start-up scan is found by the rescan key.
+#[test]
+fn rescan_finds_a_module_missing_at_start() {
+    let mut rig = Rig::new();
+    let shared: Arc<dyn Clock> = Arc::new(rig.clock.clone());
+    // The CAN bus says nothing during the start-up scan.
+    rig.bench.bus.set_fault(Some(Box::new(Silence)));
+    rig.workers[0] = LinkWorker::new(0, can_sources(&rig.bench.bus.clone(), &shared), shared, 10.0);
+    rig.app.devices.clear();
+    let ev = rig.workers[0].discover();
+    rig.feed(ev);
+    assert!(!rig.app.devices.iter().any(|d| d.key == DeviceKey::Cube(17)));
+    rig.bench.bus.set_fault(None);
+    rig.keys("n");
+    assert!(rig.sent.contains(&ToWorker::Rescan));
+    assert!(rig.app.devices.iter().any(|d| d.key == DeviceKey::Cube(17)), "found by the rescan");
+    assert!(rig.app.events.iter().any(|e| e.text == "rescan sent to every link"));
+}

@@ -8,6 +8,13 @@
 //! than the wanted period is followed at once by the next, so the achieved
 //! rate is what the link gives, and the [`LinkEvent::Cycle`] reports say
 //! which it is.
+//!
+//! A link that stops answering altogether ([`DOWN_AFTER`] rounds in which
+//! no device answered) and that the worker knows how to open again
+//! ([`Reopen`]) is closed, which releases the device file so a replugged
+//! adapter comes back under the same name, and reopened from the same path
+//! with a backoff from [`BACKOFF_MIN`] to [`BACKOFF_MAX`]; its devices are
+//! then discovered again. [`ToWorker::Rescan`] discovers again on demand.
 
 use std::sync::mpsc::{Receiver, RecvTimeoutError, Sender, TryRecvError};
 use std::sync::Arc;
@@ -16,6 +23,22 @@ use std::time::{Duration, Instant};
 use super::event::{Event, LinkEvent, LinkId, ToWorker};
 use super::source::{DeviceKey, DeviceSource, Health};
 use crate::clock::Clock;
+
+/// Opens the link again from the same path, with fresh device sources.
+pub type Reopen = Box<dyn FnMut() -> Result<Vec<Box<dyn DeviceSource>>, String> + Send>;
+
+/// Rounds in a row in which no device answered before the link counts as lost.
+pub const DOWN_AFTER: u32 = 3;
+/// First wait before reopening a lost link; it doubles up to [`BACKOFF_MAX`].
+pub const BACKOFF_MIN: Duration = Duration::from_millis(500);
+pub const BACKOFF_MAX: Duration = Duration::from_secs(8);
+
+/// A lost link waiting to be reopened.
+#[derive(Debug, Clone, Copy)]
+struct Down {
+    next_try: Instant,
+    backoff: Duration,
+}
 
 /// Slowest and fastest poll rates the dashboard asks for.
 pub const MIN_RATE: f64 = 0.5;
@@ -29,11 +52,90 @@ pub struct LinkWorker {
     clock: Arc<dyn Clock>,
     rate: f64,
     last_round: Option<Instant>,
+    reopen: Option<Reopen>,
+    /// Rounds in a row in which no device answered.
+    silent_rounds: u32,
+    down: Option<Down>,
+    /// The devices polled when the link was lost: polled again after the
+    /// reopen even if the scan misses them (a module still powering up).
+    lost: Vec<DeviceKey>,
 }
 
 impl LinkWorker {
     pub fn new(link: LinkId, sources: Vec<Box<dyn DeviceSource>>, clock: Arc<dyn Clock>, rate: f64) -> Self {
-        Self { link, sources, devices: Vec::new(), clock, rate: rate.clamp(MIN_RATE, MAX_RATE), last_round: None }
+        Self {
+            link,
+            sources,
+            devices: Vec::new(),
+            clock,
+            rate: rate.clamp(MIN_RATE, MAX_RATE),
+            last_round: None,
+            reopen: None,
+            silent_rounds: 0,
+            down: None,
+            lost: Vec::new(),
+        }
+    }
+
+    /// Lets the worker close and reopen the link when it stops answering.
+    pub fn with_reopen(mut self, reopen: Reopen) -> Self {
+        self.reopen = Some(reopen);
+        self
+    }
+
+    /// The link was lost and is not open again yet.
+    pub fn is_down(&self) -> bool {
+        self.down.is_some()
+    }
+
+    /// Counts a round; after [`DOWN_AFTER`] silent ones, closes the link (the
+    /// sources own it: dropping them releases the device) and plans a reopen.
+    fn after_round(&mut self, answered: bool, out: &mut dyn FnMut(LinkEvent)) {
+        if answered || self.devices.is_empty() || self.reopen.is_none() {
+            self.silent_rounds = 0;
+            return;
+        }
+        self.silent_rounds += 1;
+        if self.silent_rounds < DOWN_AFTER {
+            return;
+        }
+        self.silent_rounds = 0;
+        self.sources.clear();
+        self.lost = self.devices.drain(..).map(|d| d.1).collect();
+        self.down = Some(Down { next_try: self.clock.now() + BACKOFF_MIN, backoff: BACKOFF_MIN });
+        out(LinkEvent::Down { link: self.link, why: format!("no device answered for {DOWN_AFTER} rounds") });
+    }
+
+    /// A lost link whose backoff is over: one try to open it again.
+    fn try_reopen(&mut self, out: &mut dyn FnMut(LinkEvent)) {
+        let (Some(down), Some(reopen)) = (self.down, self.reopen.as_mut()) else { return };
+        let now = self.clock.now();
+        if now < down.next_try {
+            return;
+        }
+        match reopen() {
+            Ok(sources) => {
+                self.sources = sources;
+                self.down = None;
+                out(LinkEvent::Reopened { link: self.link });
+                let mut ev = self.discover();
+                for key in std::mem::take(&mut self.lost) {
+                    let source = self.sources.iter().position(|s| s.family() == key.family());
+                    if let (Some(i), false) = (source, self.devices.iter().any(|d| d.1 == key)) {
+                        self.devices.push((i, key));
+                    }
+                }
+                if let LinkEvent::Discovered { devices, .. } = &mut ev {
+                    *devices = self.devices.iter().map(|d| d.1).collect();
+                }
+                out(ev);
+            }
+            Err(why) => {
+                let backoff = (down.backoff * 2).min(BACKOFF_MAX);
+                self.down = Some(Down { next_try: now + backoff, backoff });
+                out(LinkEvent::Down { link: self.link, why: format!("reopening failed: {why}") });
+            }
+        }
     }
 
     pub fn rate(&self) -> f64 {
@@ -63,6 +165,8 @@ impl LinkWorker {
             match m {
                 ToWorker::Quit => return true,
                 ToWorker::SetRate(r) => self.rate = r.clamp(MIN_RATE, MAX_RATE),
+                ToWorker::Rescan if self.down.is_some() => {}
+                ToWorker::Rescan => out(self.discover()),
                 ToWorker::HaltAll => unreachable!("handled first"),
                 ToWorker::Act(dev, action) => {
                     let what = action.name();
@@ -123,14 +227,23 @@ impl LinkWorker {
         let start = self.clock.now();
         let period = self.last_round.map_or(Duration::ZERO, |l| start - l);
         self.last_round = Some(start);
+        if self.down.is_some() {
+            self.try_reopen(out);
+        }
+        let mut answered = false;
         for i in 0..self.devices.len() {
             if self.handle(pending(), out) {
                 return true;
             }
-            out(self.poll_device(i));
+            let ev = self.poll_device(i);
+            answered |= matches!(ev, LinkEvent::Polled { health: Health::Answer, .. });
+            out(ev);
         }
         if self.handle(pending(), out) {
             return true;
+        }
+        if self.down.is_none() {
+            self.after_round(answered, out);
         }
         out(LinkEvent::Cycle { link: self.link, busy: self.clock.now() - start, period });
         false

@@ -9,7 +9,7 @@ use super::*;
 use crate::clock::{Clock, VirtualClock};
 use crate::link::mem::{ByteDevice, MemByteLink};
 use crate::link::SerialFormat;
-use crate::proto::pac::{CheckRule, CommandDecoder, Request};
+use crate::proto::pac::{table, CheckRule, CommandDecoder, Request};
 use crate::session::ErrorKind;
 use crate::sim::pac::PacController;
 
@@ -64,7 +64,11 @@ impl ByteDevice for Fake {
                     be: true,
                     status: self.status,
                     error: 0,
-                    q_par: Par2::Int(0),
+                    // In the command's own type, as the controller answers.
+                    q_par: match table::command(command.code).map(|d| d.data_type) {
+                        Some(table::DataType::Float) => Par2::Float(0.0),
+                        _ => Par2::Int(0),
+                    },
                     check_rule: CheckRule::Strict,
                 };
                 out.extend(ack.encode().unwrap());

@@ -17,7 +17,7 @@ use std::time::Duration;
 
 use serde::Serialize;
 
-use super::frame::{Ack, Command, EncodeError, EncodeOptions, POLL};
+use super::frame::{Ack, Command, EncodeError, EncodeOptions, Par2, POLL};
 use super::table;
 
 /// The controller updates its acknowledge in its action loop (< 10 ms,
@@ -162,6 +162,22 @@ impl Transaction {
         }
     }
 
+    /// Whether `ack` can be this transaction's answer. Acknowledges do not
+    /// name their command, but the controller answers in the command's own
+    /// data type (manual 3.3, TYP_QUIT), so a successful acknowledge of the
+    /// other type belongs to an older exchange: a stale answer left on the
+    /// line, e.g. by a client killed mid-exchange. Refusals and unknown codes
+    /// are not judged (nothing says which type they carry).
+    pub fn could_answer(&self, ack: &Ack) -> bool {
+        match self.def() {
+            Some(def) if ack.quit == 0 => matches!(
+                (def.data_type, ack.q_par),
+                (table::DataType::Int, Par2::Int(_)) | (table::DataType::Float, Par2::Float(_))
+            ),
+            _ => true,
+        }
+    }
+
     /// Feeds one acknowledge.
     pub fn handle_ack(&mut self, ack: Ack) -> Result<Step, TransactionError> {
         if self.state == State::Done {
@@ -238,6 +254,21 @@ mod tests {
         assert_eq!(t.state(), State::Done);
         assert!(t.allows(Outgoing::Command(&other)));
         assert_eq!(t.handle_ack(ack), Err(TransactionError::AlreadyDone));
+    }
+
+    #[test]
+    fn an_acknowledge_of_the_other_type_cannot_answer() {
+        let ack = |quit, q_par| Ack { quit, be: true, status: 31, error: 0, q_par, check_rule: CheckRule::Strict };
+        // 1910 reads an integer; a position (190C, float) left on the line is not its answer.
+        let read_int = Transaction::new(Command::new(0x1910, 1, Par2::Int(0)));
+        assert!(read_int.could_answer(&ack(0, Par2::Int(3))));
+        assert!(!read_int.could_answer(&ack(0, Par2::Float(161.477))));
+        let read_pos = Transaction::new(Command::new(0x190C, 1, Par2::Float(0.0)));
+        assert!(read_pos.could_answer(&ack(0, Par2::Float(161.477))));
+        assert!(!read_pos.could_answer(&ack(0, Par2::Int(3))));
+        // A refusal carries no promise about its type.
+        assert!(read_pos.could_answer(&ack(0x20, Par2::Int(0))));
+        assert!(Transaction::new(Command::new(0x0999, 0, Par2::Int(0))).could_answer(&ack(0, Par2::Float(1.0))));
     }
 
     #[test]

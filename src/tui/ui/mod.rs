@@ -13,7 +13,7 @@ use ratatui::widgets::{Block, Borders, Clear, Paragraph, Wrap};
 use ratatui::Frame;
 
 use super::app::{App, DeviceView, Level, Mode};
-use super::keys::{self, KEYS};
+use super::keys::{self, KeyBinding, KEYS};
 use super::source::{DeviceKey, Snapshot};
 
 pub(crate) const RED: Style = Style::new().fg(Color::Red);
@@ -131,7 +131,7 @@ fn draw_events(f: &mut Frame, app: &App, area: Rect) {
     let mut start = end;
     while start > 0 {
         let e = &app.events[start - 1];
-        let need = (8 + e.text.chars().count()).div_ceil(inner_w).max(1);
+        let need = (8 + e.shown().chars().count()).div_ceil(inner_w).max(1);
         if rows + need > inner_h && rows > 0 {
             break;
         }
@@ -150,7 +150,7 @@ fn draw_events(f: &mut Frame, app: &App, area: Rect) {
             };
             Line::from(vec![
                 Span::styled(format!("{:02}:{:04.1} ", (t / 60.0) as u64, t % 60.0), DIM),
-                Span::styled(e.text.clone(), style),
+                Span::styled(e.shown(), style),
             ])
         })
         .collect();
@@ -264,15 +264,29 @@ fn centered(area: Rect, w: u16, h: u16) -> Rect {
 }
 
 fn draw_help(f: &mut Frame, area: Rect) {
-    let key_w = KEYS.iter().map(|b| b.keys.chars().count()).max().unwrap_or(0);
+    // One row per binding; on a short screen a binding and its partner (the
+    // next one, which has no hint word of its own: ↓ after ↑, - after +)
+    // share a row, so that every key stays visible at 80x24.
+    let compact = KEYS.len() as u16 + 2 >= area.height;
+    let mut rows: Vec<(String, String, &KeyBinding)> = Vec::new();
+    for b in KEYS {
+        match rows.last_mut() {
+            Some((keys, help, _)) if compact && b.short.is_empty() => {
+                keys.push_str(", ");
+                keys.push_str(b.keys);
+                help.push_str(" / ");
+                help.push_str(b.help);
+            }
+            _ => rows.push((b.keys.to_string(), b.help.to_string(), b)),
+        }
+    }
+    let key_w = rows.iter().map(|(k, _, _)| k.chars().count()).max().unwrap_or(0);
     let wide = area.width >= 120;
-    let lines: Vec<Line> = KEYS
-        .iter()
-        .map(|b| {
-            let mut spans = vec![
-                Span::styled(format!("{:>key_w$}  ", b.keys), if b.keys == "space" { RED } else { BOLD }),
-                Span::raw(b.help),
-            ];
+    let lines: Vec<Line> = rows
+        .into_iter()
+        .map(|(keys, help, b)| {
+            let style = if b.keys == "space" { RED } else { BOLD };
+            let mut spans = vec![Span::styled(format!("{keys:>key_w$}  "), style), Span::raw(help)];
             if wide {
                 spans.push(Span::styled(format!("  [{}]", b.applies()), DIM));
             }
@@ -280,7 +294,10 @@ fn draw_help(f: &mut Frame, area: Rect) {
         })
         .collect();
     let text_w = lines.iter().map(|l| l.width()).max().unwrap_or(0) as u16;
-    let r = centered(area, text_w + 4, lines.len() as u16 + 2);
+    // Rows after wrapping, so that the last key is not cut off.
+    let inner = usize::from((text_w + 4).min(area.width).saturating_sub(2).max(1));
+    let height: usize = lines.iter().map(|l| l.width().div_ceil(inner).max(1)).sum();
+    let r = centered(area, text_w + 4, height as u16 + 2);
     f.render_widget(Clear, r);
     let block = Block::bordered().title(" Keys (any key closes) ").border_style(BOLD);
     f.render_widget(Paragraph::new(lines).block(block).wrap(Wrap { trim: false }), r);
