@@ -267,7 +267,7 @@ impl App {
     /// worker runs its halts before it sees Quit). Other devices are left
     /// alone, as `q` leaves them all.
     fn terminate(&mut self, signal: i32) -> Vec<Outgoing> {
-        let name = signal_name(signal);
+        let name = crate::clock::stop::signal_name(signal);
         self.log(Level::Warn, format!("{name}: halting what this dashboard moved, then quitting"));
         let mut out: Vec<Outgoing> =
             self.moved.iter().map(|&(link, key)| Outgoing { link, msg: ToWorker::Act(key, Action::Halt) }).collect();
@@ -609,13 +609,4 @@ pub fn changed_fields(old: &Snapshot, new: &Snapshot) -> Vec<&'static str> {
         _ => {}
     }
     out
-}
-
-/// SIGTERM / SIGHUP by name, for the event pane and the exit message.
-pub fn signal_name(signal: i32) -> String {
-    match signal {
-        libc::SIGTERM => "SIGTERM".into(),
-        libc::SIGHUP => "SIGHUP".into(),
-        n => format!("signal {n}"),
-    }
 }

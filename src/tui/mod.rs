@@ -26,7 +26,7 @@ pub mod worker;
 mod tests;
 
 use std::io::{self, Stdout};
-use std::sync::atomic::{AtomicBool, AtomicI32, Ordering};
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc;
 use std::sync::Arc;
 use std::time::Duration;
@@ -37,7 +37,7 @@ use crossterm::{cursor, execute};
 use ratatui::backend::{Backend, CrosstermBackend};
 use ratatui::Terminal;
 
-use crate::clock::Clock;
+use crate::clock::{stop, Clock};
 use app::{App, LinkView};
 use event::{Event, ToWorker};
 use source::DeviceSource;
@@ -68,37 +68,9 @@ pub struct LinkPlan {
 /// The dashboard ended on SIGTERM or SIGHUP, after halting what it moved;
 /// the binary exits 128 + `signal`, as a shell reports a process killed by it.
 #[derive(Debug, thiserror::Error)]
-#[error("{}: halted what the dashboard moved and quit", app::signal_name(*.signal))]
+#[error("{}: halted what the dashboard moved and quit", stop::signal_name(*.signal))]
 pub struct Terminated {
     pub signal: i32,
-}
-
-/// The last SIGTERM / SIGHUP received, 0 for none; set by the handler.
-static SIGNAL: AtomicI32 = AtomicI32::new(0);
-
-extern "C" fn on_signal(signal: libc::c_int) {
-    // Only an atomic store: all a signal handler may safely do here.
-    SIGNAL.store(signal, Ordering::SeqCst);
-}
-
-/// Catches SIGTERM and SIGHUP, which would otherwise kill the dashboard in
-/// raw mode with an axis it started still moving. The UI loop wakes at
-/// least every [`TICK`] and looks at [`SIGNAL`].
-fn catch_termination() -> io::Result<()> {
-    for signal in [libc::SIGTERM, libc::SIGHUP] {
-        // SAFETY: the handler only stores to an atomic (async-signal-safe);
-        // the sigaction struct is zeroed, then filled with valid values.
-        let r = unsafe {
-            let mut sa: libc::sigaction = std::mem::zeroed();
-            sa.sa_sigaction = on_signal as extern "C" fn(libc::c_int) as libc::sighandler_t;
-            libc::sigemptyset(&mut sa.sa_mask);
-            libc::sigaction(signal, &sa, std::ptr::null_mut())
-        };
-        if r != 0 {
-            return Err(io::Error::last_os_error());
-        }
-    }
-    Ok(())
 }
 
 /// Set while the terminal is in raw mode on the alternate screen.
@@ -139,7 +111,11 @@ fn install_panic_hook() {
 /// Runs the dashboard until the user quits.
 pub fn run(plans: Vec<LinkPlan>, rate: f64, clock: Arc<dyn Clock>) -> anyhow::Result<()> {
     install_panic_hook();
-    catch_termination()?;
+    // SIGTERM and SIGHUP (terminal closed, SSH dropped), and SIGINT / SIGQUIT
+    // sent with kill, would end the dashboard in raw mode with an axis it
+    // started still moving: from here they are recorded, and the UI loop,
+    // which wakes at least every TICK, halts what it moved and quits.
+    stop::arm()?;
     enable_raw_mode()?;
     TERMINAL_TAKEN.store(true, Ordering::SeqCst);
     let _guard = TerminalGuard;
@@ -207,8 +183,7 @@ where
     let mut terminated = None;
     loop {
         // Before drawing: after SIGHUP the terminal is gone and a draw fails.
-        let signal = SIGNAL.swap(0, Ordering::SeqCst);
-        if signal != 0 {
+        if let Some(signal) = stop::caught() {
             terminated = Some(signal);
             for out in app.handle(Event::Terminate(signal)) {
                 let _ = senders[out.link].send(out.msg);
@@ -220,7 +195,7 @@ where
             if let Err(e) = terminal.draw(|f| ui::draw(f, &app)) {
                 // The terminal went away with its SIGHUP on the way: halt first.
                 std::thread::sleep(Duration::from_millis(50));
-                if SIGNAL.load(Ordering::SeqCst) != 0 {
+                if stop::caught().is_some() {
                     continue;
                 }
                 return Err(e.into());
