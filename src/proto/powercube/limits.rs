@@ -308,6 +308,11 @@ mod tests {
         assert_eq!(motion_value(12.0, true, "target position"), Ok(MotionValue::Int32(12)));
         assert!(matches!(motion_value(1.5, true, "x"), Err(LimitError::NotTicks { .. })));
         assert!(matches!(motion_value(3e9, true, "x"), Err(LimitError::NotTicks { .. })));
+        // Below Int32 too: `as i32` would saturate to i32::MIN and send it.
+        assert!(matches!(motion_value(-3e9, true, "x"), Err(LimitError::NotTicks { .. })));
+        for edge in [i32::MIN, i32::MAX] {
+            assert_eq!(motion_value(f64::from(edge), true, "x"), Ok(MotionValue::Int32(edge)), "{edge}");
+        }
         assert_eq!(motion_value(0.25, false, "x"), Ok(MotionValue::Float(0.25)));
         assert!(matches!(check_positive("velocity", 0.0), Err(LimitError::NotPositive { .. })));
     }
