@@ -288,7 +288,14 @@ mod tests {
         assert!(matches!(pos.check_module(-0.1, &LIN, m17()), Err(LimitError::Exceeds { limit_name: "MinPos", .. })));
         let cur = SettingLimit::of(ids::CUR).unwrap();
         assert!(matches!(cur.check_module(-6.0, &LIN, m17()), Err(LimitError::Exceeds { limit_name: "MaxCur", .. })));
-        assert_eq!(SettingLimit::of(ids::TARGET_VEL_INC), Some(SettingLimit::Vel { ticks: true }));
+        for (id, want) in [
+            (ids::TARGET_POS_INC, SettingLimit::Pos { ticks: true }),
+            (ids::TARGET_VEL_INC, SettingLimit::Vel { ticks: true }),
+            (ids::TARGET_ACC_INC, SettingLimit::Acc { ticks: true }),
+        ] {
+            assert_eq!(SettingLimit::of(id), Some(want), "{id:#04x}");
+            assert_eq!(want.module_limits(), Some(true), "checked against the ActI* limits");
+        }
         assert_eq!(SettingLimit::of(ids::MAX_VEL), None, "a limit itself is not a motion");
     }
 
