@@ -336,3 +336,45 @@ fn session_with_confirmations_off() {
     assert!(r.flags.contains(&"GOTO_ACTIVE"), "{r:?}");
     assert!(clock.now() - t0 < Duration::from_millis(100));
 }
+
+/// A bench link on which, right after each request, an error reply to
+/// another command of the same module (25h, general error 1) arrives first.
+struct ForeignErrorFirst {
+    inner: Box<dyn CanLink>,
+    pending: Option<CanFrame>,
+}
+
+impl CanLink for ForeignErrorFirst {
+    fn send(&mut self, frame: &CanFrame) -> Result<(), axisctl::link::LinkError> {
+        self.inner.send(frame)?;
+        if frame.id() == 0x201 && frame.data()[0] != 0x25 {
+            self.pending = Some(CanFrame::new(0x181, &[0xA5, frame.data()[1], 0, 1, 0, 0, 0, 0]).unwrap());
+        }
+        Ok(())
+    }
+
+    fn recv(&mut self, timeout: Duration) -> Result<Option<CanFrame>, axisctl::link::LinkError> {
+        match self.pending.take() {
+            Some(f) => Ok(Some(f)),
+            None => self.inner.recv(timeout),
+        }
+    }
+}
+
+#[test]
+fn an_error_reply_to_another_command_does_not_fail_this_one() {
+    let clock = Arc::new(VirtualClock::new());
+    let bench = Bench::contract(clock.clone());
+    let (node, m1) = (NodeId::new(1).unwrap(), ModuleId::new(1).unwrap());
+    let dyn_clock: Arc<dyn Clock> = clock.clone();
+    let link = ForeignErrorFirst { inner: Box::new(bench.bus.open()), pending: None };
+    let mut s = Cdios::new(Box::new(link)).with_clock(dyn_clock);
+    s.start_node(node).unwrap();
+    // A read and a command: each is answered after an error reply about 25h.
+    assert_eq!(s.read_position(node, m1, PositionSource::Current).unwrap(), 0);
+    let goto = Command::Goto { mode: GotoMode::Absolute, position: 0 };
+    let r = s.transact(node, Address::Module(m1), &goto);
+    // The goto's own refusal (the motor is not enabled), not the one about 25h.
+    let e = r.unwrap_err().to_string();
+    assert!(e.contains("MOTOR_NOT_ENABLED") && !e.contains("no module"), "{e}");
+}

@@ -149,6 +149,9 @@ pub enum PowerCubeCommand {
         param: String,
         #[arg(allow_negative_numbers = true)]
         value: String,
+        /// Skip the check against the module's limits (never the manual's range or the wire type)
+        #[arg(long)]
+        force: bool,
     },
     /// The Config word, decoded
     GetConfig(ModuleArg),
@@ -158,9 +161,12 @@ pub enum PowerCubeCommand {
         module: ModuleArg,
         #[arg(value_name = "+FLAG|-FLAG", allow_hyphen_values = true, required_unless_present = "raw")]
         changes: Vec<String>,
-        /// Write the whole word
+        /// Write the whole word (needs --force: it may clear any safety flag)
         #[arg(long, value_name = "0xHEX", conflicts_with = "changes")]
         raw: Option<String>,
+        /// Allow changes that remove a safety: +disable-ack, -sw1-enabled, -sw2-enabled, the watchdog flag, --raw
+        #[arg(long)]
+        force: bool,
     },
     /// Digital I/O (DioSetup): show, or set the outputs
     Dio {
@@ -179,9 +185,9 @@ pub enum PowerCubeCommand {
 
 #[derive(Debug, Subcommand)]
 pub enum WatchdogAction {
-    /// Enable the watchdog in Config if needed and switch it online (then keep it alive!)
+    /// Enable the watchdog in Config and switch it online, unless it is on already (then keep it alive!)
     On(ModuleArg),
-    /// Switch the watchdog offline
+    /// Take the watchdog out of action (clears CONFIGID_MOD_WATCHDOG_ENABLE; nothing sent when it is off)
     Off(ModuleArg),
     /// Broadcast the refresh [0x07, 0] until Ctrl-C (or --for S)
     Keepalive {

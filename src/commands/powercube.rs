@@ -43,9 +43,11 @@ pub fn run(ctx: &Ctx, cmd: Command) -> anyhow::Result<()> {
         Command::MoveVel { module: m, vel, ticks, force } => move_vel(ctx, module(m.module), vel, ticks, force),
         Command::MoveCur { module: m, amps, force } => move_cur(ctx, module(m.module), amps, force),
         Command::GetParam { module: m, params, all } => get_param(ctx, module(m.module), &params, all),
-        Command::SetParam { module: m, param, value } => set_param(ctx, module(m.module), &param, &value),
+        Command::SetParam { module: m, param, value, force } => set_param(ctx, module(m.module), &param, &value, force),
         Command::GetConfig(m) => get_config(ctx, module(m.module)),
-        Command::SetConfig { module: m, changes, raw } => set_config(ctx, module(m.module), &changes, raw.as_deref()),
+        Command::SetConfig { module: m, changes, raw, force } => {
+            set_config(ctx, module(m.module), &changes, raw.as_deref(), force)
+        }
         Command::Dio { module: m, out } => dio(ctx, module(m.module), out.as_deref()),
         Command::Watchdog { action } => watchdog(ctx, action),
     }
@@ -105,6 +107,9 @@ fn scan(ctx: &Ctx, list: &IdList) -> anyhow::Result<()> {
     // after the request, so a scan need not wait the whole timeout per id.
     pc.set_answer_start_timeout(Some(SCAN_ANSWER_START.max(pc.timeout() / 8)));
     let found = cubes.scan(&ids)?;
+    if found.is_empty() {
+        return Err(Error::NoneAnswered { ids: list.to_string() }.into());
+    }
     let mut modules = Vec::new();
     for f in found {
         let m = f.module;
@@ -122,10 +127,6 @@ fn scan(ctx: &Ctx, list: &IdList) -> anyhow::Result<()> {
             })
             .collect();
         output::json(&json!({"modules": list}));
-        return Ok(());
-    }
-    if modules.is_empty() {
-        println!("no PowerCube modules answered on ids {list}");
         return Ok(());
     }
     let mut rows = vec![["MODULE", "SERIAL", "VERSION", "KIND", "STATE"].map(String::from).to_vec()];
@@ -462,13 +463,18 @@ fn get_param(ctx: &Ctx, m: ModuleId, names: &[String], all: bool) -> anyhow::Res
     Ok(())
 }
 
-fn set_param(ctx: &Ctx, m: ModuleId, name: &str, text: &str) -> anyhow::Result<()> {
+fn set_param(ctx: &Ctx, m: ModuleId, name: &str, text: &str, force: bool) -> anyhow::Result<()> {
     let (d, value) = device::param_write(name, text)?;
-    cubes(ctx)?.set_param(m, d, value)?;
+    let held = cubes(ctx)?.write_param(m, d, value, force)?;
     if ctx.json {
-        output::json(&json!({"module": m, "param": d.name, "id": d.id, "type": d.ty.name(), "value": value}));
-    } else {
-        println!("module {m}: {} = {value} acknowledged", d.name);
+        output::json(&json!({"module": m, "param": d.name, "id": d.id, "type": d.ty.name(), "value": value,
+                             "held": held}));
+        return Ok(());
+    }
+    match held {
+        Some(h) if h != value => println!("module {m}: {} = {value} acknowledged; the module reads back {h}", d.name),
+        Some(_) => println!("module {m}: {} = {value} acknowledged and read back", d.name),
+        None => println!("module {m}: {} = {value} acknowledged (write-only: the module does not report it)", d.name),
     }
     Ok(())
 }
@@ -490,9 +496,15 @@ fn get_config(ctx: &Ctx, m: ModuleId) -> anyhow::Result<()> {
     Ok(())
 }
 
-fn set_config(ctx: &Ctx, m: ModuleId, changes: &[String], raw: Option<&str>) -> anyhow::Result<()> {
-    // Every flag is resolved before the link opens: a typo sends nothing.
-    let change = ConfigChange::parse(changes, raw)?;
+fn set_config(ctx: &Ctx, m: ModuleId, changes: &[String], raw: Option<&str>, force: bool) -> anyhow::Result<()> {
+    // Every flag is resolved and weighed before the link opens: a typo, or a
+    // safety removed without --force, sends nothing.
+    // The flags take hyphen values, so a `--force` written after them
+    // arrives as one of them.
+    let force = force || changes.iter().any(|c| c == "--force");
+    let changes: Vec<String> = changes.iter().filter(|c| *c != "--force").cloned().collect();
+    let change = ConfigChange::parse(&changes, raw)?;
+    change.check_safeties(force)?;
     match cubes(ctx)?.write_config(m, change) {
         Ok(kept) => {
             print_config(ctx, m, kept);
@@ -528,21 +540,25 @@ fn watchdog(ctx: &Ctx, action: WatchdogAction) -> anyhow::Result<()> {
     match action {
         WatchdogAction::On(a) => {
             let m = module(a.module);
-            cubes.watchdog_toggle(m, true)?;
+            let changed = cubes.watchdog_on(m)?;
             if ctx.json {
-                output::json(&json!({"module": m, "watchdog": "toggled", "config_enabled": true}));
+                output::json(&json!({"module": m, "watchdog": "on", "changed": changed}));
+            } else if changed {
+                println!("module {m}: watchdog online; keep it alive with `axisctl watchdog keepalive`, or it halts within 50 ms");
             } else {
-                println!("module {m}: watchdog switched (0x07 toggles online/offline); keep it alive with `axisctl watchdog keepalive`, or it halts within 50 ms");
+                println!("module {m}: watchdog already on (CONFIGID_MOD_WATCHDOG_ENABLE set); nothing sent");
             }
             Ok(())
         }
         WatchdogAction::Off(a) => {
             let m = module(a.module);
-            cubes.watchdog_toggle(m, false)?;
+            let changed = cubes.watchdog_off(m)?;
             if ctx.json {
-                output::json(&json!({"module": m, "watchdog": "toggled"}));
+                output::json(&json!({"module": m, "watchdog": "off", "changed": changed}));
+            } else if changed {
+                println!("module {m}: watchdog off (CONFIGID_MOD_WATCHDOG_ENABLE cleared)");
             } else {
-                println!("module {m}: watchdog switched (0x07 toggles online/offline)");
+                println!("module {m}: watchdog already off; nothing sent");
             }
             Ok(())
         }

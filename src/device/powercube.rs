@@ -135,6 +135,53 @@ impl ConfigChange {
     }
 }
 
+/// Config changes that take a protection away, and what each does; such a
+/// change is sent only with `--force`.
+const SAFETY_FLAGS: [(u32, bool, &str); 5] = [
+    (
+        config::DISABLE_ACK,
+        true,
+        "+disable-ack switches off every acknowledge but GetExtended's: a lost command, a motion included, goes unnoticed",
+    ),
+    (config::SW1_ENABLED, false, "-sw1-enabled switches limit switch 1 off: the module no longer stops at it"),
+    (config::SW2_ENABLED, false, "-sw2-enabled switches limit switch 2 off: the module no longer stops at it"),
+    (
+        config::WATCHDOG_ENABLE,
+        false,
+        "-watchdog-enable takes the watchdog out of action: nothing halts the module when the host dies (`axisctl watchdog off` does this on purpose)",
+    ),
+    (
+        config::WATCHDOG_ENABLE,
+        true,
+        "+watchdog-enable arms the watchdog without switching it online (`axisctl watchdog on` does both, in a state the tool can tell)",
+    ),
+];
+
+impl ConfigChange {
+    /// What the change does that removes a safety: the flags of
+    /// [`SAFETY_FLAGS`] it sets or clears, or a whole word (`--raw`), which
+    /// may carry any of them.
+    pub fn removed_safeties(&self) -> Vec<&'static str> {
+        if self.raw.is_some() {
+            return vec!["--raw replaces the whole Config word, limit switch, acknowledge and watchdog flags included"];
+        }
+        SAFETY_FLAGS
+            .iter()
+            .filter(|(mask, on, _)| if *on { self.set & mask != 0 } else { self.clear & mask != 0 })
+            .map(|(_, _, what)| *what)
+            .collect()
+    }
+
+    /// Refuses a change that removes a safety unless `force`; nothing is sent.
+    pub fn check_safeties(&self, force: bool) -> Result<(), Error> {
+        let removed = self.removed_safeties();
+        if force || removed.is_empty() {
+            return Ok(());
+        }
+        Err(Error::Refused(format!("{}; nothing was sent (use --force to write it anyway)", removed.join("; "))))
+    }
+}
+
 /// A parameter name or id resolved against the table.
 pub fn resolve_param(text: &str) -> Result<&'static ParamDef, Error> {
     table::resolve_param(text).ok_or_else(|| {
@@ -407,6 +454,33 @@ impl Cubes {
         Ok(self.pc.set(m, d, value)?)
     }
 
+    /// A parameter write from a person or a script. A target or a commanded
+    /// current is checked as a move with that value would be: the manual's
+    /// range and a positive velocity / acceleration always, the module's
+    /// limits (read from it) unless `force`. Nothing is sent when a check
+    /// refuses. Afterwards the value is read back where the manual lets it be
+    /// read: the module may have clamped it. `None` for write-only ones.
+    pub fn write_param(
+        &mut self,
+        m: ModuleId,
+        d: &'static ParamDef,
+        value: Value,
+        force: bool,
+    ) -> Result<Option<Value>, Error> {
+        if let (Some(limit), Some(x)) = (limits::SettingLimit::of(d.id), value.as_f64()) {
+            limit.check_manual(d.name, x)?;
+            if let (Some(ticks), false) = (limit.module_limits(), force) {
+                let l = self.limits(m, ticks)?;
+                limit.check_module(x, &l, m)?;
+            }
+        }
+        self.pc.set(m, d, value)?;
+        if !d.access.readable() {
+            return Ok(None);
+        }
+        Ok(Some(self.pc.get(m, d)?))
+    }
+
     /// Writes Config and reads it back; a module that keeps another word is
     /// a fault (the caller gets the word it kept inside the error).
     pub fn write_config(&mut self, m: ModuleId, change: ConfigChange) -> Result<u32, Error> {
@@ -442,17 +516,34 @@ impl Cubes {
         }
     }
 
-    /// Switches the watchdog (0x07 toggles online / offline); `enable` first
-    /// sets CONFIGID_MOD_WATCHDOG_ENABLE when it is not set.
-    pub fn watchdog_toggle(&mut self, m: ModuleId, enable: bool) -> Result<(), Error> {
+    /// Switches the watchdog online, unless CONFIGID_MOD_WATCHDOG_ENABLE
+    /// says it is on already: 0x07 toggles, so a blind one would take an
+    /// online watchdog offline. The module reports no online/offline state;
+    /// the flag stands for it, because clearing the flag takes the watchdog
+    /// offline (see [`Self::watchdog_off`]), so with the flag clear one 0x07
+    /// after setting it brings the watchdog online. Returns whether anything
+    /// changed.
+    pub fn watchdog_on(&mut self, m: ModuleId) -> Result<bool, Error> {
         self.require_can_for_watchdog()?;
-        if enable {
-            let cfg = self.get_u32(m, ids::CONFIG)?;
-            if cfg & config::WATCHDOG_ENABLE == 0 {
-                self.pc.set(m, param(ids::CONFIG), Value::UInt32(cfg | config::WATCHDOG_ENABLE))?;
-            }
+        if self.get_u32(m, ids::CONFIG)? & config::WATCHDOG_ENABLE != 0 {
+            return Ok(false);
         }
+        self.write_config(m, ConfigChange { set: config::WATCHDOG_ENABLE, ..ConfigChange::default() })?;
         self.pc.transact(m, &Request::Watchdog)?;
-        Ok(())
+        Ok(true)
+    }
+
+    /// Takes the watchdog out of action by clearing
+    /// CONFIGID_MOD_WATCHDOG_ENABLE (read back), and sends no 0x07: a toggle
+    /// would switch an offline watchdog online, and the module would trip
+    /// 50 ms later. Nothing is written when the flag is clear already.
+    /// Returns whether anything changed.
+    pub fn watchdog_off(&mut self, m: ModuleId) -> Result<bool, Error> {
+        self.require_can_for_watchdog()?;
+        if self.get_u32(m, ids::CONFIG)? & config::WATCHDOG_ENABLE == 0 {
+            return Ok(false);
+        }
+        self.write_config(m, ConfigChange { clear: config::WATCHDOG_ENABLE, ..ConfigChange::default() })?;
+        Ok(true)
     }
 }

@@ -84,6 +84,10 @@ pub enum Error {
     /// Ctrl-C during a wait; the module was halted (or the halt failed).
     #[error("interrupted: {}", halt_note(*module, halt_failed.as_deref()))]
     Interrupted { module: ModuleId, halt_failed: Option<String> },
+    /// A scan in which no id answered: nothing to talk to on this link, which
+    /// a script must not take for success.
+    #[error("no PowerCube module answered on ids {ids}")]
+    NoneAnswered { ids: String },
     /// A parameter answered with another type than the table's.
     #[error("{param} answered {got}, expected UInt32")]
     UnexpectedType { param: &'static str, got: String },
@@ -134,6 +138,7 @@ impl Error {
             | Self::LostTrack { source: e, .. } => e.kind(),
             Self::NotReady { .. } | Self::Faulted { .. } | Self::ConfigNotKept { .. } => ErrorKind::Device,
             Self::Interrupted { .. } => ErrorKind::Interrupted,
+            Self::NoneAnswered { .. } => ErrorKind::Timeout,
             Self::UnexpectedType { .. } => ErrorKind::Other,
         }
     }

@@ -268,6 +268,10 @@ mod tests {
         assert_eq!(ex.handle(&answer("181#23000000")), Verdict::OtherTarget, "module 0");
         assert_eq!(ex.handle(&answer("182#23010000")), Verdict::OtherTarget, "node 2");
         assert_eq!(ex.handle(&answer("181#25010000")), Verdict::OtherCommand);
+        // An error about another command (25h) of the same module is not
+        // this goto's refusal: failing the goto on it would report a fault
+        // the goto never had.
+        assert_eq!(ex.handle(&answer("181#A501000400000000")), Verdict::OtherCommand);
         let Verdict::Refused(e) = ex.handle(&answer("181#A301000400000000")) else { panic!() };
         assert_eq!((e.command, e.general), (0x23, 4));
         assert!(is_busy(&e), "general error 4: initialising");

@@ -30,6 +30,8 @@ pub enum LimitError {
     NotTicks { what: &'static str, value: f64 },
     #[error("{what} must be positive, got {value}")]
     NotPositive { what: &'static str, value: f64 },
+    #[error("{what} {value} is outside the manual's range {lo}..={hi}; nothing was sent")]
+    OutsideManual { what: &'static str, value: f64, lo: f64, hi: f64 },
     /// The wire carries a 32-bit float: a larger value would go out as infinity.
     #[error("{what} {value} does not fit the wire's 32-bit float (|value| <= {})", f32::MAX)]
     NotFloat32 { what: &'static str, value: f64 },
@@ -102,6 +104,81 @@ impl Limits {
     pub fn check_cur(&self, amps: f64, m: ModuleId) -> Result<(), LimitError> {
         check_finite("current", amps)?;
         check(amps.abs() <= self.max_cur, "current", amps, "MaxCur", self.max_cur, m)
+    }
+}
+
+/// The parameter writes that act like motion: a target or a commanded
+/// current. What each is checked against, and whether that limit is read
+/// in encoder ticks.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SettingLimit {
+    /// MinPos / MaxPos (ActIMinPos / ActIMaxPos).
+    Pos { ticks: bool },
+    /// MaxVel (ActIMaxVel), positive like a ramp's velocity.
+    Vel { ticks: bool },
+    /// MaxAcc (ActIMaxAcc), positive like a ramp's acceleration.
+    Acc { ticks: bool },
+    /// MaxCur, either sign.
+    Cur,
+    /// Current in digits: the manual's range only, no module limit.
+    RawCur,
+}
+
+/// The manual gives RawCur as "Commanded Current in Digits [-500...+500]".
+pub const RAW_CUR_RANGE: (f64, f64) = (-500.0, 500.0);
+
+impl SettingLimit {
+    /// The limit a write of parameter `id` is checked against, if any.
+    pub fn of(id: u8) -> Option<Self> {
+        use super::table::ids;
+        Some(match id {
+            ids::TARGET_POS => Self::Pos { ticks: false },
+            ids::TARGET_POS_INC => Self::Pos { ticks: true },
+            ids::TARGET_VEL => Self::Vel { ticks: false },
+            ids::TARGET_VEL_INC => Self::Vel { ticks: true },
+            ids::TARGET_ACC => Self::Acc { ticks: false },
+            ids::TARGET_ACC_INC => Self::Acc { ticks: true },
+            ids::CUR => Self::Cur,
+            ids::RAW_CUR => Self::RawCur,
+            _ => return None,
+        })
+    }
+
+    /// Whether the module's limits are needed (read in ticks when `Some(true)`).
+    pub fn module_limits(self) -> Option<bool> {
+        match self {
+            Self::Pos { ticks } | Self::Vel { ticks } | Self::Acc { ticks } => Some(ticks),
+            Self::Cur => Some(false),
+            Self::RawCur => None,
+        }
+    }
+
+    /// The checks that need no module, which `--force` never skips: the
+    /// manual's range, and a positive velocity or acceleration.
+    pub fn check_manual(self, what: &'static str, value: f64) -> Result<(), LimitError> {
+        check_finite(what, value)?;
+        match self {
+            Self::RawCur => {
+                let (lo, hi) = RAW_CUR_RANGE;
+                if value < lo || value > hi {
+                    return Err(LimitError::OutsideManual { what, value, lo, hi });
+                }
+                Ok(())
+            }
+            Self::Vel { .. } | Self::Acc { .. } => check_positive(what, value),
+            Self::Pos { .. } | Self::Cur => Ok(()),
+        }
+    }
+
+    /// The module's own limit, as a move with this value is checked.
+    pub fn check_module(self, value: f64, l: &Limits, m: ModuleId) -> Result<(), LimitError> {
+        match self {
+            Self::Pos { .. } => l.check_pos(value, m),
+            Self::Vel { .. } => l.check_vel(value, m),
+            Self::Acc { .. } => l.check_acc(value, m),
+            Self::Cur => l.check_cur(value, m),
+            Self::RawCur => Ok(()),
+        }
     }
 }
 
@@ -189,6 +266,40 @@ mod tests {
     }
 
     #[test]
+    fn settings_that_act_like_motion_are_checked_like_motion() {
+        use crate::proto::powercube::table::ids;
+        let raw = SettingLimit::of(ids::RAW_CUR).unwrap();
+        assert!(raw.check_manual("RawCur", 500.0).is_ok());
+        assert!(raw.check_manual("RawCur", -500.0).is_ok());
+        assert_eq!(
+            raw.check_manual("RawCur", 501.0).unwrap_err().to_string(),
+            "RawCur 501 is outside the manual's range -500..=500; nothing was sent"
+        );
+        assert!(raw.check_manual("RawCur", -501.0).is_err());
+        assert_eq!(raw.module_limits(), None);
+        let vel = SettingLimit::of(ids::TARGET_VEL).unwrap();
+        assert!(matches!(vel.check_manual("TargetVel", 0.0), Err(LimitError::NotPositive { .. })));
+        assert!(matches!(vel.check_module(0.2, &LIN, m17()), Err(LimitError::Exceeds { limit_name: "MaxVel", .. })));
+        let acc = SettingLimit::of(ids::TARGET_ACC).unwrap();
+        assert!(matches!(acc.check_module(0.6, &LIN, m17()), Err(LimitError::Exceeds { limit_name: "MaxAcc", .. })));
+        assert!(acc.check_module(0.5, &LIN, m17()).is_ok());
+        let pos = SettingLimit::of(ids::TARGET_POS).unwrap();
+        assert!(pos.check_manual("TargetPos", -3.0).is_ok(), "positions may be negative");
+        assert!(matches!(pos.check_module(-0.1, &LIN, m17()), Err(LimitError::Exceeds { limit_name: "MinPos", .. })));
+        let cur = SettingLimit::of(ids::CUR).unwrap();
+        assert!(matches!(cur.check_module(-6.0, &LIN, m17()), Err(LimitError::Exceeds { limit_name: "MaxCur", .. })));
+        for (id, want) in [
+            (ids::TARGET_POS_INC, SettingLimit::Pos { ticks: true }),
+            (ids::TARGET_VEL_INC, SettingLimit::Vel { ticks: true }),
+            (ids::TARGET_ACC_INC, SettingLimit::Acc { ticks: true }),
+        ] {
+            assert_eq!(SettingLimit::of(id), Some(want), "{id:#04x}");
+            assert_eq!(want.module_limits(), Some(true), "checked against the ActI* limits");
+        }
+        assert_eq!(SettingLimit::of(ids::MAX_VEL), None, "a limit itself is not a motion");
+    }
+
+    #[test]
     fn halted_or_faulted_modules_are_not_ready() {
         use crate::proto::powercube::flags::state;
         assert_eq!(not_ready(state::HOME_OK | state::RAMP_END), None);
@@ -204,6 +315,11 @@ mod tests {
         assert_eq!(motion_value(12.0, true, "target position"), Ok(MotionValue::Int32(12)));
         assert!(matches!(motion_value(1.5, true, "x"), Err(LimitError::NotTicks { .. })));
         assert!(matches!(motion_value(3e9, true, "x"), Err(LimitError::NotTicks { .. })));
+        // Below Int32 too: `as i32` would saturate to i32::MIN and send it.
+        assert!(matches!(motion_value(-3e9, true, "x"), Err(LimitError::NotTicks { .. })));
+        for edge in [i32::MIN, i32::MAX] {
+            assert_eq!(motion_value(f64::from(edge), true, "x"), Ok(MotionValue::Int32(edge)), "{edge}");
+        }
         assert_eq!(motion_value(0.25, false, "x"), Ok(MotionValue::Float(0.25)));
         assert!(matches!(check_positive("velocity", 0.0), Err(LimitError::NotPositive { .. })));
     }
