@@ -8,3 +8,6 @@ pub mod cdios;
 pub mod pac;
 pub mod powercube;
 pub mod supervisor;
+
+#[cfg(test)]
+mod test_rig;

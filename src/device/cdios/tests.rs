@@ -6,31 +6,11 @@ use std::time::Duration;
 
 use super::*;
 use crate::clock::{Clock, VirtualClock};
-use crate::link::{CanLink, LinkError};
+use crate::device::test_rig::Recording;
 use crate::proto::CanFrame;
 use crate::session::ErrorKind;
 use crate::sim::bench::Bench;
 use crate::sim::shared::lock;
-
-/// A link that keeps a copy of every frame sent through it.
-struct Recording {
-    inner: Box<dyn CanLink>,
-    sent: Arc<Mutex<Vec<CanFrame>>>,
-}
-
-impl CanLink for Recording {
-    fn send(&mut self, frame: &CanFrame) -> Result<(), LinkError> {
-        lock(&self.sent).push(*frame);
-        self.inner.send(frame)
-    }
-    fn send_many(&mut self, frames: &[CanFrame]) -> Result<(), LinkError> {
-        lock(&self.sent).extend_from_slice(frames);
-        self.inner.send_many(frames)
-    }
-    fn recv(&mut self, timeout: Duration) -> Result<Option<CanFrame>, LinkError> {
-        self.inner.recv(timeout)
-    }
-}
 
 struct Rig {
     clock: VirtualClock,

@@ -6,6 +6,7 @@ use std::time::Duration;
 
 use super::*;
 use crate::clock::{Clock, VirtualClock};
+use crate::device::test_rig::Recording;
 use crate::link::{CanLink, LinkError};
 use crate::proto::powercube::can::{classify, CanMessage};
 use crate::proto::powercube::flags::state;
@@ -13,26 +14,6 @@ use crate::proto::powercube::limits::LimitError;
 use crate::proto::CanFrame;
 use crate::sim::bench::Bench;
 use crate::sim::shared::lock;
-
-/// A link that keeps a copy of every frame sent through it.
-struct Recording {
-    inner: Box<dyn CanLink>,
-    sent: Arc<Mutex<Vec<CanFrame>>>,
-}
-
-impl CanLink for Recording {
-    fn send(&mut self, frame: &CanFrame) -> Result<(), LinkError> {
-        lock(&self.sent).push(*frame);
-        self.inner.send(frame)
-    }
-    fn send_many(&mut self, frames: &[CanFrame]) -> Result<(), LinkError> {
-        lock(&self.sent).extend_from_slice(frames);
-        self.inner.send_many(frames)
-    }
-    fn recv(&mut self, timeout: Duration) -> Result<Option<CanFrame>, LinkError> {
-        self.inner.recv(timeout)
-    }
-}
 
 struct Rig {
     clock: VirtualClock,
