@@ -10,4 +10,4 @@ pub mod powercube;
 pub mod supervisor;
 
 #[cfg(test)]
-mod test_rig;
+mod tests;

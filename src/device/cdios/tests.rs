@@ -6,7 +6,7 @@ use std::time::Duration;
 
 use super::*;
 use crate::clock::{Clock, VirtualClock};
-use crate::device::test_rig::Recording;
+use crate::device::tests::{recorded_bench, Recorded};
 use crate::proto::CanFrame;
 use crate::session::ErrorKind;
 use crate::sim::bench::Bench;
@@ -20,11 +20,7 @@ struct Rig {
 }
 
 fn rig() -> Rig {
-    let clock = VirtualClock::new();
-    let shared: Arc<dyn Clock> = Arc::new(clock.clone());
-    let bench = Bench::contract(Arc::clone(&shared));
-    let sent = Arc::new(Mutex::new(Vec::new()));
-    let link = Recording { inner: Box::new(bench.bus.open()), sent: Arc::clone(&sent) };
+    let Recorded { clock, shared, bench, link, sent } = recorded_bench();
     let s = Cdios::new(Box::new(link)).with_clock(shared);
     Rig { clock, bench, node: Node::new(s, NodeId::new(1).unwrap(), RetryPolicy::default()), sent }
 }

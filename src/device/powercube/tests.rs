@@ -6,7 +6,7 @@ use std::time::Duration;
 
 use super::*;
 use crate::clock::{Clock, VirtualClock};
-use crate::device::test_rig::Recording;
+use crate::device::tests::{recorded_bench, Recorded, Recording};
 use crate::link::{CanLink, LinkError};
 use crate::proto::powercube::can::{classify, CanMessage};
 use crate::proto::powercube::flags::state;
@@ -23,11 +23,7 @@ struct Rig {
 }
 
 fn rig() -> Rig {
-    let clock = VirtualClock::new();
-    let shared: Arc<dyn Clock> = Arc::new(clock.clone());
-    let bench = Bench::contract(Arc::clone(&shared));
-    let sent = Arc::new(Mutex::new(Vec::new()));
-    let link = Recording { inner: Box::new(bench.bus.open()), sent: Arc::clone(&sent) };
+    let Recorded { clock, shared, bench, link, sent } = recorded_bench();
     let cubes = Cubes::new(PowerCube::over_can(Box::new(link)).with_clock(shared));
     Rig { clock, bench, cubes, sent }
 }
