@@ -40,7 +40,7 @@ fn flag_word(ctx: &Ctx, word: &'static flags::FlagWord, value: &str) -> anyhow::
         rows.push(vec![
             format!("{:#0w$x}", f.mask, w = width + 2),
             ctx.style.flag(f.name, f.class),
-            class_name(f.class),
+            f.class.name().into(),
             f.description.to_string(),
         ]);
     }
@@ -55,11 +55,6 @@ fn flag_word(ctx: &Ctx, word: &'static flags::FlagWord, value: &str) -> anyhow::
         println!("{}", ctx.style.warn(&format!("unknown bits {:#x}", d.unknown_bits)));
     }
     Ok(())
-}
-
-/// The class as JSON names it (the table's serde name, not the Rust one).
-fn class_name(class: flags::FlagClass) -> String {
-    serde_json::to_value(class).ok().and_then(|v| v.as_str().map(String::from)).unwrap_or_default()
 }
 
 fn parse_hex_bytes(text: &str) -> anyhow::Result<Vec<u8>> {
