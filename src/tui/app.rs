@@ -539,7 +539,7 @@ impl App {
         match (&d.key, &d.snap) {
             (DeviceKey::Cube(m), Some(Snapshot::Cube(c))) => {
                 let m = ModuleId::new(*m).ok_or("bad module id")?;
-                c.limits.check_pos(pos, m).map_err(|e| e.to_string())?;
+                crate::device::powercube::Move::check_ramp_target(&c.limits, m, pos).map_err(|e| e.to_string())?;
             }
             (DeviceKey::PacAxis(a), Some(Snapshot::PacAxis(s))) => {
                 super::pac::check_target(*a, pos, s)?;

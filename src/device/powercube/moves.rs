@@ -81,6 +81,15 @@ impl Move {
         ticks && !matches!(self, Self::Cur(_))
     }
 
+    /// A ramp to `pos` checked as `move-ramp` checks it, against limits
+    /// already read (the dashboard's target prompt, before its worker checks
+    /// again against fresh ones).
+    pub fn check_ramp_target(l: &Limits, m: ModuleId, pos: f64) -> Result<(), Error> {
+        let ramp = Self::Ramp { pos, vel: None, acc: None };
+        ramp.check(l.ticks)?;
+        ramp.within(l, m)
+    }
+
     fn within(&self, l: &Limits, m: ModuleId) -> Result<(), Error> {
         match *self {
             Self::Ramp { pos, vel, acc } => {
