@@ -3,15 +3,19 @@
 //! the in-process bench behind `sim`, the `--log` traffic log and the
 //! session options (`--timeout`, `--retries`, `--trace`).
 //!
+//! [`Opener::take_over`] opens for an emergency halt: a device held by
+//! another axisctl process is released first (see [`crate::link::lock`]).
+//!
 //! It sits above [`crate::link`] and [`crate::sim`] (a `sim` link is a
 //! client of the bench), so that neither of those imports the other.
 
 use std::path::PathBuf;
 use std::sync::{Arc, OnceLock};
-use std::time::Duration;
+use std::time::{Duration, Instant};
 
 use crate::clock::Clock;
 use crate::family::Family;
+use crate::link::lock::{self, Holder, TerminateError, Verdict};
 use crate::link::log::{log_iface, LoggedByteLink, LoggedCanLink, TrafficLog};
 use crate::link::{self, ByteLink, CanLink, LinkError, LinkSpec, SerialFormat};
 use crate::proto::pac::CheckRule;
@@ -34,6 +38,9 @@ pub enum OpenError {
     WireSpeed(String),
     #[error(transparent)]
     Link(#[from] LinkError),
+    /// The device is busy and its holder could not be made to let go.
+    #[error("cannot open {path}: device busy, {why}")]
+    Held { path: String, why: String },
 }
 
 fn needs_can(family: Option<Family>) -> String {
@@ -46,7 +53,41 @@ fn needs_can(family: Option<Family>) -> String {
 impl OpenError {
     /// True when the link given does not fit the family (a usage error).
     pub fn is_mismatch(&self) -> bool {
-        !matches!(self, Self::Link(_))
+        !matches!(self, Self::Link(_) | Self::Held { .. })
+    }
+
+    /// The device path, when the open failed because another process holds it.
+    pub fn busy_path(&self) -> Option<&str> {
+        match self {
+            Self::Link(LinkError::Open { path, source }) if source.kind() == std::io::ErrorKind::ResourceBusy => {
+                Some(path)
+            }
+            _ => None,
+        }
+    }
+}
+
+/// How long the holder of a device has, once asked, to halt what it drives
+/// and close the port. Its own halt is one round trip; the dashboard also
+/// restores the terminal.
+pub const RELEASE: Duration = Duration::from_secs(5);
+/// How often the port is tried while its holder lets go.
+const RELEASE_POLL: Duration = Duration::from_millis(20);
+
+/// The axisctl process that held the device and was asked to let go.
+#[derive(Debug, Clone)]
+pub struct Takeover {
+    /// The device path as given.
+    pub path: String,
+    pub holder: Holder,
+}
+
+impl Takeover {
+    /// Whether the holder has ended, waiting up to `within` for it: its port
+    /// is closed before its process is gone. Asked after our own halt, so it
+    /// never delays it.
+    pub fn exited(&self, within: Duration) -> bool {
+        self.holder.wait_gone(within)
     }
 }
 
@@ -202,6 +243,65 @@ impl Opener {
 
     fn traffic_log(&self, spec: &LinkSpec) -> Result<Option<TrafficLog>, LinkError> {
         self.log.as_deref().map(|path| TrafficLog::append(path, &log_iface(spec))).transpose()
+    }
+
+    /// Runs `open`, and when it fails because another process holds the
+    /// device: if the lock file names a live axisctl process (checked with the
+    /// kernel, see [`Holder::check`]), sends it SIGTERM, on which it halts what
+    /// it drives and exits, and runs `open` again until the port is free, for
+    /// at most [`RELEASE`]. A holder that is not axisctl is never signalled.
+    /// Opening is retried, never a motion: the caller sends its halt once open.
+    pub fn take_over<T>(
+        &self,
+        mut open: impl FnMut(&Self) -> Result<T, OpenError>,
+    ) -> Result<(T, Option<Takeover>), OpenError> {
+        let err = match open(self) {
+            Ok(t) => return Ok((t, None)),
+            Err(e) => e,
+        };
+        let Some(path) = err.busy_path().map(str::to_string) else { return Err(err) };
+        let held = |why: String| OpenError::Held { path: path.clone(), why };
+        let holder = match lock::holder(&path) {
+            Some(Ok(h)) => h,
+            Some(Err(e)) => return Err(held(format!("{e}: the holder is unknown, nothing was signalled"))),
+            None => {
+                return Err(held("no axisctl lock names its holder (another program?); nothing was signalled".into()))
+            }
+        };
+        match holder.check() {
+            Verdict::Axisctl => {}
+            Verdict::Stale => {
+                return Err(held(format!(
+                    "its lock names PID {}, which has exited: another program holds it; nothing was signalled",
+                    holder.pid
+                )))
+            }
+            Verdict::NotAxisctl(why) => {
+                return Err(held(format!(
+                    "its lock names PID {}, which is not axisctl ({why}); it was not signalled",
+                    holder.pid
+                )))
+            }
+        }
+        match holder.terminate() {
+            Ok(()) | Err(TerminateError::Gone) => {}
+            Err(e) => return Err(held(format!("held by axisctl {holder}: {e}"))),
+        }
+        let deadline = Instant::now() + RELEASE;
+        loop {
+            std::thread::sleep(RELEASE_POLL);
+            match open(self) {
+                Ok(t) => return Ok((t, Some(Takeover { path, holder }))),
+                Err(e) if e.busy_path().is_none() => return Err(e),
+                Err(_) if Instant::now() < deadline => {}
+                Err(_) => {
+                    return Err(held(format!(
+                        "held by axisctl {holder}, which was sent SIGTERM but did not release it within {} s",
+                        RELEASE.as_secs()
+                    )))
+                }
+            }
+        }
     }
 
     /// A PowerCube session: CAN, or RS232 on a `serial:` link.

@@ -3,6 +3,7 @@
 
 use std::time::Duration;
 
+pub mod lock;
 pub mod log;
 pub mod mem;
 pub mod pty;

@@ -4,6 +4,9 @@
 //! character format, exclusive access); reads and writes go straight to the
 //! file descriptor through poll(2), so a read returns as soon as any byte
 //! arrives rather than after a fixed inter-byte timeout.
+//!
+//! An open port leaves a [`lock`] file naming this process, so that a
+//! second terminal can find who holds it; "device busy" names the holder.
 
 use std::io;
 use std::os::fd::{AsRawFd, RawFd};
@@ -11,11 +14,14 @@ use std::time::{Duration, Instant};
 
 use serialport::{DataBits, FlowControl, Parity, StopBits, TTYPort};
 
-use super::{ByteLink, LinkError, SerialFormat};
+use super::{lock, ByteLink, LinkError, SerialFormat};
 
 /// An open serial port.
 #[derive(Debug)]
 pub struct SerialLink {
+    /// Declared before `port` so it is removed before the port closes: once
+    /// closed, the next holder's lock must not be deleted by us.
+    _lock: Option<lock::Lock>,
     port: TTYPort,
     path: String,
 }
@@ -34,8 +40,9 @@ impl SerialLink {
             .parity(parity)
             .stop_bits(StopBits::One)
             .flow_control(FlowControl::None);
-        let port = TTYPort::open(&builder).map_err(|e| LinkError::Open { path: path.into(), source: os_error(e) })?;
-        let mut link = Self { port, path: path.into() };
+        let port =
+            TTYPort::open(&builder).map_err(|e| LinkError::Open { path: path.into(), source: os_error(e, path) })?;
+        let mut link = Self { _lock: lock::acquire(path), port, path: path.into() };
         // Bytes that arrived before the port was configured may be garbled.
         link.clear_input()?;
         Ok(link)
@@ -47,7 +54,8 @@ impl SerialLink {
 }
 
 /// serialport keeps the OS reason only as text: rebuild an io::Error with it.
-fn os_error(e: serialport::Error) -> io::Error {
+/// A busy port says who holds it.
+fn os_error(e: serialport::Error, path: &str) -> io::Error {
     let kind = match e.kind() {
         serialport::ErrorKind::Io(kind) => kind,
         serialport::ErrorKind::NoDevice => io::ErrorKind::ResourceBusy,
@@ -55,7 +63,7 @@ fn os_error(e: serialport::Error) -> io::Error {
         serialport::ErrorKind::Unknown => io::ErrorKind::Other,
     };
     let text = if e.kind() == serialport::ErrorKind::NoDevice {
-        format!("{} (device busy: is another program using it?)", e.description)
+        format!("{} (device busy: {})", e.description, lock::describe(path))
     } else {
         e.description
     };
