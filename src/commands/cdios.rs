@@ -12,9 +12,10 @@ use axisctl::proto::cdios::{
     decode_status, Command, Direction, ErrorReply, GotoMode, ModuleId, NodeId, PositionSource, StartOption,
     StatusReport, StopOption, Timers,
 };
-use axisctl::session::cdios::Event;
+use axisctl::session::cdios::{Cdios, Event};
 use serde_json::{json, Value};
 
+use super::takeover::HolderReport;
 use super::wait::waiting;
 use super::{interrupted, usage, Ctx};
 use crate::cli::cdios::{
@@ -52,7 +53,7 @@ pub fn run(ctx: &Ctx, cmd: CdiosCommand) -> anyhow::Result<()> {
                 StopOptionArg::ReleaseEmergency => StopOption::ReleaseEmergency,
                 StopOptionArg::ClearHold => StopOption::ClearHold,
             };
-            simple(ctx, target, "cdios-stop", &[device::stop_command(option, latched)])
+            stop(ctx, target, &[device::stop_command(option, latched)])
         }
         CdiosCommand::Enable { target, release_emergency } => {
             simple(ctx, target, "cdios-enable", &device::enable_commands(release_emergency))
@@ -100,10 +101,13 @@ fn module_id(t: &ModuleTarget) -> ModuleId {
 }
 
 fn open(ctx: &Ctx, n: &NodeArgs) -> anyhow::Result<Node> {
-    let mut s = ctx.cdios()?;
+    Ok(node(ctx.cdios()?, n, ctx))
+}
+
+fn node(mut s: Cdios, n: &NodeArgs, ctx: &Ctx) -> Node {
     s.set_nmt(!n.no_nmt);
     s.set_confirm(!n.no_confirm);
-    Ok(Node::new(s, node_id(n), ctx.retry))
+    Node::new(s, node_id(n), ctx.retry)
 }
 
 fn status_json(r: &StatusReport) -> Value {
@@ -232,6 +236,25 @@ fn simple(ctx: &Ctx, t: ModuleTarget, what: &str, cmds: &[Command]) -> anyhow::R
     let mut s = open(ctx, &t.node)?;
     let confirmed = s.send(m, cmds)?;
     report_sent(ctx, s.id(), m, what, confirmed, json!({}));
+    Ok(())
+}
+
+/// cdios-stop, also from another terminal: a link held by another axisctl
+/// process (a `--wait`, the dashboard) is released by it first.
+fn stop(ctx: &Ctx, t: ModuleTarget, cmds: &[Command]) -> anyhow::Result<()> {
+    let m = module_id(&t);
+    device::check(cmds, m)?;
+    let (session, takeover) = super::takeover::open(ctx, |o, spec, opts| o.cdios(spec, opts))?;
+    let mut s = node(session, &t.node, ctx);
+    let confirmed = s.send(m, cmds).map_err(|e| super::takeover::failed(e, takeover.as_ref()))?;
+    let mut extra = json!({});
+    if let Some(h) = HolderReport::after_halt(takeover.as_ref()) {
+        if !ctx.json {
+            println!("{}", h.line());
+        }
+        extra["holder"] = h.json();
+    }
+    report_sent(ctx, s.id(), m, "cdios-stop", confirmed, extra);
     Ok(())
 }
 

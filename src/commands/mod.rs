@@ -9,6 +9,7 @@ mod monitor;
 mod pac;
 mod powercube;
 mod sim;
+mod takeover;
 mod wait;
 
 use std::io::Write;

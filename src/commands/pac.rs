@@ -16,22 +16,29 @@ use std::io::IsTerminal;
 use std::time::Duration;
 
 use axisctl::device::pac::{self as device, Controller, Element, Register};
+use axisctl::open::Takeover;
 use axisctl::proto::pac::table::{self, CommandDef, ExtAxisStatus};
 use axisctl::proto::pac::{Ack, CheckRule, Command, Par2};
 use axisctl::session::pac::Progress;
 use serde_json::json;
 
+use super::takeover::HolderReport;
 use super::{arm_interrupt, interrupted, usage, Ctx};
 use crate::cli::pac::{PacCommand, PacWait, ParamAccess};
 use crate::output;
 
 pub fn run(ctx: &Ctx, cmd: PacCommand) -> anyhow::Result<()> {
-    let mut d = Controller::new(ctx.pac()?);
+    // The stops work from another terminal too: a line held by another
+    // axisctl process (a `--wait`, the dashboard) is released by it first.
+    let stops = matches!(cmd, PacCommand::PacStop | PacCommand::PacStopAxis { .. });
+    let (pac, takeover) =
+        if stops { super::takeover::open(ctx, |o, spec, opts| o.pac(spec, opts))? } else { (ctx.pac()?, None) };
+    let mut d = Controller::new(pac);
     let d = &mut d;
     match cmd {
         PacCommand::PacOnline => simple(ctx, d, 0x0603, 0, None),
         PacCommand::PacOffline => simple(ctx, d, 0x0A81, 0, None),
-        PacCommand::PacStop => simple(ctx, d, 0x0600, 0, None),
+        PacCommand::PacStop => stop(ctx, d, 0x0600, 0, takeover.as_ref()),
         PacCommand::PacAutoStart => simple(ctx, d, 0x0602, 0, None),
         PacCommand::PacAutoAbort => simple(ctx, d, 0x0A41, 0, None),
         PacCommand::PacState => state(ctx, d),
@@ -49,7 +56,7 @@ pub fn run(ctx: &Ctx, cmd: PacCommand) -> anyhow::Result<()> {
             simple(ctx, d, 0x0A8E, axis.axis.into(), Some(finite("acceleration", accel)?))
         }
         PacCommand::PacStopAxis { axis, no_wait } => {
-            simple(ctx, d, if no_wait { 0x0A9A } else { 0x0A93 }, axis.axis.into(), None)
+            stop(ctx, d, if no_wait { 0x0A9A } else { 0x0A93 }, axis.axis.into(), takeover.as_ref())
         }
         PacCommand::PacAxis(a) => axis_info(ctx, d, a.axis),
         PacCommand::PacAxes => axes(ctx, d),
@@ -110,8 +117,19 @@ fn check_rule_name(r: CheckRule) -> &'static str {
 /// One command, its acknowledge; motion-free or finishing by itself.
 fn simple(ctx: &Ctx, d: &mut Controller, code: u16, par1: i64, value: Option<f64>) -> anyhow::Result<()> {
     let done = d.send(code, par1, value)?;
+    report(ctx, code, par1, value, done.ack, None);
+    Ok(())
+}
+
+/// A stop, then what became of the process that held the line, if one did.
+fn stop(ctx: &Ctx, d: &mut Controller, code: u16, par1: i64, takeover: Option<&Takeover>) -> anyhow::Result<()> {
+    let done = d.send(code, par1, None).map_err(|e| super::takeover::failed(e, takeover))?;
+    report(ctx, code, par1, None, done.ack, HolderReport::after_halt(takeover));
+    Ok(())
+}
+
+fn report(ctx: &Ctx, code: u16, par1: i64, value: Option<f64>, ack: Ack, holder: Option<HolderReport>) {
     let def = def(code);
-    let ack = done.ack;
     let ack_value = match def.ack {
         table::AckKind::None => None,
         _ => Some(ack.q_par.as_f64()),
@@ -125,8 +143,14 @@ fn simple(ctx: &Ctx, d: &mut Controller, code: u16, par1: i64, value: Option<f64
             doc["ack_value"] = json!(v);
         }
         merge(&mut doc, status_json(&ack));
+        if let Some(h) = &holder {
+            doc["holder"] = h.json();
+        }
         output::json(&doc);
     } else {
+        if let Some(h) = &holder {
+            println!("{}", h.line());
+        }
         let mut line = format!("{} ({}) done", def.name, def.code_hex());
         if let Some(v) = ack_value {
             line.push_str(&format!(", acknowledge date {v}"));
@@ -137,7 +161,6 @@ fn simple(ctx: &Ctx, d: &mut Controller, code: u16, par1: i64, value: Option<f64
         }
         println!("{line}");
     }
-    Ok(())
 }
 
 fn merge(doc: &mut serde_json::Value, more: serde_json::Value) {

@@ -28,7 +28,7 @@ pub fn run(ctx: &Ctx, cmd: Command) -> anyhow::Result<()> {
         Command::State(m) => show_state(ctx, module(m.module)),
         Command::Home { target, wait } => home(ctx, target, wait),
         Command::Reset { target } => simple(ctx, target, Simple::Reset),
-        Command::Halt { target } => simple(ctx, target, Simple::Halt),
+        Command::Halt { target } => halt(ctx, target),
         Command::MoveRamp { modules, pos, vel, acc, ticks, force, sync, wait } => {
             let ms: Vec<ModuleId> = modules.0.iter().map(|id| module(*id)).collect();
             match (&ms[..], &pos[..]) {
@@ -229,17 +229,35 @@ fn show_state(ctx: &Ctx, m: ModuleId) -> anyhow::Result<()> {
 /// One command to one module, or its broadcast to all.
 fn simple(ctx: &Ctx, target: Target, cmd: Simple) -> anyhow::Result<()> {
     cubes(ctx)?.simple(target.module.map(module), cmd)?;
-    report_sent(ctx, target, cmd.name());
+    report_sent(ctx, target, cmd.name(), None);
     Ok(())
 }
 
-fn report_sent(ctx: &Ctx, target: Target, what: &str) {
+/// Halt, also from another terminal: a module held by another axisctl
+/// process (a `--wait`, the dashboard) is released by it first.
+fn halt(ctx: &Ctx, target: Target) -> anyhow::Result<()> {
+    let (pc, takeover) = super::takeover::open(ctx, |o, spec, opts| o.powercube(spec, opts))?;
+    let sent = Cubes::new(pc).simple(target.module.map(module), Simple::Halt);
+    sent.map_err(|e| super::takeover::failed(e, takeover.as_ref()))?;
+    let holder = super::takeover::HolderReport::after_halt(takeover.as_ref());
+    report_sent(ctx, target, Simple::Halt.name(), holder.as_ref());
+    Ok(())
+}
+
+fn report_sent(ctx: &Ctx, target: Target, what: &str, holder: Option<&super::takeover::HolderReport>) {
     if ctx.json {
-        match target.module {
-            Some(m) => output::json(&json!({"module": m, "command": what, "acknowledged": true})),
-            None => output::json(&json!({"module": null, "broadcast": true, "command": what})),
+        let mut doc = match target.module {
+            Some(m) => json!({"module": m, "command": what, "acknowledged": true}),
+            None => json!({"module": null, "broadcast": true, "command": what}),
+        };
+        if let Some(h) = holder {
+            doc["holder"] = h.json();
         }
+        output::json(&doc);
     } else {
+        if let Some(h) = holder {
+            println!("{}", h.line());
+        }
         match target.module {
             Some(m) => println!("module {m}: {what} acknowledged"),
             None => println!("{what} broadcast to all modules"),
@@ -258,7 +276,7 @@ fn home(ctx: &Ctx, target: Target, wait: WaitArgs) -> anyhow::Result<()> {
         m => cubes.simple(m, Simple::Home)?,
     }
     if !wait.wait {
-        report_sent(ctx, target, "Home");
+        report_sent(ctx, target, "Home", None);
         return Ok(());
     }
     let modules = match target.module {
