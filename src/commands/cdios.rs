@@ -12,6 +12,7 @@ use axisctl::proto::cdios::{
     decode_status, Command, Direction, ErrorReply, GotoMode, ModuleId, NodeId, PositionSource, StartOption,
     StatusReport, StopOption, Timers,
 };
+use axisctl::proto::Refusal;
 use axisctl::session::cdios::{Cdios, Event};
 use serde_json::{json, Value};
 
@@ -246,7 +247,13 @@ fn stop(ctx: &Ctx, t: ModuleTarget, cmds: &[Command]) -> anyhow::Result<()> {
     device::check(cmds, m)?;
     let (session, takeover) = super::takeover::open(ctx, |o, spec, opts| o.cdios(spec, opts))?;
     let mut s = node(session, &t.node, ctx);
-    let confirmed = s.send(m, cmds).map_err(|e| super::takeover::failed(e, takeover.as_ref()))?;
+    let (confirmed, already) = match s.send(m, cmds) {
+        Ok(confirmed) => (confirmed, false),
+        // The holder has just stopped the motor itself, and the node refuses
+        // to stop a motor that is not running: the state asked for.
+        Err(e) if takeover.is_some() && only_motor_not_running(&e) => (true, true),
+        Err(e) => return Err(super::takeover::failed(e, takeover.as_ref())),
+    };
     let mut extra = json!({});
     if let Some(h) = HolderReport::after_halt(takeover.as_ref()) {
         if !ctx.json {
@@ -254,8 +261,21 @@ fn stop(ctx: &Ctx, t: ModuleTarget, cmds: &[Command]) -> anyhow::Result<()> {
         }
         extra["holder"] = h.json();
     }
+    if already {
+        extra["already_stopped"] = json!(true);
+        if !ctx.json {
+            println!("node {} module {m}: its holder had already stopped the motor (MOTOR_NOT_RUNNING)", s.id());
+            return Ok(());
+        }
+    }
     report_sent(ctx, s.id(), m, "cdios-stop", confirmed, extra);
     Ok(())
+}
+
+/// A refusal that says nothing but "the motor is not running".
+fn only_motor_not_running(e: &device::Error) -> bool {
+    matches!(e.refusal(), Some(Refusal::Cdios(r))
+        if r.general == 0 && r.unknown_bits.is_empty() && r.errors.iter().map(|b| b.name).eq(["MOTOR_NOT_RUNNING"]))
 }
 
 fn set_position(ctx: &Ctx, t: ModuleTarget, position: i64) -> anyhow::Result<()> {

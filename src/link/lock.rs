@@ -323,7 +323,8 @@ pub fn lock_path(device: &str) -> Option<PathBuf> {
     Some(lock_path_in(&lock_dir()?, device))
 }
 
-fn lock_path_in(dir: &Path, device: &str) -> PathBuf {
+/// The lock file of `device` in `dir`.
+pub fn lock_path_in(dir: &Path, device: &str) -> PathBuf {
     let name: String = device
         .chars()
         .map(|c| match c {
@@ -354,8 +355,9 @@ pub fn lock_dir() -> Option<PathBuf> {
     private.then_some(dir)
 }
 
-/// `/proc/PID/stat` field 22; `Ok(None)` when there is no such process.
-fn proc_start(pid: u32) -> io::Result<Option<u64>> {
+/// When process `pid` started (`/proc/PID/stat` field 22, clock ticks after
+/// boot); `Ok(None)` when there is no such process.
+pub fn proc_start(pid: u32) -> io::Result<Option<u64>> {
     match std::fs::read_to_string(format!("/proc/{pid}/stat")) {
         Ok(text) => Ok(stat_field(&text, 22).and_then(|f| f.parse().ok())),
         Err(e) if e.kind() == io::ErrorKind::NotFound => Ok(None),
