@@ -230,6 +230,31 @@ fn cdios_stop_from_a_second_process_stops_a_cdios_goto_wait_that_holds_the_port(
     assert!(!flags.contains("GOTO_ACTIVE") && !flags.contains("RUNNING_FORWARD"), "{flags}");
 }
 
+/// A holder that cannot let go in time (stopped with SIGSTOP, so the SIGTERM
+/// stays pending): the halt gives up after its bound with exit 3 and names
+/// it. Once continued, the holder acts on the SIGTERM and halts.
+#[test]
+fn a_holder_that_does_not_let_go_in_time_is_exit_3_naming_it() {
+    let locks = Locks::new();
+    let s = Sim::start(&["--powercube", "pty-slcan"], 1);
+    let link = s.link("powercube");
+    let holder = Holding::start(&locks, &ramp_args(link), "SetMotion");
+    let pid = holder.pid();
+    // SAFETY: kill(2) on the holder this test started.
+    assert_eq!(unsafe { libc::kill(pid as i32, libc::SIGSTOP) }, 0);
+    let t0 = Instant::now();
+    let r = locks.run(&["--link", link, "halt", "--all"]);
+    let took = t0.elapsed();
+    // SAFETY: as above.
+    assert_eq!(unsafe { libc::kill(pid as i32, libc::SIGCONT) }, 0);
+    assert_eq!(r.code, 3, "{}", r.stderr);
+    assert!(r.stderr.contains(&format!("held by axisctl PID {pid} (")), "{}", r.stderr);
+    assert!(r.stderr.contains("did not release it within 5 s"), "{}", r.stderr);
+    assert!(took >= Duration::from_secs(5) && took < Duration::from_secs(10), "gave up after {took:?}");
+    assert_eq!(holder.end(10).0, Some(143), "the pending SIGTERM halts it once continued");
+    assert!(cube_stands(&locks, link), "module 3 still moving");
+}
+
 /// Holds `link`'s tty exclusively from this test process (not through
 /// axisctl, so no lock file is written).
 fn hold_exclusively(link: &str) -> serialport::TTYPort {

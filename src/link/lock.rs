@@ -16,6 +16,7 @@
 
 use std::fmt;
 use std::io::{self, Read, Write};
+use std::os::fd::OwnedFd;
 use std::os::unix::fs::{DirBuilderExt, MetadataExt, OpenOptionsExt};
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
@@ -66,7 +67,8 @@ impl Holder {
         let pid = std::process::id();
         let start = proc_start(pid).ok()??;
         let exe = std::fs::read_link("/proc/self/exe").ok()?;
-        let args: Vec<String> = std::env::args().skip(1).collect();
+        // args_os: an argument that is not UTF-8 must not panic here.
+        let args: Vec<String> = std::env::args_os().skip(1).map(|a| a.to_string_lossy().into_owned()).collect();
         Some(Self { pid, start, exe: without_deleted(&exe), what: one_line(&args.join(" ")), device: device.into() })
     }
 
@@ -178,17 +180,7 @@ impl Holder {
             Verdict::NotAxisctl(why) => return Err(TerminateError::NotAxisctl(why)),
         }
         let sent = match pidfd {
-            // SAFETY: a pidfd we own; a null siginfo means "as kill(2) would".
-            Some(fd) => unsafe {
-                let r = libc::syscall(libc::SYS_pidfd_send_signal, fd, libc::SIGTERM, std::ptr::null::<u8>(), 0);
-                let e = io::Error::last_os_error();
-                libc::close(fd);
-                if r == 0 {
-                    Ok(())
-                } else {
-                    Err(e)
-                }
-            },
+            Some(fd) => pidfd_sigterm(&fd),
             // SAFETY: kill(2) on a PID just checked; positive, so never a group.
             None => match unsafe { libc::kill(self.pid as libc::pid_t, libc::SIGTERM) } {
                 0 => Ok(()),
@@ -397,10 +389,36 @@ fn one_line(s: &str) -> String {
 }
 
 /// A pidfd for `pid`, where the kernel has them (Linux 5.3).
-fn pidfd_open(pid: u32) -> Option<libc::c_int> {
+#[cfg(target_os = "linux")]
+fn pidfd_open(pid: u32) -> Option<OwnedFd> {
+    use std::os::fd::FromRawFd;
     // SAFETY: pidfd_open(2) takes a PID and flags; it returns a new fd or -1.
     let fd = unsafe { libc::syscall(libc::SYS_pidfd_open, pid as libc::pid_t, 0) };
-    (fd >= 0).then_some(fd as libc::c_int)
+    // SAFETY: a fresh fd that nothing else owns.
+    (fd >= 0).then(|| unsafe { OwnedFd::from_raw_fd(fd as libc::c_int) })
+}
+
+#[cfg(not(target_os = "linux"))]
+fn pidfd_open(_pid: u32) -> Option<OwnedFd> {
+    None
+}
+
+#[cfg(target_os = "linux")]
+fn pidfd_sigterm(fd: &OwnedFd) -> io::Result<()> {
+    use std::os::fd::AsRawFd;
+    // SAFETY: a live pidfd; a null siginfo means "as kill(2) would".
+    let r =
+        unsafe { libc::syscall(libc::SYS_pidfd_send_signal, fd.as_raw_fd(), libc::SIGTERM, std::ptr::null::<u8>(), 0) };
+    if r == 0 {
+        Ok(())
+    } else {
+        Err(io::Error::last_os_error())
+    }
+}
+
+#[cfg(not(target_os = "linux"))]
+fn pidfd_sigterm(_fd: &OwnedFd) -> io::Result<()> {
+    Err(io::Error::from(io::ErrorKind::Unsupported))
 }
 
 #[cfg(test)]
