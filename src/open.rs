@@ -80,6 +80,8 @@ pub struct Takeover {
     /// The device path as given.
     pub path: String,
     pub holder: Holder,
+    /// False when it had exited by itself before the signal went out.
+    pub signalled: bool,
 }
 
 impl Takeover {
@@ -283,15 +285,16 @@ impl Opener {
                 )))
             }
         }
-        match holder.terminate() {
-            Ok(()) | Err(TerminateError::Gone) => {}
+        let signalled = match holder.terminate() {
+            Ok(()) => true,
+            Err(TerminateError::Gone) => false,
             Err(e) => return Err(held(format!("held by axisctl {holder}: {e}"))),
-        }
+        };
         let deadline = Instant::now() + RELEASE;
         loop {
             std::thread::sleep(RELEASE_POLL);
             match open(self) {
-                Ok(t) => return Ok((t, Some(Takeover { path, holder }))),
+                Ok(t) => return Ok((t, Some(Takeover { path, holder, signalled }))),
                 Err(e) if e.busy_path().is_none() => return Err(e),
                 Err(_) if Instant::now() < deadline => {}
                 Err(_) => {

@@ -32,6 +32,7 @@ pub struct HolderReport {
     pid: u32,
     what: String,
     path: String,
+    signalled: bool,
     exited: bool,
 }
 
@@ -43,22 +44,25 @@ impl HolderReport {
             pid: t.holder.pid,
             what: t.holder.what.clone(),
             path: t.path.clone(),
+            signalled: t.signalled,
             exited: t.exited(EXIT_GRACE),
         })
     }
 
     /// The `holder` member of the command's JSON.
     pub fn json(&self) -> Value {
-        json!({"pid": self.pid, "what": self.what, "signalled": true, "exited": self.exited})
+        json!({"pid": self.pid, "what": self.what, "signalled": self.signalled, "exited": self.exited})
     }
 
     /// One line, printed before the command's own.
     pub fn line(&self) -> String {
         let end = if self.exited { "it exited" } else { "it had not exited yet" };
-        format!(
-            "{} was held by axisctl PID {} ({}): asked it with SIGTERM to halt what it drives and let go; {end}",
-            self.path, self.pid, self.what
-        )
+        let asked = if self.signalled {
+            "asked it with SIGTERM to halt what it drives and let go"
+        } else {
+            "it ended by itself before it was signalled"
+        };
+        format!("{} was held by axisctl PID {} ({}): {asked}; {end}", self.path, self.pid, self.what)
     }
 }
 

@@ -173,6 +173,9 @@ impl Holder {
     /// pidfd where the kernel has them, so the signal cannot reach a process
     /// that took over the PID in between.
     pub fn terminate(&self) -> Result<(), TerminateError> {
+        if self.pid == std::process::id() {
+            return Err(TerminateError::Itself);
+        }
         let pidfd = pidfd_open(self.pid);
         match self.check() {
             Verdict::Axisctl => {}
@@ -209,6 +212,9 @@ impl fmt::Display for Holder {
 pub enum TerminateError {
     #[error("it has already exited")]
     Gone,
+    /// A process never signals itself: it holds the port through another link of its own.
+    #[error("it is this very process")]
+    Itself,
     #[error("it is not axisctl ({0}), so it was not signalled")]
     NotAxisctl(String),
     #[error("SIGTERM was refused: {0}")]
@@ -513,9 +519,10 @@ mod tests {
         let dead = Holder { pid, start: 1, exe: PathBuf::from("/bin/true"), what: String::new(), device: "/d".into() };
         assert_eq!(dead.check(), Verdict::Stale);
         assert!(dead.is_gone());
+        assert!(matches!(dead.terminate(), Err(TerminateError::Gone)));
         let reused = Holder { start: me().start + 1, ..me() };
         assert_eq!(reused.check(), Verdict::Stale);
-        assert!(matches!(reused.terminate(), Err(TerminateError::Gone)));
+        assert!(matches!(me().terminate(), Err(TerminateError::Itself)), "never signals itself");
     }
 
     #[test]

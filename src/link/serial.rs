@@ -230,6 +230,23 @@ mod tests {
     }
 
     #[test]
+    fn a_busy_port_names_its_holder_and_its_lock_goes_with_it() {
+        let (_master, path) = super::super::pty::open_pair().unwrap();
+        let held = SerialLink::open(&path, 9600, SerialFormat::F8N1).unwrap();
+        let lock_file = lock::lock_path(&lock::canonical(&path)).expect("a lock directory");
+        assert!(lock_file.exists());
+        let err = SerialLink::open(&path, 9600, SerialFormat::F8N1).unwrap_err();
+        let LinkError::Open { source, .. } = &err else { panic!("{err:?}") };
+        assert_eq!(source.kind(), io::ErrorKind::ResourceBusy);
+        let text = err.to_string();
+        // This test program counts as axisctl: it is the process that checks.
+        assert!(text.contains(&format!("device busy: held by axisctl, PID {} (", std::process::id())), "{text}");
+        drop(held);
+        assert!(!lock_file.exists(), "the lock goes with the port");
+        drop(SerialLink::open(&path, 9600, SerialFormat::F8N1).expect("free again"));
+    }
+
+    #[test]
     fn open_of_a_non_tty_fails_cleanly() {
         let file = tempfile::NamedTempFile::new().unwrap();
         let path = file.path().to_str().unwrap();
