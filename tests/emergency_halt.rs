@@ -438,5 +438,6 @@ fn halt_all_from_a_second_terminal_ends_the_dashboard_and_halts_the_module_it_mo
     let screen = t.wait_for("DONE");
     assert!(screen.contains("SIGTERM: halted what the dashboard moved"), "{screen}");
     assert!(screen.contains("code=143 DONE"), "{screen}");
+    assert!(!locks.file_of(link).exists(), "the dashboard's lock went with it");
     assert!(cube_stands(&locks, link), "module 3 still moving");
 }
