@@ -94,13 +94,15 @@ impl Drop for TerminalGuard {
     }
 }
 
-/// Restores the terminal before the default hook prints a UI-thread panic
-/// (so the message lands on a normal screen). Worker panics are reported in
-/// the event pane instead and leave the screen alone.
+/// Records every panic as a reason to stop (the UI loop then halts what
+/// the dashboard moved), and restores the terminal before the previous hook
+/// prints a UI-thread panic (so the message lands on a normal screen). A
+/// worker's panic is not printed over the screen: the worker reports it.
 fn install_panic_hook() {
     let ui_thread = std::thread::current().id();
     let default = std::panic::take_hook();
     std::panic::set_hook(Box::new(move |info| {
+        stop::note_panic(&crate::device::supervisor::describe_panic(info));
         if std::thread::current().id() == ui_thread {
             restore_terminal();
             default(info);
