@@ -18,7 +18,9 @@
 //! moving axis; the harness reports its median and worst per family.
 //!
 //! `AXISCTL_RACE_RUNS` sets the runs per family (default 20, what CI runs;
-//! `scripts/race.sh` runs 200), `AXISCTL_RACE_SEED` the seed, and
+//! `scripts/race.sh` runs 200), `AXISCTL_RACE_SEED` the seed,
+//! `AXISCTL_RACE_LANES` how many simulators per family share them (default
+//! 2), and
 //! `AXISCTL_BIN` the binary under test (`scripts/race.sh` runs a copy, so a
 //! rebuild meanwhile changes nothing).
 
@@ -192,6 +194,19 @@ struct Tally {
 }
 
 impl Tally {
+    fn merge(&mut self, o: Tally) {
+        self.runs += o.runs;
+        self.signalled += o.signalled;
+        self.output_failures += o.output_failures;
+        self.moving_after_exit += o.moving_after_exit;
+        self.wrong_exit.extend(o.wrong_exit);
+        self.died_of_signal += o.died_of_signal;
+        self.finished_first += o.finished_first;
+        self.to_halt.extend(o.to_halt);
+        self.to_halt_sent_late.extend(o.to_halt_sent_late);
+        self.worst_exit = self.worst_exit.max(o.worst_exit);
+    }
+
     fn summary(&self, name: &str) -> String {
         let spread = |v: &[Duration]| {
             let mut sorted = v.to_vec();
@@ -276,6 +291,8 @@ fn first_frame_after(log: &Path, frame: &str, since: SystemTime) -> Option<Syste
 }
 
 fn race(f: &Family, runs: u64, seed: u64, dir: &Path) -> Tally {
+    let dir = dir.join(format!("{}-{seed}", f.name));
+    std::fs::create_dir_all(&dir).unwrap();
     let sim = Sim::start(f.sim, 1);
     let link = sim.link(f.name).to_string();
     let with_link = |args: &[&str]| {
@@ -293,7 +310,7 @@ fn race(f: &Family, runs: u64, seed: u64, dir: &Path) -> Tally {
         let hit = Hit::pick(&mut rng);
         let after = Duration::from_millis(rng.below(f.window_ms));
         let args = with_link(f.moves[(i % 2) as usize]);
-        let log: PathBuf = dir.join(format!("{}-{i}.log", f.name));
+        let log: PathBuf = dir.join(format!("{i}.log"));
         let mut child = spawn(&args, hit, &log);
         let mut trace = child.stderr.take();
         let what = format!("{}: run {i} ({hit:?} after {after:?})", f.name);
@@ -372,17 +389,28 @@ fn signals_and_output_failures_at_random_instants_never_leave_a_device_moving() 
     let seed = env_u64("AXISCTL_RACE_SEED", 0x5eed);
     let dir = std::env::temp_dir().join(format!("axisctl-race-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
-    let handles: Vec<_> = FAMILIES
-        .iter()
-        .enumerate()
-        .map(|(i, _)| {
-            let dir = dir.clone();
-            std::thread::spawn(move || (FAMILIES[i].name, race(&FAMILIES[i], runs, seed + i as u64, &dir)))
+    // Each family's runs are shared among lanes, each with a simulator of
+    // its own: a run mostly waits, so lanes cut the wall time.
+    let lanes = env_u64("AXISCTL_RACE_LANES", 2).max(1);
+    let handles: Vec<_> = (0..FAMILIES.len())
+        .map(|i| {
+            let lane_handles: Vec<_> = (0..lanes)
+                .map(|lane| {
+                    let dir = dir.clone();
+                    let share = runs / lanes + u64::from(lane < runs % lanes);
+                    let seed = seed + 1000 * lane + i as u64;
+                    std::thread::spawn(move || race(&FAMILIES[i], share, seed, &dir))
+                })
+                .collect();
+            (FAMILIES[i].name, lane_handles)
         })
         .collect();
     let mut failed = Vec::new();
-    for h in handles {
-        let (name, t) = h.join().unwrap();
+    for (name, lane_handles) in handles {
+        let mut t = Tally::default();
+        for h in lane_handles {
+            t.merge(h.join().unwrap());
+        }
         eprintln!("{}", t.summary(name));
         if t.moving_after_exit > 0 || !t.wrong_exit.is_empty() {
             failed.push(format!("{name}: {t:?}"));
