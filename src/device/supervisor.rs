@@ -85,6 +85,16 @@ mod tests {
     }
 
     #[test]
+    fn stop_reasons_say_what_happened() {
+        assert_eq!(StopReason::Signal(libc::SIGTERM).to_string(), "SIGTERM");
+        assert_eq!(
+            StopReason::Panic("thread 'x' at a.rs:1: boom".into()).to_string(),
+            "a thread panicked (thread 'x' at a.rs:1: boom)"
+        );
+        assert_eq!(StopReason::Output("Broken pipe".into()).to_string(), "output failed (Broken pipe)");
+    }
+
+    #[test]
     fn a_panic_in_the_body_halts_then_goes_on() {
         let mut halted = false;
         let r = panic::catch_unwind(AssertUnwindSafe(|| {

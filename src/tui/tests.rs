@@ -885,8 +885,14 @@ impl Live {
                 for code in "g1.0".chars().map(KeyCode::Char).chain([KeyCode::Enter]) {
                     press(code);
                 }
-                std::thread::sleep(Duration::from_millis(300));
-                moving.store(self.cube(17).1 != 0.0 && self.cube(3).1 != 0.0, std::sync::atomic::Ordering::SeqCst);
+                // A loaded machine may take a while to carry the keys out.
+                for _ in 0..60 {
+                    std::thread::sleep(Duration::from_millis(50));
+                    if self.cube(17).1 != 0.0 && self.cube(3).1 != 0.0 {
+                        moving.store(true, std::sync::atomic::Ordering::SeqCst);
+                        break;
+                    }
+                }
                 hit(self);
                 for _ in 0..100 {
                     std::thread::sleep(Duration::from_millis(50));
