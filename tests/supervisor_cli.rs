@@ -376,3 +376,44 @@ fn sigint_during_home_all_wait_halts_every_module_of_the_home() {
         assert!(raw & 0x800 == 0 && raw & 0x4 != 0, "module {m} halted and standing: {raw:#x}");
     }
 }
+
+/// SIGINT while `home --all --wait` is still sending its Homes (module 5's
+/// acknowledge comes 1.5 s late): no further Home goes out, and the modules
+/// homed so far are halted.
+#[test]
+fn sigint_while_home_all_sends_its_homes_sends_no_more_and_halts_those_sent() {
+    let s = Sim::start(&["--powercube", "pty-slcan", "--fault", "delay=1500ms,skip=4,count=1"], 1);
+    let link = s.link("powercube");
+    let args = ["--link", link, "--timeout", "3000", "home", "--all", "--wait"];
+    let r = signal_when(&args, "Home to module 5", Duration::from_millis(100), libc::SIGINT);
+    assert_eq!((r.code, r.killed_by), (130, None), "{}", r.stderr);
+    assert!(r.stderr.contains("interrupted before Home to module 17: modules 3, 5 halted"), "{}", r.stderr);
+    assert!(!r.stderr.contains("Home to module 17\n"), "no Home to module 17: {}", r.stderr);
+    for m in ["3", "5"] {
+        let raw = module_state(link, m);
+        assert!(raw & 0x800 == 0 && raw & 0x4 != 0, "module {m} halted and standing: {raw:#x}");
+    }
+}
+
+/// SIGINT while `move-ramp --sync --wait` loads the targets (module 5's
+/// acknowledge comes 1.5 s late): no start broadcast goes out, so nothing
+/// moves, and the loaded modules are halted, which drops what they hold.
+#[test]
+fn sigint_during_a_sync_load_sends_no_start_and_halts_the_loaded_modules() {
+    let s = Sim::start(&["--powercube", "pty-slcan", "--fault", "delay=1500ms,skip=11,count=1"], 1);
+    let link = s.link("powercube");
+    for m in ["3", "5"] {
+        let r = run_bounded(&["--link", link, "set-config", "-m", m, "+sync-motion"]);
+        assert_eq!(r.code, 0, "{}", r.stderr);
+    }
+    let args =
+        ["--link", link, "--timeout", "3000", "move-ramp", "-m", "3,5", "--sync", "0.5", "-0.5", "--force", "--wait"];
+    let r = signal_when(&args, "SetMotion FRAMP_MODE -0.5 to module 5", Duration::from_millis(100), libc::SIGINT);
+    assert_eq!((r.code, r.killed_by), (130, None), "{}", r.stderr);
+    assert!(r.stderr.contains("interrupted before the StartMotion broadcast: modules 3, 5 halted"), "{}", r.stderr);
+    assert!(!r.stderr.contains("-> 100#"), "no start broadcast: {}", r.stderr);
+    for m in ["3", "5"] {
+        let raw = module_state(link, m);
+        assert!(raw & 0x800 == 0 && raw & 0x4 != 0, "module {m} halted and standing: {raw:#x}");
+    }
+}

@@ -267,7 +267,9 @@ fn home(ctx: &Ctx, target: Target, wait: WaitArgs) -> anyhow::Result<()> {
             if present.is_empty() {
                 return Err(Error::NoneAnswered { ids: "1-31".into() }.into());
             }
-            cubes.home_each_supervised(&present, attempts)?;
+            cubes
+                .home_each_supervised(&present, attempts, &interrupted)
+                .map_err(|e| super::stopped_by_output(e.into()))?;
             present
         }
     };
@@ -392,7 +394,14 @@ fn move_ramp_sync(
     if wait.wait {
         super::arm_interrupt()?;
     }
-    let started = cubes.move_sync(&plan, force, 1 + ctx.retry.read_retries)?;
+    let attempts = 1 + ctx.retry.read_retries;
+    let started = if wait.wait {
+        cubes
+            .move_sync_supervised(&plan, force, attempts, &interrupted)
+            .map_err(|e| super::stopped_by_output(e.into()))?
+    } else {
+        cubes.move_sync(&plan, force, attempts)?
+    };
     if !ctx.json {
         for (m, moved) in &started {
             say!("module {m}: {} acknowledged", moved.described);

@@ -61,6 +61,11 @@ pub enum Error {
         source: Box<Error>,
         halted: Vec<(ModuleId, bool)>,
     },
+    /// A signal (or a failed output) came while a motion of several modules
+    /// was being sent: nothing more was sent (not `what`), and the modules
+    /// sent their part so far were halted.
+    #[error("interrupted before {what}: {}", halted_modules(halted).unwrap_or_else(|| "nothing was sent".into()))]
+    InterruptedBefore { what: String, halted: Vec<(ModuleId, bool)> },
     /// The module reports an error or is halted: a motion would not move it.
     /// Nothing was sent.
     #[error("module {module} is not ready ({})", why.join(", "))]
@@ -167,7 +172,7 @@ impl Error {
             | Self::MotionsUnconfirmed { source: e, .. }
             | Self::LostTrack { source: e, .. } => e.kind(),
             Self::NotReady { .. } | Self::Faulted { .. } | Self::ConfigNotKept { .. } => ErrorKind::Device,
-            Self::Interrupted { .. } => ErrorKind::Interrupted,
+            Self::Interrupted { .. } | Self::InterruptedBefore { .. } => ErrorKind::Interrupted,
             Self::NoneAnswered { .. } => ErrorKind::Timeout,
             Self::UnexpectedType { .. } => ErrorKind::Other,
         }

@@ -108,6 +108,26 @@ impl Cubes {
         Ok(loaded.moved)
     }
 
+    /// [`Self::load_sync`], then [`Self::start_sync`] unless `interrupted`
+    /// by then: the modules hold their targets until the start broadcast,
+    /// so a signal during the load moves nothing; they are halted (which
+    /// drops what they hold) and no start broadcast goes out.
+    pub fn move_sync_supervised(
+        &mut self,
+        s: &SyncRamp,
+        force: bool,
+        halt_attempts: u32,
+        interrupted: &dyn Fn() -> bool,
+    ) -> Result<Vec<(ModuleId, Moved)>, Error> {
+        let loaded = self.load_sync(s, force, halt_attempts)?;
+        if interrupted() {
+            let modules: Vec<ModuleId> = loaded.moved.iter().map(|(m, _)| *m).collect();
+            let halted = self.halt_each(&modules, halt_attempts);
+            return Err(Error::InterruptedBefore { what: "the StartMotion broadcast".into(), halted });
+        }
+        self.start_sync(loaded)
+    }
+
     /// [`Self::load_sync`], then [`Self::start_sync`].
     pub fn move_sync(
         &mut self,
