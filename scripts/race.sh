@@ -5,7 +5,9 @@
 # left moving, wrong exits, and the time from the signal to the halt frame
 # (median and worst, from the wall-clock stamps of --log) and to the exit.
 # It runs a copy of the binaries, so a rebuild meanwhile changes nothing.
-# Usage: scripts/race.sh [RUNS] [SEED]; PROFILE=release for a release build.
+# Usage: scripts/race.sh [RUNS] [SEED]; PROFILE=release for a release build,
+# AXISCTL_RACE_ONLY=pac (or powercube, cdios) for one family. A failure
+# prints each wrong run.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 runs="${1:-200}"
@@ -21,4 +23,4 @@ cp "target/$profile/axisctl" "$snap/axisctl"
 cp "$exe" "$snap/race"
 export AXISCTL_BIN="$snap/axisctl" AXISCTL_RACE_RUNS="$runs" AXISCTL_RACE_SEED="$seed"
 echo "race: $runs runs per family, seed $seed, $profile build, $(nproc) cores, load $(cut -d' ' -f1-3 /proc/loadavg)"
-"$snap/race" --nocapture 2>&1 | grep -E '^race |test result|panicked|FAILED'
+"$snap/race" --nocapture 2>&1 | grep -E '^race |^  wrong: |^    |test result|FAILED'

@@ -20,7 +20,7 @@
 //! `AXISCTL_RACE_RUNS` sets the runs per family (default 20, what CI runs;
 //! `scripts/race.sh` runs 200), `AXISCTL_RACE_SEED` the seed,
 //! `AXISCTL_RACE_LANES` how many simulators per family share them (default
-//! 2), and
+//! 2), `AXISCTL_RACE_ONLY` one family's name to race it alone, and
 //! `AXISCTL_BIN` the binary under test (`scripts/race.sh` runs a copy, so a
 //! rebuild meanwhile changes nothing).
 
@@ -392,7 +392,9 @@ fn signals_and_output_failures_at_random_instants_never_leave_a_device_moving() 
     // Each family's runs are shared among lanes, each with a simulator of
     // its own: a run mostly waits, so lanes cut the wall time.
     let lanes = env_u64("AXISCTL_RACE_LANES", 2).max(1);
+    let only = std::env::var("AXISCTL_RACE_ONLY").ok();
     let handles: Vec<_> = (0..FAMILIES.len())
+        .filter(|i| only.as_deref().is_none_or(|name| name == FAMILIES[*i].name))
         .map(|i| {
             let lane_handles: Vec<_> = (0..lanes)
                 .map(|lane| {
@@ -412,6 +414,9 @@ fn signals_and_output_failures_at_random_instants_never_leave_a_device_moving() 
             t.merge(h.join().unwrap());
         }
         eprintln!("{}", t.summary(name));
+        for w in &t.wrong_exit {
+            eprintln!("  wrong: {}", w.trim_end().replace('\n', "\n    "));
+        }
         if t.moving_after_exit > 0 || !t.wrong_exit.is_empty() {
             failed.push(format!("{name}: {t:?}"));
         }
