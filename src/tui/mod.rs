@@ -147,8 +147,13 @@ where
 }
 
 /// Keys come from their own thread so that a slow draw never drops one.
+/// Once the terminal is restored (a panic, the end) the thread stops: what
+/// is typed then is the shell's.
 fn read_keys(key_tx: mpsc::Sender<Event>) -> io::Result<()> {
     std::thread::Builder::new().name("axisctl-keys".into()).spawn(move || loop {
+        if !TERMINAL_TAKEN.load(Ordering::SeqCst) {
+            return;
+        }
         match ct::poll(TICK) {
             Ok(true) => match ct::read() {
                 Ok(CtEvent::Key(k)) => {
@@ -219,13 +224,15 @@ where
         Ok(end) => end,
         Err(payload) => {
             // The UI thread panicked: the workers still run, so they halt
-            // what the dashboard moved before the panic goes on.
+            // what the dashboard moved before the panic goes on. With nothing
+            // to halt it goes on at once: the terminal is the shell's again,
+            // and the key reader must not live on to eat what is typed there.
             let why = format!("the dashboard panicked ({})", worker::panic_text(payload.as_ref()));
-            for out in app.halt_moved_and_quit(&why) {
-                let _ = senders[out.link].send(out.msg);
+            if !app.moved.is_empty() {
+                dispatch(&senders, app.halt_moved_and_quit(&why));
+                finish(&senders, handles);
+                let _ = writeln!(io::stderr(), "axisctl: {why}: halted what the dashboard moved");
             }
-            finish(&senders, handles);
-            let _ = writeln!(io::stderr(), "axisctl: {why}: halted what the dashboard moved");
             std::panic::resume_unwind(payload)
         }
     };
