@@ -1,11 +1,26 @@
 #!/usr/bin/env bash
 # The motion supervisor's race harness (tests/supervisor_race.rs) at full
-# length: signals at random instants against a served simulator, RUNS per
-# family (default 200). Prints per family: runs, devices left moving, worst
-# time from signal to exit. Usage: scripts/race.sh [RUNS] [SEED]
+# length: signals and output failures at random instants against a served
+# simulator, RUNS per family (default 200). Prints per family: runs, devices
+# left moving, wrong exits, and the time from the signal to the halt frame
+# (median and worst, from the wall-clock stamps of --log) and to the exit.
+# It runs a copy of the binaries, so a rebuild meanwhile changes nothing.
+# Usage: scripts/race.sh [RUNS] [SEED]; PROFILE=release for a release build,
+# AXISCTL_RACE_ONLY=pac (or powercube, cdios) for one family. A failure
+# prints each wrong run.
 set -euo pipefail
 cd "$(dirname "$0")/.."
-export AXISCTL_RACE_RUNS="${1:-200}"
-export AXISCTL_RACE_SEED="${2:-$RANDOM}"
-echo "race: $AXISCTL_RACE_RUNS runs per family, seed $AXISCTL_RACE_SEED"
-cargo test --test supervisor_race -- --nocapture 2>&1 | grep -E '^race |test result|panicked|FAILED'
+runs="${1:-200}"
+seed="${2:-$RANDOM}"
+profile="${PROFILE:-debug}"
+flags=()
+[ "$profile" = release ] && flags=(--release)
+cargo build -q "${flags[@]}" --bin axisctl
+exe=$(cargo test "${flags[@]}" --test supervisor_race --no-run 2>&1 | sed -n 's/.*Executable .*(\(.*\))$/\1/p' | tail -1)
+snap=$(mktemp -d)
+trap 'rm -rf "$snap"' EXIT
+cp "target/$profile/axisctl" "$snap/axisctl"
+cp "$exe" "$snap/race"
+export AXISCTL_BIN="$snap/axisctl" AXISCTL_RACE_RUNS="$runs" AXISCTL_RACE_SEED="$seed"
+echo "race: $runs runs per family, seed $seed, $profile build, $(nproc) cores, load $(cut -d' ' -f1-3 /proc/loadavg)"
+"$snap/race" --nocapture 2>&1 | grep -E '^race |^  wrong: |^    |test result|FAILED'

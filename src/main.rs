@@ -10,6 +10,8 @@ mod commands;
 mod output;
 
 fn main() -> ExitCode {
+    // First of all: a panic on any thread from here on halts a supervised motion.
+    supervisor::install_panic_hook();
     let cli = match cli::parse(&commands::exit::summary()) {
         Ok(cli) => cli,
         Err(e) => {

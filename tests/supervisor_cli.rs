@@ -284,3 +284,136 @@ fn a_lost_home_acknowledge_under_wait_halts_and_says_so() {
     assert!(r.stderr.contains("may have been moving") && r.stderr.contains("module 3 halted"), "{}", r.stderr);
     assert!(cube_stands(link), "module 3 still homing");
 }
+
+/// PowerCube module `m` (`"3"`) stands: no MOTION flag. `homed`: HOME_OK.
+fn module_state(link: &str, m: &str) -> u64 {
+    let st = run_bounded(&["--link", link, "--json", "state", "-m", m]);
+    assert_eq!(st.code, 0, "{}", st.stderr);
+    st.json()["raw"].as_u64().unwrap()
+}
+
+/// `home --all --wait`: the presence probes (modules 3, 5 and 17 answer)
+/// pass, module 3's Home is acknowledged, module 5's acknowledge is lost.
+/// Both may be homing, so both are halted and the message says so; module
+/// 17 is never sent a Home.
+#[test]
+fn a_lost_home_acknowledge_of_home_all_under_wait_halts_the_modules_homed_so_far() {
+    let s = Sim::start(&["--powercube", "pty-slcan", "--fault", "drop=1,skip=4,count=1"], 1);
+    let link = s.link("powercube");
+    let r = run_bounded(&["--link", link, "--trace", "--timeout", "1000", "home", "--all", "--wait"]);
+    assert_eq!(r.code, 4, "{}", r.stderr);
+    assert!(
+        r.stderr
+            .contains("Home to module 5 was not acknowledged; the module may have been moving: modules 3, 5 halted"),
+        "{}",
+        r.stderr
+    );
+    let homes: Vec<&str> = r.stderr.lines().filter(|l| l.starts_with("-> ") && l.contains("Home")).collect();
+    assert_eq!(homes.len(), 2, "one acknowledged Home each to modules 3 and 5, none to 17: {homes:?}");
+    assert!(homes[0].contains("0E3#") && homes[1].contains("0E5#"), "{homes:?}");
+    for m in ["3", "5"] {
+        let raw = module_state(link, m);
+        assert!(raw & 0x800 == 0 && raw & 0x4 != 0, "module {m} halted and standing: {raw:#x}");
+    }
+}
+
+/// `home --all --wait` when module 3's presence answer is lost: a Home
+/// broadcast would start it with nobody waiting for it. It is not sent a
+/// Home at all; the modules that answered are homed and waited for.
+#[test]
+fn home_all_under_wait_never_starts_a_module_it_does_not_watch() {
+    let s = Sim::start(&["--powercube", "pty-slcan", "--fault", "drop=1,count=1"], 1);
+    let link = s.link("powercube");
+    let r = run_bounded(&["--link", link, "--trace", "--timeout", "1000", "home", "--all", "--wait"]);
+    assert_eq!(r.code, 0, "{}", r.stderr);
+    assert!(r.stdout.contains("module 5: Home done") && r.stdout.contains("module 17: Home done"), "{}", r.stdout);
+    assert!(!r.stderr.contains("100#"), "no broadcast: {}", r.stderr);
+    let raw = module_state(link, "3");
+    assert!(raw & 0x800 == 0 && raw & 0x2 == 0, "module 3 neither moving nor homed: {raw:#x}");
+}
+
+/// `move-ramp --sync --wait`: module 3's target is acknowledged, module 5's
+/// acknowledge is lost. Both may hold a target that a later start broadcast
+/// would start, so both are halted (which drops it), no start broadcast
+/// goes out, and the message says so, exit 4.
+#[test]
+fn a_lost_acknowledge_of_a_sync_load_under_wait_halts_the_loaded_modules() {
+    // set-config takes 3 answers per module; then the load: Config and
+    // CubeState of 3 and 5, SetMotion to 3, SetMotion to 5 (the 12th answer).
+    let s = Sim::start(&["--powercube", "pty-slcan", "--fault", "drop=1,skip=11,count=1"], 1);
+    let link = s.link("powercube");
+    for m in ["3", "5"] {
+        let r = run_bounded(&["--link", link, "set-config", "-m", m, "+sync-motion"]);
+        assert_eq!(r.code, 0, "{}", r.stderr);
+    }
+    let args = ["--link", link, "--trace", "--timeout", "1000", "move-ramp", "-m", "3,5", "--sync", "0.5", "-0.5"];
+    let r = run_bounded(&[&args[..], &["--force", "--wait"]].concat());
+    assert_eq!(r.code, 4, "{}", r.stderr);
+    assert!(
+        r.stderr.contains("module 5 did not take its target (modules 3, 5 halted, no start broadcast sent)"),
+        "{}",
+        r.stderr
+    );
+    assert!(!r.stderr.contains("-> 100#"), "no start broadcast: {}", r.stderr);
+    for m in ["3", "5"] {
+        let raw = module_state(link, m);
+        assert!(raw & 0x800 == 0 && raw & 0x4 != 0, "module {m} halted and standing: {raw:#x}");
+    }
+}
+
+/// SIGINT while `home --all --wait` waits for module 3: every module of
+/// the Home is halted, not only the one waited for, and the message says so.
+#[test]
+fn sigint_during_home_all_wait_halts_every_module_of_the_home() {
+    let s = Sim::start(&["--powercube", "pty-slcan"], 1);
+    let link = s.link("powercube");
+    let args = ["--link", link, "--timeout", "1000", "home", "--all", "--wait"];
+    let r = signal_when(&args, "Home to module 17", Duration::from_millis(300), libc::SIGINT);
+    assert_eq!((r.code, r.killed_by), (130, None), "{}", r.stderr);
+    assert!(r.stderr.contains("interrupted: module 3 halted; modules 5, 17 halted too"), "{}", r.stderr);
+    for m in ["3", "5", "17"] {
+        let raw = module_state(link, m);
+        assert!(raw & 0x800 == 0 && raw & 0x4 != 0, "module {m} halted and standing: {raw:#x}");
+    }
+}
+
+/// SIGINT while `home --all --wait` is still sending its Homes (module 5's
+/// acknowledge comes 1.5 s late): no further Home goes out, and the modules
+/// homed so far are halted.
+#[test]
+fn sigint_while_home_all_sends_its_homes_sends_no_more_and_halts_those_sent() {
+    let s = Sim::start(&["--powercube", "pty-slcan", "--fault", "delay=1500ms,skip=4,count=1"], 1);
+    let link = s.link("powercube");
+    let args = ["--link", link, "--timeout", "3000", "home", "--all", "--wait"];
+    let r = signal_when(&args, "Home to module 5", Duration::from_millis(100), libc::SIGINT);
+    assert_eq!((r.code, r.killed_by), (130, None), "{}", r.stderr);
+    assert!(r.stderr.contains("interrupted before Home to module 17: modules 3, 5 halted"), "{}", r.stderr);
+    assert!(!r.stderr.contains("Home to module 17\n"), "no Home to module 17: {}", r.stderr);
+    for m in ["3", "5"] {
+        let raw = module_state(link, m);
+        assert!(raw & 0x800 == 0 && raw & 0x4 != 0, "module {m} halted and standing: {raw:#x}");
+    }
+}
+
+/// SIGINT while `move-ramp --sync --wait` loads the targets (module 5's
+/// acknowledge comes 1.5 s late): no start broadcast goes out, so nothing
+/// moves, and the loaded modules are halted, which drops what they hold.
+#[test]
+fn sigint_during_a_sync_load_sends_no_start_and_halts_the_loaded_modules() {
+    let s = Sim::start(&["--powercube", "pty-slcan", "--fault", "delay=1500ms,skip=11,count=1"], 1);
+    let link = s.link("powercube");
+    for m in ["3", "5"] {
+        let r = run_bounded(&["--link", link, "set-config", "-m", m, "+sync-motion"]);
+        assert_eq!(r.code, 0, "{}", r.stderr);
+    }
+    let args =
+        ["--link", link, "--timeout", "3000", "move-ramp", "-m", "3,5", "--sync", "0.5", "-0.5", "--force", "--wait"];
+    let r = signal_when(&args, "SetMotion FRAMP_MODE -0.5 to module 5", Duration::from_millis(100), libc::SIGINT);
+    assert_eq!((r.code, r.killed_by), (130, None), "{}", r.stderr);
+    assert!(r.stderr.contains("interrupted before the StartMotion broadcast: modules 3, 5 halted"), "{}", r.stderr);
+    assert!(!r.stderr.contains("-> 100#"), "no start broadcast: {}", r.stderr);
+    for m in ["3", "5"] {
+        let raw = module_state(link, m);
+        assert!(raw & 0x800 == 0 && raw & 0x4 != 0, "module {m} halted and standing: {raw:#x}");
+    }
+}

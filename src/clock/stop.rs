@@ -1,7 +1,8 @@
 //! Why a supervised wait must stop now, kept below every layer that can
 //! notice it: a caught signal (SIGINT, SIGTERM, SIGHUP, SIGQUIT), a failed
-//! output write, a failed traffic-log write. A caught signal also wakes
-//! [`sleep`], so a poll interval never delays the halt. The policy (when to
+//! output write, a failed traffic-log write, a panic on any thread. A
+//! caught signal or a panic also wakes [`sleep`], so a poll interval never
+//! delays the halt. The policy (when to
 //! arm, what to halt) is the motion supervisor's, `device::supervisor`.
 
 use std::sync::atomic::{AtomicBool, AtomicI32, Ordering};
@@ -16,6 +17,8 @@ static WAKE_WRITE: AtomicI32 = AtomicI32::new(-1);
 static WAKE_READ: AtomicI32 = AtomicI32::new(-1);
 static OUTPUT_FAILED: AtomicBool = AtomicBool::new(false);
 static OUTPUT_ERROR: Mutex<Option<String>> = Mutex::new(None);
+static PANICKED: AtomicBool = AtomicBool::new(false);
+static PANIC_TEXT: Mutex<Option<String>> = Mutex::new(None);
 static LOG_ERROR: Mutex<Option<String>> = Mutex::new(None);
 static INSTALLED: Mutex<Option<Result<(), String>>> = Mutex::new(None);
 
@@ -27,6 +30,11 @@ pub struct ArmError(String);
 extern "C" fn on_signal(sig: libc::c_int) {
     // Only async-signal-safe work here: an atomic store and a write(2).
     let _ = CAUGHT.compare_exchange(0, sig, Ordering::SeqCst, Ordering::SeqCst);
+    wake();
+}
+
+/// Wakes a [`sleep`] in progress. Async-signal-safe.
+fn wake() {
     let fd = WAKE_WRITE.load(Ordering::SeqCst);
     if fd >= 0 {
         let byte = 1u8;
@@ -132,10 +140,64 @@ pub fn output_failure() -> Option<String> {
     }
 }
 
-/// Whether a supervised wait must halt now: a signal was caught or the
-/// output failed.
+/// Records that a thread panicked (`what`: the thread and the message):
+/// whatever that thread was doing, nobody can vouch for the motion any
+/// more, so a supervised wait (or the dashboard) halts what it moved. Called
+/// from the panic hook, so it must not panic nor block: the text is kept
+/// only if its lock is free at once.
+pub fn note_panic(what: &str) {
+    if !PANICKED.swap(true, Ordering::SeqCst) {
+        if let Ok(mut text) = PANIC_TEXT.try_lock() {
+            *text = Some(what.to_string());
+        }
+    }
+    wake();
+}
+
+/// The first panic recorded, if any ("a panic" when its text was lost).
+pub fn panic_failure() -> Option<String> {
+    if PANICKED.load(Ordering::SeqCst) {
+        let text = PANIC_TEXT.lock().unwrap_or_else(|e| e.into_inner()).clone();
+        Some(text.unwrap_or_else(|| "a panic".into()))
+    } else {
+        None
+    }
+}
+
+/// Why a supervised wait was told to stop, for the message after the halt.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum StopReason {
+    /// A caught signal (its number).
+    Signal(i32),
+    /// A thread panicked.
+    Panic(String),
+    /// An output (or `--log`) write failed.
+    Output(String),
+}
+
+impl std::fmt::Display for StopReason {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Self::Signal(sig) => f.write_str(signal_name(*sig)),
+            Self::Panic(what) => write!(f, "a thread panicked ({what})"),
+            Self::Output(io) => write!(f, "output failed ({io})"),
+        }
+    }
+}
+
+/// The reason [`stop_requested`] holds: a signal first (it sets the exit
+/// code), then a panic, then a failed output.
+pub fn stop_reason() -> Option<StopReason> {
+    caught()
+        .map(StopReason::Signal)
+        .or_else(|| panic_failure().map(StopReason::Panic))
+        .or_else(|| output_failure().map(StopReason::Output))
+}
+
+/// Whether a supervised wait must halt now: a signal was caught, a thread
+/// panicked, or the output failed.
 pub fn stop_requested() -> bool {
-    caught().is_some() || OUTPUT_FAILED.load(Ordering::SeqCst)
+    caught().is_some() || PANICKED.load(Ordering::SeqCst) || OUTPUT_FAILED.load(Ordering::SeqCst)
 }
 
 /// Sleeps for `d` or until a signal arrives (or the output failed),

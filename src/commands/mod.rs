@@ -253,11 +253,14 @@ pub fn interrupted() -> bool {
     supervisor::stop_requested()
 }
 
-/// The error of a supervised wait that ended on a failed output write
-/// rather than on a signal: said as such, not as an interruption.
+/// The error of a supervised wait that ended on a failed output write or a
+/// panic on another thread rather than on a signal: said as such, not as an
+/// interruption.
 pub fn stopped_by_output(err: anyhow::Error) -> anyhow::Error {
-    match (supervisor::caught(), supervisor::output_failure()) {
-        (None, Some(io)) => OutputFailed(format!("output failed ({io}), so the motion was stopped: {err:#}")).into(),
+    match supervisor::stop_reason() {
+        Some(why @ (supervisor::StopReason::Output(_) | supervisor::StopReason::Panic(_))) => {
+            OutputFailed(format!("{why}, so the motion was stopped: {err:#}")).into()
+        }
         _ => err,
     }
 }

@@ -267,26 +267,44 @@ fn report_sent(ctx: &Ctx, target: Target, what: &str, holder: Option<&super::tak
 
 fn home(ctx: &Ctx, target: Target, wait: WaitArgs) -> anyhow::Result<()> {
     let mut cubes = cubes(ctx)?;
-    if wait.wait {
-        // Supervised from before the first byte: a signal now halts.
-        super::arm_interrupt()?;
-    }
-    match target.module.map(module) {
-        Some(m) if wait.wait => cubes.home_supervised(m, 1 + ctx.retry.read_retries)?,
-        m => cubes.simple(m, Simple::Home)?,
-    }
     if !wait.wait {
+        cubes.simple(target.module.map(module), Simple::Home)?;
         report_sent(ctx, target, "Home", None);
         return Ok(());
     }
-    let modules = match target.module {
-        Some(id) => vec![module(id)],
-        None => cubes.present()?,
+    // Supervised from before the first byte: a signal now halts.
+    super::arm_interrupt()?;
+    let attempts = 1 + ctx.retry.read_retries;
+    let modules = match target.module.map(module) {
+        Some(m) => {
+            cubes.home_supervised(m, attempts)?;
+            vec![m]
+        }
+        None => {
+            let present = cubes.present()?;
+            if present.is_empty() {
+                return Err(Error::NoneAnswered { ids: "1-31".into() }.into());
+            }
+            cubes
+                .home_each_supervised(&present, attempts, &interrupted)
+                .map_err(|e| super::stopped_by_output(e.into()))?;
+            present
+        }
     };
-    let mut results = Vec::new();
-    for m in modules {
-        results.push(wait_for(ctx, &mut cubes, m, wait, Goal::Homed)?);
-    }
+    let goals: Vec<(ModuleId, Goal)> = modules.iter().map(|m| (*m, Goal::Homed)).collect();
+    let results = waiting(ctx, &wait, |t, show| {
+        let spec = WaitSpec { poll: t.poll, timeout: t.timeout, halt_attempts: t.stop_attempts };
+        let progress =
+            &mut |m, pos: f32, cube| show(format!("module {m} homing: pos {pos:.4}  {}", state_summary(ctx, cube)));
+        let waited = supervisor::guard(
+            &mut cubes,
+            |c| c.wait_each(&goals, spec, &interrupted, progress),
+            |c| {
+                c.halt_each(&modules, spec.halt_attempts);
+            },
+        );
+        waited.map_err(|e| super::stopped_by_output(e.into()))
+    })?;
     print_wait_results(ctx, "Home", &results);
     Ok(())
 }
@@ -394,7 +412,14 @@ fn move_ramp_sync(
     if wait.wait {
         super::arm_interrupt()?;
     }
-    let started = cubes.move_sync(&plan, force)?;
+    let attempts = 1 + ctx.retry.read_retries;
+    let started = if wait.wait {
+        cubes
+            .move_sync_supervised(&plan, force, attempts, &interrupted)
+            .map_err(|e| super::stopped_by_output(e.into()))?
+    } else {
+        cubes.move_sync(&plan, force, attempts)?
+    };
     if !ctx.json {
         for (m, moved) in &started {
             say!("module {m}: {} acknowledged", moved.described);

@@ -426,6 +426,37 @@ impl Cubes {
         }
     }
 
+    /// Home to each of `modules` under supervision, one acknowledged Home
+    /// each (not the broadcast: it would also start a module whose presence
+    /// answer was lost, which nobody would then watch). A Home without its
+    /// acknowledge may still have been taken, so that module and every one
+    /// homed before it are halted before the error is returned. Once
+    /// `interrupted`, no further Home goes out and those sent are halted.
+    pub fn home_each_supervised(
+        &mut self,
+        modules: &[ModuleId],
+        halt_attempts: u32,
+        interrupted: &dyn Fn() -> bool,
+    ) -> Result<(), Error> {
+        for (i, &m) in modules.iter().enumerate() {
+            if interrupted() {
+                let halted = self.halt_each(&modules[..i], halt_attempts);
+                return Err(Error::InterruptedBefore { what: format!("Home to module {m}"), halted });
+            }
+            if let Err(source) = self.pc.transact(m, &Simple::Home.request()) {
+                let halted = self.halt_each(&modules[..=i], halt_attempts);
+                return Err(Error::MotionsUnconfirmed { what: "Home".into(), module: m, halted, source });
+            }
+        }
+        Ok(())
+    }
+
+    /// [`Self::halt_retrying`] to each module, all of them whatever fails;
+    /// whether each halt was acknowledged.
+    pub fn halt_each(&mut self, modules: &[ModuleId], attempts: u32) -> Vec<(ModuleId, bool)> {
+        modules.iter().map(|&m| (m, self.halt_retrying(m, attempts).is_ok())).collect()
+    }
+
     /// Halt, sent again when its acknowledge does not come: stopping twice
     /// is harmless, not stopping is not. (Motion commands are never sent
     /// twice.)

@@ -8,19 +8,57 @@
 //! sees [`stop_requested`], halts the device and returns; the binary then
 //! exits with 128 + the signal's number. A failed output write is recorded
 //! the same way ([`note_output_failure`]): a wait whose progress cannot be
-//! shown halts rather than panics. [`guard`] halts on a panic.
+//! shown halts rather than panics. [`guard`] halts on a panic of the
+//! waiting thread itself; the panic hook ([`install_panic_hook`], set by the
+//! binary at start) records a panic on any other thread the same way, so
+//! the wait (or the dashboard) halts what it moved and says why.
 //!
 //! Before it is armed the signals keep their default action: nothing moves
 //! on our behalf yet. A one-shot motion without a wait is never armed for:
 //! once it is acknowledged the process ends and the axis moves on,
 //! unsupervised.
 
-use std::panic::{self, AssertUnwindSafe};
+use std::panic::{self, AssertUnwindSafe, PanicHookInfo};
+use std::sync::Once;
 
 pub use crate::clock::stop::{
-    arm, caught, exit_code, log_failure, note_log_failure, note_output_failure, output_failure, signal_name, sleep,
-    stop_requested, ArmError, SIGNALS,
+    arm, caught, exit_code, log_failure, note_log_failure, note_output_failure, note_panic, output_failure,
+    panic_failure, signal_name, sleep, stop_reason, stop_requested, ArmError, StopReason, SIGNALS,
 };
+
+/// Chains a hook in front of the current panic hook (once per process) that
+/// records every panic, on any thread, as a reason to stop
+/// ([`note_panic`]), then lets the previous hook print it. A thread that
+/// panics may have been the one that knew a device was moving; the
+/// supervised wait or the dashboard that sees the record halts what it
+/// moved. Needs `panic = "unwind"` (the default) for [`guard`] to run at all.
+pub fn install_panic_hook() {
+    static ONCE: Once = Once::new();
+    ONCE.call_once(|| {
+        let previous = panic::take_hook();
+        panic::set_hook(Box::new(move |info| {
+            note_panic(&describe_panic(info));
+            previous(info);
+        }));
+    });
+}
+
+/// `thread 'name' panicked at file:line: message`, short enough for the
+/// one-line error that follows the halt.
+pub fn describe_panic(info: &PanicHookInfo<'_>) -> String {
+    let payload = info.payload();
+    let msg = payload
+        .downcast_ref::<&str>()
+        .map(|s| s.to_string())
+        .or_else(|| payload.downcast_ref::<String>().cloned())
+        .unwrap_or_else(|| "no message".into());
+    let thread = std::thread::current();
+    let name = thread.name().unwrap_or("unnamed");
+    match info.location() {
+        Some(at) => format!("thread '{name}' at {}:{}: {msg}", at.file(), at.line()),
+        None => format!("thread '{name}': {msg}"),
+    }
+}
 
 /// Runs `body` on the device and halts it with `halt` if `body` panics,
 /// then lets the panic go on: a bug in a wait never leaves an axis moving.
@@ -44,6 +82,16 @@ mod tests {
         assert_eq!(exit_code(libc::SIGTERM), 143);
         assert_eq!(exit_code(libc::SIGHUP), 129);
         assert_eq!(exit_code(libc::SIGQUIT), 131);
+    }
+
+    #[test]
+    fn stop_reasons_say_what_happened() {
+        assert_eq!(StopReason::Signal(libc::SIGTERM).to_string(), "SIGTERM");
+        assert_eq!(
+            StopReason::Panic("thread 'x' at a.rs:1: boom".into()).to_string(),
+            "a thread panicked (thread 'x' at a.rs:1: boom)"
+        );
+        assert_eq!(StopReason::Output("Broken pipe".into()).to_string(), "output failed (Broken pipe)");
     }
 
     #[test]

@@ -154,8 +154,12 @@ pub struct App {
     /// The user moved the selection: it follows its device as others appear.
     pub chosen: bool,
     /// Devices this dashboard sent a motion to (home, jog, go to), with
-    /// their link: what SIGTERM / SIGHUP halt before the dashboard exits.
+    /// their link: what SIGTERM / SIGHUP, a panic or a failed draw halt
+    /// before the dashboard exits.
     pub moved: Vec<(LinkId, DeviceKey)>,
+    /// Why the dashboard halted what it moved and quit, other than a signal
+    /// (a panic, a failed draw).
+    pub stopped: Option<String>,
 }
 
 impl App {
@@ -174,6 +178,7 @@ impl App {
             quit: false,
             chosen: false,
             moved: Vec::new(),
+            stopped: None,
         }
     }
 
@@ -258,17 +263,22 @@ impl App {
                 out
             }
             Event::Key(_) => vec![],
-            Event::Terminate(signal) => self.terminate(signal),
+            Event::Terminate(signal) => self.halt_moved_and_quit(crate::clock::stop::signal_name(signal)),
+            Event::Stop(why) => {
+                let out = self.halt_moved_and_quit(&why);
+                self.stopped.get_or_insert(why);
+                out
+            }
         }
     }
 
-    /// The terminal closed or the process is told to end: nobody will watch
+    /// The terminal closed, the process is told to end, or a panic or a
+    /// failed draw ends the dashboard (`why` says which): nobody will watch
     /// the axes any more, so what this dashboard set moving is halted (each
     /// worker runs its halts before it sees Quit). Other devices are left
     /// alone, as `q` leaves them all.
-    fn terminate(&mut self, signal: i32) -> Vec<Outgoing> {
-        let name = crate::clock::stop::signal_name(signal);
-        self.log(Level::Warn, format!("{name}: halting what this dashboard moved, then quitting"));
+    pub fn halt_moved_and_quit(&mut self, why: &str) -> Vec<Outgoing> {
+        self.log(Level::Warn, format!("{why}: halting what this dashboard moved, then quitting"));
         let mut out: Vec<Outgoing> =
             self.moved.iter().map(|&(link, key)| Outgoing { link, msg: ToWorker::Act(key, Action::Halt) }).collect();
         out.extend(self.quit());

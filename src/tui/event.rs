@@ -19,6 +19,9 @@ pub enum Event {
     Tick(Instant),
     /// SIGTERM or SIGHUP (its number): halt what the dashboard moved, quit.
     Terminate(i32),
+    /// Nobody can vouch for the screen or a worker any more (a panic, a
+    /// failed draw; the text says which): halt what the dashboard moved, quit.
+    Stop(String),
 }
 
 /// What a link worker reports.

@@ -10,7 +10,10 @@
 //! The terminal is restored by a guard on every way out of [`run`] and by a
 //! panic hook when the UI thread panics. SIGTERM and SIGHUP (terminal
 //! closed, SSH dropped) halt what the dashboard moved, restore the terminal
-//! and end [`run`] with [`Terminated`].
+//! and end [`run`] with [`Terminated`]. So does a panic on any thread (an
+//! unwind guard on the UI thread, the worker's own guard, the panic hook's
+//! record for any other thread) and a draw that fails (the terminal cannot
+//! be written): they end [`run`] with [`Stopped`], or go on panicking.
 
 pub mod app;
 pub mod cdios;
@@ -25,7 +28,7 @@ pub mod worker;
 #[cfg(test)]
 mod tests;
 
-use std::io::{self, Stdout};
+use std::io::{self, Stdout, Write};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc;
 use std::sync::Arc;
@@ -94,13 +97,15 @@ impl Drop for TerminalGuard {
     }
 }
 
-/// Restores the terminal before the default hook prints a UI-thread panic
-/// (so the message lands on a normal screen). Worker panics are reported in
-/// the event pane instead and leave the screen alone.
+/// Records every panic as a reason to stop (the UI loop then halts what
+/// the dashboard moved), and restores the terminal before the previous hook
+/// prints a UI-thread panic (so the message lands on a normal screen). A
+/// worker's panic is not printed over the screen: the worker reports it.
 fn install_panic_hook() {
     let ui_thread = std::thread::current().id();
     let default = std::panic::take_hook();
     std::panic::set_hook(Box::new(move |info| {
+        stop::note_panic(&crate::device::supervisor::describe_panic(info));
         if std::thread::current().id() == ui_thread {
             restore_terminal();
             default(info);
@@ -138,6 +143,62 @@ pub fn run_loop<B: Backend>(
 where
     B::Error: Send + Sync + 'static,
 {
+    run_with_keys(terminal, plans, rate, clock, read_keys)
+}
+
+/// Keys come from their own thread so that a slow draw never drops one.
+/// Once the terminal is restored (a panic, the end) the thread stops: what
+/// is typed then is the shell's.
+fn read_keys(key_tx: mpsc::Sender<Event>) -> io::Result<()> {
+    std::thread::Builder::new().name("axisctl-keys".into()).spawn(move || loop {
+        if !TERMINAL_TAKEN.load(Ordering::SeqCst) {
+            return;
+        }
+        match ct::poll(TICK) {
+            Ok(true) => match ct::read() {
+                Ok(CtEvent::Key(k)) => {
+                    if key_tx.send(Event::Key(k)).is_err() {
+                        return;
+                    }
+                }
+                Ok(_) => {}
+                Err(_) => return,
+            },
+            Ok(false) => {}
+            Err(_) => return,
+        }
+    })?;
+    Ok(())
+}
+
+/// The dashboard ended on a panic or a failed draw, after halting what it
+/// moved (`why` says what happened).
+#[derive(Debug, thiserror::Error)]
+#[error("{why}: halted what the dashboard moved and quit")]
+pub struct Stopped {
+    pub why: String,
+}
+
+/// How the UI loop ended (a stop other than a signal is in `App::stopped`).
+enum End {
+    Quit,
+    Signal(i32),
+}
+
+/// [`run_loop`] with the keys from `keys`, which gets the sender of the
+/// event stream (tests script them). A panic of the UI thread halts what
+/// the dashboard moved before it goes on; so do a failed draw and a panic
+/// on any other thread, which end the dashboard with [`Stopped`].
+pub fn run_with_keys<B: Backend>(
+    terminal: &mut Terminal<B>,
+    plans: Vec<LinkPlan>,
+    rate: f64,
+    clock: Arc<dyn Clock>,
+    keys: impl FnOnce(mpsc::Sender<Event>) -> io::Result<()>,
+) -> anyhow::Result<()>
+where
+    B::Error: Send + Sync + 'static,
+{
     let (tx, rx) = mpsc::channel::<Event>();
     let mut links = Vec::new();
     let mut senders = Vec::new();
@@ -153,52 +214,98 @@ where
         senders.push(wtx);
         handles.push(h);
     }
-    // Keys come from their own thread so that a slow draw never drops one.
-    let key_tx = tx.clone();
-    std::thread::Builder::new().name("axisctl-keys".into()).spawn(move || loop {
-        match ct::poll(TICK) {
-            Ok(true) => match ct::read() {
-                Ok(CtEvent::Key(k)) => {
-                    if key_tx.send(Event::Key(k)).is_err() {
-                        return;
-                    }
-                }
-                Ok(_) => {}
-                Err(_) => return,
-            },
-            Ok(false) => {}
-            Err(_) => return,
-        }
-    })?;
+    keys(tx.clone())?;
     drop(tx);
+    let mut app = App::new(links, rate, clock.now());
+    app.log(app::Level::Info, "press ? for the keys, space to halt everything");
+    let ended =
+        std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| ui_loop(terminal, &mut app, &rx, &senders, &clock)));
+    let end = match ended {
+        Ok(end) => end,
+        Err(payload) => {
+            // The UI thread panicked: the workers still run, so they halt
+            // what the dashboard moved before the panic goes on. With nothing
+            // to halt it goes on at once: the terminal is the shell's again,
+            // and the key reader must not live on to eat what is typed there.
+            let why = format!("the dashboard panicked ({})", worker::panic_text(payload.as_ref()));
+            if !app.moved.is_empty() {
+                dispatch(&senders, app.halt_moved_and_quit(&why));
+                finish(&senders, handles);
+                let _ = writeln!(io::stderr(), "axisctl: {why}: halted what the dashboard moved");
+            }
+            std::panic::resume_unwind(payload)
+        }
+    };
+    finish(&senders, handles);
+    match (end, app.stopped.take()) {
+        (End::Signal(signal), _) => Err(Terminated { signal }.into()),
+        (End::Quit, Some(why)) => Err(Stopped { why }.into()),
+        (End::Quit, None) => Ok(()),
+    }
+}
+
+/// Tells every worker to quit after what is queued (the halts a stop asked
+/// for), and waits for them, but not forever: a dead link must not hang it.
+fn finish(senders: &[mpsc::Sender<ToWorker>], handles: Vec<std::thread::JoinHandle<()>>) {
+    for s in senders {
+        let _ = s.send(ToWorker::Quit);
+    }
+    let deadline = std::time::Instant::now() + Duration::from_secs(2);
+    for h in handles {
+        while !h.is_finished() && std::time::Instant::now() < deadline {
+            std::thread::sleep(Duration::from_millis(5));
+        }
+    }
+}
+
+/// Sends what the App asks to the workers; a worker that is gone has
+/// reported why, so a failed send is not an error here.
+fn dispatch(senders: &[mpsc::Sender<ToWorker>], outs: Vec<app::Outgoing>) {
+    for out in outs {
+        let _ = senders[out.link].send(out.msg);
+    }
+}
+
+fn ui_loop<B: Backend>(
+    terminal: &mut Terminal<B>,
+    app: &mut App,
+    rx: &mpsc::Receiver<Event>,
+    senders: &[mpsc::Sender<ToWorker>],
+    clock: &Arc<dyn Clock>,
+) -> End
+where
+    B::Error: Send + Sync + 'static,
+{
     // For the smoke test that a panic restores the terminal: `!` panics the
     // UI thread when this variable is set, and is unbound otherwise.
     let panic_key = std::env::var_os("AXISCTL_TEST_PANIC_KEY").is_some();
-    let mut app = App::new(links, rate, clock.now());
-    app.log(app::Level::Info, "press ? for the keys, space to halt everything");
     // Worker reports come a hundred times a second and more; the screen is
     // redrawn at most every FRAME for them, at once for a key.
     let mut drawn_at: Option<std::time::Instant> = None;
     let mut key_pressed = true;
-    let mut terminated = None;
     loop {
         // Before drawing: after SIGHUP the terminal is gone and a draw fails.
         if let Some(signal) = stop::caught() {
-            terminated = Some(signal);
-            for out in app.handle(Event::Terminate(signal)) {
-                let _ = senders[out.link].send(out.msg);
-            }
-            break;
+            dispatch(senders, app.handle(Event::Terminate(signal)));
+            return End::Signal(signal);
+        }
+        // A panic on a thread of this process that did not report it itself.
+        if let (Some(what), None) = (stop::panic_failure(), &app.stopped) {
+            dispatch(senders, app.handle(Event::Stop(format!("a thread panicked ({what})"))));
+            return End::Quit;
         }
         let since = drawn_at.map(|t| t.elapsed());
         let wait = if key_pressed || since.is_none_or(|s| s >= FRAME) {
-            if let Err(e) = terminal.draw(|f| ui::draw(f, &app)) {
+            if let Err(e) = terminal.draw(|f| ui::draw(f, app)) {
                 // The terminal went away with its SIGHUP on the way: halt first.
                 std::thread::sleep(Duration::from_millis(50));
                 if stop::caught().is_some() {
                     continue;
                 }
-                return Err(e.into());
+                // Nobody sees the screen: what the dashboard moved must not
+                // go on unwatched.
+                dispatch(senders, app.handle(Event::Stop(format!("the screen cannot be drawn ({e})"))));
+                return End::Quit;
             }
             drawn_at = Some(std::time::Instant::now());
             TICK
@@ -209,7 +316,7 @@ where
         let first = match rx.recv_timeout(wait) {
             Ok(ev) => Some(ev),
             Err(mpsc::RecvTimeoutError::Timeout) => None,
-            Err(mpsc::RecvTimeoutError::Disconnected) => break,
+            Err(mpsc::RecvTimeoutError::Disconnected) => return End::Quit,
         };
         let mut batch: Vec<Event> = first.into_iter().collect();
         batch.extend(rx.try_iter().take(1000));
@@ -221,28 +328,10 @@ where
                     panic!("test panic requested with AXISCTL_TEST_PANIC_KEY");
                 }
             }
-            for out in app.handle(ev) {
-                // A worker that is gone has reported why; nothing to do here.
-                let _ = senders[out.link].send(out.msg);
-            }
+            dispatch(senders, app.handle(ev));
         }
         if app.quit {
-            break;
+            return End::Quit;
         }
-    }
-    for s in &senders {
-        let _ = s.send(ToWorker::Quit);
-    }
-    // Workers finish their current transaction (and the halts a signal
-    // asked for); do not hang on a dead link.
-    let deadline = std::time::Instant::now() + Duration::from_secs(2);
-    for h in handles {
-        while !h.is_finished() && std::time::Instant::now() < deadline {
-            std::thread::sleep(Duration::from_millis(5));
-        }
-    }
-    match terminated {
-        Some(signal) => Err(Terminated { signal }.into()),
-        None => Ok(()),
     }
 }

@@ -744,3 +744,221 @@ fn rescan_finds_a_module_missing_at_start() {
     assert!(rig.app.devices.iter().any(|d| d.key == DeviceKey::Cube(17)), "found by the rescan");
     assert!(rig.app.events.iter().any(|e| e.text == "rescan sent to every link"));
 }
+
+/// A terminal whose draws fail (`1`: an error, as a closed terminal gives)
+/// or panic (`2`) from the moment the test says so.
+struct Flaky {
+    inner: TestBackend,
+    mode: Arc<std::sync::atomic::AtomicU8>,
+}
+
+impl ratatui::backend::Backend for Flaky {
+    type Error = std::io::Error;
+    fn draw<'a, I>(&mut self, content: I) -> Result<(), Self::Error>
+    where
+        I: Iterator<Item = (u16, u16, &'a ratatui::buffer::Cell)>,
+    {
+        match self.mode.load(std::sync::atomic::Ordering::SeqCst) {
+            1 => Err(std::io::Error::other("terminal gone")),
+            2 => panic!("injected draw panic"),
+            _ => self.inner.draw(content).map_err(|e| match e {}),
+        }
+    }
+    fn hide_cursor(&mut self) -> Result<(), Self::Error> {
+        self.inner.hide_cursor().map_err(|e| match e {})
+    }
+    fn show_cursor(&mut self) -> Result<(), Self::Error> {
+        self.inner.show_cursor().map_err(|e| match e {})
+    }
+    fn get_cursor_position(&mut self) -> Result<ratatui::layout::Position, Self::Error> {
+        self.inner.get_cursor_position().map_err(|e| match e {})
+    }
+    fn set_cursor_position<P: Into<ratatui::layout::Position>>(&mut self, position: P) -> Result<(), Self::Error> {
+        self.inner.set_cursor_position(position).map_err(|e| match e {})
+    }
+    fn clear(&mut self) -> Result<(), Self::Error> {
+        self.inner.clear().map_err(|e| match e {})
+    }
+    fn clear_region(&mut self, clear_type: ratatui::backend::ClearType) -> Result<(), Self::Error> {
+        self.inner.clear_region(clear_type).map_err(|e| match e {})
+    }
+    fn size(&self) -> Result<ratatui::layout::Size, Self::Error> {
+        self.inner.size().map_err(|e| match e {})
+    }
+    fn window_size(&mut self) -> Result<ratatui::backend::WindowSize, Self::Error> {
+        self.inner.window_size().map_err(|e| match e {})
+    }
+    fn flush(&mut self) -> Result<(), Self::Error> {
+        self.inner.flush().map_err(|e| match e {})
+    }
+}
+
+/// A PowerCube source whose polls panic from the moment the test says so.
+struct Panicky {
+    inner: CubeSource,
+    armed: Arc<std::sync::atomic::AtomicBool>,
+}
+
+impl DeviceSource for Panicky {
+    fn family(&self) -> Family {
+        self.inner.family()
+    }
+    fn discover(&mut self) -> Result<Vec<DeviceKey>, super::source::SourceError> {
+        self.inner.discover()
+    }
+    fn poll(&mut self, dev: DeviceKey) -> Result<Snapshot, super::source::SourceError> {
+        if self.armed.load(std::sync::atomic::Ordering::SeqCst) {
+            panic!("injected worker panic");
+        }
+        self.inner.poll(dev)
+    }
+    fn act(&mut self, dev: DeviceKey, action: super::source::Action) -> Result<String, super::source::SourceError> {
+        self.inner.act(dev, action)
+    }
+    fn halt_all(&mut self) -> Vec<super::source::HaltReport> {
+        self.inner.halt_all()
+    }
+}
+
+/// The real UI loop on real time: module 17 (linear, slow: 0.5 m takes
+/// seconds) on link 0 through a source that can be made to panic, module 3
+/// on link 1. Both are sent moving with keys, then `hit` breaks something.
+struct Live {
+    bench: Bench,
+    clock: Arc<dyn Clock>,
+    mode: Arc<std::sync::atomic::AtomicU8>,
+    worker_panics: Arc<std::sync::atomic::AtomicBool>,
+}
+
+impl Live {
+    fn new() -> Self {
+        let clock: Arc<dyn Clock> = Arc::new(crate::clock::SystemClock);
+        Self {
+            bench: Bench::contract(Arc::clone(&clock)),
+            clock,
+            mode: Arc::new(std::sync::atomic::AtomicU8::new(0)),
+            worker_panics: Arc::new(std::sync::atomic::AtomicBool::new(false)),
+        }
+    }
+
+    fn source(&self, m: u8) -> CubeSource {
+        let pc = PowerCube::over_can(Box::new(self.bench.bus.open())).with_clock(Arc::clone(&self.clock));
+        CubeSource::new(pc, Some(vec![crate::proto::powercube::ModuleId::new(m).unwrap()]))
+    }
+
+    fn cube(&self, id: u8) -> (u32, f32) {
+        let mut pc = lock(&self.bench.powercube);
+        pc.advance(self.clock.now());
+        let m = pc.module(id).unwrap();
+        (m.cube_state(), m.velocity())
+    }
+
+    /// Runs the dashboard until it ends; `hit` is called once both modules
+    /// move, and returns whether both did. A dashboard that does not end on
+    /// the hit is told `q` after 5 s, so a regression fails instead of hangs.
+    fn run(&self, hit: impl FnOnce(&Self) + Send) -> (anyhow::Result<()>, bool) {
+        let plans = vec![
+            super::LinkPlan {
+                name: "can A".into(),
+                sources: vec![Box::new(Panicky { inner: self.source(17), armed: Arc::clone(&self.worker_panics) })],
+                reopen: None,
+            },
+            super::LinkPlan { name: "can B".into(), sources: vec![Box::new(self.source(3))], reopen: None },
+        ];
+        let mut terminal =
+            Terminal::new(Flaky { inner: TestBackend::new(100, 30), mode: Arc::clone(&self.mode) }).unwrap();
+        let moving = std::sync::atomic::AtomicBool::new(false);
+        let r = std::thread::scope(|scope| {
+            let (key_tx, key_rx) = std::sync::mpsc::channel::<std::sync::mpsc::Sender<Event>>();
+            let moving = &moving;
+            scope.spawn(move || {
+                let Ok(tx) = key_rx.recv() else { return };
+                let press = |code| {
+                    let _ = tx.send(Event::Key(KeyEvent::new(code, KeyModifiers::NONE)));
+                    std::thread::sleep(Duration::from_millis(30));
+                };
+                // Discovery first; then module 17 to 0.5, module 3 to 1.0.
+                std::thread::sleep(Duration::from_millis(500));
+                for code in "g0.5".chars().map(KeyCode::Char).chain([KeyCode::Enter, KeyCode::Down]) {
+                    press(code);
+                }
+                for code in "g1.0".chars().map(KeyCode::Char).chain([KeyCode::Enter]) {
+                    press(code);
+                }
+                // A loaded machine may take a while to carry the keys out.
+                for _ in 0..60 {
+                    std::thread::sleep(Duration::from_millis(50));
+                    if self.cube(17).1 != 0.0 && self.cube(3).1 != 0.0 {
+                        moving.store(true, std::sync::atomic::Ordering::SeqCst);
+                        break;
+                    }
+                }
+                hit(self);
+                for _ in 0..100 {
+                    std::thread::sleep(Duration::from_millis(50));
+                    if tx.send(Event::Tick(self.clock.now())).is_err() {
+                        return;
+                    }
+                }
+                press(KeyCode::Char('q'));
+            });
+            super::run_with_keys(&mut terminal, plans, 10.0, Arc::clone(&self.clock), move |tx| {
+                let _ = key_tx.send(tx);
+                Ok(())
+            })
+        });
+        (r, moving.load(std::sync::atomic::Ordering::SeqCst))
+    }
+
+    fn assert_both_halted(&self) {
+        for m in [17, 3] {
+            let (cube, vel) = self.cube(m);
+            assert_ne!(cube & state::HALTED, 0, "module {m} halted");
+            assert_eq!(vel, 0.0, "module {m} stands");
+        }
+    }
+}
+
+/// The terminal cannot be written any more (a draw fails with no signal on
+/// the way): nobody sees the screen, so what the dashboard moved is halted
+/// before it quits, and the error says so.
+#[test]
+fn a_failed_draw_halts_what_the_dashboard_moved() {
+    let live = Live::new();
+    let (r, moving) = live.run(|l| l.mode.store(1, std::sync::atomic::Ordering::SeqCst));
+    assert!(moving, "both modules were moving");
+    let e = r.expect_err("a failed draw ends the dashboard");
+    assert_eq!(e.to_string(), "the screen cannot be drawn (terminal gone): halted what the dashboard moved and quit");
+    assert!(e.downcast_ref::<super::Stopped>().is_some());
+    live.assert_both_halted();
+}
+
+/// A panic in a draw (the UI thread): the unwind guard halts what the
+/// dashboard moved, then the panic goes on.
+#[test]
+fn a_panic_in_a_draw_halts_what_the_dashboard_moved() {
+    let live = Live::new();
+    let r = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+        live.run(|l| l.mode.store(2, std::sync::atomic::Ordering::SeqCst))
+    }));
+    let payload = r.expect_err("the panic goes on after the halt");
+    assert_eq!(super::worker::panic_text(payload.as_ref()), "injected draw panic");
+    live.assert_both_halted();
+}
+
+/// A worker panics: it halts what it moved (module 17, on its own link)
+/// with the sources it still holds, and the UI halts the rest (module 3,
+/// on the other link) and quits.
+#[test]
+fn a_worker_panic_halts_what_the_dashboard_moved() {
+    let live = Live::new();
+    let (r, moving) = live.run(|l| l.worker_panics.store(true, std::sync::atomic::Ordering::SeqCst));
+    assert!(moving, "both modules were moving");
+    let e = r.expect_err("a worker panic ends the dashboard");
+    assert_eq!(
+        e.to_string(),
+        "the worker of link 0 panicked (injected worker panic; halted PowerCube 17): halted what the dashboard \
+         moved and quit"
+    );
+    live.assert_both_halted();
+}

@@ -15,13 +15,18 @@
 //! adapter comes back under the same name, and reopened from the same path
 //! with a backoff from [`BACKOFF_MIN`] to [`BACKOFF_MAX`]; its devices are
 //! then discovered again. [`ToWorker::Rescan`] discovers again on demand.
+//!
+//! A worker that panics first halts what it set moving (home, jog, go to)
+//! with the sources it still holds, then reports the panic, and the UI
+//! halts what the dashboard moved on the other links and quits: a panic
+//! never leaves an axis moving with nobody watching it.
 
 use std::sync::mpsc::{Receiver, RecvTimeoutError, Sender, TryRecvError};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use super::event::{Event, LinkEvent, LinkId, ToWorker};
-use super::source::{DeviceKey, DeviceSource, Health};
+use super::source::{Action, DeviceKey, DeviceSource, Health};
 use crate::clock::Clock;
 
 /// Opens the link again from the same path, with fresh device sources.
@@ -59,6 +64,9 @@ pub struct LinkWorker {
     /// The devices polled when the link was lost: polled again after the
     /// reopen even if the scan misses them (a module still powering up).
     lost: Vec<DeviceKey>,
+    /// Devices this worker sent a motion to (acknowledged or not: a lost
+    /// acknowledge may hide a taken motion), halted if the worker panics.
+    moved: Vec<DeviceKey>,
 }
 
 impl LinkWorker {
@@ -74,6 +82,7 @@ impl LinkWorker {
             silent_rounds: 0,
             down: None,
             lost: Vec::new(),
+            moved: Vec::new(),
         }
     }
 
@@ -169,6 +178,10 @@ impl LinkWorker {
                 ToWorker::Rescan => out(self.discover()),
                 ToWorker::HaltAll => unreachable!("handled first"),
                 ToWorker::Act(dev, action) => {
+                    if matches!(action, Action::Home | Action::Jog(_) | Action::MoveTo(_)) && !self.moved.contains(&dev)
+                    {
+                        self.moved.push(dev);
+                    }
                     let what = action.name();
                     let result = match self.source_of(dev) {
                         Some(i) => self.sources[i].act(dev, action).map_err(|e| e.to_string()),
@@ -249,8 +262,49 @@ impl LinkWorker {
         false
     }
 
+    /// Devices this worker sent a motion to.
+    pub fn moved(&self) -> &[DeviceKey] {
+        &self.moved
+    }
+
+    /// Halts every device this worker sent a motion to, each on its own (a
+    /// source that panics again is skipped). Returns what the event pane and
+    /// the exit message say, e.g. `halted PowerCube 3` or `HALT OF ... FAILED`.
+    pub fn halt_moved(&mut self) -> String {
+        let mut said = Vec::new();
+        for dev in self.moved.clone() {
+            let halted = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| match self.source_of(dev) {
+                Some(i) => self.sources[i].act(dev, Action::Halt).map_err(|e| e.to_string()),
+                None => Err("its link is closed".into()),
+            }));
+            said.push(match halted {
+                Ok(Ok(_)) => format!("halted {}", dev.label()),
+                Ok(Err(e)) => format!("HALT OF {} FAILED: {e}", dev.label()),
+                Err(_) => format!("HALT OF {} FAILED: panicked", dev.label()),
+            });
+        }
+        if said.is_empty() {
+            "nothing it moved".into()
+        } else {
+            said.join(", ")
+        }
+    }
+
     /// The thread body: discover, then rounds until Quit or the UI is gone.
+    /// A panic halts what this worker moved before it is reported (as
+    /// [`LinkEvent::Ended`], and [`Event::Stop`] for the UI to halt the rest).
     pub fn run(mut self, rx: Receiver<ToWorker>, tx: Sender<Event>) {
+        let served = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| self.serve(&rx, &tx)));
+        if let Err(payload) = served {
+            let why = panic_text(payload.as_ref());
+            let halted = self.halt_moved();
+            let link = self.link;
+            let _ = tx.send(Event::Link(LinkEvent::Ended { link, why: format!("worker panicked: {why} ({halted})") }));
+            let _ = tx.send(Event::Stop(format!("the worker of link {link} panicked ({why}; {halted})")));
+        }
+    }
+
+    fn serve(&mut self, rx: &Receiver<ToWorker>, tx: &Sender<Event>) {
         let send = |ev: LinkEvent| tx.send(Event::Link(ev)).is_ok();
         if !send(self.discover()) {
             return;
@@ -298,6 +352,15 @@ impl LinkWorker {
     }
 }
 
+/// A panic's message.
+pub fn panic_text(payload: &(dyn std::any::Any + Send)) -> String {
+    payload
+        .downcast_ref::<&str>()
+        .map(|s| s.to_string())
+        .or_else(|| payload.downcast_ref::<String>().cloned())
+        .unwrap_or_else(|| "panic".into())
+}
+
 /// Starts a worker thread; a panic in it is reported as [`LinkEvent::Ended`].
 pub fn spawn(worker: LinkWorker, tx: Sender<Event>) -> (Sender<ToWorker>, std::thread::JoinHandle<()>) {
     let (wtx, wrx) = std::sync::mpsc::channel();
@@ -308,11 +371,7 @@ pub fn spawn(worker: LinkWorker, tx: Sender<Event>) -> (Sender<ToWorker>, std::t
             let tx2 = tx.clone();
             let r = std::panic::catch_unwind(std::panic::AssertUnwindSafe(move || worker.run(wrx, tx)));
             if let Err(p) = r {
-                let why = p
-                    .downcast_ref::<&str>()
-                    .map(|s| s.to_string())
-                    .or_else(|| p.downcast_ref::<String>().cloned())
-                    .unwrap_or_else(|| "panic".into());
+                let why = panic_text(p.as_ref());
                 let _ = tx2.send(Event::Link(LinkEvent::Ended { link, why: format!("worker panicked: {why}") }));
             }
         })

@@ -39,6 +39,33 @@ pub enum Error {
         #[source]
         source: SessionError,
     },
+    /// A motion to several modules under supervision (one acknowledged Home
+    /// each) went out to `module` without its acknowledge: it may have taken
+    /// it, so it and every module sent the motion before it were halted.
+    #[error(
+        "{what} to module {module} was not acknowledged; the module may have been moving: {}",
+        halted_modules(halted).unwrap_or_else(|| "nothing to halt".into())
+    )]
+    MotionsUnconfirmed {
+        what: String,
+        module: ModuleId,
+        halted: Vec<(ModuleId, bool)>,
+        #[source]
+        source: SessionError,
+    },
+    /// The wait for one module of a motion of several failed (`source`); the
+    /// other modules of the motion were halted too (`halted`).
+    #[error("{source}; {}", halted_modules(halted).map_or_else(|| "no other module to halt".into(), |h| h + " too"))]
+    OthersHalted {
+        #[source]
+        source: Box<Error>,
+        halted: Vec<(ModuleId, bool)>,
+    },
+    /// A signal (or a failed output) came while a motion of several modules
+    /// was being sent: nothing more was sent (not `what`), and the modules
+    /// sent their part so far were halted.
+    #[error("interrupted before {what}: {}", halted_modules(halted).unwrap_or_else(|| "nothing was sent".into()))]
+    InterruptedBefore { what: String, halted: Vec<(ModuleId, bool)> },
     /// The module reports an error or is halted: a motion would not move it.
     /// Nothing was sent.
     #[error("module {module} is not ready ({})", why.join(", "))]
@@ -103,14 +130,20 @@ pub(super) fn halt_note(m: ModuleId, failed: Option<&str>) -> String {
 
 /// `modules 3, 5 halted, no start broadcast sent`, a failed halt in capitals.
 fn halted_list(halted: &[(ModuleId, bool)]) -> String {
+    let mut out: Vec<String> = halted_modules(halted).into_iter().collect();
+    out.push("no start broadcast sent".into());
+    out.join(", ")
+}
+
+/// `modules 3, 5 halted`, each failed halt in capitals; `None` for none.
+fn halted_modules(halted: &[(ModuleId, bool)]) -> Option<String> {
     let ok: Vec<String> = halted.iter().filter(|(_, ok)| *ok).map(|(m, _)| m.to_string()).collect();
     let mut out = Vec::new();
     if !ok.is_empty() {
         out.push(format!("module{} {} halted", if ok.len() == 1 { "" } else { "s" }, ok.join(", ")));
     }
     out.extend(halted.iter().filter(|(_, ok)| !*ok).map(|(m, _)| format!("HALT OF MODULE {m} FAILED")));
-    out.push("no start broadcast sent".into());
-    out.join(", ")
+    (!out.is_empty()).then(|| out.join(", "))
 }
 
 impl Error {
@@ -119,10 +152,11 @@ impl Error {
     pub fn refusal(&self) -> Option<Refusal> {
         match self {
             Self::Faulted { cube, .. } => Some(Refusal::powercube(*cube)),
-            Self::SyncAborted { source, .. } => source.refusal(),
+            Self::SyncAborted { source, .. } | Self::OthersHalted { source, .. } => source.refusal(),
             Self::Session(e)
             | Self::Motion { source: e, .. }
             | Self::MotionUnconfirmed { source: e, .. }
+            | Self::MotionsUnconfirmed { source: e, .. }
             | Self::LostTrack { source: e, .. } => e.refusal().cloned(),
             _ => None,
         }
@@ -130,14 +164,15 @@ impl Error {
 
     pub fn kind(&self) -> ErrorKind {
         match self {
-            Self::SyncAborted { source, .. } => source.kind(),
+            Self::SyncAborted { source, .. } | Self::OthersHalted { source, .. } => source.kind(),
             Self::Limit(_) | Self::Refused(_) | Self::SyncMode { .. } | Self::NotSyncMode { .. } => ErrorKind::Usage,
             Self::Session(e)
             | Self::Motion { source: e, .. }
             | Self::MotionUnconfirmed { source: e, .. }
+            | Self::MotionsUnconfirmed { source: e, .. }
             | Self::LostTrack { source: e, .. } => e.kind(),
             Self::NotReady { .. } | Self::Faulted { .. } | Self::ConfigNotKept { .. } => ErrorKind::Device,
-            Self::Interrupted { .. } => ErrorKind::Interrupted,
+            Self::Interrupted { .. } | Self::InterruptedBefore { .. } => ErrorKind::Interrupted,
             Self::NoneAnswered { .. } => ErrorKind::Timeout,
             Self::UnexpectedType { .. } => ErrorKind::Other,
         }

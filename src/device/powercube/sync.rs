@@ -66,10 +66,11 @@ pub struct Loaded {
 
 impl Cubes {
     /// Checks every module (CAN link, sync mode, ready, limits unless
-    /// `force`), then gives each its target. If a target is not taken, the
-    /// modules given one so far (and that one) are halted, which drops what
-    /// they hold: no later broadcast may start half a synchronized move.
-    pub fn load_sync(&mut self, s: &SyncRamp, force: bool) -> Result<Loaded, Error> {
+    /// `force`), then gives each its target. If a target is not taken (or
+    /// its acknowledge is lost), the modules given one so far (and that one)
+    /// are halted, each up to `halt_attempts` times, which drops what they
+    /// hold: no later broadcast may start half a synchronized move.
+    pub fn load_sync(&mut self, s: &SyncRamp, force: bool, halt_attempts: u32) -> Result<Loaded, Error> {
         s.check()?;
         if !self.session().is_can() {
             return Err(Error::Refused(
@@ -93,7 +94,7 @@ impl Cubes {
                 Ok(done) => moved.push((m, done)),
                 Err(e) => {
                     let loaded: Vec<ModuleId> = moved.iter().map(|(m, _)| *m).chain([m]).collect();
-                    let halted = loaded.into_iter().map(|h| (h, self.halt_retrying(h, 2).is_ok())).collect();
+                    let halted = self.halt_each(&loaded, halt_attempts);
                     return Err(Error::SyncAborted { module: m, halted, source: Box::new(e) });
                 }
             }
@@ -107,18 +108,41 @@ impl Cubes {
         Ok(loaded.moved)
     }
 
+    /// [`Self::load_sync`], then [`Self::start_sync`] unless `interrupted`
+    /// by then: the modules hold their targets until the start broadcast,
+    /// so a signal during the load moves nothing; they are halted (which
+    /// drops what they hold) and no start broadcast goes out.
+    pub fn move_sync_supervised(
+        &mut self,
+        s: &SyncRamp,
+        force: bool,
+        halt_attempts: u32,
+        interrupted: &dyn Fn() -> bool,
+    ) -> Result<Vec<(ModuleId, Moved)>, Error> {
+        let loaded = self.load_sync(s, force, halt_attempts)?;
+        if interrupted() {
+            let modules: Vec<ModuleId> = loaded.moved.iter().map(|(m, _)| *m).collect();
+            let halted = self.halt_each(&modules, halt_attempts);
+            return Err(Error::InterruptedBefore { what: "the StartMotion broadcast".into(), halted });
+        }
+        self.start_sync(loaded)
+    }
+
     /// [`Self::load_sync`], then [`Self::start_sync`].
-    pub fn move_sync(&mut self, s: &SyncRamp, force: bool) -> Result<Vec<(ModuleId, Moved)>, Error> {
-        let loaded = self.load_sync(s, force)?;
+    pub fn move_sync(
+        &mut self,
+        s: &SyncRamp,
+        force: bool,
+        halt_attempts: u32,
+    ) -> Result<Vec<(ModuleId, Moved)>, Error> {
+        let loaded = self.load_sync(s, force, halt_attempts)?;
         self.start_sync(loaded)
     }
 }
 
 impl Cubes {
-    /// Waits for the end of every ramp of a started synchronized move, one
-    /// module after the other. When one wait fails (fault, lost module,
-    /// timeout, interruption), every other module of the move is halted
-    /// before the error is returned: the move is one motion.
+    /// Waits for the end of every ramp of a started synchronized move, as
+    /// [`Self::wait_each`] does.
     pub fn wait_sync(
         &mut self,
         started: &[(ModuleId, Moved)],
@@ -127,16 +151,36 @@ impl Cubes {
         interrupted: &dyn Fn() -> bool,
         progress: &mut dyn FnMut(ModuleId, f32, u32),
     ) -> Result<Vec<WaitEnd>, Error> {
+        let goals: Vec<(ModuleId, Goal)> = started
+            .iter()
+            .map(|(m, moved)| (*m, Goal::RampEnd { target: moved.target.unwrap_or(f64::NAN), ticks }))
+            .collect();
+        self.wait_each(&goals, spec, interrupted, progress)
+    }
+
+    /// Waits for each module's goal, one module after the other: the
+    /// modules of one motion (a synchronized move, a Home to all). When one
+    /// wait fails (fault, lost module, timeout, interruption), that module
+    /// is halted by its wait, and every other module of the motion is halted
+    /// before the error is returned, which says so: the motion is one.
+    pub fn wait_each(
+        &mut self,
+        goals: &[(ModuleId, Goal)],
+        spec: WaitSpec,
+        interrupted: &dyn Fn() -> bool,
+        progress: &mut dyn FnMut(ModuleId, f32, u32),
+    ) -> Result<Vec<WaitEnd>, Error> {
         let mut ends = Vec::new();
-        for (m, moved) in started {
-            let goal = Goal::RampEnd { target: moved.target.unwrap_or(f64::NAN), ticks };
-            match self.wait(*m, goal, spec, interrupted, &mut |p, c| progress(*m, p, c)) {
+        for &(m, goal) in goals {
+            match self.wait(m, goal, spec, interrupted, &mut |p, c| progress(m, p, c)) {
                 Ok(end) => ends.push(end),
                 Err(e) => {
-                    for (other, _) in started.iter().filter(|(o, _)| o != m) {
-                        let _ = self.halt_retrying(*other, spec.halt_attempts);
+                    let others: Vec<ModuleId> = goals.iter().map(|(o, _)| *o).filter(|o| *o != m).collect();
+                    if others.is_empty() {
+                        return Err(e);
                     }
-                    return Err(e);
+                    let halted = self.halt_each(&others, spec.halt_attempts);
+                    return Err(Error::OthersHalted { source: Box::new(e), halted });
                 }
             }
         }

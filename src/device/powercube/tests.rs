@@ -229,7 +229,7 @@ fn a_synchronized_ramp_starts_every_module_only_at_the_broadcast() {
     let mut r = rig();
     r.sync_mode(&[3, 5, 17]);
     let plan = SyncRamp::new(&three(), &[0.5, -0.5, 0.25], None, None, false).unwrap();
-    let loaded = r.cubes.load_sync(&plan, false).unwrap();
+    let loaded = r.cubes.load_sync(&plan, false, 2).unwrap();
     let sent = r.take_sent();
     assert_eq!(changes(&sent).iter().map(|(m, _)| *m).collect::<Vec<_>>(), [3, 5, 17], "one target each");
     assert!(!sent.iter().any(|s| matches!(s, CanMessage::Broadcast(_))));
@@ -258,12 +258,12 @@ fn a_synchronized_ramp_checks_every_module_before_the_first_frame() {
     // Module 17 is not in sync mode: it would start on its own.
     r.sync_mode(&[3, 5]);
     let plan = SyncRamp::new(&three(), &[0.5, -0.5, 0.25], None, None, false).unwrap();
-    let e = r.cubes.move_sync(&plan, false).unwrap_err();
+    let e = r.cubes.move_sync(&plan, false, 2).unwrap_err();
     assert!(matches!(e, Error::NotSyncMode { module } if module.get() == 17) && e.nothing_sent(), "{e:?}");
     // Module 17's target beyond MaxPos.
     r.sync_mode(&[17]);
     let plan = SyncRamp::new(&three(), &[0.5, -0.5, 2.0], Some(0.05), None, false).unwrap();
-    let e = r.cubes.move_sync(&plan, false).unwrap_err();
+    let e = r.cubes.move_sync(&plan, false, 2).unwrap_err();
     assert!(matches!(e, Error::Limit(LimitError::Exceeds { limit_name: "MaxPos", .. })), "{e:?}");
     assert_eq!(changes(&r.take_sent()), [], "not even TargetVel went out");
     // Pairing and values, before the link is touched.
@@ -327,7 +327,7 @@ fn a_target_not_taken_halts_the_loaded_modules_and_sends_no_start() {
     let link = LosesMotionTo { inner, module: 17 };
     let mut cubes = Cubes::new(PowerCube::over_can(Box::new(link)).with_clock(shared));
     let plan = SyncRamp::new(&three(), &[0.5, -0.5, 0.25], None, None, false).unwrap();
-    let e = cubes.move_sync(&plan, false).unwrap_err();
+    let e = cubes.move_sync(&plan, false, 2).unwrap_err();
     let Error::SyncAborted { module, halted, .. } = &e else { panic!("{e:?}") };
     assert_eq!(module.get(), 17);
     assert_eq!(halted.iter().map(|(m, ok)| (m.get(), *ok)).collect::<Vec<_>>(), [(3, true), (5, true), (17, true)]);
@@ -353,12 +353,16 @@ fn a_failed_wait_of_a_synchronized_move_halts_the_other_modules() {
     let mut r = rig();
     r.sync_mode(&[3, 5, 17]);
     let plan = SyncRamp::new(&three(), &[2.0, -2.0, 0.9], Some(0.05), None, false).unwrap();
-    let started = r.cubes.move_sync(&plan, false).unwrap();
+    let started = r.cubes.move_sync(&plan, false, 2).unwrap();
     r.clock.advance(Duration::from_millis(200));
     lock(&r.bench.powercube).module_mut(3).unwrap().inject_error(state::TOW_ERROR);
     let spec = WaitSpec { poll: Duration::from_millis(20), timeout: Duration::from_secs(60), halt_attempts: 1 };
     let e = r.cubes.wait_sync(&started, false, spec, &|| false, &mut |_, _, _| {}).unwrap_err();
-    assert!(matches!(e, Error::Faulted { module, .. } if module.get() == 3), "{e:?}");
+    let Error::OthersHalted { source, halted } = &e else { panic!("{e:?}") };
+    assert!(matches!(**source, Error::Faulted { module, .. } if module.get() == 3), "{e:?}");
+    assert_eq!(halted.iter().map(|(m, ok)| (m.get(), *ok)).collect::<Vec<_>>(), [(5, true), (17, true)]);
+    assert!(e.to_string().ends_with("; modules 5, 17 halted too"), "{e}");
+    assert_eq!(e.kind(), crate::session::ErrorKind::Device);
     for m in [5, 17] {
         let (cube, vel) = r.module(m);
         assert!(cube & state::HALTED != 0 && vel == 0.0, "module {m} halted with the move: {cube:#x}");
