@@ -417,3 +417,39 @@ fn sigint_during_a_sync_load_sends_no_start_and_halts_the_loaded_modules() {
         assert!(raw & 0x800 == 0 && raw & 0x4 != 0, "module {m} halted and standing: {raw:#x}");
     }
 }
+
+/// A signal while the checks before a motion still read the module (here
+/// its CubeState answer is 1.5 s late): the motion frame is never sent, so
+/// nothing moves and nothing needs a halt; the exit is still 130.
+#[test]
+fn a_signal_during_the_checks_before_the_motion_sends_no_motion() {
+    let s = Sim::start(&["--powercube", "pty-slcan", "--fault", "delay=1500ms,skip=1,count=1"], 1);
+    let link = s.link("powercube");
+    let r = signal_when(&ramp_args(link, &[]), "CubeState", Duration::from_millis(100), libc::SIGINT);
+    assert_eq!((r.code, r.killed_by), (130, None), "{}", r.stderr);
+    assert!(r.stderr.contains("nothing was sent"), "{}", r.stderr);
+    let sent_motion = r.stderr.lines().any(|l| l.starts_with("-> ") && l.contains("SetMotion"));
+    assert!(!sent_motion, "the motion frame went out: {}", r.stderr);
+    assert_eq!(module_state(link, "3") & 0x800, 0, "module 3 moves");
+}
+
+/// The same on the PA-CONTROL: the signal comes while the mode is read
+/// before `pac-move` (every answer of this simulator is 1.5 s late); no
+/// 0A94 goes out.
+#[test]
+fn pac_a_signal_during_the_checks_before_the_move_sends_no_move() {
+    let s = Sim::start(&["--pac", "pty-serial", "--fault", "delay=1500ms"], 1);
+    let link = s.link("pac");
+    for args in [&["pac-online"][..], &["pac-no-ref", "2"][..]] {
+        let mut all = vec!["--link", link, "--timeout", "3000"];
+        all.extend_from_slice(args);
+        let r = run_bounded(&all);
+        assert_eq!(r.code, 0, "{args:?}: {}", r.stderr);
+    }
+    let args = ["--link", link, "--timeout", "3000", "pac-move", "2", "100", "--wait"];
+    let r = signal_when(&args, "190B", Duration::from_millis(100), libc::SIGINT);
+    assert_eq!((r.code, r.killed_by), (130, None), "{}", r.stderr);
+    assert!(r.stderr.contains("nothing moved"), "{}", r.stderr);
+    let sent_move = r.stderr.lines().any(|l| l.starts_with("-> ") && l.contains("0A94"));
+    assert!(!sent_move, "the move went out: {}", r.stderr);
+}

@@ -192,6 +192,9 @@ struct Tally {
     /// (the signal came while the link was being opened or read): the
     /// motion is sent, then halted.
     to_halt_sent_late: Vec<Duration>,
+    /// Signalled runs that ended with the signal's code and no motion frame
+    /// in `--log`: the signal came during the checks, so nothing was sent.
+    unsent: u64,
     worst_exit: Duration,
 }
 
@@ -207,6 +210,7 @@ impl Tally {
         self.ack_lost += o.ack_lost;
         self.to_halt.extend(o.to_halt);
         self.to_halt_sent_late.extend(o.to_halt_sent_late);
+        self.unsent += o.unsent;
         self.worst_exit = self.worst_exit.max(o.worst_exit);
     }
 
@@ -225,7 +229,7 @@ impl Tally {
         format!(
             "race {name}: {} runs ({} signals, {} output failures), {} moving after exit, {} wrong exits; \
              signal to halt frame: {}; signal before the motion frame, halted after it: {}; \
-             worst signal to exit {:.1} ms; {} died of the signal before the motion, {} ended before the hit, \
+             stopped before the motion frame, nothing sent: {}; worst signal to exit {:.1} ms; {} died of the signal before the motion, {} ended before the hit, \
              {} lost a motion acknowledge meanwhile",
             self.runs,
             self.signalled,
@@ -234,6 +238,7 @@ impl Tally {
             self.wrong_exit.len(),
             spread(&self.to_halt),
             spread(&self.to_halt_sent_late),
+            self.unsent,
             self.worst_exit.as_secs_f64() * 1e3,
             self.died_of_signal,
             self.finished_first,
@@ -374,7 +379,10 @@ fn race(f: &Family, runs: u64, seed: u64, dir: &Path) -> Tally {
         if !expected {
             t.wrong_exit.push(format!("{what}: {:?} {:?} {err}", status.code(), status.signal()));
         }
-        if let Some(since) = signalled_at {
+        if let (Some(since), Hit::Signal(sig)) = (signalled_at, hit) {
+            let unsent = status.code() == Some(128 + sig)
+                && first_frame_after(&log, f.motion_frame, SystemTime::UNIX_EPOCH).is_none();
+            t.unsent += u64::from(unsent);
             if let Some(at) = first_frame_after(&log, f.halt_frame, since) {
                 let took = at.duration_since(since).unwrap_or_default();
                 match first_frame_after(&log, f.motion_frame, since) {

@@ -14,6 +14,7 @@ mod wait;
 #[cfg(test)]
 mod tests;
 
+use crate::device::supervisor;
 use crate::proto::cdios::table;
 use crate::proto::cdios::{
     Address, Command, Direction, GotoMode, ModuleId, NodeId, PositionSource, StartOption, StatusReport, StatusSelector,
@@ -182,6 +183,9 @@ impl Node {
     /// stopped (up to `stop_attempts` times) before the error is returned.
     /// An error reply from the node needs no stop.
     pub fn send_supervised(&mut self, m: ModuleId, cmds: &[Command], stop_attempts: u32) -> Result<bool, Error> {
+        if supervisor::stop_requested() {
+            return Err(Error::InterruptedBefore { node: self.node, module: m });
+        }
         match self.send(m, cmds) {
             Err(Error::Session(source)) if source.refusal().is_none() => {
                 let stop_failed = self.stop_retrying(m, stop_attempts).err().map(|e| e.to_string());

@@ -16,6 +16,7 @@ mod tests;
 
 use std::collections::BTreeMap;
 
+use crate::device::supervisor;
 use crate::proto::powercube::can::Broadcast;
 use crate::proto::powercube::flags::{self, config};
 use crate::proto::powercube::frame::{parse_int, Value};
@@ -417,6 +418,9 @@ impl Cubes {
     /// acknowledge may still have been taken, so the module is halted before
     /// the error is returned.
     pub fn home_supervised(&mut self, m: ModuleId, halt_attempts: u32) -> Result<(), Error> {
+        if supervisor::stop_requested() {
+            return Err(Error::InterruptedBefore { what: format!("Home to module {m}"), halted: Vec::new() });
+        }
         match self.pc.transact(m, &Simple::Home.request()) {
             Ok(_) => Ok(()),
             Err(source) => {

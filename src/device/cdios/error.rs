@@ -38,6 +38,10 @@ pub enum Error {
     /// Ctrl-C during a wait; the motor was stopped (or the stop failed).
     #[error("interrupted: {}", stop_note(*node, *module, stop_failed.as_deref()))]
     Interrupted { node: NodeId, module: ModuleId, stop_failed: Option<String> },
+    /// A signal (or a failed output) came after the motion was supervised
+    /// but before its first frame left: nothing was sent, nothing moves.
+    #[error("interrupted before the motion of node {node} module {module} was sent: nothing moved")]
+    InterruptedBefore { node: NodeId, module: ModuleId },
 }
 
 /// `node 1 module 0 stopped (fast stop)`, or the failure in capitals.
@@ -62,12 +66,12 @@ impl Error {
             Self::Invalid(_) | Self::Refused(_) => ErrorKind::Usage,
             Self::Session(e) | Self::LostTrack { source: e, .. } => e.kind(),
             Self::Faulted { .. } | Self::ConfigRejected { .. } => ErrorKind::Device,
-            Self::Interrupted { .. } => ErrorKind::Interrupted,
+            Self::Interrupted { .. } | Self::InterruptedBefore { .. } => ErrorKind::Interrupted,
         }
     }
 
     /// Whether the error was raised before anything was sent.
     pub fn nothing_sent(&self) -> bool {
-        matches!(self, Self::Invalid(_) | Self::Refused(_))
+        matches!(self, Self::Invalid(_) | Self::Refused(_) | Self::InterruptedBefore { .. })
     }
 }

@@ -53,6 +53,10 @@ pub enum Error {
     /// A wait was given up (Ctrl-C); the axis was stopped first.
     #[error("interrupted: {0}")]
     Interrupted(Halted),
+    /// A signal (or a failed output) came after the motion was supervised
+    /// but before its frame left: nothing was sent, nothing moves.
+    #[error("interrupted before {0} was sent: nothing moved")]
+    InterruptedBefore(String),
     /// The exchange failed while the axis may have been moving, so it was
     /// stopped; `context` says how that went.
     #[error("{context}")]
@@ -93,13 +97,13 @@ impl Error {
             Self::Pac(e) => e.kind(),
             Self::Session(e) => e.kind(),
             Self::MoveFailed { .. } | Self::ErrorNotReset(_) | Self::ManualMode { .. } => ErrorKind::Device,
-            Self::Interrupted(_) => ErrorKind::Interrupted,
+            Self::Interrupted(_) | Self::InterruptedBefore(_) => ErrorKind::Interrupted,
             Self::Stopped { source, .. } => source.kind(),
         }
     }
 
     /// True when nothing was sent for the refused operation.
     pub fn nothing_sent(&self) -> bool {
-        self.kind() == ErrorKind::Usage
+        self.kind() == ErrorKind::Usage || matches!(self, Self::InterruptedBefore(_))
     }
 }

@@ -6,6 +6,7 @@
 use std::fmt;
 use std::time::Duration;
 
+use crate::device::supervisor;
 use crate::proto::pac::session::Step;
 use crate::proto::pac::{Ack, Command, Par2};
 use crate::session::pac::{Done, PacError, Progress};
@@ -54,11 +55,27 @@ impl Controller {
     /// the traverse area unless `check_area` is false (the controller then
     /// checks, QUIT 0x41), then the command.
     pub fn start_move(&mut self, axis: u8, pos: f64, relative: bool, check_area: bool) -> Result<MoveStart> {
+        self.start_move_gated(axis, pos, relative, check_area, &|| false)
+    }
+
+    /// [`Self::start_move`], sent only if `stop` is still false once the
+    /// checks (which read the controller) are done.
+    fn start_move_gated(
+        &mut self,
+        axis: u8,
+        pos: f64,
+        relative: bool,
+        check_area: bool,
+        stop: &dyn Fn() -> bool,
+    ) -> Result<MoveStart> {
         let code = if relative { 0x0A95 } else { 0x0A94 };
         self.build(code, axis.into(), Some(pos))?;
         let target = if relative { self.read_f64(0x190C, axis.into())? + pos } else { pos };
         let area = if check_area { Some(self.traverse_area(axis)?) } else { None };
         check_target(axis, target, area)?;
+        if stop() {
+            return Err(Error::InterruptedBefore(format!("the move {code:04X} of axis {axis}")));
+        }
         let ack = self.send(code, axis.into(), Some(pos))?.ack;
         Ok(MoveStart { code, target, start_position: ack.q_par.as_f64(), ack })
     }
@@ -70,7 +87,7 @@ impl Controller {
     pub fn start_move_supervised(&mut self, axis: u8, pos: f64, relative: bool, check_area: bool) -> Result<MoveStart> {
         let code = if relative { 0x0A95 } else { 0x0A94 };
         let target = if relative { None } else { Some(pos) };
-        match self.start_move(axis, pos, relative, check_area) {
+        match self.start_move_gated(axis, pos, relative, check_area, &supervisor::stop_requested) {
             Err(e @ Error::Session(SessionError::Timeout { .. } | SessionError::Malformed { .. })) => {
                 // A read before the move may be what timed out: stopping an
                 // axis that never moved is harmless.
@@ -170,6 +187,9 @@ impl Controller {
         let cmd = self.build(0x0A84, axis.into(), None)?;
         self.pac.set_poll_interval(poll);
         self.pac.set_busy_timeout(limit);
+        if supervisor::stop_requested() {
+            return Err(Error::InterruptedBefore(format!("the reference drive 0A84 of axis {axis}")));
+        }
         self.follow(&cmd, observe)
     }
 

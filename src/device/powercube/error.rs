@@ -187,6 +187,6 @@ impl Error {
                 | Self::NotReady { .. }
                 | Self::SyncMode { .. }
                 | Self::NotSyncMode { .. }
-        )
+        ) || matches!(self, Self::InterruptedBefore { halted, .. } if halted.is_empty())
     }
 }

@@ -3,6 +3,7 @@
 //! the value must be within the module's own limits as read from it.
 
 use super::{param, Cubes, Error};
+use crate::device::supervisor;
 use crate::proto::powercube::flags::config;
 use crate::proto::powercube::frame::Value;
 use crate::proto::powercube::limits::{self, Limits};
@@ -143,7 +144,7 @@ impl Cubes {
     /// refusal sends no motion command; the motion is never sent twice.
     pub fn move_module(&mut self, m: ModuleId, mv: Move, ticks: bool, force: bool) -> Result<Moved, Error> {
         let wire = self.checked(m, mv, ticks, force)?;
-        self.send_move(m, mv, ticks, wire)
+        self.send_move(m, mv, ticks, wire, &|| false)
     }
 
     /// [`Self::move_module`] for a caller that waits for the end of the
@@ -165,7 +166,9 @@ impl Cubes {
         force: bool,
         halt_attempts: u32,
     ) -> Result<Moved, Error> {
-        match self.move_to_wait_for(m, mv, ticks, force) {
+        self.ensure_starts_alone(m)?;
+        let wire = self.checked(m, mv, ticks, force)?;
+        match self.send_move(m, mv, ticks, wire, &supervisor::stop_requested) {
             Err(Error::Motion { what, module, source }) => {
                 let halt_failed = self.halt_retrying(module, halt_attempts).err().map(|e| e.to_string());
                 Err(Error::MotionUnconfirmed { what, module, halt_failed, source })
@@ -196,8 +199,15 @@ impl Cubes {
     }
 
     /// Sends a checked move: TargetVel / TargetAcc when given, then the
-    /// motion command, once.
-    pub(super) fn send_move(&mut self, m: ModuleId, mv: Move, ticks: bool, wire: Wire) -> Result<Moved, Error> {
+    /// motion command, once, unless `stop` has become true by then.
+    pub(super) fn send_move(
+        &mut self,
+        m: ModuleId,
+        mv: Move,
+        ticks: bool,
+        wire: Wire,
+        stop: &dyn Fn() -> bool,
+    ) -> Result<Moved, Error> {
         let ticks = mv.ticks(ticks);
         let (vel_id, acc_id) =
             if ticks { (ids::TARGET_VEL_INC, ids::TARGET_ACC_INC) } else { (ids::TARGET_VEL, ids::TARGET_ACC) };
@@ -212,6 +222,12 @@ impl Cubes {
         };
         let req = Request::SetMotion(Motion { id: mv.motion_id(ticks), value: wire.value, time_ms });
         let described = req.to_string();
+        // The checks and the target writes are exchanges: a signal that came
+        // meanwhile means the motion is not sent at all, rather than sent
+        // and halted.
+        if stop() {
+            return Err(Error::InterruptedBefore { what: format!("the motion of module {m}"), halted: Vec::new() });
+        }
         match self.session().transact(m, &req) {
             Ok(_) => Ok(Moved { described, target: mv.target() }),
             Err(source) => Err(Error::Motion { what: described, module: m, source }),

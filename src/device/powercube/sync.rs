@@ -90,7 +90,7 @@ impl Cubes {
         }
         let mut moved = Vec::new();
         for (m, mv, wire) in wires {
-            match self.send_move(m, mv, s.ticks, wire) {
+            match self.send_move(m, mv, s.ticks, wire, &|| false) {
                 Ok(done) => moved.push((m, done)),
                 Err(e) => {
                     let loaded: Vec<ModuleId> = moved.iter().map(|(m, _)| *m).chain([m]).collect();
