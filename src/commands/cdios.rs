@@ -7,6 +7,7 @@ use std::time::{Duration, Instant};
 
 use axisctl::device::cdios::config::{self as servo, Request as ConfigRequest};
 use axisctl::device::cdios::{self as device, EventChange, Goal, Node, WaitEnd, WaitSpec};
+use axisctl::family::Family;
 use axisctl::proto::cdios::table::{self, STATUS_FLAGS};
 use axisctl::proto::cdios::{
     decode_status, Command, Direction, ErrorReply, GotoMode, ModuleId, NodeId, PositionSource, StartOption,
@@ -96,7 +97,15 @@ fn node_id(n: &NodeArgs) -> NodeId {
 }
 
 fn module_id(t: &ModuleTarget) -> ModuleId {
+    output::target(Family::Cdios, &[("node", t.node.node.into()), ("module", t.module.into())]);
     ModuleId::new(t.module).expect("clap checks 0..=15")
+}
+
+/// A per-module object: the envelope (docs/json.md) and the command's keys.
+fn doc(ctx: &Ctx, node: NodeId, m: ModuleId, body: Value) -> Value {
+    let envelope =
+        output::envelope(Family::Cdios, &ctx.link_text, &[("node", node.get().into()), ("module", m.get().into())]);
+    output::device_doc(envelope, body)
 }
 
 fn open(ctx: &Ctx, n: &NodeArgs) -> anyhow::Result<Node> {
@@ -106,8 +115,22 @@ fn open(ctx: &Ctx, n: &NodeArgs) -> anyhow::Result<Node> {
     Ok(Node::new(s, node_id(n), ctx.retry))
 }
 
+/// The 4 status bytes in the one `state` shape: status 1 is the low byte
+/// of `raw`, so a flag's mask is `1 << (8 * (byte - 1) + bit)`.
 fn status_json(r: &StatusReport) -> Value {
-    json!({"status": r.status, "flags": r.flags, "errors": r.errors, "reserved": r.reserved})
+    let mask = |byte: u8, bit: u8| 1u64 << (8 * u32::from(byte.saturating_sub(1)) + u32::from(bit));
+    let set: Vec<output::Detail> = STATUS_FLAGS
+        .iter()
+        .filter(|f| f.is_set(&r.status))
+        .map(|f| output::Detail {
+            name: f.name,
+            mask: mask(f.byte, f.bit),
+            class: f.class.name(),
+            description: f.meaning,
+        })
+        .collect();
+    let unknown = r.reserved.iter().fold(0, |m, (byte, bit)| m | mask(*byte, *bit));
+    output::state(u32::from_le_bytes(r.status).into(), &set, unknown)
 }
 
 fn status_line(ctx: &Ctx, r: &StatusReport) -> String {
@@ -127,7 +150,8 @@ fn identify(ctx: &Ctx, n: NodeArgs) -> anyhow::Result<()> {
         .map(|s| json!({"module": s.module, "type": s.ty, "version": s.version, "present": s.ty != 0}))
         .collect();
     if ctx.json {
-        output::json(&json!({"node": node, "modules": modules}));
+        let envelope = output::envelope(Family::Cdios, &ctx.link_text, &[("node", node.get().into())]);
+        output::json(&output::device_doc(envelope, json!({"modules": modules})));
         return Ok(());
     }
     let mut rows = vec![["MODULE", "TYPE", "VERSION"].map(String::from).to_vec()];
@@ -153,11 +177,13 @@ fn status(ctx: &Ctx, t: ModuleTarget) -> anyhow::Result<()> {
     let r = s.status(m)?;
     let (speed, rpm_error) = s.speed(m)?;
     if ctx.json {
-        let mut doc = json!({"node": node, "module": m});
-        merge(&mut doc, status_json(&r));
-        doc["motor_speed"] = json!(speed);
-        doc["rpm_error"] = json!(rpm_error);
-        output::json(&doc);
+        output::json(&doc(
+            ctx,
+            node,
+            m,
+            json!({"state": status_json(&r), "motor_speed": output::with_unit(json!(speed), "rpm"),
+            "rpm_error": output::with_unit(json!(rpm_error), "rpm")}),
+        ));
         return Ok(());
     }
     println!("node {node} module {m}: {}", status_line(ctx, &r));
@@ -196,9 +222,7 @@ fn position(ctx: &Ctx, t: ModuleTarget, kind: PositionKind, all: bool) -> anyhow
         let latched = s.position(m, PositionSource::Latched)?;
         let setpoint = s.position(m, PositionSource::Setpoint)?;
         if ctx.json {
-            output::json(
-                &json!({"node": node, "module": m, "position": cur, "latched": latched, "setpoint": setpoint}),
-            );
+            output::json(&doc(ctx, node, m, json!({"position": cur, "latched": latched, "setpoint": setpoint})));
         } else {
             println!("node {node} module {m}: position {cur}, latched {latched}, setpoint {setpoint}");
         }
@@ -207,7 +231,7 @@ fn position(ctx: &Ctx, t: ModuleTarget, kind: PositionKind, all: bool) -> anyhow
     let p = s.position(m, source_of(kind))?;
     let name = kind.to_possible_value().map(|v| v.get_name().to_string()).unwrap_or_default();
     if ctx.json {
-        output::json(&json!({"node": node, "module": m, "source": name, "position": p}));
+        output::json(&doc(ctx, node, m, json!({"source": name, "position": p})));
     } else {
         println!("node {node} module {m}: {name} position {p}");
     }
@@ -216,7 +240,9 @@ fn position(ctx: &Ctx, t: ModuleTarget, kind: PositionKind, all: bool) -> anyhow
 
 fn report_sent(ctx: &Ctx, node: NodeId, m: ModuleId, what: &str, confirmed: bool, extra: Value) {
     if ctx.json {
-        let mut doc = json!({"node": node, "module": m, "command": what, "confirmed": confirmed});
+        // `acknowledged` is false when confirmations are off (--no-confirm):
+        // the command went out and no error came back, nothing more.
+        let mut doc = doc(ctx, node, m, json!({"command": what, "acknowledged": confirmed}));
         merge(&mut doc, extra);
         output::json(&doc);
     } else {
@@ -279,7 +305,7 @@ fn goto(
         );
     }
     let end = wait_motion(ctx, &mut s, m, wait, Goal::Goto)?;
-    print_wait_end(ctx, "cdios-goto", &end, extra);
+    print_wait_end(ctx, (node, m), "cdios-goto", &end, extra);
     Ok(())
 }
 
@@ -299,7 +325,7 @@ fn run_traject(ctx: &Ctx, t: ModuleTarget, traject: i64, latched: bool, wait: Wa
         return Ok(());
     }
     let end = wait_motion(ctx, &mut s, m, wait, Goal::Traject)?;
-    print_wait_end(ctx, "cdios-traject", &end, extra);
+    print_wait_end(ctx, (node, m), "cdios-traject", &end, extra);
     Ok(())
 }
 
@@ -344,17 +370,20 @@ fn wait_motion(ctx: &Ctx, s: &mut Node, m: ModuleId, wait: WaitArgs, goal: Goal)
     })
 }
 
-fn print_wait_end(ctx: &Ctx, what: &str, end: &WaitEnd, extra: Value) {
+fn print_wait_end(ctx: &Ctx, (node, m): (NodeId, ModuleId), what: &str, end: &WaitEnd, extra: Value) {
     if ctx.json {
-        let mut doc = json!({"command": what, "done": true, "position": end.position,
-                             "elapsed_ms": end.elapsed.as_millis() as u64});
+        let mut doc = doc(
+            ctx,
+            node,
+            m,
+            json!({"command": what, "done": true, "position": end.position,
+                             "elapsed_ms": end.elapsed.as_millis() as u64, "state": status_json(&end.status)}),
+        );
         if let Some(t) = end.target {
             doc["target"] = json!(t);
         }
         merge(&mut doc, extra);
-        let mut st = status_json(&end.status);
-        merge(&mut st, doc);
-        output::json(&st);
+        output::json(&doc);
     } else {
         crate::output::say!(
             "{what} done at {} after {:.2} s  {}",
@@ -401,7 +430,7 @@ fn show_config(ctx: &Ctx, s: &mut Node, t: ModuleTarget, groups: &[String]) -> a
         }
     }
     if ctx.json {
-        output::json(&json!({"node": node, "module": m, "config": doc}));
+        output::json(&self::doc(ctx, node, m, json!({"config": doc})));
     } else {
         println!("node {node} module {m}:");
         output::table(&rows, ctx.style);
@@ -417,7 +446,7 @@ fn outputs(ctx: &Ctx, t: ModuleTarget, set: Option<&str>, latched: bool) -> anyh
     let state = open(ctx, &t.node)?.outputs(m, set, latched)?;
     let bits: Vec<bool> = (0..4).map(|i| state & (1 << i) != 0).collect();
     if ctx.json {
-        output::json(&json!({"node": node, "module": m, "outputs": state, "bits": bits}));
+        output::json(&doc(ctx, node, m, json!({"outputs": state, "bits": bits})));
     } else {
         let on: Vec<String> = (0..4).filter(|i| bits[*i]).map(|i| (i + 1).to_string()).collect();
         println!(
@@ -440,7 +469,7 @@ fn analog(ctx: &Ctx, t: ModuleTarget, output: Option<i64>, set: Option<i64>, lat
         .map(|a| json!({"output": a.output, "millivolts": a.millivolts, "volts": a.millivolts as f64 / 1000.0}))
         .collect();
     if ctx.json {
-        output::json(&json!({"node": node, "module": m, "analog": list}));
+        output::json(&doc(ctx, node, m, json!({"analog": list})));
     } else {
         for a in &list {
             println!("node {node} module {m}: analog output {} = {} V", a["output"], a["volts"]);
@@ -457,15 +486,20 @@ fn events(ctx: &Ctx, t: ModuleTarget, change: &EventChange) -> anyhow::Result<()
     let (masks, timers) = (setup.masks, setup.timers);
     let ms = |c: u8| Timers::interval_ms(c).unwrap_or(0.0);
     if ctx.json {
-        output::json(&json!({
-            "node": node, "module": m, "masks": masks, "mask_flags": device::mask_flags(masks),
-            "timers": {
-                "position_interval": timers.position_interval, "position_interval_ms": ms(timers.position_interval),
-                "position_on_change": timers.position_on_change,
-                "speed_interval": timers.speed_interval, "speed_interval_ms": ms(timers.speed_interval),
-                "speed_on_change": timers.speed_on_change,
-            },
-        }));
+        output::json(&doc(
+            ctx,
+            node,
+            m,
+            json!({
+                "masks": masks, "mask_flags": device::mask_flags(masks),
+                "timers": {
+                    "position_interval": timers.position_interval, "position_interval_ms": ms(timers.position_interval),
+                    "position_on_change": timers.position_on_change,
+                    "speed_interval": timers.speed_interval, "speed_interval_ms": ms(timers.speed_interval),
+                    "speed_on_change": timers.speed_on_change,
+                },
+            }),
+        ));
     } else {
         let names = device::mask_flags(masks);
         println!("node {node} module {m}: event masks {:02x?}", masks);
@@ -487,8 +521,13 @@ fn store(ctx: &Ctx, t: ModuleTarget, defaults: bool) -> anyhow::Result<()> {
     device::check(&[Command::StoreConfiguration { defaults }], m)?;
     let elapsed = open(ctx, &t.node)?.store(m, defaults)?;
     if ctx.json {
-        output::json(&json!({"node": node, "module": m, "command": "cdios-store", "defaults": defaults,
-                             "confirmed": true, "elapsed_ms": elapsed.as_millis() as u64}));
+        output::json(&doc(
+            ctx,
+            node,
+            m,
+            json!({"command": "cdios-store", "defaults": defaults,
+                             "acknowledged": true, "elapsed_ms": elapsed.as_millis() as u64}),
+        ));
     } else {
         let what = if defaults { "default configuration" } else { "configuration" };
         println!("node {node} module {m}: {what} stored in EEPROM ({} ms)", elapsed.as_millis());
@@ -603,12 +642,7 @@ fn decode_status_bytes(ctx: &Ctx, value: &str) -> anyhow::Result<()> {
     })?;
     let r = decode_status(status);
     if ctx.json {
-        let details: Vec<Value> = STATUS_FLAGS
-            .iter()
-            .filter(|f| f.is_set(&status))
-            .map(|f| json!({"name": f.name, "byte": f.byte, "bit": f.bit, "class": f.class, "meaning": f.meaning}))
-            .collect();
-        let mut doc = json!({"kind": "cdios-status", "details": details});
+        let mut doc = json!({"kind": "cdios-status"});
         merge(&mut doc, status_json(&r));
         output::json(&doc);
         return Ok(());
@@ -643,8 +677,8 @@ fn decode_error(ctx: &Ctx, value: &str) -> anyhow::Result<()> {
             .map(|f| json!({"name": f.name, "status": f.byte, "bit": f.bit, "meaning": f.meaning}))
             .collect();
         output::json(&json!({
-            "kind": "cdios-error", "code": e.code, "command": e.command,
-            "command_name": table::COMMANDS.iter().find(|c| c.code == e.command).map(|c| c.name),
+            "kind": "cdios-error", "code": e.code, "command_code": format!("{:02X}", e.command),
+            "command": table::COMMANDS.iter().find(|c| c.code == e.command).map_or("unknown", |c| c.name),
             "module": e.module, "general": e.general,
             "general_name": general.map(|g| g.0), "general_text": general.map(|g| g.1),
             "status1": e.status1, "status2": e.status2, "flags": flags, "unknown_bits": e.unknown_bits(),

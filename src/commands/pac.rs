@@ -16,6 +16,7 @@ use std::io::IsTerminal;
 use std::time::Duration;
 
 use axisctl::device::pac::{self as device, Controller, Element, Register};
+use axisctl::family::Family;
 use axisctl::proto::pac::table::{self, CommandDef, ExtAxisStatus};
 use axisctl::proto::pac::{Ack, CheckRule, Command, Par2};
 use axisctl::session::pac::Progress;
@@ -29,11 +30,11 @@ pub fn run(ctx: &Ctx, cmd: PacCommand) -> anyhow::Result<()> {
     let mut d = Controller::new(ctx.pac()?);
     let d = &mut d;
     match cmd {
-        PacCommand::PacOnline => simple(ctx, d, 0x0603, 0, None),
-        PacCommand::PacOffline => simple(ctx, d, 0x0A81, 0, None),
-        PacCommand::PacStop => simple(ctx, d, 0x0600, 0, None),
-        PacCommand::PacAutoStart => simple(ctx, d, 0x0602, 0, None),
-        PacCommand::PacAutoAbort => simple(ctx, d, 0x0A41, 0, None),
+        PacCommand::PacOnline => simple(ctx, d, 0x0603, None, None),
+        PacCommand::PacOffline => simple(ctx, d, 0x0A81, None, None),
+        PacCommand::PacStop => simple(ctx, d, 0x0600, None, None),
+        PacCommand::PacAutoStart => simple(ctx, d, 0x0602, None, None),
+        PacCommand::PacAutoAbort => simple(ctx, d, 0x0A41, None, None),
         PacCommand::PacState => state(ctx, d),
         PacCommand::PacError => error(ctx, d),
         PacCommand::PacResetError => reset_error(ctx, d),
@@ -41,25 +42,25 @@ pub fn run(ctx: &Ctx, cmd: PacCommand) -> anyhow::Result<()> {
             move_axis(ctx, d, axis.axis, pos, relative, force, wait)
         }
         PacCommand::PacRef { axis, wait } => reference(ctx, d, axis.axis, wait),
-        PacCommand::PacNoRef(a) => simple(ctx, d, 0x0A83, a.axis.into(), None),
-        PacCommand::PacZero(a) => simple(ctx, d, 0x0A85, a.axis.into(), None),
-        PacCommand::PacSetPos { axis, pos } => simple(ctx, d, 0x0A86, axis.axis.into(), Some(finite("POS", pos)?)),
-        PacCommand::PacSpeed { axis, speed } => simple(ctx, d, 0x0A8D, axis.axis.into(), Some(finite("speed", speed)?)),
+        PacCommand::PacNoRef(a) => simple(ctx, d, 0x0A83, Some(a.axis), None),
+        PacCommand::PacZero(a) => simple(ctx, d, 0x0A85, Some(a.axis), None),
+        PacCommand::PacSetPos { axis, pos } => simple(ctx, d, 0x0A86, Some(axis.axis), Some(finite("POS", pos)?)),
+        PacCommand::PacSpeed { axis, speed } => simple(ctx, d, 0x0A8D, Some(axis.axis), Some(finite("speed", speed)?)),
         PacCommand::PacAccel { axis, accel } => {
-            simple(ctx, d, 0x0A8E, axis.axis.into(), Some(finite("acceleration", accel)?))
+            simple(ctx, d, 0x0A8E, Some(axis.axis), Some(finite("acceleration", accel)?))
         }
         PacCommand::PacStopAxis { axis, no_wait } => {
-            simple(ctx, d, if no_wait { 0x0A9A } else { 0x0A93 }, axis.axis.into(), None)
+            simple(ctx, d, if no_wait { 0x0A9A } else { 0x0A93 }, Some(axis.axis), None)
         }
         PacCommand::PacAxis(a) => axis_info(ctx, d, a.axis),
         PacCommand::PacAxes => axes(ctx, d),
-        PacCommand::PacAxisOn(a) => simple(ctx, d, 0x0A97, a.axis.into(), None),
-        PacCommand::PacAxisOff(a) => simple(ctx, d, 0x0A98, a.axis.into(), None),
+        PacCommand::PacAxisOn(a) => simple(ctx, d, 0x0A97, Some(a.axis), None),
+        PacCommand::PacAxisOff(a) => simple(ctx, d, 0x0A98, Some(a.axis), None),
         PacCommand::PacMeasure { axis, off } => {
-            simple(ctx, d, if off { 0x0AA1 } else { 0x0AA0 }, axis.axis.into(), None)
+            simple(ctx, d, if off { 0x0AA1 } else { 0x0AA0 }, Some(axis.axis), None)
         }
         PacCommand::PacLimitSwitch { axis, state } => {
-            simple(ctx, d, 0x0AA2, axis.into(), Some(if state == "on" { 1.0 } else { 0.0 }))
+            simple(ctx, d, 0x0AA2, Some(axis), Some(if state == "on" { 1.0 } else { 0.0 }))
         }
         PacCommand::PacIn { number, word } => element(ctx, d, Element::Input, number, None, word),
         PacCommand::PacOut { number, value, word } => element(ctx, d, Element::Output, number, value, word),
@@ -92,8 +93,27 @@ fn finite(what: &str, v: f64) -> anyhow::Result<f64> {
     }
 }
 
+/// The operating status and error number every acknowledge carries. Named
+/// apart from the axis status, and `controller_error` rather than `error`,
+/// so that `jq -e .error` never calls a success a failure.
 fn status_json(ack: &Ack) -> serde_json::Value {
-    json!({"status": ack.status, "status_text": table::operating_status_text(ack.status), "error": ack.error})
+    json!({"operating_status": ack.status, "operating_status_text": table::operating_status_text(ack.status),
+           "controller_error": ack.error})
+}
+
+/// The envelope of a controller-level object (docs/json.md).
+fn controller(ctx: &Ctx) -> serde_json::Map<String, serde_json::Value> {
+    output::envelope(Family::Pac, &ctx.link_text, &[])
+}
+
+/// The envelope of an object about one axis.
+fn on_axis(ctx: &Ctx, axis: u8) -> serde_json::Map<String, serde_json::Value> {
+    output::envelope(Family::Pac, &ctx.link_text, &[("axis", axis.into())])
+}
+
+/// `envelope` and the command's own keys.
+fn doc(envelope: serde_json::Map<String, serde_json::Value>, body: serde_json::Value) -> serde_json::Value {
+    output::device_doc(envelope, body)
 }
 
 fn check_rule_name(r: CheckRule) -> &'static str {
@@ -108,7 +128,12 @@ fn check_rule_name(r: CheckRule) -> &'static str {
 // Commands
 
 /// One command, its acknowledge; motion-free or finishing by itself.
-fn simple(ctx: &Ctx, d: &mut Controller, code: u16, par1: i64, value: Option<f64>) -> anyhow::Result<()> {
+fn simple(ctx: &Ctx, d: &mut Controller, code: u16, axis: Option<u8>, value: Option<f64>) -> anyhow::Result<()> {
+    let envelope = match axis {
+        Some(a) => on_axis(ctx, a),
+        None => controller(ctx),
+    };
+    let par1 = axis.map_or(0, i64::from);
     let done = d.send(code, par1, value)?;
     let def = def(code);
     let ack = done.ack;
@@ -117,7 +142,11 @@ fn simple(ctx: &Ctx, d: &mut Controller, code: u16, par1: i64, value: Option<f64
         _ => Some(ack.q_par.as_f64()),
     };
     if ctx.json {
-        let mut doc = json!({"command": def.code_hex(), "name": def.name, "par1": par1});
+        let mut doc = doc(
+            envelope,
+            json!({"command": def.name, "command_code": def.code_hex(), "par1": par1,
+                                           "acknowledged": true}),
+        );
         if let Some(v) = value {
             doc["par2"] = json!(v);
         }
@@ -150,7 +179,7 @@ fn state(ctx: &Ctx, d: &mut Controller) -> anyhow::Result<()> {
     let ack = d.send(0x190B, 0, None)?.ack;
     let mode = table::mode_of_status(ack.status).map(|m| m.name());
     if ctx.json {
-        let mut doc = status_json(&ack);
+        let mut doc = doc(controller(ctx), status_json(&ack));
         doc["mode"] = json!(mode);
         output::json(&doc);
     } else {
@@ -166,8 +195,8 @@ fn error(ctx: &Ctx, d: &mut Controller) -> anyhow::Result<()> {
     let ack = d.send(0x1909, 0, None)?.ack;
     let number = ack.q_par.as_i64().unwrap_or(i64::from(ack.error));
     if ctx.json {
-        let mut doc = status_json(&ack);
-        doc["error"] = json!(number);
+        let mut doc = doc(controller(ctx), status_json(&ack));
+        doc["controller_error"] = json!(number);
         output::json(&doc);
     } else if number == 0 {
         println!("no PA-CONTROL error");
@@ -181,7 +210,7 @@ fn reset_error(ctx: &Ctx, d: &mut Controller) -> anyhow::Result<()> {
     let reset = d.reset_error()?;
     let (ack, left) = (reset.ack, reset.left);
     if ctx.json {
-        let mut doc = status_json(&ack);
+        let mut doc = doc(controller(ctx), status_json(&ack));
         doc["reset"] = json!(left == 0);
         doc["remaining_error"] = json!(left);
         output::json(&doc);
@@ -232,6 +261,7 @@ fn move_axis(
     wait: PacWait,
 ) -> anyhow::Result<()> {
     let pos = finite("POS", pos)?;
+    on_axis(ctx, axis);
     if wait.wait {
         // Supervised from before the first byte; without a wait the move is
         // one-shot and unsupervised once acknowledged.
@@ -245,8 +275,11 @@ fn move_axis(
     let (code, target, start_position) = (started.code, started.target, started.start_position);
     if !wait.wait {
         if ctx.json {
-            let mut doc = json!({"axis": axis, "command": def(code).code_hex(), "target": target,
-                                 "start_position": start_position, "done": false});
+            let mut doc = doc(
+                on_axis(ctx, axis),
+                json!({"command": def(code).name, "command_code": def(code).code_hex(),
+                "target": target, "start_position": start_position, "done": false, "acknowledged": true}),
+            );
             merge(&mut doc, status_json(&started.ack));
             output::json(&doc);
         } else {
@@ -260,7 +293,8 @@ fn move_axis(
     let result = d.wait_move(axis, target, poll, limit, &mut |p| {
         let (position, status) = (p.position, p.status);
         reporter.report(
-            json!({"axis": axis, "position": position, "status": status, "elapsed_ms": p.elapsed.as_millis() as u64}),
+            json!({"axis": axis, "position": position, "axis_status": status,
+                   "elapsed_ms": p.elapsed.as_millis() as u64}),
             format!("axis {axis} -> {target}: position {position:.3}  {}", table::axis_status_text(status)),
         );
         !interrupted()
@@ -268,10 +302,13 @@ fn move_axis(
     reporter.finish();
     let device::MoveProgress { position, status, elapsed } = result.map_err(|e| super::stopped_by_output(e.into()))?;
     if ctx.json {
-        output::json(&json!({"axis": axis, "command": def(code).code_hex(), "target": target,
-            "start_position": start_position, "position": position, "status": status,
-            "status_text": table::axis_status_text(status), "done": true,
-            "elapsed_ms": elapsed.as_millis() as u64}));
+        output::json(&doc(
+            on_axis(ctx, axis),
+            json!({"command": def(code).name, "command_code": def(code).code_hex(),
+            "target": target, "start_position": start_position, "position": position, "axis_status": status,
+            "axis_status_text": table::axis_status_text(status), "done": true,
+            "elapsed_ms": elapsed.as_millis() as u64}),
+        ));
     } else {
         crate::output::say!(
             "axis {axis}: at {position} after {:.2} s ({})",
@@ -283,12 +320,17 @@ fn move_axis(
 }
 
 fn reference(ctx: &Ctx, d: &mut Controller, axis: u8, wait: PacWait) -> anyhow::Result<()> {
+    on_axis(ctx, axis);
     if !wait.wait {
         // No start-and-return form exists: the drive runs on and the
         // controller answers only polls until it ends.
         let (ack, done) = d.start_reference(axis)?;
         if ctx.json {
-            let mut doc = json!({"axis": axis, "command": "0A84", "done": done});
+            let mut doc = doc(
+                on_axis(ctx, axis),
+                json!({"command": def(0x0A84).name, "command_code": "0A84",
+                                                         "done": done, "acknowledged": true}),
+            );
             merge(&mut doc, status_json(&ack));
             output::json(&doc);
         } else if done {
@@ -308,7 +350,7 @@ fn reference(ctx: &Ctx, d: &mut Controller, axis: u8, wait: PacWait) -> anyhow::
     let result = d.reference(axis, poll, limit, &mut |p: &Progress| {
         // 0A84's acknowledge date has no meaning (5.2.6.3): only time shows.
         reporter.report(
-            json!({"axis": axis, "polls": p.polls, "done": p.ack.be, "status": p.ack.status,
+            json!({"axis": axis, "polls": p.polls, "done": p.ack.be, "operating_status": p.ack.status,
                    "elapsed_ms": p.elapsed.as_millis() as u64}),
             format!("axis {axis}: reference drive, {} poll(s)", p.polls),
         );
@@ -318,8 +360,11 @@ fn reference(ctx: &Ctx, d: &mut Controller, axis: u8, wait: PacWait) -> anyhow::
     let done = result.map_err(|e| super::stopped_by_output(e.into()))?;
     let position = d.read_f64(0x190C, axis.into())?;
     if ctx.json {
-        let mut doc = json!({"axis": axis, "command": "0A84", "done": true, "position": position,
-                             "polls": done.polls, "elapsed_ms": done.elapsed.as_millis() as u64});
+        let mut doc = doc(
+            on_axis(ctx, axis),
+            json!({"command": def(0x0A84).name, "command_code": "0A84",
+            "done": true, "position": position, "polls": done.polls, "elapsed_ms": done.elapsed.as_millis() as u64}),
+        );
         merge(&mut doc, status_json(&done.ack));
         output::json(&doc);
     } else {
@@ -329,23 +374,27 @@ fn reference(ctx: &Ctx, d: &mut Controller, axis: u8, wait: PacWait) -> anyhow::
 }
 
 /// Everything 1910 / 1921 / 190C / 190D / 1913 / 1914 say about an axis.
-fn axis_json(d: &mut Controller, axis: u8) -> anyhow::Result<serde_json::Value> {
+fn axis_json(ctx: &Ctx, d: &mut Controller, axis: u8) -> anyhow::Result<serde_json::Value> {
+    let envelope = on_axis(ctx, axis);
     let state = d.axis_state(axis)?;
     let area = d.traverse_area(axis)?;
     let (position, speed, status, ext_raw) = (state.position, state.speed, state.status as u64, state.ext_status);
     let (min, max) = (area.min, area.max);
     let ext = ExtAxisStatus::decode(ext_raw);
-    Ok(json!({"axis": axis, "position": position, "speed": speed, "status": status,
-              "status_text": table::axis_status_text(status),
+    Ok(doc(
+        envelope,
+        json!({"position": position, "speed": speed, "axis_status": status,
+              "axis_status_text": table::axis_status_text(status),
               "extended_status": {"raw": ext_raw, "power_pack_ready": ext.power_pack_ready,
                   "positive_limit_activated": ext.positive_limit_activated,
                   "negative_limit_activated": ext.negative_limit_activated,
                   "axis_status": ext.axis_status, "axis_status_text": ext.axis_status_text},
-              "traverse_min": min, "traverse_max": max}))
+              "traverse_min": min, "traverse_max": max}),
+    ))
 }
 
 fn axis_info(ctx: &Ctx, d: &mut Controller, axis: u8) -> anyhow::Result<()> {
-    let doc = axis_json(d, axis)?;
+    let doc = axis_json(ctx, d, axis)?;
     if ctx.json {
         output::json(&doc);
         return Ok(());
@@ -356,7 +405,7 @@ fn axis_info(ctx: &Ctx, d: &mut Controller, axis: u8) -> anyhow::Result<()> {
         vec!["axis".into(), axis.to_string()],
         vec!["position".into(), doc["position"].to_string()],
         vec!["speed".into(), doc["speed"].to_string()],
-        vec!["status".into(), format!("{} {}", doc["status"], doc["status_text"].as_str().unwrap_or(""))],
+        vec!["status".into(), format!("{} {}", doc["axis_status"], doc["axis_status_text"].as_str().unwrap_or(""))],
         vec!["traverse area".into(), format!("{} ..= {}", doc["traverse_min"], doc["traverse_max"])],
         vec!["power pack ready".into(), yes(&e["power_pack_ready"]).into()],
         vec!["+ limit switch activated".into(), yes(&e["positive_limit_activated"]).into()],
@@ -375,11 +424,14 @@ fn axes(ctx: &Ctx, d: &mut Controller) -> anyhow::Result<()> {
         let a = i64::from(axis);
         let position = d.read_f64(0x190C, a)?;
         let status = d.read_i64(0x1910, a)? as u64;
-        list.push(json!({"axis": axis, "position": position, "status": status,
-                         "status_text": table::axis_status_text(status)}));
+        list.push(doc(
+            on_axis(ctx, axis),
+            json!({"position": position, "axis_status": status,
+                         "axis_status_text": table::axis_status_text(status)}),
+        ));
     }
     if ctx.json {
-        output::json(&json!({"axes": list, "moving": table::moving_axes(moving)}));
+        output::json(&doc(controller(ctx), json!({"devices": list, "moving": table::moving_axes(moving)})));
         return Ok(());
     }
     let mut rows = vec![["AXIS", "POSITION", "STATUS"].map(String::from).to_vec()];
@@ -387,7 +439,7 @@ fn axes(ctx: &Ctx, d: &mut Controller) -> anyhow::Result<()> {
         rows.push(vec![
             a["axis"].to_string(),
             a["position"].to_string(),
-            format!("{} {}", a["status"], a["status_text"].as_str().unwrap_or("")),
+            format!("{} {}", a["axis_status"], a["axis_status_text"].as_str().unwrap_or("")),
         ]);
     }
     output::table(&rows, ctx.style);
@@ -418,7 +470,7 @@ fn element(
         let w = d.read_element_word(el, number)?;
         let members = table::word_members(number, w);
         if ctx.json {
-            output::json(&json!({key: number, "word": w, "set": members}));
+            output::json(&doc(controller(ctx), json!({key: number, "word": w, "set": members})));
         } else {
             let first = (number.max(1) - 1) / 16 * 16 + 1;
             println!("{key}s {first}..{}: {w:#06x} {w:016b}  set: {members:?}", first + 15);
@@ -426,7 +478,7 @@ fn element(
     } else {
         let v = d.read_element(el, number)?;
         if ctx.json {
-            output::json(&json!({key: number, "state": v}));
+            output::json(&doc(controller(ctx), json!({key: number, "value": v})));
         } else {
             println!("{key} {number}: {v}");
         }
@@ -443,9 +495,15 @@ fn reg(ctx: &Ctx, d: &mut Controller, register: &str, value: Option<&str>) -> an
     }
     let q_par = d.read_register(reg)?;
     if ctx.json {
-        output::json(
-            &json!({"register": reg.to_string(), "type": if reg.is_float() { "float" } else { "int" }, "value": q_par.as_f64()}),
-        );
+        // Integer registers stay integers: 12345, not 12345.0.
+        let value = match q_par.as_i64() {
+            Some(i) if !reg.is_float() => json!(i),
+            _ => json!(q_par.as_f64()),
+        };
+        output::json(&doc(
+            controller(ctx),
+            json!({"register": reg.to_string(), "type": if reg.is_float() { "float" } else { "int" }, "value": value}),
+        ));
     } else {
         println!("{reg} = {q_par}");
     }
@@ -476,7 +534,7 @@ fn sys_param(ctx: &Ctx, d: &mut Controller, name: &str, access: &ParamAccess) ->
         }
     };
     if ctx.json {
-        output::json(&json!({"param": p.number, "name": p.name, what: value}));
+        output::json(&doc(controller(ctx), json!({"param": p.number, "name": p.name, what: value})));
     } else {
         println!("system parameter {} ({}) {what}: {value}", p.number, p.manual_name);
     }
@@ -501,7 +559,7 @@ fn axis_param(ctx: &Ctx, d: &mut Controller, axis: u8, name: &str, access: &Para
         }
     };
     if ctx.json {
-        output::json(&json!({"axis": axis, "param": p.number, "name": p.name, "unit": p.unit, what: value}));
+        output::json(&doc(on_axis(ctx, axis), json!({"param": p.number, "name": p.name, "unit": p.unit, what: value})));
     } else {
         println!("axis {axis} parameter {} ({}) {what}: {value} {}", p.number, p.manual_name, p.unit);
     }
@@ -547,9 +605,13 @@ fn raw(ctx: &Ctx, d: &mut Controller, code_text: &str, par1: i64, par2: Option<&
     let done = result?;
     let ack = done.ack;
     if ctx.json {
-        let mut doc = json!({"command": format!("{:04X}", cmd.code), "name": def.map(|d| d.name), "par1": cmd.par1,
+        let mut doc = doc(
+            controller(ctx),
+            json!({"command": "pac-raw", "command_code": format!("{:04X}", cmd.code),
+            "name": def.map(|d| d.name), "par1": cmd.par1,
             "par2": cmd.par2.as_f64(), "quit": ack.quit, "be": ack.be, "typ": ack.q_par.typ(),
-            "q_par": ack.q_par.as_f64(), "polls": done.polls, "check_rule": check_rule_name(ack.check_rule)});
+            "q_par": ack.q_par.as_f64(), "polls": done.polls, "check_rule": check_rule_name(ack.check_rule)}),
+        );
         merge(&mut doc, status_json(&ack));
         output::json(&doc);
     } else {

@@ -6,6 +6,7 @@ use std::time::Duration;
 use axisctl::device::powercube::{
     self as device, param, version_text, ConfigChange, Cubes, Error, Goal, Move, Simple, SyncRamp, WaitEnd, WaitSpec,
 };
+use axisctl::family::Family;
 use axisctl::proto::powercube::flags::{self, FlagWord};
 use axisctl::proto::powercube::frame::{f32_to_f64, Value};
 use axisctl::proto::powercube::table::{ids, ParamDef};
@@ -54,7 +55,18 @@ pub fn run(ctx: &Ctx, cmd: Command) -> anyhow::Result<()> {
 }
 
 fn module(id: u8) -> ModuleId {
+    output::target(Family::PowerCube, &[("module", id.into())]);
     ModuleId::new(id).expect("clap checks 1..=31")
+}
+
+/// The envelope of a per-module object (docs/json.md).
+fn envelope(ctx: &Ctx, m: ModuleId) -> serde_json::Map<String, serde_json::Value> {
+    output::envelope(Family::PowerCube, &ctx.link_text, &[("module", m.get().into())])
+}
+
+/// `envelope` and the command's own keys.
+fn doc(ctx: &Ctx, m: ModuleId, body: serde_json::Value) -> serde_json::Value {
+    output::device_doc(envelope(ctx, m), body)
 }
 
 fn cubes(ctx: &Ctx) -> anyhow::Result<Cubes> {
@@ -66,8 +78,7 @@ fn f64_of(v: &Value) -> f64 {
 }
 
 fn word_json(word: &FlagWord, raw: u32) -> serde_json::Value {
-    let d = word.decode(raw);
-    json!({"raw": raw, "flags": d.flags, "errors": d.errors, "warnings": d.warnings})
+    output::flag_word(word, raw)
 }
 
 /// Flags of a word, one per line, coloured by class.
@@ -122,11 +133,15 @@ fn scan(ctx: &Ctx, list: &IdList) -> anyhow::Result<()> {
         let list: Vec<_> = modules
             .iter()
             .map(|(m, version, serial, cfg, cube)| {
-                json!({"module": m, "version": version, "version_text": version_text(*version), "serial": serial,
-                       "kind": kind_of(*cfg), "state": word_json(&flags::CUBE_STATE, *cube)})
+                doc(
+                    ctx,
+                    *m,
+                    json!({"version": version, "version_text": version_text(*version), "serial": serial,
+                       "kind": kind_of(*cfg), "state": word_json(&flags::CUBE_STATE, *cube)}),
+                )
             })
             .collect();
-        output::json(&json!({"modules": list}));
+        output::json(&json!({"devices": list}));
         return Ok(());
     }
     let mut rows = vec![["MODULE", "SERIAL", "VERSION", "KIND", "STATE"].map(String::from).to_vec()];
@@ -182,13 +197,17 @@ fn info(ctx: &Ctx, m: ModuleId) -> anyhow::Result<()> {
     if ctx.json {
         let mut params = serde_json::Map::new();
         for (d, v) in defs.iter().zip(&vals) {
-            params.insert(d.name.into(), serde_json::to_value(v)?);
+            params.insert(d.name.into(), param_json(d, kind, serde_json::to_value(v)?));
         }
-        output::json(&json!({
-            "module": m, "kind": kind, "serial": num(0) as u32, "version": version,
-            "version_text": version_text(version), "params": params,
-            "config": word_json(&flags::CONFIG, config_word), "state": word_json(&flags::CUBE_STATE, cube),
-        }));
+        output::json(&doc(
+            ctx,
+            m,
+            json!({
+                "kind": kind, "serial": num(0) as u32, "version": version,
+                "version_text": version_text(version), "params": params,
+                "config": word_json(&flags::CONFIG, config_word), "state": word_json(&flags::CUBE_STATE, cube),
+            }),
+        ));
         return Ok(());
     }
     println!("module {m}: {kind}, serial {}, version {}", num(0) as u32, version_text(version));
@@ -204,6 +223,11 @@ fn info(ctx: &Ctx, m: ModuleId) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// A parameter in the one value shape, as `info` and `get-param` give it.
+fn param_json(d: &ParamDef, kind: &str, value: serde_json::Value) -> serde_json::Value {
+    json!({"id": d.id, "type": d.ty.name(), "unit": unit_for(d, kind), "value": value})
+}
+
 /// The table's "rad|m" units, resolved for the module's kind.
 fn unit_for(d: &ParamDef, kind: &str) -> String {
     match d.unit.split_once('|') {
@@ -215,10 +239,12 @@ fn unit_for(d: &ParamDef, kind: &str) -> String {
 fn show_state(ctx: &Ctx, m: ModuleId) -> anyhow::Result<()> {
     let cube = cubes(ctx)?.state(m)?;
     if ctx.json {
-        let mut doc = word_json(&flags::CUBE_STATE, cube);
-        doc["module"] = json!(m);
-        doc["short_state"] = json!(flags::short_state_from_cube_state(cube));
-        output::json(&doc);
+        output::json(&doc(
+            ctx,
+            m,
+            json!({"state": word_json(&flags::CUBE_STATE, cube),
+            "short_state": flags::short_state_from_cube_state(cube)}),
+        ));
     } else {
         print!("module {m}: ");
         print_word(ctx, &flags::CUBE_STATE, cube);
@@ -229,15 +255,22 @@ fn show_state(ctx: &Ctx, m: ModuleId) -> anyhow::Result<()> {
 /// One command to one module, or its broadcast to all.
 fn simple(ctx: &Ctx, target: Target, cmd: Simple) -> anyhow::Result<()> {
     cubes(ctx)?.simple(target.module.map(module), cmd)?;
-    report_sent(ctx, target, cmd.name());
+    report_sent(ctx, target, &cmd.name().to_lowercase());
     Ok(())
 }
 
 fn report_sent(ctx: &Ctx, target: Target, what: &str) {
     if ctx.json {
         match target.module {
-            Some(m) => output::json(&json!({"module": m, "command": what, "acknowledged": true})),
-            None => output::json(&json!({"module": null, "broadcast": true, "command": what})),
+            Some(m) => output::json(&doc(ctx, module(m), json!({"command": what, "acknowledged": true}))),
+            None => {
+                let mut all = output::envelope(Family::PowerCube, &ctx.link_text, &[]);
+                all.insert("module".into(), serde_json::Value::Null);
+                output::json(&output::device_doc(
+                    all,
+                    json!({"command": what, "broadcast": true, "acknowledged": false}),
+                ));
+            }
         }
     } else {
         match target.module {
@@ -258,7 +291,7 @@ fn home(ctx: &Ctx, target: Target, wait: WaitArgs) -> anyhow::Result<()> {
         m => cubes.simple(m, Simple::Home)?,
     }
     if !wait.wait {
-        report_sent(ctx, target, "Home");
+        report_sent(ctx, target, "home");
         return Ok(());
     }
     let modules = match target.module {
@@ -269,8 +302,7 @@ fn home(ctx: &Ctx, target: Target, wait: WaitArgs) -> anyhow::Result<()> {
     for m in modules {
         results.push(wait_for(ctx, &mut cubes, m, wait, Goal::Homed)?);
     }
-    print_wait_results(ctx, "Home", &results);
-    Ok(())
+    print_wait_results(ctx, &mut cubes, "home", &results)
 }
 
 /// The device's wait, with the spinner and Ctrl-C (which halts the module).
@@ -291,24 +323,36 @@ fn wait_for(ctx: &Ctx, cubes: &mut Cubes, m: ModuleId, wait: WaitArgs, goal: Goa
     })
 }
 
-fn print_wait_results(ctx: &Ctx, what: &str, results: &[WaitEnd]) {
+/// The ends of waits, with the position's unit (the module's Config, read
+/// once the motion is over, says rad or m).
+fn print_wait_results(ctx: &Ctx, cubes: &mut Cubes, what: &str, results: &[WaitEnd]) -> anyhow::Result<()> {
+    let mut list = Vec::new();
+    for r in results {
+        let unit = if device::is_linear(cubes.get_u32(r.module, ids::CONFIG)?) { "m" } else { "rad" };
+        list.push((r, unit));
+    }
     if ctx.json {
-        let list: Vec<_> = results
+        let list: Vec<_> = list
             .iter()
-            .map(|r| {
-                json!({"module": r.module, "command": what, "done": true, "position": f32_to_f64(r.position),
-                       "elapsed_ms": r.elapsed.as_millis() as u64, "state": word_json(&flags::CUBE_STATE, r.cube)})
+            .map(|(r, unit)| {
+                doc(
+                    ctx,
+                    r.module,
+                    json!({"command": what, "done": true,
+                    "position": output::with_unit(json!(f32_to_f64(r.position)), unit),
+                    "elapsed_ms": r.elapsed.as_millis() as u64, "state": word_json(&flags::CUBE_STATE, r.cube)}),
+                )
             })
             .collect();
         if let [one] = &list[..] {
             output::json(one);
         } else {
-            output::json(&json!({"modules": list}));
+            output::json(&json!({"devices": list}));
         }
     } else {
-        for r in results {
+        for (r, unit) in list {
             say!(
-                "module {}: {what} done at {:.4} after {:.2} s  [{}]",
+                "module {}: {what} done at {:.4} {unit} after {:.2} s  [{}]",
                 r.module,
                 r.position,
                 r.elapsed.as_secs_f64(),
@@ -316,6 +360,7 @@ fn print_wait_results(ctx: &Ctx, what: &str, results: &[WaitEnd]) {
             );
         }
     }
+    Ok(())
 }
 
 /// Checks and sends a move; the checks that need no module come before the
@@ -351,13 +396,12 @@ fn move_ramp(
     let mut cubes = send_move(ctx, m, Move::Ramp { pos, vel, acc }, ticks, force, wait.wait)?;
     if !wait.wait {
         if ctx.json {
-            output::json(&json!({"module": m, "command": "move-ramp", "target": pos, "acknowledged": true}));
+            output::json(&doc(ctx, m, json!({"command": "move-ramp", "target": pos, "acknowledged": true})));
         }
         return Ok(());
     }
     let end = wait_for(ctx, &mut cubes, m, wait, Goal::RampEnd { target: pos, ticks })?;
-    print_wait_results(ctx, "move-ramp", &[end]);
-    Ok(())
+    print_wait_results(ctx, &mut cubes, "move-ramp", &[end])
 }
 
 /// Several modules, each to its position, started by one broadcast; every
@@ -385,8 +429,11 @@ fn move_ramp_sync(
     }
     if !wait.wait {
         if ctx.json {
-            let list: Vec<_> = started.iter().map(|(m, moved)| json!({"module": m, "target": moved.target})).collect();
-            output::json(&json!({"command": "move-ramp", "sync": true, "modules": list, "broadcast": "StartMotion"}));
+            let list: Vec<_> = started
+                .iter()
+                .map(|(m, moved)| doc(ctx, *m, json!({"target": moved.target, "acknowledged": true})))
+                .collect();
+            output::json(&json!({"command": "move-ramp", "sync": true, "devices": list, "broadcast": "StartMotion"}));
         }
         return Ok(());
     }
@@ -406,16 +453,17 @@ fn move_ramp_sync(
         );
         waited.map_err(|e| super::stopped_by_output(e.into()))
     })?;
-    print_wait_results(ctx, "move-ramp", &ends);
-    Ok(())
+    print_wait_results(ctx, &mut cubes, "move-ramp", &ends)
 }
 
 fn move_step(ctx: &Ctx, m: ModuleId, pos: f64, time: u16, ticks: bool, force: bool) -> anyhow::Result<()> {
     send_move(ctx, m, Move::Step { pos, time_ms: time }, ticks, force, false)?;
     if ctx.json {
-        output::json(
-            &json!({"module": m, "command": "move-step", "target": pos, "time_ms": time, "acknowledged": true}),
-        );
+        output::json(&doc(
+            ctx,
+            m,
+            json!({"command": "move-step", "target": pos, "time_ms": time, "acknowledged": true}),
+        ));
     }
     Ok(())
 }
@@ -423,7 +471,7 @@ fn move_step(ctx: &Ctx, m: ModuleId, pos: f64, time: u16, ticks: bool, force: bo
 fn move_vel(ctx: &Ctx, m: ModuleId, vel: f64, ticks: bool, force: bool) -> anyhow::Result<()> {
     send_move(ctx, m, Move::Vel(vel), ticks, force, false)?;
     if ctx.json {
-        output::json(&json!({"module": m, "command": "move-vel", "velocity": vel, "acknowledged": true}));
+        output::json(&doc(ctx, m, json!({"command": "move-vel", "velocity": vel, "acknowledged": true})));
     }
     Ok(())
 }
@@ -431,7 +479,7 @@ fn move_vel(ctx: &Ctx, m: ModuleId, vel: f64, ticks: bool, force: bool) -> anyho
 fn move_cur(ctx: &Ctx, m: ModuleId, amps: f64, force: bool) -> anyhow::Result<()> {
     send_move(ctx, m, Move::Cur(amps), false, force, false)?;
     if ctx.json {
-        output::json(&json!({"module": m, "command": "move-cur", "current": amps, "acknowledged": true}));
+        output::json(&doc(ctx, m, json!({"command": "move-cur", "current": amps, "acknowledged": true})));
     }
     Ok(())
 }
@@ -447,12 +495,9 @@ fn get_param(ctx: &Ctx, m: ModuleId, names: &[String], all: bool) -> anyhow::Res
     if ctx.json {
         let mut params = serde_json::Map::new();
         for (d, v) in &vals {
-            params.insert(
-                d.name.into(),
-                json!({"id": d.id, "type": d.ty.name(), "unit": unit_for(d, kind), "value": serde_json::to_value(v)?}),
-            );
+            params.insert(d.name.into(), param_json(d, kind, serde_json::to_value(v)?));
         }
-        output::json(&json!({"module": m, "params": params}));
+        output::json(&doc(ctx, m, json!({"params": params})));
         return Ok(());
     }
     let mut rows = vec![["PARAMETER", "ID", "TYPE", "VALUE", "UNIT"].map(String::from).to_vec()];
@@ -467,8 +512,12 @@ fn set_param(ctx: &Ctx, m: ModuleId, name: &str, text: &str, force: bool) -> any
     let (d, value) = device::param_write(name, text)?;
     let held = cubes(ctx)?.write_param(m, d, value, force)?;
     if ctx.json {
-        output::json(&json!({"module": m, "param": d.name, "id": d.id, "type": d.ty.name(), "value": value,
-                             "held": held}));
+        output::json(&doc(
+            ctx,
+            m,
+            json!({"command": "set-param", "param": d.name, "id": d.id, "type": d.ty.name(),
+                                         "value": value, "held": held, "acknowledged": true}),
+        ));
         return Ok(());
     }
     match held {
@@ -481,9 +530,7 @@ fn set_param(ctx: &Ctx, m: ModuleId, name: &str, text: &str, force: bool) -> any
 
 fn print_config(ctx: &Ctx, m: ModuleId, raw: u32) {
     if ctx.json {
-        let mut doc = word_json(&flags::CONFIG, raw);
-        doc["module"] = json!(m);
-        output::json(&doc);
+        output::json(&doc(ctx, m, json!({"config": word_json(&flags::CONFIG, raw)})));
     } else {
         print!("module {m}: ");
         print_word(ctx, &flags::CONFIG, raw);
@@ -523,11 +570,12 @@ fn dio(ctx: &Ctx, m: ModuleId, out: Option<&str>) -> anyhow::Result<()> {
     let outputs = out.map(device::dio_outputs).transpose()?;
     let raw = cubes(ctx)?.dio(m, outputs)?;
     if ctx.json {
-        let mut doc = word_json(&flags::DIO_SETUP, raw);
-        doc["module"] = json!(m);
-        doc["inputs"] = json!(raw & 0xf);
-        doc["outputs"] = json!((raw >> 4) & 0xf);
-        output::json(&doc);
+        output::json(&doc(
+            ctx,
+            m,
+            json!({"dio": word_json(&flags::DIO_SETUP, raw),
+            "inputs": raw & 0xf, "outputs": (raw >> 4) & 0xf}),
+        ));
     } else {
         print!("module {m}: ");
         print_word(ctx, &flags::DIO_SETUP, raw);
@@ -542,7 +590,7 @@ fn watchdog(ctx: &Ctx, action: WatchdogAction) -> anyhow::Result<()> {
             let m = module(a.module);
             let changed = cubes.watchdog_on(m)?;
             if ctx.json {
-                output::json(&json!({"module": m, "watchdog": "on", "changed": changed}));
+                output::json(&doc(ctx, m, json!({"watchdog": "on", "changed": changed})));
             } else if changed {
                 println!("module {m}: watchdog online; keep it alive with `axisctl watchdog keepalive`, or it halts within 50 ms");
             } else {
@@ -554,7 +602,7 @@ fn watchdog(ctx: &Ctx, action: WatchdogAction) -> anyhow::Result<()> {
             let m = module(a.module);
             let changed = cubes.watchdog_off(m)?;
             if ctx.json {
-                output::json(&json!({"module": m, "watchdog": "off", "changed": changed}));
+                output::json(&doc(ctx, m, json!({"watchdog": "off", "changed": changed})));
             } else if changed {
                 println!("module {m}: watchdog off (CONFIGID_MOD_WATCHDOG_ENABLE cleared)");
             } else {
