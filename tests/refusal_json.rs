@@ -104,13 +104,13 @@ fn other_errors_carry_the_address_but_no_device_object() {
 #[test]
 fn argument_errors_are_json_objects_under_json() {
     for (args, argument) in [
-        (&["--link", "sim", "--json", "pac-axis", "17"][..], Some("<AXIS>")),
-        (&["--link", "sim", "--json", "state", "-m", "0"], Some("--module <ID>")),
+        (&["--link", "sim", "--json", "pac-axis", "17"][..], Some("<AXIS[,AXIS...]|all>")),
+        (&["--link", "sim", "--json", "state", "-m", "0"], Some("--module <ID[,ID...]|all>")),
         (&["--link", "sim", "--json", "state"], None),
         (&["--link", "sim", "--json", "pac-axis"], None),
         (&["--link", "sim", "--json", "--timeout", "abc", "state", "-m", "3"], Some("--timeout <MS>")),
         (&["--link", "sim", "--json", "frobnicate"], None),
-        (&["--link", "sim", "state", "--json", "-m", "32"], Some("--module <ID>")),
+        (&["--link", "sim", "home", "--json", "-m", "32"], Some("--module <ID>")),
     ] {
         let e = error_with(args, 2);
         assert_eq!(e["kind"], "usage", "{args:?}");

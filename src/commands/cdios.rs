@@ -19,8 +19,9 @@ use serde_json::{json, Value};
 use super::wait::waiting;
 use super::{interrupted, usage, Ctx};
 use crate::cli::cdios::{
-    CdiosCommand, DirectionArg, ModuleTarget, NodeArgs, PositionKind, StartOptionArg, StopOptionArg,
+    CdiosCommand, DirectionArg, ModuleTarget, ModulesTarget, NodeArgs, PositionKind, StartOptionArg, StopOptionArg,
 };
+use crate::cli::ids::Devices;
 use crate::cli::WaitArgs;
 use crate::output;
 
@@ -171,32 +172,62 @@ fn identify(ctx: &Ctx, n: NodeArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
-fn status(ctx: &Ctx, t: ModuleTarget) -> anyhow::Result<()> {
-    let (node, m) = (node_id(&t.node), module_id(&t));
+fn status(ctx: &Ctx, t: ModulesTarget) -> anyhow::Result<()> {
+    read_each(ctx, &t, |ctx, s, node, m| {
+        let r = s.status(m)?;
+        let (speed, rpm_error) = s.speed(m)?;
+        if ctx.json {
+            let (speed, rpm_error) =
+                (output::with_unit(json!(speed), "rpm"), output::with_unit(json!(rpm_error), "rpm"));
+            return Ok(doc(
+                ctx,
+                node,
+                m,
+                json!({"state": status_json(&r), "motor_speed": speed, "rpm_error": rpm_error}),
+            ));
+        }
+        println!("node {node} module {m}: {}", status_line(ctx, &r));
+        let mut rows = Vec::new();
+        for f in STATUS_FLAGS.iter().filter(|f| f.is_set(&r.status)) {
+            let name = if f.class == table::Class::Error { ctx.style.error(f.name) } else { f.name.to_string() };
+            rows.push(vec![format!("  status {} bit {}", f.byte, f.bit), name, f.meaning.to_string()]);
+        }
+        output::table(&rows, ctx.style);
+        for (b, bit) in &r.reserved {
+            println!("  {}", ctx.style.warn(&format!("status {b} bit {bit} is set (reserved)")));
+        }
+        println!("  motor speed {speed} RPM, RPM error {rpm_error}");
+        Ok(Value::Null)
+    })
+}
+
+/// A read of each module asked for: one JSON object for `-m ID`, else
+/// `{"devices": [...]}` in id order (`-m all`: the modules the node reports).
+/// `read` prints the human form itself and returns the JSON object.
+fn read_each(
+    ctx: &Ctx,
+    t: &ModulesTarget,
+    mut read: impl FnMut(&Ctx, &mut Node, NodeId, ModuleId) -> anyhow::Result<Value>,
+) -> anyhow::Result<()> {
+    let node = node_id(&t.node);
+    output::target(Family::Cdios, &[("node", node.get().into())]);
     let mut s = open(ctx, &t.node)?;
-    let r = s.status(m)?;
-    let (speed, rpm_error) = s.speed(m)?;
+    let ids: Vec<u8> = match &t.module {
+        Devices::One(m) => vec![*m],
+        Devices::List(l) => l.0.clone(),
+        Devices::All => s.identify()?.iter().filter(|slot| slot.ty != 0).map(|slot| slot.module).collect(),
+    };
+    let mut docs = Vec::new();
+    for id in ids {
+        let m = module_id(&ModuleTarget { node: t.node, module: id });
+        docs.push(read(ctx, &mut s, node, m)?);
+    }
     if ctx.json {
-        output::json(&doc(
-            ctx,
-            node,
-            m,
-            json!({"state": status_json(&r), "motor_speed": output::with_unit(json!(speed), "rpm"),
-            "rpm_error": output::with_unit(json!(rpm_error), "rpm")}),
-        ));
-        return Ok(());
+        match t.module {
+            Devices::One(_) => output::json(&docs[0]),
+            _ => output::json(&json!({ "devices": docs })),
+        }
     }
-    println!("node {node} module {m}: {}", status_line(ctx, &r));
-    let mut rows = Vec::new();
-    for f in STATUS_FLAGS.iter().filter(|f| f.is_set(&r.status)) {
-        let name = if f.class == table::Class::Error { ctx.style.error(f.name) } else { f.name.to_string() };
-        rows.push(vec![format!("  status {} bit {}", f.byte, f.bit), name, f.meaning.to_string()]);
-    }
-    output::table(&rows, ctx.style);
-    for (b, bit) in &r.reserved {
-        println!("  {}", ctx.style.warn(&format!("status {b} bit {bit} is set (reserved)")));
-    }
-    println!("  motor speed {speed} RPM, RPM error {rpm_error}");
     Ok(())
 }
 
@@ -214,28 +245,26 @@ fn source_of(k: PositionKind) -> PositionSource {
     }
 }
 
-fn position(ctx: &Ctx, t: ModuleTarget, kind: PositionKind, all: bool) -> anyhow::Result<()> {
-    let (node, m) = (node_id(&t.node), module_id(&t));
-    let mut s = open(ctx, &t.node)?;
-    if all {
-        let cur = s.position(m, PositionSource::Current)?;
-        let latched = s.position(m, PositionSource::Latched)?;
-        let setpoint = s.position(m, PositionSource::Setpoint)?;
-        if ctx.json {
-            output::json(&doc(ctx, node, m, json!({"position": cur, "latched": latched, "setpoint": setpoint})));
-        } else {
+fn position(ctx: &Ctx, t: ModulesTarget, kind: PositionKind, all: bool) -> anyhow::Result<()> {
+    read_each(ctx, &t, |ctx, s, node, m| {
+        if all {
+            let cur = s.position(m, PositionSource::Current)?;
+            let latched = s.position(m, PositionSource::Latched)?;
+            let setpoint = s.position(m, PositionSource::Setpoint)?;
+            if ctx.json {
+                return Ok(doc(ctx, node, m, json!({"position": cur, "latched": latched, "setpoint": setpoint})));
+            }
             println!("node {node} module {m}: position {cur}, latched {latched}, setpoint {setpoint}");
+            return Ok(Value::Null);
         }
-        return Ok(());
-    }
-    let p = s.position(m, source_of(kind))?;
-    let name = kind.to_possible_value().map(|v| v.get_name().to_string()).unwrap_or_default();
-    if ctx.json {
-        output::json(&doc(ctx, node, m, json!({"source": name, "position": p})));
-    } else {
+        let p = s.position(m, source_of(kind))?;
+        let name = kind.to_possible_value().map(|v| v.get_name().to_string()).unwrap_or_default();
+        if ctx.json {
+            return Ok(doc(ctx, node, m, json!({"source": name, "position": p})));
+        }
         println!("node {node} module {m}: {name} position {p}");
-    }
-    Ok(())
+        Ok(Value::Null)
+    })
 }
 
 fn report_sent(ctx: &Ctx, node: NodeId, m: ModuleId, what: &str, confirmed: bool, extra: Value) {

@@ -23,6 +23,7 @@ use axisctl::session::pac::Progress;
 use serde_json::json;
 
 use super::{arm_interrupt, interrupted, usage, Ctx};
+use crate::cli::ids::Devices;
 use crate::cli::pac::{PacCommand, PacWait, ParamAccess};
 use crate::output;
 
@@ -52,7 +53,7 @@ pub fn run(ctx: &Ctx, cmd: PacCommand) -> anyhow::Result<()> {
         PacCommand::PacStopAxis { axis, no_wait } => {
             simple(ctx, d, if no_wait { 0x0A9A } else { 0x0A93 }, Some(axis.axis), None)
         }
-        PacCommand::PacAxis(a) => axis_info(ctx, d, a.axis),
+        PacCommand::PacAxis(a) => axes_info(ctx, d, &a.axis),
         PacCommand::PacAxes => axes(ctx, d),
         PacCommand::PacAxisOn(a) => simple(ctx, d, 0x0A97, Some(a.axis), None),
         PacCommand::PacAxisOff(a) => simple(ctx, d, 0x0A98, Some(a.axis), None),
@@ -393,11 +394,31 @@ fn axis_json(ctx: &Ctx, d: &mut Controller, axis: u8) -> anyhow::Result<serde_js
     ))
 }
 
-fn axis_info(ctx: &Ctx, d: &mut Controller, axis: u8) -> anyhow::Result<()> {
+/// `pac-axis` of each axis asked for: one object for one axis, else
+/// `{"devices": [...]}` (`all`: every configured axis).
+fn axes_info(ctx: &Ctx, d: &mut Controller, axes: &Devices) -> anyhow::Result<()> {
+    let list: Vec<u8> = match axes {
+        Devices::One(a) => vec![*a],
+        Devices::List(l) => l.0.clone(),
+        Devices::All => (1..=d.configured_axes()?).collect(),
+    };
+    let mut docs = Vec::new();
+    for axis in list {
+        docs.push(axis_info(ctx, d, axis)?);
+    }
+    if ctx.json {
+        match axes {
+            Devices::One(_) => output::json(&docs[0]),
+            _ => output::json(&json!({ "devices": docs })),
+        }
+    }
+    Ok(())
+}
+
+fn axis_info(ctx: &Ctx, d: &mut Controller, axis: u8) -> anyhow::Result<serde_json::Value> {
     let doc = axis_json(ctx, d, axis)?;
     if ctx.json {
-        output::json(&doc);
-        return Ok(());
+        return Ok(doc);
     }
     let e = &doc["extended_status"];
     let yes = |v: &serde_json::Value| if v.as_bool() == Some(true) { "yes" } else { "no" };
@@ -413,7 +434,7 @@ fn axis_info(ctx: &Ctx, d: &mut Controller, axis: u8) -> anyhow::Result<()> {
         vec!["extended status".into(), format!("{:#010x}", e["raw"].as_u64().unwrap_or(0))],
     ];
     output::table(&rows, crate::output::Style { color: false });
-    Ok(())
+    Ok(serde_json::Value::Null)
 }
 
 fn axes(ctx: &Ctx, d: &mut Controller) -> anyhow::Result<()> {

@@ -16,7 +16,7 @@ use serde_json::json;
 
 use super::wait::waiting;
 use super::{interrupted, usage, Ctx, Interrupted};
-use crate::cli::ids::IdList;
+use crate::cli::ids::{Devices, IdList};
 use crate::cli::{PowerCubeCommand as Command, Target, WaitArgs, WatchdogAction};
 use crate::output;
 use crate::output::say;
@@ -25,8 +25,8 @@ use axisctl::device::supervisor;
 pub fn run(ctx: &Ctx, cmd: Command) -> anyhow::Result<()> {
     match cmd {
         Command::Scan { ids } => scan(ctx, &ids),
-        Command::Info(m) => info(ctx, module(m.module)),
-        Command::State(m) => show_state(ctx, module(m.module)),
+        Command::Info(m) => read_each(ctx, &m.module, info),
+        Command::State(m) => read_each(ctx, &m.module, show_state),
         Command::Home { target, wait } => home(ctx, target, wait),
         Command::Reset { target } => simple(ctx, target, Simple::Reset),
         Command::Halt { target } => simple(ctx, target, Simple::Halt),
@@ -43,7 +43,12 @@ pub fn run(ctx: &Ctx, cmd: Command) -> anyhow::Result<()> {
         }
         Command::MoveVel { module: m, vel, ticks, force } => move_vel(ctx, module(m.module), vel, ticks, force),
         Command::MoveCur { module: m, amps, force } => move_cur(ctx, module(m.module), amps, force),
-        Command::GetParam { module: m, params, all } => get_param(ctx, module(m.module), &params, all),
+        Command::GetParam { module: m, params, all } => {
+            // Every name is resolved before the link opens: a typo sends nothing.
+            let defs = device::readable_params(&params, all)?;
+            let several = !matches!(m.module, Devices::One(_));
+            read_each(ctx, &m.module, |ctx, cubes, id| get_param(ctx, cubes, id, (&defs, all), several))
+        }
         Command::SetParam { module: m, param, value, force } => set_param(ctx, module(m.module), &param, &value, force),
         Command::GetConfig(m) => get_config(ctx, module(m.module)),
         Command::SetConfig { module: m, changes, raw, force } => {
@@ -71,6 +76,41 @@ fn doc(ctx: &Ctx, m: ModuleId, body: serde_json::Value) -> serde_json::Value {
 
 fn cubes(ctx: &Ctx) -> anyhow::Result<Cubes> {
     Ok(Cubes::new(ctx.powercube()?))
+}
+
+/// A read of each module asked for: one JSON object for `-m ID`, else
+/// `{"devices": [...]}` in id order (`-m all`: the modules that answer).
+/// `read` prints the human form itself and returns the JSON object.
+fn read_each(
+    ctx: &Ctx,
+    devices: &Devices,
+    mut read: impl FnMut(&Ctx, &mut Cubes, ModuleId) -> anyhow::Result<serde_json::Value>,
+) -> anyhow::Result<()> {
+    let mut cubes = cubes(ctx)?;
+    let ids: Vec<ModuleId> = match devices {
+        Devices::One(id) => vec![module(*id)],
+        Devices::List(list) => list.0.iter().map(|id| module(*id)).collect(),
+        Devices::All => {
+            let present = cubes.present()?;
+            if present.is_empty() {
+                return Err(Error::NoneAnswered { ids: "1-31".into() }.into());
+            }
+            present
+        }
+    };
+    let mut docs = Vec::new();
+    for m in ids {
+        // The error object names the module being read.
+        module(m.get());
+        docs.push(read(ctx, &mut cubes, m)?);
+    }
+    if ctx.json {
+        match devices {
+            Devices::One(_) => output::json(&docs[0]),
+            _ => output::json(&json!({ "devices": docs })),
+        }
+    }
+    Ok(())
 }
 
 fn f64_of(v: &Value) -> f64 {
@@ -171,8 +211,7 @@ fn state_summary(ctx: &Ctx, cube: u32) -> String {
     }
 }
 
-fn info(ctx: &Ctx, m: ModuleId) -> anyhow::Result<()> {
-    let mut cubes = cubes(ctx)?;
+fn info(ctx: &Ctx, cubes: &mut Cubes, m: ModuleId) -> anyhow::Result<serde_json::Value> {
     let identity = [
         ids::DEF_CUBE_SERIAL,
         ids::DEF_CUBE_VERSION,
@@ -199,7 +238,7 @@ fn info(ctx: &Ctx, m: ModuleId) -> anyhow::Result<()> {
         for (d, v) in defs.iter().zip(&vals) {
             params.insert(d.name.into(), param_json(d, kind, serde_json::to_value(v)?));
         }
-        output::json(&doc(
+        return Ok(doc(
             ctx,
             m,
             json!({
@@ -208,7 +247,6 @@ fn info(ctx: &Ctx, m: ModuleId) -> anyhow::Result<()> {
                 "config": word_json(&flags::CONFIG, config_word), "state": word_json(&flags::CUBE_STATE, cube),
             }),
         ));
-        return Ok(());
     }
     println!("module {m}: {kind}, serial {}, version {}", num(0) as u32, version_text(version));
     let mut t = vec![["PARAMETER", "VALUE", "UNIT"].map(String::from).to_vec()];
@@ -220,7 +258,7 @@ fn info(ctx: &Ctx, m: ModuleId) -> anyhow::Result<()> {
     }
     output::table(&t, ctx.style);
     println!("state: {}", state_summary(ctx, cube));
-    Ok(())
+    Ok(serde_json::Value::Null)
 }
 
 /// A parameter in the one value shape, as `info` and `get-param` give it.
@@ -236,20 +274,15 @@ fn unit_for(d: &ParamDef, kind: &str) -> String {
     }
 }
 
-fn show_state(ctx: &Ctx, m: ModuleId) -> anyhow::Result<()> {
-    let cube = cubes(ctx)?.state(m)?;
+fn show_state(ctx: &Ctx, cubes: &mut Cubes, m: ModuleId) -> anyhow::Result<serde_json::Value> {
+    let cube = cubes.state(m)?;
     if ctx.json {
-        output::json(&doc(
-            ctx,
-            m,
-            json!({"state": word_json(&flags::CUBE_STATE, cube),
-            "short_state": flags::short_state_from_cube_state(cube)}),
-        ));
-    } else {
-        print!("module {m}: ");
-        print_word(ctx, &flags::CUBE_STATE, cube);
+        let short = flags::short_state_from_cube_state(cube);
+        return Ok(doc(ctx, m, json!({"state": word_json(&flags::CUBE_STATE, cube), "short_state": short})));
     }
-    Ok(())
+    print!("module {m}: ");
+    print_word(ctx, &flags::CUBE_STATE, cube);
+    Ok(serde_json::Value::Null)
 }
 
 /// One command to one module, or its broadcast to all.
@@ -484,11 +517,15 @@ fn move_cur(ctx: &Ctx, m: ModuleId, amps: f64, force: bool) -> anyhow::Result<()
     Ok(())
 }
 
-fn get_param(ctx: &Ctx, m: ModuleId, names: &[String], all: bool) -> anyhow::Result<()> {
-    let defs = device::readable_params(names, all)?;
-    let mut cubes = cubes(ctx)?;
+fn get_param(
+    ctx: &Ctx,
+    cubes: &mut Cubes,
+    m: ModuleId,
+    (defs, all): (&[&'static ParamDef], bool),
+    several: bool,
+) -> anyhow::Result<serde_json::Value> {
     // Config rides along so that "rad|m" units resolve for the module's kind.
-    let mut with_config = defs.clone();
+    let mut with_config = defs.to_vec();
     with_config.push(param(ids::CONFIG));
     let mut vals = cubes.get_params(m, &with_config, all)?;
     let kind = vals.pop().map_or("rotary", |(_, c)| kind_of(f64_of(&c) as u32));
@@ -497,15 +534,17 @@ fn get_param(ctx: &Ctx, m: ModuleId, names: &[String], all: bool) -> anyhow::Res
         for (d, v) in &vals {
             params.insert(d.name.into(), param_json(d, kind, serde_json::to_value(v)?));
         }
-        output::json(&doc(ctx, m, json!({"params": params})));
-        return Ok(());
+        return Ok(doc(ctx, m, json!({ "params": params })));
+    }
+    if several {
+        say!("module {m}:");
     }
     let mut rows = vec![["PARAMETER", "ID", "TYPE", "VALUE", "UNIT"].map(String::from).to_vec()];
     for (d, v) in &vals {
         rows.push(vec![d.name.into(), format!("{:#04x}", d.id), d.ty.name().into(), v.to_string(), unit_for(d, kind)]);
     }
     output::table(&rows, ctx.style);
-    Ok(())
+    Ok(serde_json::Value::Null)
 }
 
 fn set_param(ctx: &Ctx, m: ModuleId, name: &str, text: &str, force: bool) -> anyhow::Result<()> {
