@@ -71,3 +71,13 @@ fn cdios_reads_take_a_list_or_all() {
     assert_eq!(ids, [0, 1]);
     assert!(doc["devices"].as_array().unwrap().iter().all(|d| d["node"] == 1 && d["setpoint"].is_i64()), "{doc}");
 }
+
+// The modules home together and are waited for one after the other: each
+// one's elapsed time counts from the broadcast, so none reports 0.
+#[test]
+fn home_all_wait_times_every_module_from_the_broadcast() {
+    let (ids, doc) = devices(&["--link", "sim", "--json", "home", "--all", "--wait"], "module");
+    assert_eq!(ids, [3, 5, 17]);
+    let ms: Vec<u64> = doc["devices"].as_array().unwrap().iter().map(|d| d["elapsed_ms"].as_u64().unwrap()).collect();
+    assert!(ms.iter().all(|&t| t > 0) && ms.windows(2).all(|w| w[1] >= w[0]), "{ms:?}");
+}

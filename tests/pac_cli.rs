@@ -293,7 +293,7 @@ fn sim_online_reference_and_move_with_live_position() {
     let r = srun(&["--link", link, "--json", "pac-move", "2", "200", "--wait", "--progress-json"]);
     assert_eq!(r.code, 0, "{}", r.stderr);
     let end = r.json();
-    assert!((end["position"].as_f64().unwrap() - 200.0).abs() < 1e-3, "{end}");
+    assert!((end["position"]["value"].as_f64().unwrap() - 200.0).abs() < 1e-3, "{end}");
     assert_eq!(end["axis_status"], 0);
     let positions: Vec<f64> = r
         .stderr
@@ -306,8 +306,14 @@ fn sim_online_reference_and_move_with_live_position() {
     assert!(positions.windows(2).all(|w| w[1] >= w[0] - 1e-9), "monotonic towards the target: {positions:?}");
     let axis = ok(&["--link", link, "--json", "pac-axis", "2"]);
     assert_eq!(axis["axis"], 2);
-    assert!((axis["position"].as_f64().unwrap() - 200.0).abs() < 1e-3, "{axis}");
+    assert!((axis["position"]["value"].as_f64().unwrap() - 200.0).abs() < 1e-3, "{axis}");
     assert_eq!(axis["axis_status"], 0);
+    assert_eq!(
+        (&axis["position"]["unit"], &axis["speed"]["unit"]),
+        (&serde_json::json!("AE"), &serde_json::json!("AE/s"))
+    );
+    let flags = &axis["state"]["flags"];
+    assert!(flags.as_array().unwrap().iter().any(|f| f == "POWER_PACK_READY"), "{axis}");
 }
 
 #[test]
@@ -316,7 +322,7 @@ fn sim_target_outside_the_traverse_area_is_error_65() {
     let link = sim.link("pac");
     ok(&["--link", link, "--json", "pac-online"]);
     ok(&["--link", link, "--json", "pac-no-ref", "1"]);
-    let max = ok(&["--link", link, "--json", "pac-axis", "1"])["traverse_max"].as_f64().unwrap();
+    let max = ok(&["--link", link, "--json", "pac-axis", "1"])["traverse_max"]["value"].as_f64().unwrap();
     let beyond = format!("{}", max + 100.0);
     let r = srun(&["--link", link, "pac-move", "1", &beyond]);
     assert_eq!(r.code, 2, "checked locally first: {}", r.stderr);

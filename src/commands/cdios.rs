@@ -566,18 +566,23 @@ fn store(ctx: &Ctx, t: ModuleTarget, defaults: bool) -> anyhow::Result<()> {
 
 // ---- watch ----
 
-fn event_json(ev: &Event, start: Instant) -> Value {
+fn event_json(ctx: &Ctx, ev: &Event, start: Instant) -> Value {
     let a = &ev.answer;
-    let mut doc = json!({"type": "event", "node": a.node, "module": a.module,
-                         "t_ms": ev.at.saturating_duration_since(start).as_millis() as u64,
-                         "code": a.data[0], "data": a.data});
+    let address = [("node", u64::from(a.node.get())), ("module", u64::from(a.module))];
+    let mut doc = output::device_doc(
+        output::envelope(Family::Cdios, &ctx.link_text, &address),
+        json!({"type": "event", "t_ms": ev.at.saturating_duration_since(start).as_millis() as u64,
+               "code": a.data[0], "data": a.data}),
+    );
     if let Some(r) = ev.decoded() {
-        doc["command"] = json!(r.def.map(|d| d.key));
+        if let Some(def) = r.def {
+            doc["command"] = json!(def.key);
+        }
         let values: serde_json::Map<String, Value> =
             r.fields.iter().map(|f| (f.key.to_string(), json!(f.raw))).collect();
         if r.def.is_some_and(|d| d.key == "read_status") {
             let g = |k: &str| r.get(k).unwrap_or(0) as u8;
-            merge(&mut doc, status_json(&decode_status([g("status1"), g("status2"), g("status3"), g("status4")])));
+            doc["state"] = status_json(&decode_status([g("status1"), g("status2"), g("status3"), g("status4")]));
         }
         doc["values"] = Value::Object(values);
     }
@@ -613,9 +618,8 @@ fn watch(
                 last = Some((r.status, pos));
                 let t_ms = (clock.now() - start).as_millis() as u64;
                 if ctx.json {
-                    let mut doc = json!({"type": "status", "node": node, "module": m, "t_ms": t_ms, "position": pos});
-                    merge(&mut doc, status_json(&r));
-                    output::json(&doc);
+                    let body = json!({"type": "status", "t_ms": t_ms, "position": pos, "state": status_json(&r)});
+                    output::json(&doc(ctx, node, m, body));
                 } else {
                     println!("{:>9.3} status   pos {pos:<11} {}", t_ms as f64 / 1e3, status_line(ctx, &r));
                 }
@@ -635,7 +639,7 @@ fn watch(
                 continue;
             }
             if ctx.json {
-                output::json(&event_json(&ev, start));
+                output::json(&event_json(ctx, &ev, start));
             } else {
                 let t_ms = ev.at.saturating_duration_since(start).as_millis() as f64 / 1e3;
                 println!("{t_ms:>9.3} event    {}", ev.answer);

@@ -306,13 +306,14 @@ fn move_axis(
         output::json(&doc(
             on_axis(ctx, axis),
             json!({"command": def(code).name, "command_code": def(code).code_hex(),
-            "target": target, "start_position": start_position, "position": position, "axis_status": status,
+            "target": target, "start_position": start_position,
+            "position": output::with_unit(json!(position), POSITION_UNIT), "axis_status": status,
             "axis_status_text": table::axis_status_text(status), "done": true,
             "elapsed_ms": elapsed.as_millis() as u64}),
         ));
     } else {
         crate::output::say!(
-            "axis {axis}: at {position} after {:.2} s ({})",
+            "axis {axis}: at {position} {POSITION_UNIT} after {:.2} s ({})",
             elapsed.as_secs_f64(),
             table::axis_status_text(status)
         );
@@ -364,12 +365,16 @@ fn reference(ctx: &Ctx, d: &mut Controller, axis: u8, wait: PacWait) -> anyhow::
         let mut doc = doc(
             on_axis(ctx, axis),
             json!({"command": def(0x0A84).name, "command_code": "0A84",
-            "done": true, "position": position, "polls": done.polls, "elapsed_ms": done.elapsed.as_millis() as u64}),
+            "done": true, "position": output::with_unit(json!(position), POSITION_UNIT), "polls": done.polls,
+            "elapsed_ms": done.elapsed.as_millis() as u64}),
         );
         merge(&mut doc, status_json(&done.ack));
         output::json(&doc);
     } else {
-        crate::output::say!("axis {axis}: referenced, at {position} after {:.2} s", done.elapsed.as_secs_f64());
+        crate::output::say!(
+            "axis {axis}: referenced, at {position} {POSITION_UNIT} after {:.2} s",
+            done.elapsed.as_secs_f64()
+        );
     }
     Ok(())
 }
@@ -381,17 +386,44 @@ fn axis_json(ctx: &Ctx, d: &mut Controller, axis: u8) -> anyhow::Result<serde_js
     let area = d.traverse_area(axis)?;
     let (position, speed, status, ext_raw) = (state.position, state.speed, state.status as u64, state.ext_status);
     let (min, max) = (area.min, area.max);
-    let ext = ExtAxisStatus::decode(ext_raw);
     Ok(doc(
         envelope,
-        json!({"position": position, "speed": speed, "axis_status": status,
-              "axis_status_text": table::axis_status_text(status),
-              "extended_status": {"raw": ext_raw, "power_pack_ready": ext.power_pack_ready,
-                  "positive_limit_activated": ext.positive_limit_activated,
-                  "negative_limit_activated": ext.negative_limit_activated,
-                  "axis_status": ext.axis_status, "axis_status_text": ext.axis_status_text},
-              "traverse_min": min, "traverse_max": max}),
+        json!({"position": output::with_unit(json!(position), POSITION_UNIT),
+              "speed": output::with_unit(json!(speed), SPEED_UNIT), "axis_status": status,
+              "axis_status_text": table::axis_status_text(status), "state": ext_status_json(ext_raw),
+              "traverse_min": output::with_unit(json!(min), POSITION_UNIT),
+              "traverse_max": output::with_unit(json!(max), POSITION_UNIT)}),
     ))
+}
+
+/// The manual's user units (AE) of positions and speeds.
+const POSITION_UNIT: &str = "AE";
+const SPEED_UNIT: &str = "AE/s";
+
+/// The extended axis status (1921, manual 5.2.4.28) in the one `state`
+/// shape. Its bytes are fields, not bits: the mask of a flag is the byte
+/// that says it (a limit switch is activated when its byte is 0); the low
+/// byte is the axis status of 1910, whose codes 1, 2, 4, 8 are bits.
+fn ext_status_json(raw: u32) -> serde_json::Value {
+    let ext = ExtAxisStatus::decode(raw);
+    let mut set = Vec::new();
+    let mut flag = |on: bool, name, mask, class, description| {
+        if on {
+            set.push(output::Detail { name, mask, class, description });
+        }
+    };
+    flag(ext.power_pack_ready, "POWER_PACK_READY", 0xff00_0000, "info", "the power pack is ready (bits 24-31 = 1)");
+    let positive = "the positive limit switch is activated (bits 16-23 = 0)";
+    flag(ext.positive_limit_activated, "POSITIVE_LIMIT_ACTIVATED", 0x00ff_0000, "warning", positive);
+    let negative = "the negative limit switch is activated (bits 8-15 = 0)";
+    flag(ext.negative_limit_activated, "NEGATIVE_LIMIT_ACTIVATED", 0x0000_ff00, "warning", negative);
+    let names = ["AXIS_MOVING", "AXIS_STOPPED", "AXIS_FAULT", "AXIS_MEASURING_MODE"];
+    for (bit, name) in names.into_iter().enumerate() {
+        let mask = 1u64 << bit;
+        let class = if name == "AXIS_FAULT" { "error" } else { "info" };
+        flag(u64::from(ext.axis_status) & mask != 0, name, mask, class, table::axis_status_text(mask));
+    }
+    output::state(raw.into(), &set, u64::from(ext.axis_status & 0xf0))
 }
 
 /// `pac-axis` of each axis asked for: one object for one axis, else
@@ -420,18 +452,22 @@ fn axis_info(ctx: &Ctx, d: &mut Controller, axis: u8) -> anyhow::Result<serde_js
     if ctx.json {
         return Ok(doc);
     }
-    let e = &doc["extended_status"];
-    let yes = |v: &serde_json::Value| if v.as_bool() == Some(true) { "yes" } else { "no" };
+    let flags = &doc["state"]["flags"];
+    let yes = |name: &str| if flags.as_array().is_some_and(|f| f.iter().any(|f| f == name)) { "yes" } else { "no" };
+    let with_unit = |v: &serde_json::Value| format!("{} {}", v["value"], v["unit"].as_str().unwrap_or(""));
     let rows = vec![
         vec!["axis".into(), axis.to_string()],
-        vec!["position".into(), doc["position"].to_string()],
-        vec!["speed".into(), doc["speed"].to_string()],
+        vec!["position".into(), with_unit(&doc["position"])],
+        vec!["speed".into(), with_unit(&doc["speed"])],
         vec!["status".into(), format!("{} {}", doc["axis_status"], doc["axis_status_text"].as_str().unwrap_or(""))],
-        vec!["traverse area".into(), format!("{} ..= {}", doc["traverse_min"], doc["traverse_max"])],
-        vec!["power pack ready".into(), yes(&e["power_pack_ready"]).into()],
-        vec!["+ limit switch activated".into(), yes(&e["positive_limit_activated"]).into()],
-        vec!["- limit switch activated".into(), yes(&e["negative_limit_activated"]).into()],
-        vec!["extended status".into(), format!("{:#010x}", e["raw"].as_u64().unwrap_or(0))],
+        vec![
+            "traverse area".into(),
+            format!("{} to {}", doc["traverse_min"]["value"], with_unit(&doc["traverse_max"])),
+        ],
+        vec!["power pack ready".into(), yes("POWER_PACK_READY").into()],
+        vec!["+ limit switch activated".into(), yes("POSITIVE_LIMIT_ACTIVATED").into()],
+        vec!["- limit switch activated".into(), yes("NEGATIVE_LIMIT_ACTIVATED").into()],
+        vec!["extended status".into(), format!("{:#010x}", doc["state"]["raw"].as_u64().unwrap_or(0))],
     ];
     output::table(&rows, crate::output::Style { color: false });
     Ok(serde_json::Value::Null)
@@ -447,7 +483,7 @@ fn axes(ctx: &Ctx, d: &mut Controller) -> anyhow::Result<()> {
         let status = d.read_i64(0x1910, a)? as u64;
         list.push(doc(
             on_axis(ctx, axis),
-            json!({"position": position, "axis_status": status,
+            json!({"position": output::with_unit(json!(position), POSITION_UNIT), "axis_status": status,
                          "axis_status_text": table::axis_status_text(status)}),
         ));
     }
@@ -459,7 +495,7 @@ fn axes(ctx: &Ctx, d: &mut Controller) -> anyhow::Result<()> {
     for a in &list {
         rows.push(vec![
             a["axis"].to_string(),
-            a["position"].to_string(),
+            format!("{} {POSITION_UNIT}", a["position"]["value"]),
             format!("{} {}", a["axis_status"], a["axis_status_text"].as_str().unwrap_or("")),
         ]);
     }

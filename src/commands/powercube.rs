@@ -332,8 +332,15 @@ fn home(ctx: &Ctx, target: Target, wait: WaitArgs) -> anyhow::Result<()> {
         None => cubes.present()?,
     };
     let mut results = Vec::new();
+    let mut since_start = Duration::ZERO;
     for m in modules {
-        results.push(wait_for(ctx, &mut cubes, m, wait, Goal::Homed)?);
+        let mut end = wait_for(ctx, &mut cubes, m, wait, Goal::Homed)?;
+        // The modules home together but are waited for one after the
+        // other: each one's time counts from the broadcast, not from the
+        // end of the previous wait.
+        since_start += end.elapsed;
+        end.elapsed = since_start;
+        results.push(end);
     }
     print_wait_results(ctx, &mut cubes, "home", &results)
 }
