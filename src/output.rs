@@ -172,6 +172,13 @@ pub fn target(
     doc
 }
 
+/// Forgets the device addressed last: what follows concerns several.
+pub fn forget_target() {
+    if let Ok(mut t) = TARGET.lock() {
+        *t = None;
+    }
+}
+
 /// The family and address of the device addressed last, if any.
 pub fn current_target() -> Option<serde_json::Map<String, serde_json::Value>> {
     TARGET.lock().ok().and_then(|t| t.clone())

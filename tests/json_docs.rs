@@ -113,6 +113,44 @@ fn every_documented_example_matches_real_output() {
     assert!(checked >= 20, "only {checked} examples found");
 }
 
+/// Commands whose --json output is no single document: the dashboard is a
+/// terminal UI, `monitor` and `sim` stream JSON Lines (docs/guide.md).
+const NOT_DOCUMENTS: [&str; 4] = ["dashboard", "help", "monitor", "sim"];
+
+// Every command's JSON is documented, so every command's output is checked
+// against the schema by the test above.
+#[test]
+fn every_command_has_a_documented_example() {
+    let help = common::run(&["--help"]).stdout;
+    let commands: Vec<&str> = help
+        .lines()
+        .skip_while(|l| !l.starts_with("Commands:"))
+        .skip(1)
+        .take_while(|l| l.starts_with("  "))
+        .filter_map(|l| l.split_whitespace().next())
+        .collect();
+    assert!(commands.len() > 40, "{help}");
+    let mut documented = std::collections::BTreeSet::new();
+    for entry in std::fs::read_dir(concat!(env!("CARGO_MANIFEST_DIR"), "/docs")).unwrap() {
+        let path = entry.unwrap().path();
+        if !path.file_name().unwrap().to_string_lossy().starts_with("json") {
+            continue;
+        }
+        for (cmd, _) in examples(&std::fs::read_to_string(&path).unwrap()) {
+            let words: Vec<&str> = cmd.split_whitespace().collect();
+            // The first word that is neither an option nor an option's value.
+            let mut i = 0;
+            while i < words.len() && words[i].starts_with('-') {
+                i += if matches!(words[i], "--link" | "--timeout" | "--retries" | "--log") { 2 } else { 1 };
+            }
+            documented.extend(words.get(i).map(|w| w.to_string()));
+        }
+    }
+    let missing: Vec<&&str> =
+        commands.iter().filter(|c| !NOT_DOCUMENTS.contains(c) && !documented.contains(**c)).collect();
+    assert!(missing.is_empty(), "no documented --json example for {missing:?}");
+}
+
 #[test]
 fn shape_comparison_notices_differences() {
     let a: Value = serde_json::json!({"module": 17, "flags": ["X"]});

@@ -479,10 +479,11 @@ fn axes(ctx: &Ctx, d: &mut Controller) -> anyhow::Result<()> {
     let mut list = Vec::new();
     for axis in 1..=n {
         let a = i64::from(axis);
+        let envelope = on_axis(ctx, axis);
         let position = d.read_f64(0x190C, a)?;
         let status = d.read_i64(0x1910, a)? as u64;
         list.push(doc(
-            on_axis(ctx, axis),
+            envelope,
             json!({"position": output::with_unit(json!(position), POSITION_UNIT), "axis_status": status,
                          "axis_status_text": table::axis_status_text(status)}),
         ));

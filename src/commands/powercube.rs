@@ -32,6 +32,11 @@ pub fn run(ctx: &Ctx, cmd: Command) -> anyhow::Result<()> {
         Command::Halt { target } => simple(ctx, target, Simple::Halt),
         Command::MoveRamp { modules, pos, vel, acc, ticks, force, sync, wait } => {
             let ms: Vec<ModuleId> = modules.0.iter().map(|id| module(*id)).collect();
+            if ms.len() > 1 {
+                // A failure of a synchronized move is the group's, not the
+                // last module's.
+                output::forget_target();
+            }
             match (&ms[..], &pos[..]) {
                 _ if sync => move_ramp_sync(ctx, &ms, &pos, (vel, acc), ticks, force, wait),
                 ([m], [p]) => move_ramp(ctx, *m, *p, vel, acc, ticks, force, wait),
