@@ -185,6 +185,8 @@ fn schema_rejects_broken_conventions() {
         serde_json::json!({"family": "cdios", "link": "sim", "module": 0}),
         serde_json::json!({"module": 3, "error": 0}),
         serde_json::json!({"devices": [{"module": 3}]}),
+        serde_json::json!({"family": "pac", "link": "sim", "axis": 2, "position": 200.5}),
+        serde_json::json!({"family": "cdios", "link": "sim", "node": 1, "module": 0, "motor_speed": 300}),
     ] {
         assert!(schema_errors(&document, &bad).is_some(), "accepted {bad}");
     }

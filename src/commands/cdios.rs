@@ -320,7 +320,7 @@ fn goto(
     let confirmed = if wait.wait { s.send_supervised(m, &cmds, 1 + ctx.retry.read_retries) } else { s.send(m, &cmds) }?;
     let mut extra = json!({"mode": device::mode_name(mode), "requested": position});
     if let Some(v) = speed {
-        extra["speed"] = json!(v);
+        extra["speed"] = output::with_unit(json!(v), "rpm");
     }
     if !wait.wait {
         report_sent(ctx, node, m, "cdios-goto", confirmed, extra);

@@ -568,6 +568,21 @@ fn reg(ctx: &Ctx, d: &mut Controller, register: &str, value: Option<&str>) -> an
     Ok(())
 }
 
+/// A parameter in the one shape of every family (`.params.NAME.value`);
+/// `limit` says whether the value is the parameter's `min` or `max` rather
+/// than its value.
+fn param_json(
+    name: &str,
+    id: impl Into<u64>,
+    ty: &str,
+    unit: &str,
+    value: serde_json::Value,
+    what: &str,
+) -> serde_json::Value {
+    let limit = if what == "value" { serde_json::Value::Null } else { json!(what) };
+    json!({"params": {name: {"id": id.into(), "type": ty, "unit": unit, "value": value}}, "limit": limit})
+}
+
 fn parse_value(text: &str) -> anyhow::Result<f64> {
     let v: f64 = text.trim().parse().map_err(|_| usage(format!("{text:?} is not a number")))?;
     finite("value", v)
@@ -592,7 +607,7 @@ fn sys_param(ctx: &Ctx, d: &mut Controller, name: &str, access: &ParamAccess) ->
         }
     };
     if ctx.json {
-        output::json(&doc(controller(ctx), json!({"param": p.number, "name": p.name, what: value})));
+        output::json(&doc(controller(ctx), param_json(p.name, p.number, "int", "", json!(value), what)));
     } else {
         println!("system parameter {} ({}) {what}: {value}", p.number, p.manual_name);
     }
@@ -617,7 +632,7 @@ fn axis_param(ctx: &Ctx, d: &mut Controller, axis: u8, name: &str, access: &Para
         }
     };
     if ctx.json {
-        output::json(&doc(on_axis(ctx, axis), json!({"param": p.number, "name": p.name, "unit": p.unit, what: value})));
+        output::json(&doc(on_axis(ctx, axis), param_json(p.name, p.number, "float", p.unit, json!(value), what)));
     } else {
         println!("axis {axis} parameter {} ({}) {what}: {value} {}", p.number, p.manual_name, p.unit);
     }
