@@ -284,7 +284,10 @@ fn move_axis(
             merge(&mut doc, status_json(&started.ack));
             output::json(&doc);
         } else {
-            println!("axis {axis}: moving from {start_position} to {target} ({} started)", def(code).code_hex());
+            println!(
+                "axis {axis}: moving from {start_position} to {target} {POSITION_UNIT} ({} started)",
+                def(code).code_hex()
+            );
         }
         return Ok(());
     }
