@@ -353,7 +353,7 @@ fn sim_mode_refusal_registers_flags_and_check_rules() {
     let r = ok(&["--link", link, "--json", "--pac-check-etx", "pac-reg", "N5"]);
     assert_eq!(r["value"].as_i64(), Some(12345));
     let raw = ok(&["--link", link, "--json", "pac-raw", "1906", "5"]);
-    assert_eq!(raw["q_par"], 12345.0);
+    assert_eq!(raw["q_par"].as_i64(), Some(12345), "TYP 0 stays an integer: {raw}");
     assert_eq!(raw["quit"], 0);
 }
 

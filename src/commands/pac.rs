@@ -117,6 +117,14 @@ fn doc(envelope: serde_json::Map<String, serde_json::Value>, body: serde_json::V
     output::device_doc(envelope, body)
 }
 
+/// A parameter in its wire type: TYP 0 an integer, TYP 1 a float.
+fn par_json(p: &Par2) -> serde_json::Value {
+    match *p {
+        Par2::Int(i) => json!(i),
+        Par2::Float(f) => json!(f),
+    }
+}
+
 fn check_rule_name(r: CheckRule) -> &'static str {
     match r {
         CheckRule::Strict => "strict",
@@ -140,7 +148,7 @@ fn simple(ctx: &Ctx, d: &mut Controller, code: u16, axis: Option<u8>, value: Opt
     let ack = done.ack;
     let ack_value = match def.ack {
         table::AckKind::None => None,
-        _ => Some(ack.q_par.as_f64()),
+        _ => Some(ack.q_par),
     };
     if ctx.json {
         let mut doc = doc(
@@ -152,7 +160,7 @@ fn simple(ctx: &Ctx, d: &mut Controller, code: u16, axis: Option<u8>, value: Opt
             doc["par2"] = json!(v);
         }
         if let Some(v) = ack_value {
-            doc["ack_value"] = json!(v);
+            doc["ack_value"] = par_json(&v);
         }
         merge(&mut doc, status_json(&ack));
         output::json(&doc);
@@ -685,8 +693,8 @@ fn raw(ctx: &Ctx, d: &mut Controller, code_text: &str, par1: i64, par2: Option<&
             controller(ctx),
             json!({"command": "pac-raw", "command_code": format!("{:04X}", cmd.code),
             "name": def.map(|d| d.name), "par1": cmd.par1,
-            "par2": cmd.par2.as_f64(), "quit": ack.quit, "be": ack.be, "typ": ack.q_par.typ(),
-            "q_par": ack.q_par.as_f64(), "polls": done.polls, "check_rule": check_rule_name(ack.check_rule)}),
+            "par2": par_json(&cmd.par2), "quit": ack.quit, "be": ack.be, "typ": ack.q_par.typ(),
+            "q_par": par_json(&ack.q_par), "polls": done.polls, "check_rule": check_rule_name(ack.check_rule)}),
         );
         merge(&mut doc, status_json(&ack));
         output::json(&doc);

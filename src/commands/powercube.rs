@@ -677,9 +677,15 @@ fn keepalive(ctx: &Ctx, pc: &mut PowerCube, interval_ms: u64, duration: Option<f
     let st = pc.keepalive(Duration::from_millis(interval_ms), &mut keep_going)?;
     let ms = |us: u64| us as f64 / 1e3;
     if ctx.json {
-        output::json(&json!({"refreshes": st.refreshes, "interval_ms": interval_ms,
+        // The refresh is a broadcast: addressed to every module.
+        let mut all = output::envelope(Family::PowerCube, &ctx.link_text, &[]);
+        all.insert("module".into(), serde_json::Value::Null);
+        output::json(&output::device_doc(
+            all,
+            json!({"refreshes": st.refreshes, "interval_ms": interval_ms,
             "min_gap_ms": ms(st.min_gap_us), "mean_gap_ms": ms(st.mean_gap_us), "p99_gap_ms": ms(st.p99_gap_us),
-            "max_gap_ms": ms(st.max_gap_us), "scheduling": scheduling}));
+            "max_gap_ms": ms(st.max_gap_us), "scheduling": scheduling}),
+        ));
     } else {
         println!(
             "{} watchdog refreshes, interval {interval_ms} ms, gaps min {:.2} / mean {:.2} / p99 {:.2} / max {:.2} ms \
