@@ -99,6 +99,19 @@ fn other_errors_carry_the_address_but_no_device_object() {
     assert!(e.get("device").is_none(), "{e}");
 }
 
+// A link that cannot be opened and a missing link: the same object, with
+// their own kinds and exit codes.
+#[test]
+fn link_errors_under_json() {
+    let e = error_with(&["--link", "serial:/dev/axisctl-none", "--json", "state", "-m", "3"], 3);
+    assert_eq!(e["kind"], "link");
+    assert!(e["message"].as_str().unwrap().contains("/dev/axisctl-none"), "{e}");
+    let r = common::bin().env_remove("AXISCTL_LINK").args(["--json", "state", "-m", "3"]).output().unwrap();
+    assert_eq!(r.status.code(), Some(2));
+    let doc: Value = serde_json::from_slice(&r.stderr).unwrap();
+    assert_eq!((&doc["error"]["kind"], &doc["error"]["exit_code"]), (&json!("usage"), &json!(2)), "{doc}");
+}
+
 // clap's rejections are errors like any other under --json: one object,
 // kind usage, exit 2, nothing sent.
 #[test]
