@@ -248,16 +248,16 @@ check "sim announced socketcan:vcan0" jq_file sim.jsonl '.family == "powercube" 
 check "sim stopped cleanly on SIGINT (exit 0)" is_rc sim 0
 check "sim wrote nothing to stderr" is_empty sim.err
 check "scan exits 0" is_rc scan 0
-check "scan lists modules 3, 5, 17" jq_on scan '[.modules[].module] == [3, 5, 17]'
+check "scan lists modules 3, 5, 17" jq_on scan '[.devices[].module] == [3, 5, 17]'
 check "home -m 17 exits 0 and is acknowledged" jq_on home '.acknowledged == true and .module == 17'
 check "home -m 17: 0F1#01 then 0B1#01 on the bus" in_order home '0F1#01' '0B1#01'
 check "home -m 17 --wait exits 0" is_rc home-wait 0
 check "home -m 17 --wait ends with STATE_HOME_OK" jq_on home-wait '.done == true and (.state.flags | index("STATE_HOME_OK") != null)'
 check "home -m 17 --wait sent Home" in_order home-wait '0F1#01' '0B1#01'
 check "state -m 17 exits 0 and shows STATE_HOME_OK" \
-    jq_on state '.module == 17 and (.flags | index("STATE_HOME_OK") != null) and .errors == []'
+    jq_on state '.module == 17 and (.state.flags | index("STATE_HOME_OK") != null) and .state.errors == []'
 check "move-ramp -m 3 0.5 --wait exits 0" is_rc ramp 0
-check "move-ramp ends at 0.5 +- 1e-3" jq_on ramp '.done == true and ((.position - 0.5) | (. < 1e-3 and . > -1e-3))'
+check "move-ramp ends at 0.5 +- 1e-3" jq_on ramp '.done == true and ((.position.value - 0.5) | (. < 1e-3 and . > -1e-3))'
 check "move-ramp sent SetMotion to module 3 (0E3#0B...)" has_frame ramp '^0E3#0B'
 check "get-param -m 17 ActPos exits 0 at 0 +- 1e-3 after homing" \
     jq_on get-param '.module == 17 and .params.ActPos.id == 60 and (.params.ActPos.value | (. < 1e-3 and . > -1e-3))'

@@ -16,7 +16,11 @@ fn main() -> ExitCode {
         Ok(cli) => cli,
         Err(e) => {
             let code = if e.use_stderr() { commands::exit::code(ErrorKind::Usage) } else { commands::exit::SUCCESS };
-            let _ = e.print();
+            if e.use_stderr() && json_requested() {
+                let _ = writeln!(std::io::stderr(), "{}", commands::error_json::usage(&e, code));
+            } else {
+                let _ = e.print();
+            }
             return ExitCode::from(code);
         }
     };
@@ -34,21 +38,19 @@ fn main() -> ExitCode {
         Err(e) if is_broken_pipe(&e) => ExitCode::SUCCESS,
         Err(e) => {
             let kind = commands::classify(&e);
-            if json {
-                let mut error = serde_json::json!({"kind": kind.as_str(), "message": message(&e)});
-                if let Some(refusal) = commands::refusal(&e) {
-                    error["device"] = serde_json::to_value(refusal).unwrap_or_default();
-                }
-                let _ = writeln!(std::io::stderr(), "{}", serde_json::json!({ "error": error }));
-            } else {
-                let _ = writeln!(std::io::stderr(), "axisctl: {}", message(&e));
-            }
             // A supervised motion that a signal ended exits like the signal
             // would have (130 SIGINT, 143 SIGTERM, 129 SIGHUP, 131 SIGQUIT).
             let code = match (kind, supervisor::caught()) {
                 (ErrorKind::Interrupted, Some(sig)) => supervisor::exit_code(sig),
                 _ => commands::exit::code(kind),
             };
+            if json {
+                let refusal = commands::refusal(&e);
+                let doc = commands::error_json::failure(kind.as_str(), code, message(&e), refusal.as_ref());
+                let _ = writeln!(std::io::stderr(), "{doc}");
+            } else {
+                let _ = writeln!(std::io::stderr(), "axisctl: {}", message(&e));
+            }
             ExitCode::from(code)
         }
     }
@@ -70,6 +72,12 @@ fn message(e: &anyhow::Error) -> String {
     }
     out.push_str(&commands::hint(e).unwrap_or_default());
     out
+}
+
+/// `--json` on a command line clap could not parse: the error must still
+/// be the JSON object a script expects (everything after `--` is a value).
+fn json_requested() -> bool {
+    std::env::args_os().skip(1).take_while(|a| a != "--").any(|a| a == "--json")
 }
 
 fn is_broken_pipe(e: &anyhow::Error) -> bool {

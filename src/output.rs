@@ -136,3 +136,101 @@ fn visible_len(s: &str) -> usize {
     }
     n
 }
+
+/// The device a command is addressing, kept for the error object: set each
+/// time a device is addressed, so that a failure names the one it hit.
+static TARGET: std::sync::Mutex<Option<serde_json::Map<String, serde_json::Value>>> = std::sync::Mutex::new(None);
+
+/// The envelope every per-device JSON object starts with (docs/json.md):
+/// the family's registry name, the device's address in the family's one
+/// form and the link as given. Also records the address for
+/// [`current_target`].
+pub fn envelope(
+    family: axisctl::family::Family,
+    link: &str,
+    address: &[(&'static str, u64)],
+) -> serde_json::Map<String, serde_json::Value> {
+    let mut doc = target(family, address);
+    doc.insert("link".into(), link.into());
+    doc
+}
+
+/// Records that the command now talks to this device; returns its address
+/// with the family.
+pub fn target(
+    family: axisctl::family::Family,
+    address: &[(&'static str, u64)],
+) -> serde_json::Map<String, serde_json::Value> {
+    let mut doc = serde_json::Map::new();
+    doc.insert("family".into(), family.name().into());
+    for (key, id) in address {
+        doc.insert((*key).into(), (*id).into());
+    }
+    if let Ok(mut t) = TARGET.lock() {
+        *t = Some(doc.clone());
+    }
+    doc
+}
+
+/// Forgets the device addressed last: what follows concerns several.
+pub fn forget_target() {
+    if let Ok(mut t) = TARGET.lock() {
+        *t = None;
+    }
+}
+
+/// The family and address of the device addressed last, if any.
+pub fn current_target() -> Option<serde_json::Map<String, serde_json::Value>> {
+    TARGET.lock().ok().and_then(|t| t.clone())
+}
+
+/// `{"value": v, "unit": "m"}`: a number with the manual's unit (`""` for
+/// none), the one value shape of every family.
+pub fn with_unit(value: serde_json::Value, unit: &str) -> serde_json::Value {
+    serde_json::json!({"value": value, "unit": unit})
+}
+
+/// `envelope` followed by the command's own keys.
+pub fn device_doc(
+    mut envelope: serde_json::Map<String, serde_json::Value>,
+    body: serde_json::Value,
+) -> serde_json::Value {
+    if let serde_json::Value::Object(b) = body {
+        envelope.extend(b);
+    }
+    serde_json::Value::Object(envelope)
+}
+
+/// One set flag in the common detail shape of every family.
+pub struct Detail<'a> {
+    pub name: &'a str,
+    /// The flag's bit(s) within the raw word.
+    pub mask: u64,
+    /// `error`, `warning`, `info` or `obsolete`.
+    pub class: &'a str,
+    pub description: &'a str,
+}
+
+/// The one `state` shape of all families: the raw word, the set flags by
+/// name (and those that are errors or warnings), each explained, and the
+/// set bits no flag names, as a mask.
+pub fn state(raw: u64, set: &[Detail], unknown_bits: u64) -> serde_json::Value {
+    let names = |class: Option<&str>| -> Vec<&str> {
+        set.iter().filter(|d| class.is_none_or(|c| d.class == c)).map(|d| d.name).collect()
+    };
+    let details: Vec<_> = set
+        .iter()
+        .map(|d| serde_json::json!({"name": d.name, "mask": d.mask, "class": d.class, "description": d.description}))
+        .collect();
+    serde_json::json!({"raw": raw, "flags": names(None), "errors": names(Some("error")),
+                       "warnings": names(Some("warning")), "details": details, "unknown_bits": unknown_bits})
+}
+
+/// A PowerCube flag word (CubeState, Config, DioSetup) in the `state` shape.
+pub fn flag_word(word: &axisctl::proto::powercube::flags::FlagWord, raw: u32) -> serde_json::Value {
+    let set: Vec<Detail> = word
+        .set_flags(raw)
+        .map(|d| Detail { name: d.name, mask: d.mask.into(), class: d.class.name(), description: d.description })
+        .collect();
+    state(raw.into(), &set, u64::from(raw & !word.known_mask()))
+}

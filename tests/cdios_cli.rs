@@ -27,7 +27,7 @@ fn ok(r: &Run, what: &str) {
 }
 
 fn flags(doc: &Value) -> Vec<String> {
-    doc["flags"].as_array().unwrap().iter().map(|f| f.as_str().unwrap().to_string()).collect()
+    doc["state"]["flags"].as_array().unwrap().iter().map(|f| f.as_str().unwrap().to_string()).collect()
 }
 
 #[test]
@@ -36,7 +36,9 @@ fn in_process_sim_answers_status_and_position() {
     ok(&r, "status");
     let doc = r.json();
     assert_eq!((doc["node"].as_u64(), doc["module"].as_u64()), (Some(1), Some(0)));
-    assert_eq!(doc["status"].as_array().unwrap().len(), 4);
+    assert_eq!(doc["family"], "cdios");
+    let raw = doc["state"]["raw"].as_u64().unwrap();
+    assert!(raw <= u64::from(u32::MAX), "4 status bytes: {raw}");
     assert!(flags(&doc).contains(&"POSITION_NOT_INITIALIZED".to_string()), "{doc}");
     let p = run(&["--link", "sim", "--json", "cdios-position", "-m", "1"]);
     ok(&p, "position");
@@ -85,7 +87,7 @@ fn status_flags_while_moving_and_stop() {
     for want in ["GOTO_ACTIVE", "RUNNING_FORWARD", "ENABLED"] {
         assert!(f.contains(&want.to_string()), "{want} while moving: {f:?}");
     }
-    assert!(st.json()["motor_speed"].as_u64().unwrap() > 0);
+    assert!(st.json()["motor_speed"]["value"].as_u64().unwrap() > 0);
     // A goto while one runs with a sin2 slope or a START is refused; a STOP ends it.
     ok(&run(&["--link", link, "cdios-stop", "-m", "0", "--option", "fast"]), "stop");
     let st = run(&["--link", link, "--json", "cdios-status", "-m", "0"]);
@@ -143,7 +145,7 @@ fn powercube_and_cdios_share_one_slcan_pty() {
     let scan = run(&["--link", pc, "--json", "scan"]);
     ok(&scan, "scan");
     let ids: Vec<u64> =
-        scan.json()["modules"].as_array().unwrap().iter().map(|m| m["module"].as_u64().unwrap()).collect();
+        scan.json()["devices"].as_array().unwrap().iter().map(|m| m["module"].as_u64().unwrap()).collect();
     assert_eq!(ids, [3, 5, 17]);
     let id = run(&["--link", cd, "--json", "cdios-identify"]);
     ok(&id, "identify");

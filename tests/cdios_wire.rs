@@ -82,7 +82,7 @@ fn goto_sends_nmt_then_the_contract_frame() {
         (doc["node"].as_u64(), doc["module"].as_u64(), doc["requested"].as_i64()),
         (Some(1), Some(1), Some(5000))
     );
-    assert_eq!(doc["confirmed"], true);
+    assert_eq!(doc["acknowledged"], true);
 }
 
 #[test]
@@ -135,10 +135,11 @@ fn events_and_powercube_frames_do_not_answer_a_read() {
     });
     assert_eq!(code, 0, "{err}");
     let doc: serde_json::Value = serde_json::from_str(&out).unwrap();
-    assert_eq!(doc["status"], serde_json::json!([0x81, 0, 0x80, 0x10]));
-    assert_eq!(doc["motor_speed"], 300);
-    assert_eq!(doc["rpm_error"], -10);
-    assert!(doc["flags"].as_array().unwrap().iter().any(|f| f == "GOTO_ACTIVE"));
+    // Status bytes 81 00 80 10, status 1 the low byte of raw.
+    assert_eq!(doc["state"]["raw"], 0x1080_0081);
+    assert_eq!(doc["motor_speed"]["value"], 300);
+    assert_eq!(doc["rpm_error"]["value"], -10);
+    assert!(doc["state"]["flags"].as_array().unwrap().iter().any(|f| f == "GOTO_ACTIVE"));
 }
 
 #[test]

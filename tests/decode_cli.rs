@@ -35,3 +35,26 @@ fn pac_cmd_reply_takes_8_hex_bytes_and_the_0x_number_alike() {
     }
     assert_eq!(run(&["decode", "pac-cmd-reply", "00 00 00 01 00 01 A0"]).code, 2, "7 bytes");
 }
+
+// PA-CONTROL words decode into the common state shape, bits as integer masks.
+#[test]
+fn pac_words_decode_into_the_state_shape() {
+    let r = run(&["--json", "decode", "pac-ctrl-status", "0x8001"]);
+    assert_eq!(r.code, 0, "{}", r.stderr);
+    let d = r.json();
+    assert_eq!(d["raw"], 0x8001);
+    assert_eq!(d["flags"], serde_json::json!(["integer_positions", "control_ready"]), "{d}");
+    assert_eq!(
+        (&d["details"][0]["mask"], &d["details"][1]["mask"]),
+        (&serde_json::json!(0x8000), &serde_json::json!(1))
+    );
+    assert_eq!(d["unknown_bits"], 0, "{d}");
+    let reserved = run(&["--json", "decode", "pac-ctrl-status", "0x1000"]).json();
+    assert_eq!(
+        (&reserved["unknown_bits"], &reserved["flags"]),
+        (&serde_json::json!(0x1000), &serde_json::json!([])),
+        "bit 12 is not in the table: {reserved}"
+    );
+    let fields = d["fields"].as_array().unwrap();
+    assert!(fields.iter().all(|f| f["mask"].is_u64()), "{d}");
+}

@@ -129,7 +129,7 @@ impl Holding {
 fn cube_stands(locks: &Locks, link: &str) -> bool {
     let st = locks.run(&["--link", link, "--json", "state", "-m", "3"]);
     assert_eq!(st.code, 0, "{}", st.stderr);
-    let raw = st.json()["raw"].as_u64().unwrap();
+    let raw = st.json()["state"]["raw"].as_u64().unwrap();
     raw & 0x800 == 0 && raw & 0x4 != 0
 }
 
@@ -163,7 +163,7 @@ fn halt_from_a_second_process_stops_a_move_ramp_wait_that_holds_the_port() {
     assert_eq!(lines.len(), 2, "{}", h.stdout);
     assert!(lines[0].contains(&format!("was held by axisctl PID {pid} (")), "{}", h.stdout);
     assert!(lines[0].contains("SIGTERM") && lines[0].ends_with("it exited"), "{}", h.stdout);
-    assert_eq!(lines[1], "module 3: Halt acknowledged");
+    assert_eq!(lines[1], "module 3: halt acknowledged");
     assert!(cube_stands(&locks, link), "module 3 still moving");
     assert!(!locks.file_of(link).exists(), "the holder's lock went with it");
 }
@@ -190,10 +190,10 @@ fn pac_stop_from_a_second_process_stops_a_pac_move_wait_that_holds_the_line() {
     assert_eq!(doc["holder"]["pid"], pid, "{doc}");
     assert_eq!((&doc["holder"]["signalled"], &doc["holder"]["exited"]), (&true.into(), &true.into()), "{doc}");
     assert!(doc["holder"]["what"].as_str().unwrap().contains("pac-move 2 900 --wait"), "{doc}");
-    assert_eq!(doc["command"], "0A93", "{doc}");
+    assert_eq!(doc["command_code"], "0A93", "{doc}");
     let a = locks.run(&["--link", link, "--timeout", "1000", "--json", "pac-axis", "2"]);
     assert_eq!(a.code, 0, "{}", a.stderr);
-    assert_ne!(a.json()["status"], 1, "axis 2 still moving: {}", a.stdout);
+    assert_ne!(a.json()["axis_status"], 1, "axis 2 still moving: {}", a.stdout);
 
     // pac-stop (the controller's stop) takes the line over the same way.
     let holder =
@@ -203,7 +203,7 @@ fn pac_stop_from_a_second_process_stops_a_pac_move_wait_that_holds_the_line() {
     assert!(stop.stdout.contains(&format!("was held by axisctl PID {}", holder.pid())), "{}", stop.stdout);
     assert_eq!(holder.end(10).0, Some(143));
     let a = locks.run(&["--link", link, "--timeout", "1000", "--json", "pac-axis", "2"]);
-    assert_ne!(a.json()["status"], 1, "axis 2 still moving: {}", a.stdout);
+    assert_ne!(a.json()["axis_status"], 1, "axis 2 still moving: {}", a.stdout);
 }
 
 #[test]
@@ -226,7 +226,7 @@ fn cdios_stop_from_a_second_process_stops_a_cdios_goto_wait_that_holds_the_port(
     // MOTOR_NOT_RUNNING, which after a takeover is the state asked for.
     assert_eq!(doc["already_stopped"], true, "{doc}");
     let st = locks.run(&["--link", link, "--json", "cdios-status", "-m", "0"]);
-    let flags = st.json()["flags"].to_string();
+    let flags = st.json()["state"]["flags"].to_string();
     assert!(!flags.contains("GOTO_ACTIVE") && !flags.contains("RUNNING_FORWARD"), "{flags}");
 }
 
@@ -426,7 +426,7 @@ fn halt_all_from_a_second_terminal_ends_the_dashboard_and_halts_the_module_it_mo
     let doc = h.json();
     assert_eq!(doc["holder"]["pid"], dashboard.pid, "{doc}");
     assert_eq!(doc["holder"]["exited"], true, "{doc}");
-    assert_eq!((&doc["broadcast"], &doc["command"]), (&true.into(), &"Halt".into()), "{doc}");
+    assert_eq!((&doc["broadcast"], &doc["command"]), (&true.into(), &"halt".into()), "{doc}");
 
     // The dashboard left, restored the terminal, said what it did and exited 143.
     let deadline = Instant::now() + Duration::from_secs(10);

@@ -261,7 +261,7 @@ fn ctrl_c_during_home_wait_halts_and_exits_130() {
     assert_eq!(r.code, 130, "{}", r.stderr);
     assert!(r.stderr.contains("module 3 halted"), "{}", r.stderr);
     let (st, _) = bounded(&["--link", &link, "--json", "state", "-m", "3"], 10);
-    let raw = st.json()["raw"].as_u64().unwrap();
+    let raw = st.json()["state"]["raw"].as_u64().unwrap();
     assert!(raw & 0x4 != 0 && raw & 0x800 == 0 && raw & 0x2 == 0, "halted before homing ended: {raw:#x}");
 }
 
@@ -276,7 +276,7 @@ fn ctrl_c_during_pac_ref_wait_stops_and_exits_130() {
     assert!(r.stderr.contains("axis 2 stopped"), "{}", r.stderr);
     let (a, _) = bounded(&["--link", &link, "--timeout", "1000", "--json", "pac-axis", "2"], 10);
     assert_eq!(a.code, 0, "{}", a.stderr);
-    assert_ne!(a.json()["status"], 1, "not moving: {}", a.stdout);
+    assert_eq!(a.json()["axis_status"].as_u64().map(|s| s != 1), Some(true), "not moving: {}", a.stdout);
 }
 
 #[test]
@@ -303,7 +303,9 @@ fn ctrl_c_during_cdios_traject_wait_stops_and_exits_130() {
     assert_eq!(r.code, 130, "{}", r.stderr);
     assert!(r.stderr.contains("stopped (fast stop)"), "{}", r.stderr);
     let (st, _) = bounded(&["--link", &link, "--json", "cdios-status", "-m", "0"], 10);
-    let flags = st.json()["flags"].to_string();
+    let flags = st.json()["state"]["flags"].clone();
+    assert!(flags.is_array(), "{}", st.stdout);
+    let flags = flags.to_string();
     assert!(!flags.contains("TRAJECT_RUNNING") && !flags.contains("RUNNING_FORWARD"), "{flags}");
 }
 
@@ -324,9 +326,14 @@ fn powercube_tow_error_mid_move_is_exit_5_with_the_flags() {
     // The CubeState the module reported, typed, for scripts.
     let device = &e["error"]["device"];
     assert_eq!(device["family"], "powercube", "{e}");
-    let errors: Vec<&str> = device["errors"].as_array().unwrap().iter().filter_map(|v| v.as_str()).collect();
+    let errors: Vec<&str> = device["details"].as_array().unwrap().iter().filter_map(|d| d["name"].as_str()).collect();
     assert!(errors.contains(&"STATE_TOW_ERROR") && errors.contains(&"STATE_ERROR"), "{e}");
-    assert!(device["cube_state"].as_u64().is_some_and(|c| c & 1 == 1), "STATE_ERROR is bit 0: {e}");
+    assert!(device["code"].as_u64().is_some_and(|c| c & 1 == 1), "the CubeState word; STATE_ERROR is bit 0: {e}");
+    assert_eq!(
+        (&e["error"]["module"], &e["error"]["exit_code"]),
+        (&serde_json::json!(3), &serde_json::json!(5)),
+        "{e}"
+    );
 }
 
 #[test]
@@ -367,6 +374,6 @@ fn a_wait_that_loses_the_module_halts_it_first() {
     assert_eq!(r.code, 4, "{}", r.stderr);
     assert!(r.stderr.contains("lost track of module 3 while moving (module 3 halted)"), "{}", r.stderr);
     let (st, _) = bounded(&["--link", link, "--json", "state", "-m", "3"], 10);
-    let raw = st.json()["raw"].as_u64().unwrap();
+    let raw = st.json()["state"]["raw"].as_u64().unwrap();
     assert!(raw & 0x4 != 0 && raw & 0x800 == 0, "halted, not moving: {raw:#x}");
 }

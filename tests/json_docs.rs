@@ -1,9 +1,24 @@
 //! docs/json*.md stays true: every documented command is run against the
-//! simulated bench and its output must have the documented shape.
+//! simulated bench and its output must have the documented shape and
+//! validate against the published schema (schema/axisctl.schema.json).
 
 mod common;
 
 use serde_json::Value;
+
+/// A validator for one definition of the published schema.
+fn schema(def: &str) -> jsonschema::Validator {
+    let text = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/schema/axisctl.schema.json")).unwrap();
+    let mut root: Value = serde_json::from_str(&text).expect("the schema is JSON");
+    root.as_object_mut().unwrap().remove("oneOf");
+    root["$ref"] = Value::from(format!("#/$defs/{def}"));
+    jsonschema::validator_for(&root).unwrap_or_else(|e| panic!("schema: {e}"))
+}
+
+fn schema_errors(v: &jsonschema::Validator, doc: &Value) -> Option<String> {
+    let errors: Vec<String> = v.iter_errors(doc).map(|e| format!("{} at {}", e, e.instance_path())).collect();
+    (!errors.is_empty()).then(|| errors.join("\n"))
+}
 
 /// (command line, documented JSON) pairs of one markdown file.
 fn examples(md: &str) -> Vec<(String, String)> {
@@ -64,6 +79,7 @@ fn family_link<'a>(sim: &'a common::Sim, args: &[&str]) -> &'a str {
 
 #[test]
 fn every_documented_example_matches_real_output() {
+    let document = schema("document");
     let mut checked = 0;
     for entry in std::fs::read_dir(concat!(env!("CARGO_MANIFEST_DIR"), "/docs")).unwrap() {
         let path = entry.unwrap().path();
@@ -86,10 +102,53 @@ fn every_documented_example_matches_real_output() {
             if let Err(e) = same_shape(&doc, &r.json(), "$") {
                 panic!("{name}: `axisctl {cmd}`: {e}");
             }
+            for (what, v) in [("real output", r.json()), ("documented example", doc)] {
+                if let Some(e) = schema_errors(&document, &v) {
+                    panic!("{name}: `axisctl {cmd}`: the {what} breaks the schema:\n{e}");
+                }
+            }
             checked += 1;
         }
     }
     assert!(checked >= 20, "only {checked} examples found");
+}
+
+/// Commands whose --json output is no single document: the dashboard is a
+/// terminal UI, `monitor` and `sim` stream JSON Lines (docs/guide.md).
+const NOT_DOCUMENTS: [&str; 4] = ["dashboard", "help", "monitor", "sim"];
+
+// Every command's JSON is documented, so every command's output is checked
+// against the schema by the test above.
+#[test]
+fn every_command_has_a_documented_example() {
+    let help = common::run(&["--help"]).stdout;
+    let commands: Vec<&str> = help
+        .lines()
+        .skip_while(|l| !l.starts_with("Commands:"))
+        .skip(1)
+        .take_while(|l| l.starts_with("  "))
+        .filter_map(|l| l.split_whitespace().next())
+        .collect();
+    assert!(commands.len() > 40, "{help}");
+    let mut documented = std::collections::BTreeSet::new();
+    for entry in std::fs::read_dir(concat!(env!("CARGO_MANIFEST_DIR"), "/docs")).unwrap() {
+        let path = entry.unwrap().path();
+        if !path.file_name().unwrap().to_string_lossy().starts_with("json") {
+            continue;
+        }
+        for (cmd, _) in examples(&std::fs::read_to_string(&path).unwrap()) {
+            let words: Vec<&str> = cmd.split_whitespace().collect();
+            // The first word that is neither an option nor an option's value.
+            let mut i = 0;
+            while i < words.len() && words[i].starts_with('-') {
+                i += if matches!(words[i], "--link" | "--timeout" | "--retries" | "--log") { 2 } else { 1 };
+            }
+            documented.extend(words.get(i).map(|w| w.to_string()));
+        }
+    }
+    let missing: Vec<&&str> =
+        commands.iter().filter(|c| !NOT_DOCUMENTS.contains(c) && !documented.contains(**c)).collect();
+    assert!(missing.is_empty(), "no documented --json example for {missing:?}");
 }
 
 #[test]
@@ -99,4 +158,48 @@ fn shape_comparison_notices_differences() {
     assert!(same_shape(&a, &serde_json::json!({"module": "17", "flags": []}), "$").is_err());
     assert!(same_shape(&a, &serde_json::json!({"module": 17}), "$").is_err());
     assert!(same_shape(&a, &serde_json::json!({"module": 17, "flags": [1]}), "$").is_err());
+}
+
+// The schema is no formality: each convention it states rejects output
+// that breaks it.
+#[test]
+fn schema_rejects_broken_conventions() {
+    let document = schema("document");
+    let good = serde_json::json!({"family": "powercube", "module": 17, "link": "sim", "acknowledged": true,
+        "state": {"raw": 2, "flags": ["STATE_HOME_OK"], "errors": [], "warnings": [],
+                  "details": [{"name": "STATE_HOME_OK", "mask": 2, "class": "info", "description": "homed"}],
+                  "unknown_bits": 0}});
+    assert_eq!(schema_errors(&document, &good), None);
+    let broken = |path: &str, v: Value| {
+        let mut doc = good.clone();
+        *doc.pointer_mut(path).unwrap() = v;
+        doc
+    };
+    for bad in [
+        broken("/module", Value::from(0)),
+        broken("/family", Value::from("pa-control")),
+        broken("/state/unknown_bits", serde_json::json!([])),
+        broken("/state/details/0/class", Value::from("fatal")),
+        broken("/state", Value::from(1)),
+        broken("/acknowledged", Value::from(1)),
+        serde_json::json!({"family": "cdios", "link": "sim", "module": 0}),
+        serde_json::json!({"module": 3, "error": 0}),
+        serde_json::json!({"devices": [{"module": 3}]}),
+        serde_json::json!({"family": "pac", "link": "sim", "axis": 2, "position": 200.5}),
+        serde_json::json!({"family": "cdios", "link": "sim", "node": 1, "module": 0, "motor_speed": 300}),
+    ] {
+        assert!(schema_errors(&document, &bad).is_some(), "accepted {bad}");
+    }
+    let error = schema("error_document");
+    assert_eq!(
+        schema_errors(&error, &serde_json::json!({"error": {"kind": "usage", "exit_code": 2, "message": "x"}})),
+        None
+    );
+    for bad in [
+        serde_json::json!({"error": {"kind": "usage", "exit_code": 5, "message": "x"}}),
+        serde_json::json!({"error": {"kind": "usage", "message": "x"}}),
+        serde_json::json!({"error": {"kind": "timeout", "exit_code": 4, "message": "x", "device": {}}}),
+    ] {
+        assert!(schema_errors(&error, &bad).is_some(), "accepted {bad}");
+    }
 }

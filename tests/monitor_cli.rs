@@ -56,7 +56,7 @@ fn a_whole_session_replays_with_every_frame_decoded() {
     assert_eq!(frames.len(), logged);
     for f in frames {
         assert!(f["family"] == "powercube" || f["family"] == "cdios", "{f}");
-        assert!(f.get("error").is_none(), "undecoded: {f}");
+        assert!(f.get("decode_error").is_none() && f.get("error").is_none(), "undecoded: {f}");
         assert!(!f["summary"].as_str().unwrap().is_empty(), "{f}");
     }
     assert_eq!(stats[0]["stats"]["frames"].as_u64().unwrap() as usize, logged);
@@ -87,4 +87,17 @@ fn filters_and_candump_output() {
     assert_eq!(again.stdout, std::fs::read_to_string(log.path()).unwrap());
     assert_eq!(run(&["monitor", "--from-log", p, "--family", "bogus"]).code, 2);
     assert_eq!(run(&["--json", "monitor", "--from-log", p, "--candump"]).code, 2);
+}
+
+// A frame that does not decode is said under `decode_error`: `error` is the
+// command's failure (`jq -e .error`), and the replay succeeded.
+#[test]
+fn an_undecodable_frame_is_a_decode_error_not_an_error() {
+    let log = tempfile::NamedTempFile::new().unwrap();
+    std::fs::write(log.path(), "(1700000000.000000) can0 0E3#FF01\n").unwrap();
+    let r = run(&["--json", "monitor", "--from-log", log.path().to_str().unwrap()]);
+    assert_eq!(r.code, 0, "{}", r.stderr);
+    let line: serde_json::Value = serde_json::from_str(r.stdout.trim()).unwrap();
+    assert_eq!(line["decode_error"], "unknown command id 0xff", "{line}");
+    assert!(line.get("error").is_none(), "{line}");
 }

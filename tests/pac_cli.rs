@@ -111,7 +111,7 @@ fn wire_pac_online_sends_the_manual_frame() {
     let seen = r.seen();
     assert_eq!(seen.len(), 1, "one frame: {seen:?}");
     assert_eq!(seen[0].0, hex("01 02 30 36 30 33 3B 30 3B 30 3B 30 03 31 34 04"));
-    assert_eq!(out.json()["status"], 31);
+    assert_eq!(out.json()["operating_status"], 31);
 }
 
 #[test]
@@ -137,8 +137,8 @@ fn both_check_rules_are_accepted_and_traced() {
         let r = Responder::start(move |req| code_of(req).map(|_| ack(31, true, Par2::Int(0), rule)));
         let out = run(&["--link", &r.link(), "--json", "--trace", "pac-state"]);
         assert_eq!(out.code, 0, "{rule:?}: {}", out.stderr);
-        assert_eq!(out.json()["status"], 31);
-        assert_eq!(out.json()["status_text"], "ONLINE");
+        assert_eq!(out.json()["operating_status"], 31);
+        assert_eq!(out.json()["operating_status_text"], "ONLINE");
         assert!(out.stderr.contains(note), "{rule:?}: trace {}", out.stderr);
     }
 }
@@ -286,15 +286,15 @@ fn sim_link_is_announced_7n1() {
 fn sim_online_reference_and_move_with_live_position() {
     let sim = pac_sim();
     let link = sim.link("pac");
-    assert_eq!(ok(&["--link", link, "--json", "pac-state"])["status"], 1);
-    assert_eq!(ok(&["--link", link, "--json", "pac-online"])["status"], 31);
+    assert_eq!(ok(&["--link", link, "--json", "pac-state"])["operating_status"], 1);
+    assert_eq!(ok(&["--link", link, "--json", "pac-online"])["operating_status"], 31);
     let r = ok(&["--link", link, "--json", "pac-ref", "2", "--wait"]);
     assert_eq!(r["done"], true);
     let r = srun(&["--link", link, "--json", "pac-move", "2", "200", "--wait", "--progress-json"]);
     assert_eq!(r.code, 0, "{}", r.stderr);
     let end = r.json();
-    assert!((end["position"].as_f64().unwrap() - 200.0).abs() < 1e-3, "{end}");
-    assert_eq!(end["status"], 0);
+    assert!((end["position"]["value"].as_f64().unwrap() - 200.0).abs() < 1e-3, "{end}");
+    assert_eq!(end["axis_status"], 0);
     let positions: Vec<f64> = r
         .stderr
         .lines()
@@ -306,8 +306,14 @@ fn sim_online_reference_and_move_with_live_position() {
     assert!(positions.windows(2).all(|w| w[1] >= w[0] - 1e-9), "monotonic towards the target: {positions:?}");
     let axis = ok(&["--link", link, "--json", "pac-axis", "2"]);
     assert_eq!(axis["axis"], 2);
-    assert!((axis["position"].as_f64().unwrap() - 200.0).abs() < 1e-3, "{axis}");
-    assert_eq!(axis["status"], 0);
+    assert!((axis["position"]["value"].as_f64().unwrap() - 200.0).abs() < 1e-3, "{axis}");
+    assert_eq!(axis["axis_status"], 0);
+    assert_eq!(
+        (&axis["position"]["unit"], &axis["speed"]["unit"]),
+        (&serde_json::json!("AE"), &serde_json::json!("AE/s"))
+    );
+    let flags = &axis["state"]["flags"];
+    assert!(flags.as_array().unwrap().iter().any(|f| f == "POWER_PACK_READY"), "{axis}");
 }
 
 #[test]
@@ -316,7 +322,7 @@ fn sim_target_outside_the_traverse_area_is_error_65() {
     let link = sim.link("pac");
     ok(&["--link", link, "--json", "pac-online"]);
     ok(&["--link", link, "--json", "pac-no-ref", "1"]);
-    let max = ok(&["--link", link, "--json", "pac-axis", "1"])["traverse_max"].as_f64().unwrap();
+    let max = ok(&["--link", link, "--json", "pac-axis", "1"])["traverse_max"]["value"].as_f64().unwrap();
     let beyond = format!("{}", max + 100.0);
     let r = srun(&["--link", link, "pac-move", "1", &beyond]);
     assert_eq!(r.code, 2, "checked locally first: {}", r.stderr);
@@ -333,20 +339,21 @@ fn sim_mode_refusal_registers_flags_and_check_rules() {
     let r = srun(&["--link", link, "pac-move", "1", "10"]);
     assert_eq!(r.code, 2, "{}", r.stderr);
     assert!(r.stderr.contains("not valid in home position"), "{}", r.stderr);
-    assert_eq!(ok(&["--link", link, "--json", "pac-reg", "N5", "12345"])["value"], 12345.0);
-    assert_eq!(ok(&["--link", link, "--json", "pac-reg", "n5"])["value"], 12345.0);
+    // An integer register stays an integer.
+    assert_eq!(ok(&["--link", link, "--json", "pac-reg", "N5", "12345"])["value"].as_i64(), Some(12345));
+    assert_eq!(ok(&["--link", link, "--json", "pac-reg", "n5"])["value"].as_i64(), Some(12345));
     assert_eq!(ok(&["--link", link, "--json", "pac-reg", "R3", "-2.5"])["value"], -2.5);
-    assert_eq!(ok(&["--link", link, "--json", "pac-flag", "17", "1"])["state"], 1);
-    assert_eq!(ok(&["--link", link, "--json", "pac-flag", "17"])["state"], 1);
+    assert_eq!(ok(&["--link", link, "--json", "pac-flag", "17", "1"])["value"], 1);
+    assert_eq!(ok(&["--link", link, "--json", "pac-flag", "17"])["value"], 1);
     let w = ok(&["--link", link, "--json", "pac-flag", "17", "0x0005", "--word"]);
     assert_eq!(w["word"], 5);
     assert_eq!(w["set"], serde_json::json!([17, 19]));
-    assert_eq!(ok(&["--link", link, "--json", "pac-out", "2", "1"])["state"], 1);
+    assert_eq!(ok(&["--link", link, "--json", "pac-out", "2", "1"])["value"], 1);
     // The other CHECK rule is understood by the controller too.
     let r = ok(&["--link", link, "--json", "--pac-check-etx", "pac-reg", "N5"]);
-    assert_eq!(r["value"], 12345.0);
+    assert_eq!(r["value"].as_i64(), Some(12345));
     let raw = ok(&["--link", link, "--json", "pac-raw", "1906", "5"]);
-    assert_eq!(raw["q_par"], 12345.0);
+    assert_eq!(raw["q_par"].as_i64(), Some(12345), "TYP 0 stays an integer: {raw}");
     assert_eq!(raw["quit"], 0);
 }
 
@@ -354,7 +361,8 @@ fn sim_mode_refusal_registers_flags_and_check_rules() {
 fn in_process_sim_answers_pac_state() {
     let r = srun(&["--link", "sim", "--json", "pac-state"]);
     assert_eq!(r.code, 0, "{}", r.stderr);
-    assert_eq!(r.json()["status"], 1);
-    assert!(r.json()["status_text"].as_str().unwrap().contains("home"));
-    assert_eq!(r.json()["error"], 0);
+    assert_eq!(r.json()["operating_status"], 1);
+    assert!(r.json()["operating_status_text"].as_str().unwrap().contains("home"));
+    assert_eq!(r.json()["controller_error"], 0);
+    assert!(r.json().get("error").is_none(), "a success carries no error key");
 }

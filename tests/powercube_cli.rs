@@ -19,9 +19,9 @@ fn scan_finds_exactly_the_simulated_ids() {
         let r = run(&["--link", link, "--json", "--timeout", "1600", "scan"]);
         assert_eq!(r.code, 0, "{link}: {}", r.stderr);
         let ids: Vec<u64> =
-            r.json()["modules"].as_array().unwrap().iter().map(|m| m["module"].as_u64().unwrap()).collect();
+            r.json()["devices"].as_array().unwrap().iter().map(|m| m["module"].as_u64().unwrap()).collect();
         assert_eq!(ids, [3, 5, 17], "{link}");
-        let m17 = &r.json()["modules"][2];
+        let m17 = &r.json()["devices"][2];
         assert_eq!(m17["kind"], "linear");
         assert_eq!(m17["version"], 13592);
     }
@@ -37,7 +37,7 @@ fn home_wait_sets_home_ok() {
         assert!(flags.as_array().unwrap().iter().any(|f| f == "STATE_HOME_OK"), "{link}: {flags}");
         let st = run(&["--link", link, "--json", "state", "-m", "17"]);
         assert_eq!(st.code, 0);
-        assert!(st.json()["raw"].as_u64().unwrap() & 0x2 != 0, "HOME_OK after homing");
+        assert!(st.json()["state"]["raw"].as_u64().unwrap() & 0x2 != 0, "HOME_OK after homing");
     }
 }
 
@@ -49,8 +49,9 @@ fn move_ramp_wait_ends_at_the_target() {
         let r =
             run(&["--link", link, "--json", "move-ramp", "-m", "3", "0.75", "--vel", "1.0", "--acc", "2", "--wait"]);
         assert_eq!(r.code, 0, "{link}: {}", r.stderr);
-        let pos = r.json()["position"].as_f64().unwrap();
+        let pos = r.json()["position"]["value"].as_f64().unwrap();
         assert!((pos - 0.75).abs() < 1e-3, "{link}: ended at {pos}");
+        assert_eq!(r.json()["position"]["unit"], "rad", "module 3 is rotary");
         let p = run(&["--link", link, "--json", "get-param", "-m", "3", "ActPos"]);
         let act = p.json()["params"]["ActPos"]["value"].as_f64().unwrap();
         assert!((act - 0.75).abs() < 1e-3, "{link}: ActPos {act}");
@@ -117,7 +118,7 @@ fn module_in_error_is_exit_5() {
     assert_eq!(r.code, 0, "{}", r.stderr);
     std::thread::sleep(std::time::Duration::from_millis(120)); // no refresh: the watchdog trips
     let st = run(&["--link", link, "--json", "state", "-m", "5"]);
-    let errors = st.json()["errors"].clone();
+    let errors = st.json()["state"]["errors"].clone();
     assert!(errors.as_array().unwrap().iter().any(|e| e == "STATE_COMM_ERROR"), "{errors}");
     let mv = run(&["--link", link, "move-ramp", "-m", "5", "0.1"]);
     assert_eq!(mv.code, 5, "{}", mv.stderr);
@@ -169,7 +170,7 @@ fn ctrl_c_during_wait_halts_the_module_and_exits_130() {
     assert_eq!(out.status.code(), Some(130), "{}", String::from_utf8_lossy(&out.stderr));
     assert!(String::from_utf8_lossy(&out.stderr).contains("halted"));
     let st = run(&["--link", &link, "--json", "state", "-m", "3"]).json();
-    let raw = st["raw"].as_u64().unwrap();
+    let raw = st["state"]["raw"].as_u64().unwrap();
     assert!(raw & 0x4 != 0, "STATE_HALTED set: {st}");
     assert!(raw & 0x800 == 0, "not moving: {st}");
     let pos = run(&["--link", &link, "--json", "get-param", "-m", "3", "ActPos"]).json()["params"]["ActPos"]["value"]
@@ -184,12 +185,12 @@ fn broadcasts_reach_every_module() {
     let link = sim.link("powercube");
     assert_eq!(run(&["--link", link, "halt", "--all"]).code, 0);
     for m in ["3", "5", "17"] {
-        let raw = run(&["--link", link, "--json", "state", "-m", m]).json()["raw"].as_u64().unwrap();
+        let raw = run(&["--link", link, "--json", "state", "-m", m]).json()["state"]["raw"].as_u64().unwrap();
         assert!(raw & 0x4 != 0, "module {m} halted by the broadcast");
     }
     assert_eq!(run(&["--link", link, "reset", "--all"]).code, 0);
     for m in ["3", "5", "17"] {
-        let raw = run(&["--link", link, "--json", "state", "-m", m]).json()["raw"].as_u64().unwrap();
+        let raw = run(&["--link", link, "--json", "state", "-m", m]).json()["state"]["raw"].as_u64().unwrap();
         assert!(raw & 0x4 == 0, "module {m} reset by the broadcast");
     }
 }
@@ -245,12 +246,13 @@ fn firmware_before_4_6_has_no_temperature_and_supplies() {
     let new = run(&["--link", "sim", "--json", "info", "-m", "3"]);
     assert_eq!(new.code, 0, "{}", new.stderr);
     assert_eq!(new.json()["version_text"], "4.6.01");
-    assert_eq!(new.json()["params"]["ActFTemp"], 35.0);
+    assert_eq!(new.json()["params"]["ActFTemp"]["value"], 35.0);
+    assert_eq!(new.json()["params"]["ActFTemp"]["unit"], "°C");
     let old = run(&["--link", "sim", "--json", "info", "-m", "17"]);
     assert_eq!(old.code, 0, "{}", old.stderr);
     assert_eq!(old.json()["version_text"], "3.5.18");
     for p in ["ActFTemp", "ActFMotorSupply", "ActFLogicSupply"] {
-        assert!(old.json()["params"][p].is_null(), "{p}: {}", old.json());
+        assert!(old.json()["params"][p]["value"].is_null(), "{p}: {}", old.json());
     }
     let text = run(&["--link", "sim", "info", "-m", "17"]);
     assert!(text.stdout.contains("- (firmware 3.5.18)"), "{}", text.stdout);
@@ -276,7 +278,7 @@ fn synchronized_ramp_of_three_modules_starts_at_the_one_broadcast() {
     assert_eq!(r.code, 0, "{}", r.stderr);
     std::thread::sleep(std::time::Duration::from_millis(300));
     let st = run(&["--link", link, "--json", "state", "-m", "3"]);
-    assert_eq!(st.json()["raw"].as_u64().unwrap() & 0x800, 0, "no motion without the broadcast");
+    assert_eq!(st.json()["state"]["raw"].as_u64().unwrap() & 0x800, 0, "no motion without the broadcast");
     // Waiting for it is refused before anything is sent.
     let r = run(&["--link", link, "--trace", "move-ramp", "-m", "5", "0.3", "--wait"]);
     assert_eq!(r.code, 2, "{}", r.stderr);
@@ -305,7 +307,7 @@ fn synchronized_ramp_of_three_modules_starts_at_the_one_broadcast() {
         assert!(line.contains(frame), "{frame} in {sent:?}");
     }
     let at: Vec<f64> =
-        r.json()["modules"].as_array().unwrap().iter().map(|m| m["position"].as_f64().unwrap()).collect();
+        r.json()["devices"].as_array().unwrap().iter().map(|m| m["position"]["value"].as_f64().unwrap()).collect();
     for (got, want) in at.iter().zip([0.5, -0.5, 0.25]) {
         assert!((got - want).abs() < 1e-3, "{at:?}");
     }

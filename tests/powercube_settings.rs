@@ -97,7 +97,7 @@ fn set_config_that_removes_a_safety_needs_force_and_says_what_it_does() {
     {
         let r = run(&[&["--link", "sim", "--json"], &args[..]].concat());
         assert_eq!(r.code, 0, "{args:?}: {}", r.stderr);
-        assert_eq!(r.json()["raw"].as_u64().unwrap() & 0x800, 0, "SW1_ENABLED cleared");
+        assert_eq!(r.json()["config"]["raw"].as_u64().unwrap() & 0x800, 0, "SW1_ENABLED cleared");
     }
 }
 
@@ -115,7 +115,7 @@ fn scan_in_which_nothing_answered_is_exit_4() {
 fn comm_error(link: &str, m: &str) -> bool {
     let st = run(&["--link", link, "--json", "state", "-m", m]);
     assert_eq!(st.code, 0, "{}", st.stderr);
-    st.json()["errors"].as_array().unwrap().iter().any(|e| e == "STATE_COMM_ERROR")
+    st.json()["state"]["errors"].as_array().unwrap().iter().any(|e| e == "STATE_COMM_ERROR")
 }
 
 /// No refresh for longer than the 50 ms period: an online watchdog trips.

@@ -85,20 +85,20 @@ struct Family {
 fn cube_stands(link: &str) -> bool {
     let (code, out) = quiet(&["--link", link, "--json", "state", "-m", "3"]);
     let v: serde_json::Value = serde_json::from_str(&out).unwrap_or_default();
-    code == 0 && v["raw"].as_u64().is_some_and(|raw| raw & 0x800 == 0)
+    code == 0 && v["state"]["raw"].as_u64().is_some_and(|raw| raw & 0x800 == 0)
 }
 
 fn pac_stands(link: &str) -> bool {
     let (code, out) = quiet(&["--link", link, "--timeout", "600", "--json", "pac-axis", "2"]);
     let v: serde_json::Value = serde_json::from_str(&out).unwrap_or_default();
-    code == 0 && v["status"] != 1
+    code == 0 && v["axis_status"].as_u64().is_some_and(|s| s != 1)
 }
 
 fn cdios_stands(link: &str) -> bool {
     let (code, out) = quiet(&["--link", link, "--json", "cdios-status", "-m", "0"]);
     let v: serde_json::Value = serde_json::from_str(&out).unwrap_or_default();
-    let flags = v["flags"].to_string();
-    code == 0 && !flags.contains("GOTO_ACTIVE") && !flags.contains("RUNNING")
+    let flags = v["state"]["flags"].to_string();
+    code == 0 && v["state"]["flags"].is_array() && !flags.contains("GOTO_ACTIVE") && !flags.contains("RUNNING")
 }
 
 const FAMILIES: [Family; 3] = [

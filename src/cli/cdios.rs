@@ -32,6 +32,16 @@ pub struct ModuleTarget {
     pub module: u8,
 }
 
+/// The 6168 modules a read is about: `-m 0`, `-m 0,1` or `-m all`.
+#[derive(Debug, Args, Clone)]
+pub struct ModulesTarget {
+    #[command(flatten)]
+    pub node: NodeArgs,
+    /// 6168 module id 0..15, a list (0,1 or 0-3: one object per module) or all (every module the node reports)
+    #[arg(short, long, value_name = "ID[,ID...]|all", value_parser = ids::devices(CDIOS_MODULE))]
+    pub module: ids::Devices,
+}
+
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
 pub enum PositionKind {
     /// The current motor position
@@ -88,12 +98,12 @@ pub enum CdiosCommand {
     },
     /// Cdios: the four motor status bytes decoded, motor speed and RPM error (26h)
     #[command(name = "cdios-status")]
-    Status(ModuleTarget),
+    Status(ModulesTarget),
     /// Cdios: the motor position: current, latched or setpoint (21h)
     #[command(name = "cdios-position")]
     Position {
         #[command(flatten)]
-        target: ModuleTarget,
+        target: ModulesTarget,
         /// Which position
         #[arg(long, value_enum, default_value_t = PositionKind::Current, conflicts_with = "all")]
         source: PositionKind,

@@ -72,6 +72,32 @@ pub fn parse_list(text: &str, range: IdRange, allow_empty: bool) -> Result<IdLis
     Ok(IdList(out))
 }
 
+/// The devices a read command is asked about: one id (one JSON object),
+/// a list such as `3,5,17` or `1-8`, or `all`, every device the link has
+/// (a `{"devices": [...]}` document either way): the shape follows what
+/// was typed, never how many answered.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum Devices {
+    One(u8),
+    List(IdList),
+    All,
+}
+
+/// A clap parser for [`Devices`] of `range`.
+pub fn devices(range: IdRange) -> impl Fn(&str) -> Result<Devices, String> + Clone + Send + Sync + 'static {
+    move |text| {
+        let text = text.trim();
+        if text.eq_ignore_ascii_case("all") {
+            return Ok(Devices::All);
+        }
+        let list = parse_list(text, range, false)?;
+        match list.0[..] {
+            [one] if text.chars().all(|c| c.is_ascii_digit()) => Ok(Devices::One(one)),
+            _ => Ok(Devices::List(list)),
+        }
+    }
+}
+
 /// A clap parser for a non-empty list of ids of `range`.
 pub fn list(range: IdRange) -> impl Fn(&str) -> Result<IdList, String> + Clone + Send + Sync + 'static {
     move |text| parse_list(text, range, false)
@@ -109,6 +135,17 @@ mod tests {
         assert_eq!(parse_list("x", PAC_AXIS, false).unwrap_err(), "\"x\" is not a number");
         assert_eq!(parse_list("5-3", PAC_AXIS, false).unwrap_err(), "range \"5-3\" runs backwards");
         assert_eq!(parse_list(" , ", CDIOS_MODULE, false).unwrap_err(), "the list names no module id");
+    }
+
+    #[test]
+    fn devices_keep_the_form_typed() {
+        let p = devices(POWERCUBE_MODULE);
+        assert_eq!(p("17"), Ok(Devices::One(17)));
+        assert_eq!(p("17,"), Ok(Devices::List(IdList(vec![17]))));
+        assert_eq!(p("5,3"), Ok(Devices::List(IdList(vec![3, 5]))));
+        assert_eq!(p("ALL"), Ok(Devices::All));
+        assert_eq!(p("0").unwrap_err(), "\"0\" is not a valid module id 1..31");
+        assert!(p("alle").is_err());
     }
 
     #[test]

@@ -18,6 +18,14 @@ pub struct AxisArg {
     pub axis: u8,
 }
 
+/// The axes a read is about: `2`, `1,3` or `all`.
+#[derive(Debug, Args, Clone)]
+pub struct AxesArg {
+    /// Axis number 1..16, a list (1,3 or 1-3: one object per axis) or all (every configured axis)
+    #[arg(value_name = "AXIS[,AXIS...]|all", value_parser = ids::devices(PAC_AXIS))]
+    pub axis: ids::Devices,
+}
+
 #[derive(Debug, Args, Clone, Copy)]
 pub struct PacWait {
     /// Wait until the axis stands still, showing the position live (Ctrl-C stops the axis)
@@ -124,7 +132,7 @@ pub enum PacCommand {
         no_wait: bool,
     },
     /// PA-CONTROL: position, speed, status and extended status of an axis
-    PacAxis(AxisArg),
+    PacAxis(AxesArg),
     /// PA-CONTROL: every configured axis with position and status
     PacAxes,
     /// PA-CONTROL: switch an axis on (0A97)

@@ -14,6 +14,14 @@ pub struct ModuleArg {
     pub module: u8,
 }
 
+/// The modules a read is about: `-m 17`, `-m 3,5,17` or `-m all`.
+#[derive(Debug, Args, Clone)]
+pub struct ModulesArg {
+    /// PowerCube module address 1..31, a list (3,5,17 or 1-8: one object per module) or all (every module present)
+    #[arg(short, long, value_name = "ID[,ID...]|all", value_parser = ids::devices(POWERCUBE_MODULE))]
+    pub module: ids::Devices,
+}
+
 /// `-m ID` or `--all` (broadcast).
 #[derive(Debug, Args, Clone, Copy)]
 #[group(required = true, multiple = false)]
@@ -50,10 +58,10 @@ pub enum PowerCubeCommand {
         #[arg(long, value_name = "LIST", default_value = "1-31", value_parser = ids::list(POWERCUBE_MODULE))]
         ids: IdList,
     },
-    /// Identity, kind, limits, position and state of one module
-    Info(ModuleArg),
+    /// Identity, kind, limits, position and state of modules
+    Info(ModulesArg),
     /// CubeState, decoded flag by flag
-    State(ModuleArg),
+    State(ModulesArg),
     /// Start the homing procedure
     Home {
         #[command(flatten)]
@@ -134,7 +142,7 @@ pub enum PowerCubeCommand {
     /// Read parameters by manual name (case-insensitive) or id (decimal or 0x hex)
     GetParam {
         #[command(flatten)]
-        module: ModuleArg,
+        module: ModulesArg,
         #[arg(value_name = "NAME|ID", required_unless_present = "all")]
         params: Vec<String>,
         /// Every readable parameter

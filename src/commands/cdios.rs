@@ -7,6 +7,7 @@ use std::time::{Duration, Instant};
 
 use axisctl::device::cdios::config::{self as servo, Request as ConfigRequest};
 use axisctl::device::cdios::{self as device, EventChange, Goal, Node, WaitEnd, WaitSpec};
+use axisctl::family::Family;
 use axisctl::proto::cdios::table::{self, STATUS_FLAGS};
 use axisctl::proto::cdios::{
     decode_status, Command, Direction, ErrorReply, GotoMode, ModuleId, NodeId, PositionSource, StartOption,
@@ -20,8 +21,9 @@ use super::takeover::HolderReport;
 use super::wait::waiting;
 use super::{interrupted, usage, Ctx};
 use crate::cli::cdios::{
-    CdiosCommand, DirectionArg, ModuleTarget, NodeArgs, PositionKind, StartOptionArg, StopOptionArg,
+    CdiosCommand, DirectionArg, ModuleTarget, ModulesTarget, NodeArgs, PositionKind, StartOptionArg, StopOptionArg,
 };
+use crate::cli::ids::Devices;
 use crate::cli::WaitArgs;
 use crate::output;
 
@@ -98,7 +100,15 @@ fn node_id(n: &NodeArgs) -> NodeId {
 }
 
 fn module_id(t: &ModuleTarget) -> ModuleId {
+    output::target(Family::Cdios, &[("node", t.node.node.into()), ("module", t.module.into())]);
     ModuleId::new(t.module).expect("clap checks 0..=15")
+}
+
+/// A per-module object: the envelope (docs/json.md) and the command's keys.
+fn doc(ctx: &Ctx, node: NodeId, m: ModuleId, body: Value) -> Value {
+    let envelope =
+        output::envelope(Family::Cdios, &ctx.link_text, &[("node", node.get().into()), ("module", m.get().into())]);
+    output::device_doc(envelope, body)
 }
 
 fn open(ctx: &Ctx, n: &NodeArgs) -> anyhow::Result<Node> {
@@ -111,8 +121,22 @@ fn node(mut s: Cdios, n: &NodeArgs, ctx: &Ctx) -> Node {
     Node::new(s, node_id(n), ctx.retry)
 }
 
+/// The 4 status bytes in the one `state` shape: status 1 is the low byte
+/// of `raw`, so a flag's mask is `1 << (8 * (byte - 1) + bit)`.
 fn status_json(r: &StatusReport) -> Value {
-    json!({"status": r.status, "flags": r.flags, "errors": r.errors, "reserved": r.reserved})
+    let mask = |byte: u8, bit: u8| 1u64 << (8 * u32::from(byte.saturating_sub(1)) + u32::from(bit));
+    let set: Vec<output::Detail> = STATUS_FLAGS
+        .iter()
+        .filter(|f| f.is_set(&r.status))
+        .map(|f| output::Detail {
+            name: f.name,
+            mask: mask(f.byte, f.bit),
+            class: f.class.name(),
+            description: f.meaning,
+        })
+        .collect();
+    let unknown = r.reserved.iter().fold(0, |m, (byte, bit)| m | mask(*byte, *bit));
+    output::state(u32::from_le_bytes(r.status).into(), &set, unknown)
 }
 
 fn status_line(ctx: &Ctx, r: &StatusReport) -> String {
@@ -132,7 +156,8 @@ fn identify(ctx: &Ctx, n: NodeArgs) -> anyhow::Result<()> {
         .map(|s| json!({"module": s.module, "type": s.ty, "version": s.version, "present": s.ty != 0}))
         .collect();
     if ctx.json {
-        output::json(&json!({"node": node, "modules": modules}));
+        let envelope = output::envelope(Family::Cdios, &ctx.link_text, &[("node", node.get().into())]);
+        output::json(&output::device_doc(envelope, json!({"modules": modules})));
         return Ok(());
     }
     let mut rows = vec![["MODULE", "TYPE", "VERSION"].map(String::from).to_vec()];
@@ -152,30 +177,62 @@ fn identify(ctx: &Ctx, n: NodeArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
-fn status(ctx: &Ctx, t: ModuleTarget) -> anyhow::Result<()> {
-    let (node, m) = (node_id(&t.node), module_id(&t));
+fn status(ctx: &Ctx, t: ModulesTarget) -> anyhow::Result<()> {
+    read_each(ctx, &t, |ctx, s, node, m| {
+        let r = s.status(m)?;
+        let (speed, rpm_error) = s.speed(m)?;
+        if ctx.json {
+            let (speed, rpm_error) =
+                (output::with_unit(json!(speed), "rpm"), output::with_unit(json!(rpm_error), "rpm"));
+            return Ok(doc(
+                ctx,
+                node,
+                m,
+                json!({"state": status_json(&r), "motor_speed": speed, "rpm_error": rpm_error}),
+            ));
+        }
+        println!("node {node} module {m}: {}", status_line(ctx, &r));
+        let mut rows = Vec::new();
+        for f in STATUS_FLAGS.iter().filter(|f| f.is_set(&r.status)) {
+            let name = if f.class == table::Class::Error { ctx.style.error(f.name) } else { f.name.to_string() };
+            rows.push(vec![format!("  status {} bit {}", f.byte, f.bit), name, f.meaning.to_string()]);
+        }
+        output::table(&rows, ctx.style);
+        for (b, bit) in &r.reserved {
+            println!("  {}", ctx.style.warn(&format!("status {b} bit {bit} is set (reserved)")));
+        }
+        println!("  motor speed {speed} RPM, RPM error {rpm_error}");
+        Ok(Value::Null)
+    })
+}
+
+/// A read of each module asked for: one JSON object for `-m ID`, else
+/// `{"devices": [...]}` in id order (`-m all`: the modules the node reports).
+/// `read` prints the human form itself and returns the JSON object.
+fn read_each(
+    ctx: &Ctx,
+    t: &ModulesTarget,
+    mut read: impl FnMut(&Ctx, &mut Node, NodeId, ModuleId) -> anyhow::Result<Value>,
+) -> anyhow::Result<()> {
+    let node = node_id(&t.node);
+    output::target(Family::Cdios, &[("node", node.get().into())]);
     let mut s = open(ctx, &t.node)?;
-    let r = s.status(m)?;
-    let (speed, rpm_error) = s.speed(m)?;
+    let ids: Vec<u8> = match &t.module {
+        Devices::One(m) => vec![*m],
+        Devices::List(l) => l.0.clone(),
+        Devices::All => s.identify()?.iter().filter(|slot| slot.ty != 0).map(|slot| slot.module).collect(),
+    };
+    let mut docs = Vec::new();
+    for id in ids {
+        let m = module_id(&ModuleTarget { node: t.node, module: id });
+        docs.push(read(ctx, &mut s, node, m)?);
+    }
     if ctx.json {
-        let mut doc = json!({"node": node, "module": m});
-        merge(&mut doc, status_json(&r));
-        doc["motor_speed"] = json!(speed);
-        doc["rpm_error"] = json!(rpm_error);
-        output::json(&doc);
-        return Ok(());
+        match t.module {
+            Devices::One(_) => output::json(&docs[0]),
+            _ => output::json(&json!({ "devices": docs })),
+        }
     }
-    println!("node {node} module {m}: {}", status_line(ctx, &r));
-    let mut rows = Vec::new();
-    for f in STATUS_FLAGS.iter().filter(|f| f.is_set(&r.status)) {
-        let name = if f.class == table::Class::Error { ctx.style.error(f.name) } else { f.name.to_string() };
-        rows.push(vec![format!("  status {} bit {}", f.byte, f.bit), name, f.meaning.to_string()]);
-    }
-    output::table(&rows, ctx.style);
-    for (b, bit) in &r.reserved {
-        println!("  {}", ctx.style.warn(&format!("status {b} bit {bit} is set (reserved)")));
-    }
-    println!("  motor speed {speed} RPM, RPM error {rpm_error}");
     Ok(())
 }
 
@@ -193,35 +250,33 @@ fn source_of(k: PositionKind) -> PositionSource {
     }
 }
 
-fn position(ctx: &Ctx, t: ModuleTarget, kind: PositionKind, all: bool) -> anyhow::Result<()> {
-    let (node, m) = (node_id(&t.node), module_id(&t));
-    let mut s = open(ctx, &t.node)?;
-    if all {
-        let cur = s.position(m, PositionSource::Current)?;
-        let latched = s.position(m, PositionSource::Latched)?;
-        let setpoint = s.position(m, PositionSource::Setpoint)?;
-        if ctx.json {
-            output::json(
-                &json!({"node": node, "module": m, "position": cur, "latched": latched, "setpoint": setpoint}),
-            );
-        } else {
+fn position(ctx: &Ctx, t: ModulesTarget, kind: PositionKind, all: bool) -> anyhow::Result<()> {
+    read_each(ctx, &t, |ctx, s, node, m| {
+        if all {
+            let cur = s.position(m, PositionSource::Current)?;
+            let latched = s.position(m, PositionSource::Latched)?;
+            let setpoint = s.position(m, PositionSource::Setpoint)?;
+            if ctx.json {
+                return Ok(doc(ctx, node, m, json!({"position": cur, "latched": latched, "setpoint": setpoint})));
+            }
             println!("node {node} module {m}: position {cur}, latched {latched}, setpoint {setpoint}");
+            return Ok(Value::Null);
         }
-        return Ok(());
-    }
-    let p = s.position(m, source_of(kind))?;
-    let name = kind.to_possible_value().map(|v| v.get_name().to_string()).unwrap_or_default();
-    if ctx.json {
-        output::json(&json!({"node": node, "module": m, "source": name, "position": p}));
-    } else {
+        let p = s.position(m, source_of(kind))?;
+        let name = kind.to_possible_value().map(|v| v.get_name().to_string()).unwrap_or_default();
+        if ctx.json {
+            return Ok(doc(ctx, node, m, json!({"source": name, "position": p})));
+        }
         println!("node {node} module {m}: {name} position {p}");
-    }
-    Ok(())
+        Ok(Value::Null)
+    })
 }
 
 fn report_sent(ctx: &Ctx, node: NodeId, m: ModuleId, what: &str, confirmed: bool, extra: Value) {
     if ctx.json {
-        let mut doc = json!({"node": node, "module": m, "command": what, "confirmed": confirmed});
+        // `acknowledged` is false when confirmations are off (--no-confirm):
+        // the command went out and no error came back, nothing more.
+        let mut doc = doc(ctx, node, m, json!({"command": what, "acknowledged": confirmed}));
         merge(&mut doc, extra);
         output::json(&doc);
     } else {
@@ -308,7 +363,7 @@ fn goto(
     let confirmed = if wait.wait { s.send_supervised(m, &cmds, 1 + ctx.retry.read_retries) } else { s.send(m, &cmds) }?;
     let mut extra = json!({"mode": device::mode_name(mode), "requested": position});
     if let Some(v) = speed {
-        extra["speed"] = json!(v);
+        extra["speed"] = output::with_unit(json!(v), "rpm");
     }
     if !wait.wait {
         report_sent(ctx, node, m, "cdios-goto", confirmed, extra);
@@ -322,7 +377,7 @@ fn goto(
         );
     }
     let end = wait_motion(ctx, &mut s, m, wait, Goal::Goto)?;
-    print_wait_end(ctx, "cdios-goto", &end, extra);
+    print_wait_end(ctx, (node, m), "cdios-goto", &end, extra);
     Ok(())
 }
 
@@ -342,7 +397,7 @@ fn run_traject(ctx: &Ctx, t: ModuleTarget, traject: i64, latched: bool, wait: Wa
         return Ok(());
     }
     let end = wait_motion(ctx, &mut s, m, wait, Goal::Traject)?;
-    print_wait_end(ctx, "cdios-traject", &end, extra);
+    print_wait_end(ctx, (node, m), "cdios-traject", &end, extra);
     Ok(())
 }
 
@@ -387,17 +442,20 @@ fn wait_motion(ctx: &Ctx, s: &mut Node, m: ModuleId, wait: WaitArgs, goal: Goal)
     })
 }
 
-fn print_wait_end(ctx: &Ctx, what: &str, end: &WaitEnd, extra: Value) {
+fn print_wait_end(ctx: &Ctx, (node, m): (NodeId, ModuleId), what: &str, end: &WaitEnd, extra: Value) {
     if ctx.json {
-        let mut doc = json!({"command": what, "done": true, "position": end.position,
-                             "elapsed_ms": end.elapsed.as_millis() as u64});
+        let mut doc = doc(
+            ctx,
+            node,
+            m,
+            json!({"command": what, "done": true, "position": end.position,
+                             "elapsed_ms": end.elapsed.as_millis() as u64, "state": status_json(&end.status)}),
+        );
         if let Some(t) = end.target {
             doc["target"] = json!(t);
         }
         merge(&mut doc, extra);
-        let mut st = status_json(&end.status);
-        merge(&mut st, doc);
-        output::json(&st);
+        output::json(&doc);
     } else {
         crate::output::say!(
             "{what} done at {} after {:.2} s  {}",
@@ -444,7 +502,7 @@ fn show_config(ctx: &Ctx, s: &mut Node, t: ModuleTarget, groups: &[String]) -> a
         }
     }
     if ctx.json {
-        output::json(&json!({"node": node, "module": m, "config": doc}));
+        output::json(&self::doc(ctx, node, m, json!({"config": doc})));
     } else {
         println!("node {node} module {m}:");
         output::table(&rows, ctx.style);
@@ -460,7 +518,7 @@ fn outputs(ctx: &Ctx, t: ModuleTarget, set: Option<&str>, latched: bool) -> anyh
     let state = open(ctx, &t.node)?.outputs(m, set, latched)?;
     let bits: Vec<bool> = (0..4).map(|i| state & (1 << i) != 0).collect();
     if ctx.json {
-        output::json(&json!({"node": node, "module": m, "outputs": state, "bits": bits}));
+        output::json(&doc(ctx, node, m, json!({"outputs": state, "bits": bits})));
     } else {
         let on: Vec<String> = (0..4).filter(|i| bits[*i]).map(|i| (i + 1).to_string()).collect();
         println!(
@@ -483,7 +541,7 @@ fn analog(ctx: &Ctx, t: ModuleTarget, output: Option<i64>, set: Option<i64>, lat
         .map(|a| json!({"output": a.output, "millivolts": a.millivolts, "volts": a.millivolts as f64 / 1000.0}))
         .collect();
     if ctx.json {
-        output::json(&json!({"node": node, "module": m, "analog": list}));
+        output::json(&doc(ctx, node, m, json!({"analog": list})));
     } else {
         for a in &list {
             println!("node {node} module {m}: analog output {} = {} V", a["output"], a["volts"]);
@@ -500,15 +558,20 @@ fn events(ctx: &Ctx, t: ModuleTarget, change: &EventChange) -> anyhow::Result<()
     let (masks, timers) = (setup.masks, setup.timers);
     let ms = |c: u8| Timers::interval_ms(c).unwrap_or(0.0);
     if ctx.json {
-        output::json(&json!({
-            "node": node, "module": m, "masks": masks, "mask_flags": device::mask_flags(masks),
-            "timers": {
-                "position_interval": timers.position_interval, "position_interval_ms": ms(timers.position_interval),
-                "position_on_change": timers.position_on_change,
-                "speed_interval": timers.speed_interval, "speed_interval_ms": ms(timers.speed_interval),
-                "speed_on_change": timers.speed_on_change,
-            },
-        }));
+        output::json(&doc(
+            ctx,
+            node,
+            m,
+            json!({
+                "masks": masks, "mask_flags": device::mask_flags(masks),
+                "timers": {
+                    "position_interval": timers.position_interval, "position_interval_ms": ms(timers.position_interval),
+                    "position_on_change": timers.position_on_change,
+                    "speed_interval": timers.speed_interval, "speed_interval_ms": ms(timers.speed_interval),
+                    "speed_on_change": timers.speed_on_change,
+                },
+            }),
+        ));
     } else {
         let names = device::mask_flags(masks);
         println!("node {node} module {m}: event masks {:02x?}", masks);
@@ -530,8 +593,13 @@ fn store(ctx: &Ctx, t: ModuleTarget, defaults: bool) -> anyhow::Result<()> {
     device::check(&[Command::StoreConfiguration { defaults }], m)?;
     let elapsed = open(ctx, &t.node)?.store(m, defaults)?;
     if ctx.json {
-        output::json(&json!({"node": node, "module": m, "command": "cdios-store", "defaults": defaults,
-                             "confirmed": true, "elapsed_ms": elapsed.as_millis() as u64}));
+        output::json(&doc(
+            ctx,
+            node,
+            m,
+            json!({"command": "cdios-store", "defaults": defaults,
+                             "acknowledged": true, "elapsed_ms": elapsed.as_millis() as u64}),
+        ));
     } else {
         let what = if defaults { "default configuration" } else { "configuration" };
         println!("node {node} module {m}: {what} stored in EEPROM ({} ms)", elapsed.as_millis());
@@ -541,18 +609,23 @@ fn store(ctx: &Ctx, t: ModuleTarget, defaults: bool) -> anyhow::Result<()> {
 
 // ---- watch ----
 
-fn event_json(ev: &Event, start: Instant) -> Value {
+fn event_json(ctx: &Ctx, ev: &Event, start: Instant) -> Value {
     let a = &ev.answer;
-    let mut doc = json!({"type": "event", "node": a.node, "module": a.module,
-                         "t_ms": ev.at.saturating_duration_since(start).as_millis() as u64,
-                         "code": a.data[0], "data": a.data});
+    let address = [("node", u64::from(a.node.get())), ("module", u64::from(a.module))];
+    let mut doc = output::device_doc(
+        output::envelope(Family::Cdios, &ctx.link_text, &address),
+        json!({"type": "event", "t_ms": ev.at.saturating_duration_since(start).as_millis() as u64,
+               "code": a.data[0], "data": a.data}),
+    );
     if let Some(r) = ev.decoded() {
-        doc["command"] = json!(r.def.map(|d| d.key));
+        if let Some(def) = r.def {
+            doc["command"] = json!(def.key);
+        }
         let values: serde_json::Map<String, Value> =
             r.fields.iter().map(|f| (f.key.to_string(), json!(f.raw))).collect();
         if r.def.is_some_and(|d| d.key == "read_status") {
             let g = |k: &str| r.get(k).unwrap_or(0) as u8;
-            merge(&mut doc, status_json(&decode_status([g("status1"), g("status2"), g("status3"), g("status4")])));
+            doc["state"] = status_json(&decode_status([g("status1"), g("status2"), g("status3"), g("status4")]));
         }
         doc["values"] = Value::Object(values);
     }
@@ -588,9 +661,8 @@ fn watch(
                 last = Some((r.status, pos));
                 let t_ms = (clock.now() - start).as_millis() as u64;
                 if ctx.json {
-                    let mut doc = json!({"type": "status", "node": node, "module": m, "t_ms": t_ms, "position": pos});
-                    merge(&mut doc, status_json(&r));
-                    output::json(&doc);
+                    let body = json!({"type": "status", "t_ms": t_ms, "position": pos, "state": status_json(&r)});
+                    output::json(&doc(ctx, node, m, body));
                 } else {
                     println!("{:>9.3} status   pos {pos:<11} {}", t_ms as f64 / 1e3, status_line(ctx, &r));
                 }
@@ -610,7 +682,7 @@ fn watch(
                 continue;
             }
             if ctx.json {
-                output::json(&event_json(&ev, start));
+                output::json(&event_json(ctx, &ev, start));
             } else {
                 let t_ms = ev.at.saturating_duration_since(start).as_millis() as f64 / 1e3;
                 println!("{t_ms:>9.3} event    {}", ev.answer);
@@ -646,12 +718,7 @@ fn decode_status_bytes(ctx: &Ctx, value: &str) -> anyhow::Result<()> {
     })?;
     let r = decode_status(status);
     if ctx.json {
-        let details: Vec<Value> = STATUS_FLAGS
-            .iter()
-            .filter(|f| f.is_set(&status))
-            .map(|f| json!({"name": f.name, "byte": f.byte, "bit": f.bit, "class": f.class, "meaning": f.meaning}))
-            .collect();
-        let mut doc = json!({"kind": "cdios-status", "details": details});
+        let mut doc = json!({"kind": "cdios-status"});
         merge(&mut doc, status_json(&r));
         output::json(&doc);
         return Ok(());
@@ -686,8 +753,8 @@ fn decode_error(ctx: &Ctx, value: &str) -> anyhow::Result<()> {
             .map(|f| json!({"name": f.name, "status": f.byte, "bit": f.bit, "meaning": f.meaning}))
             .collect();
         output::json(&json!({
-            "kind": "cdios-error", "code": e.code, "command": e.command,
-            "command_name": table::COMMANDS.iter().find(|c| c.code == e.command).map(|c| c.name),
+            "kind": "cdios-error", "code": e.code, "command_code": format!("{:02X}", e.command),
+            "command": table::COMMANDS.iter().find(|c| c.code == e.command).map_or("unknown", |c| c.name),
             "module": e.module, "general": e.general,
             "general_name": general.map(|g| g.0), "general_text": general.map(|g| g.1),
             "status1": e.status1, "status2": e.status2, "flags": flags, "unknown_bits": e.unknown_bits(),

@@ -77,8 +77,8 @@ fn profibus_image(ctx: &Ctx, value: &str) -> anyhow::Result<()> {
         output::json(&json!({
             "kind": PROFIBUS_IMAGE, "answer": img.answer, "answer_decoded": decoded.as_ref().ok(),
             "answer_details": details, "answer_error": decoded.as_ref().err(),
-            "position_ticks": img.position_ticks, "short_state": img.short_state,
-            "flags": state.flags, "errors": state.errors, "ms": img.ms,
+            "position_ticks": img.position_ticks,
+            "short_state": output::flag_word(&flags::PROFIBUS_STATE, img.short_state.into()), "ms": img.ms,
         }));
         return Ok(());
     }
@@ -109,9 +109,55 @@ fn pac_word(ctx: &Ctx, def: &'static pac_profibus::WordDef, value: &str) -> anyh
     };
     let d = pac_profibus::decode_word(def, raw).map_err(|e| usage(e.to_string()))?;
     if ctx.json {
-        output::json(&serde_json::to_value(&d)?);
+        output::json(&pac_word_json(&d));
     } else {
         print!("{d}");
     }
     Ok(())
+}
+
+/// A decoded PA-CONTROL word in the common `state` shape (its one-bit flags
+/// that are set, the reserved bits set as `unknown_bits`) with every field,
+/// each with its bits as an integer `mask` within `raw`.
+fn pac_word_json(d: &pac_profibus::Decoded) -> serde_json::Value {
+    // "15" or "0-12", as the table prints them.
+    let mask_of = |bits: &str| -> u64 {
+        let (lo, hi) = bits.split_once('-').unwrap_or((bits, bits));
+        let (lo, hi) = (lo.parse::<u32>().unwrap_or(0), hi.parse::<u32>().unwrap_or(0));
+        (lo..=hi.min(63)).fold(0, |m, b| m | 1u64 << b)
+    };
+    // The manual has no classes for these words; a flag that reports an
+    // error says so in its name or text.
+    let class = |f: &pac_profibus::DecodedField| {
+        let says = |t: &str| t.to_ascii_lowercase().contains("error");
+        if says(f.name) || says(f.description) {
+            "error"
+        } else {
+            "info"
+        }
+    };
+    let set: Vec<output::Detail> = d
+        .fields
+        .iter()
+        .filter(|f| f.set == Some(true))
+        .map(|f| output::Detail { name: f.name, mask: mask_of(&f.bits), class: class(f), description: f.description })
+        .collect();
+    let unknown = d.reserved_bits_set.iter().fold(0u64, |m, b| m | 1u64.checked_shl(u32::from(*b)).unwrap_or(0));
+    let mut doc = json!({"kind": d.kind, "title": d.title, "section": d.section});
+    if let (Some(o), serde_json::Value::Object(st)) = (doc.as_object_mut(), output::state(d.raw, &set, unknown)) {
+        o.extend(st);
+    }
+    doc["fields"] = d
+        .fields
+        .iter()
+        .map(|f| {
+            let mut field = json!({"name": f.name, "mask": mask_of(&f.bits), "value": f.value,
+                                   "description": f.description});
+            if let Some(m) = &f.meaning {
+                field["meaning"] = json!(m);
+            }
+            field
+        })
+        .collect();
+    doc
 }

@@ -4,6 +4,7 @@
 mod cdios;
 mod dashboard;
 mod decode;
+pub mod error_json;
 pub mod exit;
 mod monitor;
 mod pac;
@@ -152,6 +153,8 @@ pub fn hint(err: &anyhow::Error) -> Option<String> {
 /// What every command gets: the resolved global options.
 pub struct Ctx {
     pub link: Option<LinkSpec>,
+    /// The link as the user gave it, for the JSON envelope.
+    pub link_text: String,
     pub json: bool,
     pub timeout: Option<Duration>,
     pub trace: bool,
@@ -171,6 +174,7 @@ impl Ctx {
         let opener = Opener::new(Arc::clone(&clock)).with_log(g.log.clone()).with_wire_speed(WireSpeed::from_env());
         Ok(Self {
             link,
+            link_text: g.link.clone().unwrap_or_default(),
             json: g.json,
             timeout: g.timeout.map(Duration::from_millis),
             trace: g.trace,

@@ -60,6 +60,11 @@ impl Printer<'_> {
             writeln!(self.out, "{line}")?;
         } else if self.ctx.json {
             let mut v = serde_json::to_value(i).unwrap_or_default();
+            // A frame that does not decode is no failure of the command:
+            // `error` is kept for the error object (`jq -e .error`).
+            if let Some(e) = v.as_object_mut().and_then(|o| o.remove("error")) {
+                v["decode_error"] = e;
+            }
             v["timestamp"] = json!(ts);
             v["frame"] = json!(f.to_string());
             writeln!(self.out, "{v}")?;

@@ -16,6 +16,7 @@ use std::io::IsTerminal;
 use std::time::Duration;
 
 use axisctl::device::pac::{self as device, Controller, Element, Register};
+use axisctl::family::Family;
 use axisctl::open::Takeover;
 use axisctl::proto::pac::table::{self, CommandDef, ExtAxisStatus};
 use axisctl::proto::pac::{Ack, CheckRule, Command, Par2};
@@ -24,6 +25,7 @@ use serde_json::json;
 
 use super::takeover::HolderReport;
 use super::{arm_interrupt, interrupted, usage, Ctx};
+use crate::cli::ids::Devices;
 use crate::cli::pac::{PacCommand, PacWait, ParamAccess};
 use crate::output;
 
@@ -36,11 +38,11 @@ pub fn run(ctx: &Ctx, cmd: PacCommand) -> anyhow::Result<()> {
     let mut d = Controller::new(pac);
     let d = &mut d;
     match cmd {
-        PacCommand::PacOnline => simple(ctx, d, 0x0603, 0, None),
-        PacCommand::PacOffline => simple(ctx, d, 0x0A81, 0, None),
-        PacCommand::PacStop => stop(ctx, d, 0x0600, 0, takeover.as_ref()),
-        PacCommand::PacAutoStart => simple(ctx, d, 0x0602, 0, None),
-        PacCommand::PacAutoAbort => simple(ctx, d, 0x0A41, 0, None),
+        PacCommand::PacOnline => simple(ctx, d, 0x0603, None, None),
+        PacCommand::PacOffline => simple(ctx, d, 0x0A81, None, None),
+        PacCommand::PacStop => stop(ctx, d, 0x0600, None, takeover.as_ref()),
+        PacCommand::PacAutoStart => simple(ctx, d, 0x0602, None, None),
+        PacCommand::PacAutoAbort => simple(ctx, d, 0x0A41, None, None),
         PacCommand::PacState => state(ctx, d),
         PacCommand::PacError => error(ctx, d),
         PacCommand::PacResetError => reset_error(ctx, d),
@@ -48,25 +50,25 @@ pub fn run(ctx: &Ctx, cmd: PacCommand) -> anyhow::Result<()> {
             move_axis(ctx, d, axis.axis, pos, relative, force, wait)
         }
         PacCommand::PacRef { axis, wait } => reference(ctx, d, axis.axis, wait),
-        PacCommand::PacNoRef(a) => simple(ctx, d, 0x0A83, a.axis.into(), None),
-        PacCommand::PacZero(a) => simple(ctx, d, 0x0A85, a.axis.into(), None),
-        PacCommand::PacSetPos { axis, pos } => simple(ctx, d, 0x0A86, axis.axis.into(), Some(finite("POS", pos)?)),
-        PacCommand::PacSpeed { axis, speed } => simple(ctx, d, 0x0A8D, axis.axis.into(), Some(finite("speed", speed)?)),
+        PacCommand::PacNoRef(a) => simple(ctx, d, 0x0A83, Some(a.axis), None),
+        PacCommand::PacZero(a) => simple(ctx, d, 0x0A85, Some(a.axis), None),
+        PacCommand::PacSetPos { axis, pos } => simple(ctx, d, 0x0A86, Some(axis.axis), Some(finite("POS", pos)?)),
+        PacCommand::PacSpeed { axis, speed } => simple(ctx, d, 0x0A8D, Some(axis.axis), Some(finite("speed", speed)?)),
         PacCommand::PacAccel { axis, accel } => {
-            simple(ctx, d, 0x0A8E, axis.axis.into(), Some(finite("acceleration", accel)?))
+            simple(ctx, d, 0x0A8E, Some(axis.axis), Some(finite("acceleration", accel)?))
         }
         PacCommand::PacStopAxis { axis, no_wait } => {
-            stop(ctx, d, if no_wait { 0x0A9A } else { 0x0A93 }, axis.axis.into(), takeover.as_ref())
+            stop(ctx, d, if no_wait { 0x0A9A } else { 0x0A93 }, Some(axis.axis), takeover.as_ref())
         }
-        PacCommand::PacAxis(a) => axis_info(ctx, d, a.axis),
+        PacCommand::PacAxis(a) => axes_info(ctx, d, &a.axis),
         PacCommand::PacAxes => axes(ctx, d),
-        PacCommand::PacAxisOn(a) => simple(ctx, d, 0x0A97, a.axis.into(), None),
-        PacCommand::PacAxisOff(a) => simple(ctx, d, 0x0A98, a.axis.into(), None),
+        PacCommand::PacAxisOn(a) => simple(ctx, d, 0x0A97, Some(a.axis), None),
+        PacCommand::PacAxisOff(a) => simple(ctx, d, 0x0A98, Some(a.axis), None),
         PacCommand::PacMeasure { axis, off } => {
-            simple(ctx, d, if off { 0x0AA1 } else { 0x0AA0 }, axis.axis.into(), None)
+            simple(ctx, d, if off { 0x0AA1 } else { 0x0AA0 }, Some(axis.axis), None)
         }
         PacCommand::PacLimitSwitch { axis, state } => {
-            simple(ctx, d, 0x0AA2, axis.into(), Some(if state == "on" { 1.0 } else { 0.0 }))
+            simple(ctx, d, 0x0AA2, Some(axis), Some(if state == "on" { 1.0 } else { 0.0 }))
         }
         PacCommand::PacIn { number, word } => element(ctx, d, Element::Input, number, None, word),
         PacCommand::PacOut { number, value, word } => element(ctx, d, Element::Output, number, value, word),
@@ -99,8 +101,35 @@ fn finite(what: &str, v: f64) -> anyhow::Result<f64> {
     }
 }
 
+/// The operating status and error number every acknowledge carries. Named
+/// apart from the axis status, and `controller_error` rather than `error`,
+/// so that `jq -e .error` never calls a success a failure.
 fn status_json(ack: &Ack) -> serde_json::Value {
-    json!({"status": ack.status, "status_text": table::operating_status_text(ack.status), "error": ack.error})
+    json!({"operating_status": ack.status, "operating_status_text": table::operating_status_text(ack.status),
+           "controller_error": ack.error})
+}
+
+/// The envelope of a controller-level object (docs/json.md).
+fn controller(ctx: &Ctx) -> serde_json::Map<String, serde_json::Value> {
+    output::envelope(Family::Pac, &ctx.link_text, &[])
+}
+
+/// The envelope of an object about one axis.
+fn on_axis(ctx: &Ctx, axis: u8) -> serde_json::Map<String, serde_json::Value> {
+    output::envelope(Family::Pac, &ctx.link_text, &[("axis", axis.into())])
+}
+
+/// `envelope` and the command's own keys.
+fn doc(envelope: serde_json::Map<String, serde_json::Value>, body: serde_json::Value) -> serde_json::Value {
+    output::device_doc(envelope, body)
+}
+
+/// A parameter in its wire type: TYP 0 an integer, TYP 1 a float.
+fn par_json(p: &Par2) -> serde_json::Value {
+    match *p {
+        Par2::Int(i) => json!(i),
+        Par2::Float(f) => json!(f),
+    }
 }
 
 fn check_rule_name(r: CheckRule) -> &'static str {
@@ -115,32 +144,41 @@ fn check_rule_name(r: CheckRule) -> &'static str {
 // Commands
 
 /// One command, its acknowledge; motion-free or finishing by itself.
-fn simple(ctx: &Ctx, d: &mut Controller, code: u16, par1: i64, value: Option<f64>) -> anyhow::Result<()> {
-    let done = d.send(code, par1, value)?;
-    report(ctx, code, par1, value, done.ack, None);
+fn simple(ctx: &Ctx, d: &mut Controller, code: u16, axis: Option<u8>, value: Option<f64>) -> anyhow::Result<()> {
+    let done = d.send(code, axis.map_or(0, i64::from), value)?;
+    report(ctx, code, axis, value, done.ack, None);
     Ok(())
 }
 
 /// A stop, then what became of the process that held the line, if one did.
-fn stop(ctx: &Ctx, d: &mut Controller, code: u16, par1: i64, takeover: Option<&Takeover>) -> anyhow::Result<()> {
-    let done = d.send(code, par1, None).map_err(|e| super::takeover::failed(e, takeover))?;
-    report(ctx, code, par1, None, done.ack, HolderReport::after_halt(takeover));
+fn stop(ctx: &Ctx, d: &mut Controller, code: u16, axis: Option<u8>, takeover: Option<&Takeover>) -> anyhow::Result<()> {
+    let done = d.send(code, axis.map_or(0, i64::from), None).map_err(|e| super::takeover::failed(e, takeover))?;
+    report(ctx, code, axis, None, done.ack, HolderReport::after_halt(takeover));
     Ok(())
 }
 
-fn report(ctx: &Ctx, code: u16, par1: i64, value: Option<f64>, ack: Ack, holder: Option<HolderReport>) {
+fn report(ctx: &Ctx, code: u16, axis: Option<u8>, value: Option<f64>, ack: Ack, holder: Option<HolderReport>) {
+    let envelope = match axis {
+        Some(a) => on_axis(ctx, a),
+        None => controller(ctx),
+    };
+    let par1 = axis.map_or(0, i64::from);
     let def = def(code);
     let ack_value = match def.ack {
         table::AckKind::None => None,
-        _ => Some(ack.q_par.as_f64()),
+        _ => Some(ack.q_par),
     };
     if ctx.json {
-        let mut doc = json!({"command": def.code_hex(), "name": def.name, "par1": par1});
+        let mut doc = doc(
+            envelope,
+            json!({"command": def.name, "command_code": def.code_hex(), "par1": par1,
+                                           "acknowledged": true}),
+        );
         if let Some(v) = value {
             doc["par2"] = json!(v);
         }
         if let Some(v) = ack_value {
-            doc["ack_value"] = json!(v);
+            doc["ack_value"] = par_json(&v);
         }
         merge(&mut doc, status_json(&ack));
         if let Some(h) = &holder {
@@ -173,7 +211,7 @@ fn state(ctx: &Ctx, d: &mut Controller) -> anyhow::Result<()> {
     let ack = d.send(0x190B, 0, None)?.ack;
     let mode = table::mode_of_status(ack.status).map(|m| m.name());
     if ctx.json {
-        let mut doc = status_json(&ack);
+        let mut doc = doc(controller(ctx), status_json(&ack));
         doc["mode"] = json!(mode);
         output::json(&doc);
     } else {
@@ -189,8 +227,8 @@ fn error(ctx: &Ctx, d: &mut Controller) -> anyhow::Result<()> {
     let ack = d.send(0x1909, 0, None)?.ack;
     let number = ack.q_par.as_i64().unwrap_or(i64::from(ack.error));
     if ctx.json {
-        let mut doc = status_json(&ack);
-        doc["error"] = json!(number);
+        let mut doc = doc(controller(ctx), status_json(&ack));
+        doc["controller_error"] = json!(number);
         output::json(&doc);
     } else if number == 0 {
         println!("no PA-CONTROL error");
@@ -204,7 +242,7 @@ fn reset_error(ctx: &Ctx, d: &mut Controller) -> anyhow::Result<()> {
     let reset = d.reset_error()?;
     let (ack, left) = (reset.ack, reset.left);
     if ctx.json {
-        let mut doc = status_json(&ack);
+        let mut doc = doc(controller(ctx), status_json(&ack));
         doc["reset"] = json!(left == 0);
         doc["remaining_error"] = json!(left);
         output::json(&doc);
@@ -255,6 +293,7 @@ fn move_axis(
     wait: PacWait,
 ) -> anyhow::Result<()> {
     let pos = finite("POS", pos)?;
+    on_axis(ctx, axis);
     if wait.wait {
         // Supervised from before the first byte; without a wait the move is
         // one-shot and unsupervised once acknowledged.
@@ -268,12 +307,18 @@ fn move_axis(
     let (code, target, start_position) = (started.code, started.target, started.start_position);
     if !wait.wait {
         if ctx.json {
-            let mut doc = json!({"axis": axis, "command": def(code).code_hex(), "target": target,
-                                 "start_position": start_position, "done": false});
+            let mut doc = doc(
+                on_axis(ctx, axis),
+                json!({"command": def(code).name, "command_code": def(code).code_hex(),
+                "target": target, "start_position": start_position, "done": false, "acknowledged": true}),
+            );
             merge(&mut doc, status_json(&started.ack));
             output::json(&doc);
         } else {
-            println!("axis {axis}: moving from {start_position} to {target} ({} started)", def(code).code_hex());
+            println!(
+                "axis {axis}: moving from {start_position} to {target} {POSITION_UNIT} ({} started)",
+                def(code).code_hex()
+            );
         }
         return Ok(());
     }
@@ -283,7 +328,8 @@ fn move_axis(
     let result = d.wait_move(axis, target, poll, limit, &mut |p| {
         let (position, status) = (p.position, p.status);
         reporter.report(
-            json!({"axis": axis, "position": position, "status": status, "elapsed_ms": p.elapsed.as_millis() as u64}),
+            json!({"axis": axis, "position": position, "axis_status": status,
+                   "elapsed_ms": p.elapsed.as_millis() as u64}),
             format!("axis {axis} -> {target}: position {position:.3}  {}", table::axis_status_text(status)),
         );
         !interrupted()
@@ -291,13 +337,17 @@ fn move_axis(
     reporter.finish();
     let device::MoveProgress { position, status, elapsed } = result.map_err(|e| super::stopped_by_output(e.into()))?;
     if ctx.json {
-        output::json(&json!({"axis": axis, "command": def(code).code_hex(), "target": target,
-            "start_position": start_position, "position": position, "status": status,
-            "status_text": table::axis_status_text(status), "done": true,
-            "elapsed_ms": elapsed.as_millis() as u64}));
+        output::json(&doc(
+            on_axis(ctx, axis),
+            json!({"command": def(code).name, "command_code": def(code).code_hex(),
+            "target": target, "start_position": start_position,
+            "position": output::with_unit(json!(position), POSITION_UNIT), "axis_status": status,
+            "axis_status_text": table::axis_status_text(status), "done": true,
+            "elapsed_ms": elapsed.as_millis() as u64}),
+        ));
     } else {
         crate::output::say!(
-            "axis {axis}: at {position} after {:.2} s ({})",
+            "axis {axis}: at {position} {POSITION_UNIT} after {:.2} s ({})",
             elapsed.as_secs_f64(),
             table::axis_status_text(status)
         );
@@ -306,12 +356,17 @@ fn move_axis(
 }
 
 fn reference(ctx: &Ctx, d: &mut Controller, axis: u8, wait: PacWait) -> anyhow::Result<()> {
+    on_axis(ctx, axis);
     if !wait.wait {
         // No start-and-return form exists: the drive runs on and the
         // controller answers only polls until it ends.
         let (ack, done) = d.start_reference(axis)?;
         if ctx.json {
-            let mut doc = json!({"axis": axis, "command": "0A84", "done": done});
+            let mut doc = doc(
+                on_axis(ctx, axis),
+                json!({"command": def(0x0A84).name, "command_code": "0A84",
+                                                         "done": done, "acknowledged": true}),
+            );
             merge(&mut doc, status_json(&ack));
             output::json(&doc);
         } else if done {
@@ -331,7 +386,7 @@ fn reference(ctx: &Ctx, d: &mut Controller, axis: u8, wait: PacWait) -> anyhow::
     let result = d.reference(axis, poll, limit, &mut |p: &Progress| {
         // 0A84's acknowledge date has no meaning (5.2.6.3): only time shows.
         reporter.report(
-            json!({"axis": axis, "polls": p.polls, "done": p.ack.be, "status": p.ack.status,
+            json!({"axis": axis, "polls": p.polls, "done": p.ack.be, "operating_status": p.ack.status,
                    "elapsed_ms": p.elapsed.as_millis() as u64}),
             format!("axis {axis}: reference drive, {} poll(s)", p.polls),
         );
@@ -341,53 +396,115 @@ fn reference(ctx: &Ctx, d: &mut Controller, axis: u8, wait: PacWait) -> anyhow::
     let done = result.map_err(|e| super::stopped_by_output(e.into()))?;
     let position = d.read_f64(0x190C, axis.into())?;
     if ctx.json {
-        let mut doc = json!({"axis": axis, "command": "0A84", "done": true, "position": position,
-                             "polls": done.polls, "elapsed_ms": done.elapsed.as_millis() as u64});
+        let mut doc = doc(
+            on_axis(ctx, axis),
+            json!({"command": def(0x0A84).name, "command_code": "0A84",
+            "done": true, "position": output::with_unit(json!(position), POSITION_UNIT), "polls": done.polls,
+            "elapsed_ms": done.elapsed.as_millis() as u64}),
+        );
         merge(&mut doc, status_json(&done.ack));
         output::json(&doc);
     } else {
-        crate::output::say!("axis {axis}: referenced, at {position} after {:.2} s", done.elapsed.as_secs_f64());
+        crate::output::say!(
+            "axis {axis}: referenced, at {position} {POSITION_UNIT} after {:.2} s",
+            done.elapsed.as_secs_f64()
+        );
     }
     Ok(())
 }
 
 /// Everything 1910 / 1921 / 190C / 190D / 1913 / 1914 say about an axis.
-fn axis_json(d: &mut Controller, axis: u8) -> anyhow::Result<serde_json::Value> {
+fn axis_json(ctx: &Ctx, d: &mut Controller, axis: u8) -> anyhow::Result<serde_json::Value> {
+    let envelope = on_axis(ctx, axis);
     let state = d.axis_state(axis)?;
     let area = d.traverse_area(axis)?;
     let (position, speed, status, ext_raw) = (state.position, state.speed, state.status as u64, state.ext_status);
     let (min, max) = (area.min, area.max);
-    let ext = ExtAxisStatus::decode(ext_raw);
-    Ok(json!({"axis": axis, "position": position, "speed": speed, "status": status,
-              "status_text": table::axis_status_text(status),
-              "extended_status": {"raw": ext_raw, "power_pack_ready": ext.power_pack_ready,
-                  "positive_limit_activated": ext.positive_limit_activated,
-                  "negative_limit_activated": ext.negative_limit_activated,
-                  "axis_status": ext.axis_status, "axis_status_text": ext.axis_status_text},
-              "traverse_min": min, "traverse_max": max}))
+    Ok(doc(
+        envelope,
+        json!({"position": output::with_unit(json!(position), POSITION_UNIT),
+              "speed": output::with_unit(json!(speed), SPEED_UNIT), "axis_status": status,
+              "axis_status_text": table::axis_status_text(status), "state": ext_status_json(ext_raw),
+              "traverse_min": output::with_unit(json!(min), POSITION_UNIT),
+              "traverse_max": output::with_unit(json!(max), POSITION_UNIT)}),
+    ))
 }
 
-fn axis_info(ctx: &Ctx, d: &mut Controller, axis: u8) -> anyhow::Result<()> {
-    let doc = axis_json(d, axis)?;
-    if ctx.json {
-        output::json(&doc);
-        return Ok(());
+/// The manual's user units (AE) of positions and speeds.
+const POSITION_UNIT: &str = "AE";
+const SPEED_UNIT: &str = "AE/s";
+
+/// The extended axis status (1921, manual 5.2.4.28) in the one `state`
+/// shape. Its bytes are fields, not bits: the mask of a flag is the byte
+/// that says it (a limit switch is activated when its byte is 0); the low
+/// byte is the axis status of 1910, whose codes 1, 2, 4, 8 are bits.
+fn ext_status_json(raw: u32) -> serde_json::Value {
+    let ext = ExtAxisStatus::decode(raw);
+    let mut set = Vec::new();
+    let mut flag = |on: bool, name, mask, class, description| {
+        if on {
+            set.push(output::Detail { name, mask, class, description });
+        }
+    };
+    flag(ext.power_pack_ready, "POWER_PACK_READY", 0xff00_0000, "info", "the power pack is ready (bits 24-31 = 1)");
+    let positive = "the positive limit switch is activated (bits 16-23 = 0)";
+    flag(ext.positive_limit_activated, "POSITIVE_LIMIT_ACTIVATED", 0x00ff_0000, "warning", positive);
+    let negative = "the negative limit switch is activated (bits 8-15 = 0)";
+    flag(ext.negative_limit_activated, "NEGATIVE_LIMIT_ACTIVATED", 0x0000_ff00, "warning", negative);
+    let names = ["AXIS_MOVING", "AXIS_STOPPED", "AXIS_FAULT", "AXIS_MEASURING_MODE"];
+    for (bit, name) in names.into_iter().enumerate() {
+        let mask = 1u64 << bit;
+        let class = if name == "AXIS_FAULT" { "error" } else { "info" };
+        flag(u64::from(ext.axis_status) & mask != 0, name, mask, class, table::axis_status_text(mask));
     }
-    let e = &doc["extended_status"];
-    let yes = |v: &serde_json::Value| if v.as_bool() == Some(true) { "yes" } else { "no" };
+    output::state(raw.into(), &set, u64::from(ext.axis_status & 0xf0))
+}
+
+/// `pac-axis` of each axis asked for: one object for one axis, else
+/// `{"devices": [...]}` (`all`: every configured axis).
+fn axes_info(ctx: &Ctx, d: &mut Controller, axes: &Devices) -> anyhow::Result<()> {
+    let list: Vec<u8> = match axes {
+        Devices::One(a) => vec![*a],
+        Devices::List(l) => l.0.clone(),
+        Devices::All => (1..=d.configured_axes()?).collect(),
+    };
+    let mut docs = Vec::new();
+    for axis in list {
+        docs.push(axis_info(ctx, d, axis)?);
+    }
+    if ctx.json {
+        match axes {
+            Devices::One(_) => output::json(&docs[0]),
+            _ => output::json(&json!({ "devices": docs })),
+        }
+    }
+    Ok(())
+}
+
+fn axis_info(ctx: &Ctx, d: &mut Controller, axis: u8) -> anyhow::Result<serde_json::Value> {
+    let doc = axis_json(ctx, d, axis)?;
+    if ctx.json {
+        return Ok(doc);
+    }
+    let flags = &doc["state"]["flags"];
+    let yes = |name: &str| if flags.as_array().is_some_and(|f| f.iter().any(|f| f == name)) { "yes" } else { "no" };
+    let with_unit = |v: &serde_json::Value| format!("{} {}", v["value"], v["unit"].as_str().unwrap_or(""));
     let rows = vec![
         vec!["axis".into(), axis.to_string()],
-        vec!["position".into(), doc["position"].to_string()],
-        vec!["speed".into(), doc["speed"].to_string()],
-        vec!["status".into(), format!("{} {}", doc["status"], doc["status_text"].as_str().unwrap_or(""))],
-        vec!["traverse area".into(), format!("{} ..= {}", doc["traverse_min"], doc["traverse_max"])],
-        vec!["power pack ready".into(), yes(&e["power_pack_ready"]).into()],
-        vec!["+ limit switch activated".into(), yes(&e["positive_limit_activated"]).into()],
-        vec!["- limit switch activated".into(), yes(&e["negative_limit_activated"]).into()],
-        vec!["extended status".into(), format!("{:#010x}", e["raw"].as_u64().unwrap_or(0))],
+        vec!["position".into(), with_unit(&doc["position"])],
+        vec!["speed".into(), with_unit(&doc["speed"])],
+        vec!["status".into(), format!("{} {}", doc["axis_status"], doc["axis_status_text"].as_str().unwrap_or(""))],
+        vec![
+            "traverse area".into(),
+            format!("{} to {}", doc["traverse_min"]["value"], with_unit(&doc["traverse_max"])),
+        ],
+        vec!["power pack ready".into(), yes("POWER_PACK_READY").into()],
+        vec!["+ limit switch activated".into(), yes("POSITIVE_LIMIT_ACTIVATED").into()],
+        vec!["- limit switch activated".into(), yes("NEGATIVE_LIMIT_ACTIVATED").into()],
+        vec!["extended status".into(), format!("{:#010x}", doc["state"]["raw"].as_u64().unwrap_or(0))],
     ];
     output::table(&rows, crate::output::Style { color: false });
-    Ok(())
+    Ok(serde_json::Value::Null)
 }
 
 fn axes(ctx: &Ctx, d: &mut Controller) -> anyhow::Result<()> {
@@ -396,21 +513,25 @@ fn axes(ctx: &Ctx, d: &mut Controller) -> anyhow::Result<()> {
     let mut list = Vec::new();
     for axis in 1..=n {
         let a = i64::from(axis);
+        let envelope = on_axis(ctx, axis);
         let position = d.read_f64(0x190C, a)?;
         let status = d.read_i64(0x1910, a)? as u64;
-        list.push(json!({"axis": axis, "position": position, "status": status,
-                         "status_text": table::axis_status_text(status)}));
+        list.push(doc(
+            envelope,
+            json!({"position": output::with_unit(json!(position), POSITION_UNIT), "axis_status": status,
+                         "axis_status_text": table::axis_status_text(status)}),
+        ));
     }
     if ctx.json {
-        output::json(&json!({"axes": list, "moving": table::moving_axes(moving)}));
+        output::json(&doc(controller(ctx), json!({"devices": list, "moving": table::moving_axes(moving)})));
         return Ok(());
     }
     let mut rows = vec![["AXIS", "POSITION", "STATUS"].map(String::from).to_vec()];
     for a in &list {
         rows.push(vec![
             a["axis"].to_string(),
-            a["position"].to_string(),
-            format!("{} {}", a["status"], a["status_text"].as_str().unwrap_or("")),
+            format!("{} {POSITION_UNIT}", a["position"]["value"]),
+            format!("{} {}", a["axis_status"], a["axis_status_text"].as_str().unwrap_or("")),
         ]);
     }
     output::table(&rows, ctx.style);
@@ -441,7 +562,7 @@ fn element(
         let w = d.read_element_word(el, number)?;
         let members = table::word_members(number, w);
         if ctx.json {
-            output::json(&json!({key: number, "word": w, "set": members}));
+            output::json(&doc(controller(ctx), json!({key: number, "word": w, "set": members})));
         } else {
             let first = (number.max(1) - 1) / 16 * 16 + 1;
             println!("{key}s {first}..{}: {w:#06x} {w:016b}  set: {members:?}", first + 15);
@@ -449,7 +570,7 @@ fn element(
     } else {
         let v = d.read_element(el, number)?;
         if ctx.json {
-            output::json(&json!({key: number, "state": v}));
+            output::json(&doc(controller(ctx), json!({key: number, "value": v})));
         } else {
             println!("{key} {number}: {v}");
         }
@@ -466,13 +587,34 @@ fn reg(ctx: &Ctx, d: &mut Controller, register: &str, value: Option<&str>) -> an
     }
     let q_par = d.read_register(reg)?;
     if ctx.json {
-        output::json(
-            &json!({"register": reg.to_string(), "type": if reg.is_float() { "float" } else { "int" }, "value": q_par.as_f64()}),
-        );
+        // Integer registers stay integers: 12345, not 12345.0.
+        let value = match q_par.as_i64() {
+            Some(i) if !reg.is_float() => json!(i),
+            _ => json!(q_par.as_f64()),
+        };
+        output::json(&doc(
+            controller(ctx),
+            json!({"register": reg.to_string(), "type": if reg.is_float() { "float" } else { "int" }, "value": value}),
+        ));
     } else {
         println!("{reg} = {q_par}");
     }
     Ok(())
+}
+
+/// A parameter in the one shape of every family (`.params.NAME.value`);
+/// `limit` says whether the value is the parameter's `min` or `max` rather
+/// than its value.
+fn param_json(
+    name: &str,
+    id: impl Into<u64>,
+    ty: &str,
+    unit: &str,
+    value: serde_json::Value,
+    what: &str,
+) -> serde_json::Value {
+    let limit = if what == "value" { serde_json::Value::Null } else { json!(what) };
+    json!({"params": {name: {"id": id.into(), "type": ty, "unit": unit, "value": value}}, "limit": limit})
 }
 
 fn parse_value(text: &str) -> anyhow::Result<f64> {
@@ -499,7 +641,7 @@ fn sys_param(ctx: &Ctx, d: &mut Controller, name: &str, access: &ParamAccess) ->
         }
     };
     if ctx.json {
-        output::json(&json!({"param": p.number, "name": p.name, what: value}));
+        output::json(&doc(controller(ctx), param_json(p.name, p.number, "int", "", json!(value), what)));
     } else {
         println!("system parameter {} ({}) {what}: {value}", p.number, p.manual_name);
     }
@@ -524,7 +666,7 @@ fn axis_param(ctx: &Ctx, d: &mut Controller, axis: u8, name: &str, access: &Para
         }
     };
     if ctx.json {
-        output::json(&json!({"axis": axis, "param": p.number, "name": p.name, "unit": p.unit, what: value}));
+        output::json(&doc(on_axis(ctx, axis), param_json(p.name, p.number, "float", p.unit, json!(value), what)));
     } else {
         println!("axis {axis} parameter {} ({}) {what}: {value} {}", p.number, p.manual_name, p.unit);
     }
@@ -570,9 +712,13 @@ fn raw(ctx: &Ctx, d: &mut Controller, code_text: &str, par1: i64, par2: Option<&
     let done = result?;
     let ack = done.ack;
     if ctx.json {
-        let mut doc = json!({"command": format!("{:04X}", cmd.code), "name": def.map(|d| d.name), "par1": cmd.par1,
-            "par2": cmd.par2.as_f64(), "quit": ack.quit, "be": ack.be, "typ": ack.q_par.typ(),
-            "q_par": ack.q_par.as_f64(), "polls": done.polls, "check_rule": check_rule_name(ack.check_rule)});
+        let mut doc = doc(
+            controller(ctx),
+            json!({"command": "pac-raw", "command_code": format!("{:04X}", cmd.code),
+            "name": def.map(|d| d.name), "par1": cmd.par1,
+            "par2": par_json(&cmd.par2), "quit": ack.quit, "be": ack.be, "typ": ack.q_par.typ(),
+            "q_par": par_json(&ack.q_par), "polls": done.polls, "check_rule": check_rule_name(ack.check_rule)}),
+        );
         merge(&mut doc, status_json(&ack));
         output::json(&doc);
     } else {

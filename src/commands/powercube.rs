@@ -6,6 +6,7 @@ use std::time::Duration;
 use axisctl::device::powercube::{
     self as device, param, version_text, ConfigChange, Cubes, Error, Goal, Move, Simple, SyncRamp, WaitEnd, WaitSpec,
 };
+use axisctl::family::Family;
 use axisctl::proto::powercube::flags::{self, FlagWord};
 use axisctl::proto::powercube::frame::{f32_to_f64, Value};
 use axisctl::proto::powercube::table::{ids, ParamDef};
@@ -15,7 +16,7 @@ use serde_json::json;
 
 use super::wait::waiting;
 use super::{interrupted, usage, Ctx, Interrupted};
-use crate::cli::ids::IdList;
+use crate::cli::ids::{Devices, IdList};
 use crate::cli::{PowerCubeCommand as Command, Target, WaitArgs, WatchdogAction};
 use crate::output;
 use crate::output::say;
@@ -24,13 +25,18 @@ use axisctl::device::supervisor;
 pub fn run(ctx: &Ctx, cmd: Command) -> anyhow::Result<()> {
     match cmd {
         Command::Scan { ids } => scan(ctx, &ids),
-        Command::Info(m) => info(ctx, module(m.module)),
-        Command::State(m) => show_state(ctx, module(m.module)),
+        Command::Info(m) => read_each(ctx, &m.module, info),
+        Command::State(m) => read_each(ctx, &m.module, show_state),
         Command::Home { target, wait } => home(ctx, target, wait),
         Command::Reset { target } => simple(ctx, target, Simple::Reset),
         Command::Halt { target } => halt(ctx, target),
         Command::MoveRamp { modules, pos, vel, acc, ticks, force, sync, wait } => {
             let ms: Vec<ModuleId> = modules.0.iter().map(|id| module(*id)).collect();
+            if ms.len() > 1 {
+                // A failure of a synchronized move is the group's, not the
+                // last module's.
+                output::forget_target();
+            }
             match (&ms[..], &pos[..]) {
                 _ if sync => move_ramp_sync(ctx, &ms, &pos, (vel, acc), ticks, force, wait),
                 ([m], [p]) => move_ramp(ctx, *m, *p, vel, acc, ticks, force, wait),
@@ -42,7 +48,12 @@ pub fn run(ctx: &Ctx, cmd: Command) -> anyhow::Result<()> {
         }
         Command::MoveVel { module: m, vel, ticks, force } => move_vel(ctx, module(m.module), vel, ticks, force),
         Command::MoveCur { module: m, amps, force } => move_cur(ctx, module(m.module), amps, force),
-        Command::GetParam { module: m, params, all } => get_param(ctx, module(m.module), &params, all),
+        Command::GetParam { module: m, params, all } => {
+            // Every name is resolved before the link opens: a typo sends nothing.
+            let defs = device::readable_params(&params, all)?;
+            let several = !matches!(m.module, Devices::One(_));
+            read_each(ctx, &m.module, |ctx, cubes, id| get_param(ctx, cubes, id, (&defs, all), several))
+        }
         Command::SetParam { module: m, param, value, force } => set_param(ctx, module(m.module), &param, &value, force),
         Command::GetConfig(m) => get_config(ctx, module(m.module)),
         Command::SetConfig { module: m, changes, raw, force } => {
@@ -54,11 +65,57 @@ pub fn run(ctx: &Ctx, cmd: Command) -> anyhow::Result<()> {
 }
 
 fn module(id: u8) -> ModuleId {
+    output::target(Family::PowerCube, &[("module", id.into())]);
     ModuleId::new(id).expect("clap checks 1..=31")
+}
+
+/// The envelope of a per-module object (docs/json.md).
+fn envelope(ctx: &Ctx, m: ModuleId) -> serde_json::Map<String, serde_json::Value> {
+    output::envelope(Family::PowerCube, &ctx.link_text, &[("module", m.get().into())])
+}
+
+/// `envelope` and the command's own keys.
+fn doc(ctx: &Ctx, m: ModuleId, body: serde_json::Value) -> serde_json::Value {
+    output::device_doc(envelope(ctx, m), body)
 }
 
 fn cubes(ctx: &Ctx) -> anyhow::Result<Cubes> {
     Ok(Cubes::new(ctx.powercube()?))
+}
+
+/// A read of each module asked for: one JSON object for `-m ID`, else
+/// `{"devices": [...]}` in id order (`-m all`: the modules that answer).
+/// `read` prints the human form itself and returns the JSON object.
+fn read_each(
+    ctx: &Ctx,
+    devices: &Devices,
+    mut read: impl FnMut(&Ctx, &mut Cubes, ModuleId) -> anyhow::Result<serde_json::Value>,
+) -> anyhow::Result<()> {
+    let mut cubes = cubes(ctx)?;
+    let ids: Vec<ModuleId> = match devices {
+        Devices::One(id) => vec![module(*id)],
+        Devices::List(list) => list.0.iter().map(|id| module(*id)).collect(),
+        Devices::All => {
+            let present = cubes.present()?;
+            if present.is_empty() {
+                return Err(Error::NoneAnswered { ids: "1-31".into() }.into());
+            }
+            present
+        }
+    };
+    let mut docs = Vec::new();
+    for m in ids {
+        // The error object names the module being read.
+        module(m.get());
+        docs.push(read(ctx, &mut cubes, m)?);
+    }
+    if ctx.json {
+        match devices {
+            Devices::One(_) => output::json(&docs[0]),
+            _ => output::json(&json!({ "devices": docs })),
+        }
+    }
+    Ok(())
 }
 
 fn f64_of(v: &Value) -> f64 {
@@ -66,8 +123,7 @@ fn f64_of(v: &Value) -> f64 {
 }
 
 fn word_json(word: &FlagWord, raw: u32) -> serde_json::Value {
-    let d = word.decode(raw);
-    json!({"raw": raw, "flags": d.flags, "errors": d.errors, "warnings": d.warnings})
+    output::flag_word(word, raw)
 }
 
 /// Flags of a word, one per line, coloured by class.
@@ -122,11 +178,15 @@ fn scan(ctx: &Ctx, list: &IdList) -> anyhow::Result<()> {
         let list: Vec<_> = modules
             .iter()
             .map(|(m, version, serial, cfg, cube)| {
-                json!({"module": m, "version": version, "version_text": version_text(*version), "serial": serial,
-                       "kind": kind_of(*cfg), "state": word_json(&flags::CUBE_STATE, *cube)})
+                doc(
+                    ctx,
+                    *m,
+                    json!({"version": version, "version_text": version_text(*version), "serial": serial,
+                       "kind": kind_of(*cfg), "state": word_json(&flags::CUBE_STATE, *cube)}),
+                )
             })
             .collect();
-        output::json(&json!({"modules": list}));
+        output::json(&json!({"devices": list}));
         return Ok(());
     }
     let mut rows = vec![["MODULE", "SERIAL", "VERSION", "KIND", "STATE"].map(String::from).to_vec()];
@@ -156,8 +216,7 @@ fn state_summary(ctx: &Ctx, cube: u32) -> String {
     }
 }
 
-fn info(ctx: &Ctx, m: ModuleId) -> anyhow::Result<()> {
-    let mut cubes = cubes(ctx)?;
+fn info(ctx: &Ctx, cubes: &mut Cubes, m: ModuleId) -> anyhow::Result<serde_json::Value> {
     let identity = [
         ids::DEF_CUBE_SERIAL,
         ids::DEF_CUBE_VERSION,
@@ -182,14 +241,17 @@ fn info(ctx: &Ctx, m: ModuleId) -> anyhow::Result<()> {
     if ctx.json {
         let mut params = serde_json::Map::new();
         for (d, v) in defs.iter().zip(&vals) {
-            params.insert(d.name.into(), serde_json::to_value(v)?);
+            params.insert(d.name.into(), param_json(d, kind, serde_json::to_value(v)?));
         }
-        output::json(&json!({
-            "module": m, "kind": kind, "serial": num(0) as u32, "version": version,
-            "version_text": version_text(version), "params": params,
-            "config": word_json(&flags::CONFIG, config_word), "state": word_json(&flags::CUBE_STATE, cube),
-        }));
-        return Ok(());
+        return Ok(doc(
+            ctx,
+            m,
+            json!({
+                "kind": kind, "serial": num(0) as u32, "version": version,
+                "version_text": version_text(version), "params": params,
+                "config": word_json(&flags::CONFIG, config_word), "state": word_json(&flags::CUBE_STATE, cube),
+            }),
+        ));
     }
     println!("module {m}: {kind}, serial {}, version {}", num(0) as u32, version_text(version));
     let mut t = vec![["PARAMETER", "VALUE", "UNIT"].map(String::from).to_vec()];
@@ -201,7 +263,12 @@ fn info(ctx: &Ctx, m: ModuleId) -> anyhow::Result<()> {
     }
     output::table(&t, ctx.style);
     println!("state: {}", state_summary(ctx, cube));
-    Ok(())
+    Ok(serde_json::Value::Null)
+}
+
+/// A parameter in the one value shape, as `info` and `get-param` give it.
+fn param_json(d: &ParamDef, kind: &str, value: serde_json::Value) -> serde_json::Value {
+    json!({"id": d.id, "type": d.ty.name(), "unit": unit_for(d, kind), "value": value})
 }
 
 /// The table's "rad|m" units, resolved for the module's kind.
@@ -212,24 +279,21 @@ fn unit_for(d: &ParamDef, kind: &str) -> String {
     }
 }
 
-fn show_state(ctx: &Ctx, m: ModuleId) -> anyhow::Result<()> {
-    let cube = cubes(ctx)?.state(m)?;
+fn show_state(ctx: &Ctx, cubes: &mut Cubes, m: ModuleId) -> anyhow::Result<serde_json::Value> {
+    let cube = cubes.state(m)?;
     if ctx.json {
-        let mut doc = word_json(&flags::CUBE_STATE, cube);
-        doc["module"] = json!(m);
-        doc["short_state"] = json!(flags::short_state_from_cube_state(cube));
-        output::json(&doc);
-    } else {
-        print!("module {m}: ");
-        print_word(ctx, &flags::CUBE_STATE, cube);
+        let short = flags::short_state_from_cube_state(cube);
+        return Ok(doc(ctx, m, json!({"state": word_json(&flags::CUBE_STATE, cube), "short_state": short})));
     }
-    Ok(())
+    print!("module {m}: ");
+    print_word(ctx, &flags::CUBE_STATE, cube);
+    Ok(serde_json::Value::Null)
 }
 
 /// One command to one module, or its broadcast to all.
 fn simple(ctx: &Ctx, target: Target, cmd: Simple) -> anyhow::Result<()> {
     cubes(ctx)?.simple(target.module.map(module), cmd)?;
-    report_sent(ctx, target, cmd.name(), None);
+    report_sent(ctx, target, &cmd.name().to_lowercase(), None);
     Ok(())
 }
 
@@ -240,20 +304,24 @@ fn halt(ctx: &Ctx, target: Target) -> anyhow::Result<()> {
     let sent = Cubes::new(pc).simple(target.module.map(module), Simple::Halt);
     sent.map_err(|e| super::takeover::failed(e, takeover.as_ref()))?;
     let holder = super::takeover::HolderReport::after_halt(takeover.as_ref());
-    report_sent(ctx, target, Simple::Halt.name(), holder.as_ref());
+    report_sent(ctx, target, &Simple::Halt.name().to_lowercase(), holder.as_ref());
     Ok(())
 }
 
 fn report_sent(ctx: &Ctx, target: Target, what: &str, holder: Option<&super::takeover::HolderReport>) {
     if ctx.json {
-        let mut doc = match target.module {
-            Some(m) => json!({"module": m, "command": what, "acknowledged": true}),
-            None => json!({"module": null, "broadcast": true, "command": what}),
+        let mut out = match target.module {
+            Some(m) => doc(ctx, module(m), json!({"command": what, "acknowledged": true})),
+            None => {
+                let mut all = output::envelope(Family::PowerCube, &ctx.link_text, &[]);
+                all.insert("module".into(), serde_json::Value::Null);
+                output::device_doc(all, json!({"command": what, "broadcast": true, "acknowledged": false}))
+            }
         };
         if let Some(h) = holder {
-            doc["holder"] = h.json();
+            out["holder"] = h.json();
         }
-        output::json(&doc);
+        output::json(&out);
     } else {
         if let Some(h) = holder {
             println!("{}", h.line());
@@ -269,7 +337,7 @@ fn home(ctx: &Ctx, target: Target, wait: WaitArgs) -> anyhow::Result<()> {
     let mut cubes = cubes(ctx)?;
     if !wait.wait {
         cubes.simple(target.module.map(module), Simple::Home)?;
-        report_sent(ctx, target, "Home", None);
+        report_sent(ctx, target, "home", None);
         return Ok(());
     }
     // Supervised from before the first byte: a signal now halts.
@@ -305,8 +373,7 @@ fn home(ctx: &Ctx, target: Target, wait: WaitArgs) -> anyhow::Result<()> {
         );
         waited.map_err(|e| super::stopped_by_output(e.into()))
     })?;
-    print_wait_results(ctx, "Home", &results);
-    Ok(())
+    print_wait_results(ctx, &mut cubes, "home", &results)
 }
 
 /// The device's wait, with the spinner and Ctrl-C (which halts the module).
@@ -327,24 +394,36 @@ fn wait_for(ctx: &Ctx, cubes: &mut Cubes, m: ModuleId, wait: WaitArgs, goal: Goa
     })
 }
 
-fn print_wait_results(ctx: &Ctx, what: &str, results: &[WaitEnd]) {
+/// The ends of waits, with the position's unit (the module's Config, read
+/// once the motion is over, says rad or m).
+fn print_wait_results(ctx: &Ctx, cubes: &mut Cubes, what: &str, results: &[WaitEnd]) -> anyhow::Result<()> {
+    let mut list = Vec::new();
+    for r in results {
+        let unit = if device::is_linear(cubes.get_u32(r.module, ids::CONFIG)?) { "m" } else { "rad" };
+        list.push((r, unit));
+    }
     if ctx.json {
-        let list: Vec<_> = results
+        let list: Vec<_> = list
             .iter()
-            .map(|r| {
-                json!({"module": r.module, "command": what, "done": true, "position": f32_to_f64(r.position),
-                       "elapsed_ms": r.elapsed.as_millis() as u64, "state": word_json(&flags::CUBE_STATE, r.cube)})
+            .map(|(r, unit)| {
+                doc(
+                    ctx,
+                    r.module,
+                    json!({"command": what, "done": true,
+                    "position": output::with_unit(json!(f32_to_f64(r.position)), unit),
+                    "elapsed_ms": r.elapsed.as_millis() as u64, "state": word_json(&flags::CUBE_STATE, r.cube)}),
+                )
             })
             .collect();
         if let [one] = &list[..] {
             output::json(one);
         } else {
-            output::json(&json!({"modules": list}));
+            output::json(&json!({"devices": list}));
         }
     } else {
-        for r in results {
+        for (r, unit) in list {
             say!(
-                "module {}: {what} done at {:.4} after {:.2} s  [{}]",
+                "module {}: {what} done at {:.4} {unit} after {:.2} s  [{}]",
                 r.module,
                 r.position,
                 r.elapsed.as_secs_f64(),
@@ -352,6 +431,7 @@ fn print_wait_results(ctx: &Ctx, what: &str, results: &[WaitEnd]) {
             );
         }
     }
+    Ok(())
 }
 
 /// Checks and sends a move; the checks that need no module come before the
@@ -387,13 +467,12 @@ fn move_ramp(
     let mut cubes = send_move(ctx, m, Move::Ramp { pos, vel, acc }, ticks, force, wait.wait)?;
     if !wait.wait {
         if ctx.json {
-            output::json(&json!({"module": m, "command": "move-ramp", "target": pos, "acknowledged": true}));
+            output::json(&doc(ctx, m, json!({"command": "move-ramp", "target": pos, "acknowledged": true})));
         }
         return Ok(());
     }
     let end = wait_for(ctx, &mut cubes, m, wait, Goal::RampEnd { target: pos, ticks })?;
-    print_wait_results(ctx, "move-ramp", &[end]);
-    Ok(())
+    print_wait_results(ctx, &mut cubes, "move-ramp", &[end])
 }
 
 /// Several modules, each to its position, started by one broadcast; every
@@ -428,8 +507,11 @@ fn move_ramp_sync(
     }
     if !wait.wait {
         if ctx.json {
-            let list: Vec<_> = started.iter().map(|(m, moved)| json!({"module": m, "target": moved.target})).collect();
-            output::json(&json!({"command": "move-ramp", "sync": true, "modules": list, "broadcast": "StartMotion"}));
+            let list: Vec<_> = started
+                .iter()
+                .map(|(m, moved)| doc(ctx, *m, json!({"target": moved.target, "acknowledged": true})))
+                .collect();
+            output::json(&json!({"command": "move-ramp", "sync": true, "devices": list, "broadcast": "StartMotion"}));
         }
         return Ok(());
     }
@@ -449,16 +531,17 @@ fn move_ramp_sync(
         );
         waited.map_err(|e| super::stopped_by_output(e.into()))
     })?;
-    print_wait_results(ctx, "move-ramp", &ends);
-    Ok(())
+    print_wait_results(ctx, &mut cubes, "move-ramp", &ends)
 }
 
 fn move_step(ctx: &Ctx, m: ModuleId, pos: f64, time: u16, ticks: bool, force: bool) -> anyhow::Result<()> {
     send_move(ctx, m, Move::Step { pos, time_ms: time }, ticks, force, false)?;
     if ctx.json {
-        output::json(
-            &json!({"module": m, "command": "move-step", "target": pos, "time_ms": time, "acknowledged": true}),
-        );
+        output::json(&doc(
+            ctx,
+            m,
+            json!({"command": "move-step", "target": pos, "time_ms": time, "acknowledged": true}),
+        ));
     }
     Ok(())
 }
@@ -466,7 +549,7 @@ fn move_step(ctx: &Ctx, m: ModuleId, pos: f64, time: u16, ticks: bool, force: bo
 fn move_vel(ctx: &Ctx, m: ModuleId, vel: f64, ticks: bool, force: bool) -> anyhow::Result<()> {
     send_move(ctx, m, Move::Vel(vel), ticks, force, false)?;
     if ctx.json {
-        output::json(&json!({"module": m, "command": "move-vel", "velocity": vel, "acknowledged": true}));
+        output::json(&doc(ctx, m, json!({"command": "move-vel", "velocity": vel, "acknowledged": true})));
     }
     Ok(())
 }
@@ -474,44 +557,51 @@ fn move_vel(ctx: &Ctx, m: ModuleId, vel: f64, ticks: bool, force: bool) -> anyho
 fn move_cur(ctx: &Ctx, m: ModuleId, amps: f64, force: bool) -> anyhow::Result<()> {
     send_move(ctx, m, Move::Cur(amps), false, force, false)?;
     if ctx.json {
-        output::json(&json!({"module": m, "command": "move-cur", "current": amps, "acknowledged": true}));
+        output::json(&doc(ctx, m, json!({"command": "move-cur", "current": amps, "acknowledged": true})));
     }
     Ok(())
 }
 
-fn get_param(ctx: &Ctx, m: ModuleId, names: &[String], all: bool) -> anyhow::Result<()> {
-    let defs = device::readable_params(names, all)?;
-    let mut cubes = cubes(ctx)?;
+fn get_param(
+    ctx: &Ctx,
+    cubes: &mut Cubes,
+    m: ModuleId,
+    (defs, all): (&[&'static ParamDef], bool),
+    several: bool,
+) -> anyhow::Result<serde_json::Value> {
     // Config rides along so that "rad|m" units resolve for the module's kind.
-    let mut with_config = defs.clone();
+    let mut with_config = defs.to_vec();
     with_config.push(param(ids::CONFIG));
     let mut vals = cubes.get_params(m, &with_config, all)?;
     let kind = vals.pop().map_or("rotary", |(_, c)| kind_of(f64_of(&c) as u32));
     if ctx.json {
         let mut params = serde_json::Map::new();
         for (d, v) in &vals {
-            params.insert(
-                d.name.into(),
-                json!({"id": d.id, "type": d.ty.name(), "unit": unit_for(d, kind), "value": serde_json::to_value(v)?}),
-            );
+            params.insert(d.name.into(), param_json(d, kind, serde_json::to_value(v)?));
         }
-        output::json(&json!({"module": m, "params": params}));
-        return Ok(());
+        return Ok(doc(ctx, m, json!({ "params": params })));
+    }
+    if several {
+        say!("module {m}:");
     }
     let mut rows = vec![["PARAMETER", "ID", "TYPE", "VALUE", "UNIT"].map(String::from).to_vec()];
     for (d, v) in &vals {
         rows.push(vec![d.name.into(), format!("{:#04x}", d.id), d.ty.name().into(), v.to_string(), unit_for(d, kind)]);
     }
     output::table(&rows, ctx.style);
-    Ok(())
+    Ok(serde_json::Value::Null)
 }
 
 fn set_param(ctx: &Ctx, m: ModuleId, name: &str, text: &str, force: bool) -> anyhow::Result<()> {
     let (d, value) = device::param_write(name, text)?;
     let held = cubes(ctx)?.write_param(m, d, value, force)?;
     if ctx.json {
-        output::json(&json!({"module": m, "param": d.name, "id": d.id, "type": d.ty.name(), "value": value,
-                             "held": held}));
+        output::json(&doc(
+            ctx,
+            m,
+            json!({"command": "set-param", "param": d.name, "id": d.id, "type": d.ty.name(),
+                                         "value": value, "held": held, "acknowledged": true}),
+        ));
         return Ok(());
     }
     match held {
@@ -524,9 +614,7 @@ fn set_param(ctx: &Ctx, m: ModuleId, name: &str, text: &str, force: bool) -> any
 
 fn print_config(ctx: &Ctx, m: ModuleId, raw: u32) {
     if ctx.json {
-        let mut doc = word_json(&flags::CONFIG, raw);
-        doc["module"] = json!(m);
-        output::json(&doc);
+        output::json(&doc(ctx, m, json!({"config": word_json(&flags::CONFIG, raw)})));
     } else {
         print!("module {m}: ");
         print_word(ctx, &flags::CONFIG, raw);
@@ -566,11 +654,12 @@ fn dio(ctx: &Ctx, m: ModuleId, out: Option<&str>) -> anyhow::Result<()> {
     let outputs = out.map(device::dio_outputs).transpose()?;
     let raw = cubes(ctx)?.dio(m, outputs)?;
     if ctx.json {
-        let mut doc = word_json(&flags::DIO_SETUP, raw);
-        doc["module"] = json!(m);
-        doc["inputs"] = json!(raw & 0xf);
-        doc["outputs"] = json!((raw >> 4) & 0xf);
-        output::json(&doc);
+        output::json(&doc(
+            ctx,
+            m,
+            json!({"dio": word_json(&flags::DIO_SETUP, raw),
+            "inputs": raw & 0xf, "outputs": (raw >> 4) & 0xf}),
+        ));
     } else {
         print!("module {m}: ");
         print_word(ctx, &flags::DIO_SETUP, raw);
@@ -585,7 +674,7 @@ fn watchdog(ctx: &Ctx, action: WatchdogAction) -> anyhow::Result<()> {
             let m = module(a.module);
             let changed = cubes.watchdog_on(m)?;
             if ctx.json {
-                output::json(&json!({"module": m, "watchdog": "on", "changed": changed}));
+                output::json(&doc(ctx, m, json!({"watchdog": "on", "changed": changed})));
             } else if changed {
                 println!("module {m}: watchdog online; keep it alive with `axisctl watchdog keepalive`, or it halts within 50 ms");
             } else {
@@ -597,7 +686,7 @@ fn watchdog(ctx: &Ctx, action: WatchdogAction) -> anyhow::Result<()> {
             let m = module(a.module);
             let changed = cubes.watchdog_off(m)?;
             if ctx.json {
-                output::json(&json!({"module": m, "watchdog": "off", "changed": changed}));
+                output::json(&doc(ctx, m, json!({"watchdog": "off", "changed": changed})));
             } else if changed {
                 println!("module {m}: watchdog off (CONFIGID_MOD_WATCHDOG_ENABLE cleared)");
             } else {
@@ -621,9 +710,15 @@ fn keepalive(ctx: &Ctx, pc: &mut PowerCube, interval_ms: u64, duration: Option<f
     let st = pc.keepalive(Duration::from_millis(interval_ms), &mut keep_going)?;
     let ms = |us: u64| us as f64 / 1e3;
     if ctx.json {
-        output::json(&json!({"refreshes": st.refreshes, "interval_ms": interval_ms,
+        // The refresh is a broadcast: addressed to every module.
+        let mut all = output::envelope(Family::PowerCube, &ctx.link_text, &[]);
+        all.insert("module".into(), serde_json::Value::Null);
+        output::json(&output::device_doc(
+            all,
+            json!({"refreshes": st.refreshes, "interval_ms": interval_ms,
             "min_gap_ms": ms(st.min_gap_us), "mean_gap_ms": ms(st.mean_gap_us), "p99_gap_ms": ms(st.p99_gap_us),
-            "max_gap_ms": ms(st.max_gap_us), "scheduling": scheduling}));
+            "max_gap_ms": ms(st.max_gap_us), "scheduling": scheduling}),
+        ));
     } else {
         println!(
             "{} watchdog refreshes, interval {interval_ms} ms, gaps min {:.2} / mean {:.2} / p99 {:.2} / max {:.2} ms \

@@ -171,9 +171,17 @@ impl Cubes {
         progress: &mut dyn FnMut(ModuleId, f32, u32),
     ) -> Result<Vec<WaitEnd>, Error> {
         let mut ends = Vec::new();
+        let mut since_start = std::time::Duration::ZERO;
         for &(m, goal) in goals {
             match self.wait(m, goal, spec, interrupted, &mut |p, c| progress(m, p, c)) {
-                Ok(end) => ends.push(end),
+                Ok(mut end) => {
+                    // The modules move together but are waited for one after
+                    // the other: each one's time counts from the start of the
+                    // motion, not from the end of the previous wait.
+                    since_start += end.elapsed;
+                    end.elapsed = since_start;
+                    ends.push(end);
+                }
                 Err(e) => {
                     let others: Vec<ModuleId> = goals.iter().map(|(o, _)| *o).filter(|o| *o != m).collect();
                     if others.is_empty() {
