@@ -22,6 +22,7 @@ use crate::cli::cdios::{
 };
 use crate::cli::WaitArgs;
 use crate::output;
+use crate::output::say;
 
 pub fn run(ctx: &Ctx, cmd: CdiosCommand) -> anyhow::Result<()> {
     match cmd {
@@ -139,9 +140,9 @@ fn identify(ctx: &Ctx, n: NodeArgs) -> anyhow::Result<()> {
         ]);
     }
     if rows.len() == 1 {
-        println!("node {node}: the controller reports no I/O modules");
+        say!("node {node}: the controller reports no I/O modules");
     } else {
-        println!("node {node}:");
+        say!("node {node}:");
         output::table(&rows, ctx.style);
     }
     Ok(())
@@ -160,7 +161,7 @@ fn status(ctx: &Ctx, t: ModuleTarget) -> anyhow::Result<()> {
         output::json(&doc);
         return Ok(());
     }
-    println!("node {node} module {m}: {}", status_line(ctx, &r));
+    say!("node {node} module {m}: {}", status_line(ctx, &r));
     let mut rows = Vec::new();
     for f in STATUS_FLAGS.iter().filter(|f| f.is_set(&r.status)) {
         let name = if f.class == table::Class::Error { ctx.style.error(f.name) } else { f.name.to_string() };
@@ -168,9 +169,9 @@ fn status(ctx: &Ctx, t: ModuleTarget) -> anyhow::Result<()> {
     }
     output::table(&rows, ctx.style);
     for (b, bit) in &r.reserved {
-        println!("  {}", ctx.style.warn(&format!("status {b} bit {bit} is set (reserved)")));
+        say!("  {}", ctx.style.warn(&format!("status {b} bit {bit} is set (reserved)")));
     }
-    println!("  motor speed {speed} RPM, RPM error {rpm_error}");
+    say!("  motor speed {speed} RPM, RPM error {rpm_error}");
     Ok(())
 }
 
@@ -200,7 +201,7 @@ fn position(ctx: &Ctx, t: ModuleTarget, kind: PositionKind, all: bool) -> anyhow
                 &json!({"node": node, "module": m, "position": cur, "latched": latched, "setpoint": setpoint}),
             );
         } else {
-            println!("node {node} module {m}: position {cur}, latched {latched}, setpoint {setpoint}");
+            say!("node {node} module {m}: position {cur}, latched {latched}, setpoint {setpoint}");
         }
         return Ok(());
     }
@@ -209,7 +210,7 @@ fn position(ctx: &Ctx, t: ModuleTarget, kind: PositionKind, all: bool) -> anyhow
     if ctx.json {
         output::json(&json!({"node": node, "module": m, "source": name, "position": p}));
     } else {
-        println!("node {node} module {m}: {name} position {p}");
+        say!("node {node} module {m}: {name} position {p}");
     }
     Ok(())
 }
@@ -221,7 +222,7 @@ fn report_sent(ctx: &Ctx, node: NodeId, m: ModuleId, what: &str, confirmed: bool
         output::json(&doc);
     } else {
         let how = if confirmed { "confirmed" } else { "sent (confirmations off, no error came)" };
-        println!("node {node} module {m}: {what} {how}");
+        say!("node {node} module {m}: {what} {how}");
     }
 }
 
@@ -403,7 +404,7 @@ fn show_config(ctx: &Ctx, s: &mut Node, t: ModuleTarget, groups: &[String]) -> a
     if ctx.json {
         output::json(&json!({"node": node, "module": m, "config": doc}));
     } else {
-        println!("node {node} module {m}:");
+        say!("node {node} module {m}:");
         output::table(&rows, ctx.style);
     }
     Ok(())
@@ -420,7 +421,7 @@ fn outputs(ctx: &Ctx, t: ModuleTarget, set: Option<&str>, latched: bool) -> anyh
         output::json(&json!({"node": node, "module": m, "outputs": state, "bits": bits}));
     } else {
         let on: Vec<String> = (0..4).filter(|i| bits[*i]).map(|i| (i + 1).to_string()).collect();
-        println!(
+        say!(
             "node {node} module {m}: outputs {state:#06b} (on: {})",
             if on.is_empty() { "none".into() } else { on.join(", ") }
         );
@@ -443,7 +444,7 @@ fn analog(ctx: &Ctx, t: ModuleTarget, output: Option<i64>, set: Option<i64>, lat
         output::json(&json!({"node": node, "module": m, "analog": list}));
     } else {
         for a in &list {
-            println!("node {node} module {m}: analog output {} = {} V", a["output"], a["volts"]);
+            say!("node {node} module {m}: analog output {} = {} V", a["output"], a["volts"]);
         }
     }
     Ok(())
@@ -468,14 +469,14 @@ fn events(ctx: &Ctx, t: ModuleTarget, change: &EventChange) -> anyhow::Result<()
         }));
     } else {
         let names = device::mask_flags(masks);
-        println!("node {node} module {m}: event masks {:02x?}", masks);
-        println!("  events on: {}", if names.is_empty() { "-".into() } else { names.join(" ") });
+        say!("node {node} module {m}: event masks {:02x?}", masks);
+        say!("  events on: {}", if names.is_empty() { "-".into() } else { names.join(" ") });
         let every = |c: u8, change: bool| match c {
             0 => "never".to_string(),
             _ => format!("every {} ms{}", ms(c), if change { " when changed" } else { "" }),
         };
-        println!("  position: {}", every(timers.position_interval, timers.position_on_change));
-        println!("  speed:    {}", every(timers.speed_interval, timers.speed_on_change));
+        say!("  position: {}", every(timers.position_interval, timers.position_on_change));
+        say!("  speed:    {}", every(timers.speed_interval, timers.speed_on_change));
     }
     Ok(())
 }
@@ -491,7 +492,7 @@ fn store(ctx: &Ctx, t: ModuleTarget, defaults: bool) -> anyhow::Result<()> {
                              "confirmed": true, "elapsed_ms": elapsed.as_millis() as u64}));
     } else {
         let what = if defaults { "default configuration" } else { "configuration" };
-        println!("node {node} module {m}: {what} stored in EEPROM ({} ms)", elapsed.as_millis());
+        say!("node {node} module {m}: {what} stored in EEPROM ({} ms)", elapsed.as_millis());
     }
     Ok(())
 }
@@ -549,7 +550,7 @@ fn watch(
                     merge(&mut doc, status_json(&r));
                     output::json(&doc);
                 } else {
-                    println!("{:>9.3} status   pos {pos:<11} {}", t_ms as f64 / 1e3, status_line(ctx, &r));
+                    say!("{:>9.3} status   pos {pos:<11} {}", t_ms as f64 / 1e3, status_line(ctx, &r));
                 }
                 lines += 1;
             }
@@ -570,7 +571,7 @@ fn watch(
                 output::json(&event_json(&ev, start));
             } else {
                 let t_ms = ev.at.saturating_duration_since(start).as_millis() as f64 / 1e3;
-                println!("{t_ms:>9.3} event    {}", ev.answer);
+                say!("{t_ms:>9.3} event    {}", ev.answer);
             }
             lines += 1;
         }
@@ -613,7 +614,7 @@ fn decode_status_bytes(ctx: &Ctx, value: &str) -> anyhow::Result<()> {
         output::json(&doc);
         return Ok(());
     }
-    println!("Cdios 6168 status {}", status_line(ctx, &r));
+    say!("Cdios 6168 status {}", status_line(ctx, &r));
     let mut rows = vec![["BIT", "FLAG", "CLASS", "MEANING"].map(String::from).to_vec()];
     for f in STATUS_FLAGS.iter().filter(|f| f.is_set(&status)) {
         let name = if f.class == table::Class::Error { ctx.style.error(f.name) } else { f.name.to_string() };
@@ -623,7 +624,7 @@ fn decode_status_bytes(ctx: &Ctx, value: &str) -> anyhow::Result<()> {
         output::table(&rows, ctx.style);
     }
     for (b, bit) in &r.reserved {
-        println!("{}", ctx.style.warn(&format!("status {b} bit {bit} is set (reserved)")));
+        say!("{}", ctx.style.warn(&format!("status {b} bit {bit} is set (reserved)")));
     }
     Ok(())
 }
@@ -651,12 +652,12 @@ fn decode_error(ctx: &Ctx, value: &str) -> anyhow::Result<()> {
         }));
         return Ok(());
     }
-    println!("{}", e.describe());
+    say!("{}", e.describe());
     if let Some((name, text)) = general {
-        println!("general error {} {name}: {text}", e.general);
+        say!("general error {} {name}: {text}", e.general);
     }
     for f in e.flags() {
-        println!("  error status {} bit {}: {} ({})", f.byte, f.bit, ctx.style.error(f.name), f.meaning);
+        say!("  error status {} bit {}: {} ({})", f.byte, f.bit, ctx.style.error(f.name), f.meaning);
     }
     Ok(())
 }

@@ -8,6 +8,7 @@ use serde_json::json;
 
 use super::{usage, Ctx};
 use crate::output;
+use crate::output::{say, say_part};
 
 const PROFIBUS_IMAGE: &str = family::POWERCUBE_PROFIBUS_IMAGE;
 
@@ -34,7 +35,7 @@ fn flag_word(ctx: &Ctx, word: &'static flags::FlagWord, value: &str) -> anyhow::
         return Ok(());
     }
     let width = (word.bits / 4) as usize;
-    println!("{} {:#0w$x}", word.name, raw, w = width + 2);
+    say!("{} {:#0w$x}", word.name, raw, w = width + 2);
     let mut rows = Vec::new();
     for f in word.set_flags(raw) {
         rows.push(vec![
@@ -45,14 +46,14 @@ fn flag_word(ctx: &Ctx, word: &'static flags::FlagWord, value: &str) -> anyhow::
         ]);
     }
     if rows.is_empty() {
-        println!("(no flags set)");
+        say!("(no flags set)");
     } else {
         let mut t = vec![["BIT", "FLAG", "CLASS", "MEANING"].map(String::from).to_vec()];
         t.extend(rows);
         output::table(&t, ctx.style);
     }
     if d.unknown_bits != 0 {
-        println!("{}", ctx.style.warn(&format!("unknown bits {:#x}", d.unknown_bits)));
+        say!("{}", ctx.style.warn(&format!("unknown bits {:#x}", d.unknown_bits)));
     }
     Ok(())
 }
@@ -84,10 +85,10 @@ fn profibus_image(ctx: &Ctx, value: &str) -> anyhow::Result<()> {
     }
     let hex: Vec<String> = img.answer.iter().map(|b| format!("{b:02x}")).collect();
     let text = decoded.unwrap_or_else(|e| format!("(not an acknowledge: {e})"));
-    println!("answer      {}  {text}", hex.join(" "));
-    println!("position    {} ticks", img.position_ticks);
-    println!("short state {:#06x} {}", img.short_state, state.flags.join(" "));
-    println!("ms          {}", img.ms);
+    say!("answer      {}  {text}", hex.join(" "));
+    say!("position    {} ticks", img.position_ticks);
+    say!("short state {:#06x} {}", img.short_state, state.flags.join(" "));
+    say!("ms          {}", img.ms);
     Ok(())
 }
 
@@ -111,7 +112,7 @@ fn pac_word(ctx: &Ctx, def: &'static pac_profibus::WordDef, value: &str) -> anyh
     if ctx.json {
         output::json(&serde_json::to_value(&d)?);
     } else {
-        print!("{d}");
+        say_part!("{d}");
     }
     Ok(())
 }

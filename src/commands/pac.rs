@@ -24,6 +24,7 @@ use serde_json::json;
 use super::{arm_interrupt, interrupted, usage, Ctx};
 use crate::cli::pac::{PacCommand, PacWait, ParamAccess};
 use crate::output;
+use crate::output::{say, tell_part};
 
 pub fn run(ctx: &Ctx, cmd: PacCommand) -> anyhow::Result<()> {
     let mut d = Controller::new(ctx.pac()?);
@@ -135,7 +136,7 @@ fn simple(ctx: &Ctx, d: &mut Controller, code: u16, par1: i64, value: Option<f64
         if ack.error != 0 {
             line.push_str(&format!(", {}", ctx.style.error(&format!("PA-CONTROL error {}", ack.error))));
         }
-        println!("{line}");
+        say!("{line}");
     }
     Ok(())
 }
@@ -154,9 +155,9 @@ fn state(ctx: &Ctx, d: &mut Controller) -> anyhow::Result<()> {
         doc["mode"] = json!(mode);
         output::json(&doc);
     } else {
-        println!("status {} {} ({} mode)", ack.status, table::operating_status_text(ack.status), mode.unwrap_or("?"));
+        say!("status {} {} ({} mode)", ack.status, table::operating_status_text(ack.status), mode.unwrap_or("?"));
         if ack.error != 0 {
-            println!("{}", ctx.style.error(&format!("PA-CONTROL error {} (see pac-error)", ack.error)));
+            say!("{}", ctx.style.error(&format!("PA-CONTROL error {} (see pac-error)", ack.error)));
         }
     }
     Ok(())
@@ -170,9 +171,9 @@ fn error(ctx: &Ctx, d: &mut Controller) -> anyhow::Result<()> {
         doc["error"] = json!(number);
         output::json(&doc);
     } else if number == 0 {
-        println!("no PA-CONTROL error");
+        say!("no PA-CONTROL error");
     } else {
-        println!("{}", ctx.style.error(&format!("PA-CONTROL error E{number}")));
+        say!("{}", ctx.style.error(&format!("PA-CONTROL error E{number}")));
     }
     Ok(())
 }
@@ -186,9 +187,9 @@ fn reset_error(ctx: &Ctx, d: &mut Controller) -> anyhow::Result<()> {
         doc["remaining_error"] = json!(left);
         output::json(&doc);
     } else if left == 0 {
-        println!("error reset");
+        say!("error reset");
     } else {
-        println!("{}", ctx.style.error(&format!("error E{left} could not be reset")));
+        say!("{}", ctx.style.error(&format!("error E{left} could not be reset")));
     }
     Ok(reset.check()?)
 }
@@ -250,7 +251,7 @@ fn move_axis(
             merge(&mut doc, status_json(&started.ack));
             output::json(&doc);
         } else {
-            println!("axis {axis}: moving from {start_position} to {target} ({} started)", def(code).code_hex());
+            say!("axis {axis}: moving from {start_position} to {target} ({} started)", def(code).code_hex());
         }
         return Ok(());
     }
@@ -292,9 +293,9 @@ fn reference(ctx: &Ctx, d: &mut Controller, axis: u8, wait: PacWait) -> anyhow::
             merge(&mut doc, status_json(&ack));
             output::json(&doc);
         } else if done {
-            println!("axis {axis}: reference drive done");
+            say!("axis {axis}: reference drive done");
         } else {
-            println!(
+            say!(
                 "axis {axis}: reference drive started; until it ends the controller accepts only polls \
                  (use --wait to follow it)"
             );
@@ -421,14 +422,14 @@ fn element(
             output::json(&json!({key: number, "word": w, "set": members}));
         } else {
             let first = (number.max(1) - 1) / 16 * 16 + 1;
-            println!("{key}s {first}..{}: {w:#06x} {w:016b}  set: {members:?}", first + 15);
+            say!("{key}s {first}..{}: {w:#06x} {w:016b}  set: {members:?}", first + 15);
         }
     } else {
         let v = d.read_element(el, number)?;
         if ctx.json {
             output::json(&json!({key: number, "state": v}));
         } else {
-            println!("{key} {number}: {v}");
+            say!("{key} {number}: {v}");
         }
     }
     Ok(())
@@ -447,7 +448,7 @@ fn reg(ctx: &Ctx, d: &mut Controller, register: &str, value: Option<&str>) -> an
             &json!({"register": reg.to_string(), "type": if reg.is_float() { "float" } else { "int" }, "value": q_par.as_f64()}),
         );
     } else {
-        println!("{reg} = {q_par}");
+        say!("{reg} = {q_par}");
     }
     Ok(())
 }
@@ -478,7 +479,7 @@ fn sys_param(ctx: &Ctx, d: &mut Controller, name: &str, access: &ParamAccess) ->
     if ctx.json {
         output::json(&json!({"param": p.number, "name": p.name, what: value}));
     } else {
-        println!("system parameter {} ({}) {what}: {value}", p.number, p.manual_name);
+        say!("system parameter {} ({}) {what}: {value}", p.number, p.manual_name);
     }
     Ok(())
 }
@@ -503,7 +504,7 @@ fn axis_param(ctx: &Ctx, d: &mut Controller, axis: u8, name: &str, access: &Para
     if ctx.json {
         output::json(&json!({"axis": axis, "param": p.number, "name": p.name, "unit": p.unit, what: value}));
     } else {
-        println!("axis {axis} parameter {} ({}) {what}: {value} {}", p.number, p.manual_name, p.unit);
+        say!("axis {axis} parameter {} ({}) {what}: {value} {}", p.number, p.manual_name, p.unit);
     }
     Ok(())
 }
@@ -537,12 +538,12 @@ fn raw(ctx: &Ctx, d: &mut Controller, code_text: &str, par1: i64, par2: Option<&
     let show = !ctx.json && std::io::stderr().is_terminal();
     let result = d.follow(&cmd, &mut |p: &Progress| {
         if show && !p.ack.be {
-            eprint!("\r  BE 0, poll {}: Q_PAR {}   ", p.polls, p.ack.q_par);
+            tell_part!("\r  BE 0, poll {}: Q_PAR {}   ", p.polls, p.ack.q_par);
         }
         !stoppable || !interrupted()
     });
     if show {
-        eprint!("\r\x1b[K");
+        tell_part!("\r\x1b[K");
     }
     let done = result?;
     let ack = done.ack;
@@ -553,7 +554,7 @@ fn raw(ctx: &Ctx, d: &mut Controller, code_text: &str, par1: i64, par2: Option<&
         merge(&mut doc, status_json(&ack));
         output::json(&doc);
     } else {
-        println!(
+        say!(
             "{:04X} {}: QUIT {} BE {} STATUS {} ({}) ERROR {} Q_PAR {}{}",
             cmd.code,
             def.map_or("(unknown code)", |d| d.name),

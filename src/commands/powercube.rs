@@ -18,7 +18,7 @@ use super::{interrupted, usage, Ctx, Interrupted};
 use crate::cli::ids::IdList;
 use crate::cli::{PowerCubeCommand as Command, Target, WaitArgs, WatchdogAction};
 use crate::output;
-use crate::output::say;
+use crate::output::{say, say_part};
 use axisctl::device::supervisor;
 
 pub fn run(ctx: &Ctx, cmd: Command) -> anyhow::Result<()> {
@@ -72,18 +72,18 @@ fn word_json(word: &FlagWord, raw: u32) -> serde_json::Value {
 
 /// Flags of a word, one per line, coloured by class.
 fn print_word(ctx: &Ctx, word: &FlagWord, raw: u32) {
-    println!("{} {:#010x}", word.name, raw);
+    say!("{} {:#010x}", word.name, raw);
     let mut rows = Vec::new();
     for d in word.set_flags(raw) {
         rows.push(vec![format!("  {}", ctx.style.flag(d.name, d.class)), d.class.name().into()]);
     }
     if rows.is_empty() {
-        println!("  (no flags set)");
+        say!("  (no flags set)");
     }
     output::table(&[vec![String::new(), String::new()]].into_iter().chain(rows).collect::<Vec<_>>()[1..], ctx.style);
     let unknown = raw & !word.known_mask();
     if unknown != 0 {
-        println!("  {}", ctx.style.warn(&format!("unknown bits {unknown:#010x}")));
+        say!("  {}", ctx.style.warn(&format!("unknown bits {unknown:#010x}")));
     }
 }
 
@@ -191,7 +191,7 @@ fn info(ctx: &Ctx, m: ModuleId) -> anyhow::Result<()> {
         }));
         return Ok(());
     }
-    println!("module {m}: {kind}, serial {}, version {}", num(0) as u32, version_text(version));
+    say!("module {m}: {kind}, serial {}, version {}", num(0) as u32, version_text(version));
     let mut t = vec![["PARAMETER", "VALUE", "UNIT"].map(String::from).to_vec()];
     for (d, v) in defs.iter().zip(&vals).skip(3).take(13) {
         match v {
@@ -200,7 +200,7 @@ fn info(ctx: &Ctx, m: ModuleId) -> anyhow::Result<()> {
         }
     }
     output::table(&t, ctx.style);
-    println!("state: {}", state_summary(ctx, cube));
+    say!("state: {}", state_summary(ctx, cube));
     Ok(())
 }
 
@@ -220,7 +220,7 @@ fn show_state(ctx: &Ctx, m: ModuleId) -> anyhow::Result<()> {
         doc["short_state"] = json!(flags::short_state_from_cube_state(cube));
         output::json(&doc);
     } else {
-        print!("module {m}: ");
+        say_part!("module {m}: ");
         print_word(ctx, &flags::CUBE_STATE, cube);
     }
     Ok(())
@@ -241,8 +241,8 @@ fn report_sent(ctx: &Ctx, target: Target, what: &str) {
         }
     } else {
         match target.module {
-            Some(m) => println!("module {m}: {what} acknowledged"),
-            None => println!("{what} broadcast to all modules"),
+            Some(m) => say!("module {m}: {what} acknowledged"),
+            None => say!("{what} broadcast to all modules"),
         }
     }
 }
@@ -472,9 +472,9 @@ fn set_param(ctx: &Ctx, m: ModuleId, name: &str, text: &str, force: bool) -> any
         return Ok(());
     }
     match held {
-        Some(h) if h != value => println!("module {m}: {} = {value} acknowledged; the module reads back {h}", d.name),
-        Some(_) => println!("module {m}: {} = {value} acknowledged and read back", d.name),
-        None => println!("module {m}: {} = {value} acknowledged (write-only: the module does not report it)", d.name),
+        Some(h) if h != value => say!("module {m}: {} = {value} acknowledged; the module reads back {h}", d.name),
+        Some(_) => say!("module {m}: {} = {value} acknowledged and read back", d.name),
+        None => say!("module {m}: {} = {value} acknowledged (write-only: the module does not report it)", d.name),
     }
     Ok(())
 }
@@ -485,7 +485,7 @@ fn print_config(ctx: &Ctx, m: ModuleId, raw: u32) {
         doc["module"] = json!(m);
         output::json(&doc);
     } else {
-        print!("module {m}: ");
+        say_part!("module {m}: ");
         print_word(ctx, &flags::CONFIG, raw);
     }
 }
@@ -529,7 +529,7 @@ fn dio(ctx: &Ctx, m: ModuleId, out: Option<&str>) -> anyhow::Result<()> {
         doc["outputs"] = json!((raw >> 4) & 0xf);
         output::json(&doc);
     } else {
-        print!("module {m}: ");
+        say_part!("module {m}: ");
         print_word(ctx, &flags::DIO_SETUP, raw);
     }
     Ok(())
@@ -544,9 +544,9 @@ fn watchdog(ctx: &Ctx, action: WatchdogAction) -> anyhow::Result<()> {
             if ctx.json {
                 output::json(&json!({"module": m, "watchdog": "on", "changed": changed}));
             } else if changed {
-                println!("module {m}: watchdog online; keep it alive with `axisctl watchdog keepalive`, or it halts within 50 ms");
+                say!("module {m}: watchdog online; keep it alive with `axisctl watchdog keepalive`, or it halts within 50 ms");
             } else {
-                println!("module {m}: watchdog already on (CONFIGID_MOD_WATCHDOG_ENABLE set); nothing sent");
+                say!("module {m}: watchdog already on (CONFIGID_MOD_WATCHDOG_ENABLE set); nothing sent");
             }
             Ok(())
         }
@@ -556,9 +556,9 @@ fn watchdog(ctx: &Ctx, action: WatchdogAction) -> anyhow::Result<()> {
             if ctx.json {
                 output::json(&json!({"module": m, "watchdog": "off", "changed": changed}));
             } else if changed {
-                println!("module {m}: watchdog off (CONFIGID_MOD_WATCHDOG_ENABLE cleared)");
+                say!("module {m}: watchdog off (CONFIGID_MOD_WATCHDOG_ENABLE cleared)");
             } else {
-                println!("module {m}: watchdog already off; nothing sent");
+                say!("module {m}: watchdog already off; nothing sent");
             }
             Ok(())
         }
@@ -582,7 +582,7 @@ fn keepalive(ctx: &Ctx, pc: &mut PowerCube, interval_ms: u64, duration: Option<f
             "min_gap_ms": ms(st.min_gap_us), "mean_gap_ms": ms(st.mean_gap_us), "p99_gap_ms": ms(st.p99_gap_us),
             "max_gap_ms": ms(st.max_gap_us), "scheduling": scheduling}));
     } else {
-        println!(
+        say!(
             "{} watchdog refreshes, interval {interval_ms} ms, gaps min {:.2} / mean {:.2} / p99 {:.2} / max {:.2} ms \
              ({scheduling} scheduling)",
             st.refreshes,
