@@ -42,6 +42,9 @@ const COMMANDS: &[&[&str]] = &[
     &["cdios-events", "-m", "0"],
     &["cdios-outputs", "-m", "0"],
     &["cdios-watch", "-m", "0", "--for", "0.3"],
+    // the interface itself
+    &["completions", "bash"],
+    &["man"],
 ];
 
 fn axisctl(json: bool, args: &[&str]) -> Command {

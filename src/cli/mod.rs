@@ -20,7 +20,7 @@ pub use sim::SimArgs;
 pub use wait::WaitArgs;
 
 #[derive(Debug, Parser)]
-#[command(name = "axisctl", version, about = "Commission PowerCube, PA-CONTROL and Cdios motion hardware")]
+#[command(name = "axisctl", version = env!("AXISCTL_VERSION"), about = "Commission PowerCube, PA-CONTROL and Cdios motion hardware")]
 pub struct Cli {
     #[command(flatten)]
     pub global: Global,
@@ -82,6 +82,24 @@ pub enum Command {
     Dashboard(dashboard::DashboardArgs),
     #[command(flatten)]
     Pac(pac::PacCommand),
+    /// Print a shell completion script: bash, zsh, fish, elvish or powershell
+    #[command(
+        after_help = "Examples:\n  axisctl completions bash > ~/.local/share/bash-completion/completions/axisctl\n  \
+                            axisctl completions zsh > ~/.zfunc/_axisctl\n  \
+                            axisctl completions fish > ~/.config/fish/completions/axisctl.fish"
+    )]
+    Completions {
+        /// The shell the script is for
+        shell: clap_complete::Shell,
+    },
+    /// Print the man page (roff), or with --dir write one page per subcommand
+    #[command(after_help = "Examples:\n  axisctl man | man -l -\n  \
+                            axisctl man --dir ~/.local/share/man/man1   # then: man axisctl-pac-move")]
+    Man {
+        /// Write axisctl.1 and axisctl-COMMAND.1 for every subcommand into this directory
+        #[arg(long, value_name = "DIR")]
+        dir: Option<PathBuf>,
+    },
 }
 
 const LINKS: &str = "Links: socketcan:IFACE, slcan:TTY[?bitrate=N], serial:TTY[?baud=N&format=8N1|7N1|7E1|7O1], sim";

@@ -5,6 +5,7 @@ mod cdios;
 mod dashboard;
 mod decode;
 pub mod exit;
+mod manual;
 mod monitor;
 mod pac;
 mod powercube;
@@ -271,5 +272,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Dashboard(args) => dashboard::run(&ctx, &args),
         Command::Pac(cmd) => pac::run(&ctx, cmd),
         Command::PowerCube(c) => powercube::run(&ctx, c),
+        Command::Completions { shell } => manual::completions(shell),
+        Command::Man { dir } => manual::man(dir.as_deref()),
     }
 }
