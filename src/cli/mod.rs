@@ -3,11 +3,13 @@
 
 pub mod cdios;
 pub mod dashboard;
+pub mod examples;
 pub mod ids;
 pub mod monitor;
 pub mod pac;
 pub mod powercube;
 pub mod sim;
+mod suggest;
 pub mod wait;
 
 use std::path::PathBuf;
@@ -35,6 +37,7 @@ pub const MAX_TIMEOUT_MS: u64 = 60_000;
 pub const MAX_RETRIES: u32 = 10;
 
 #[derive(Debug, Args)]
+#[command(next_help_heading = "Global options")]
 pub struct Global {
     /// The link: socketcan:IFACE, slcan:TTY[?bitrate=N], serial:TTY[?baud=N&format=F] or sim
     #[arg(long, global = true, env = "AXISCTL_LINK", value_name = "URI")]
@@ -42,7 +45,7 @@ pub struct Global {
     /// Machine output: one JSON document on stdout (JSON Lines for streams)
     #[arg(long, global = true)]
     pub json: bool,
-    /// How long to wait for each answer, in ms, 1..=60000 (default 100 on CAN, 30 plus wire time on RS232)
+    /// How long to wait for each answer, in ms, 1 to 60000 (default 100 on CAN, 30 plus wire time on RS232)
     #[arg(long, global = true, env = "AXISCTL_TIMEOUT", value_name = "MS",
           value_parser = clap::value_parser!(u64).range(1..=MAX_TIMEOUT_MS))]
     pub timeout: Option<u64>,
@@ -52,7 +55,7 @@ pub struct Global {
     /// Append every CAN frame in candump -l format (serial traffic as hex lines) to FILE
     #[arg(long, global = true, value_name = "FILE")]
     pub log: Option<PathBuf>,
-    /// How often a read is retried after a timeout, 0..=10 (motion is never retried)
+    /// How often a read is retried after a timeout, 0 to 10 (motion is never retried)
     #[arg(long, global = true, value_name = "N", default_value_t = 2,
           value_parser = clap::value_parser!(u32).range(0..=i64::from(MAX_RETRIES)))]
     pub retries: u32,
@@ -102,23 +105,55 @@ pub enum Command {
     },
 }
 
+/// `on` or `off`: how every switch is said (`watchdog on`, `pac-axis-power 2 off`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum Switch {
+    On,
+    Off,
+}
+
+impl Switch {
+    pub fn is_on(self) -> bool {
+        self == Self::On
+    }
+}
+
 const LINKS: &str = "Links: socketcan:IFACE, slcan:TTY[?bitrate=N], serial:TTY[?baud=N&format=8N1|7N1|7E1|7O1], sim";
 
-/// The parser, with what the registries know: `decode`'s kinds and the exit codes.
+/// The parser, with what the registries know: `decode`'s kinds and the exit
+/// codes; every subcommand's examples; negative numbers as values everywhere.
 pub fn command(exit_codes: &str) -> clap::Command {
     let kinds = axisctl::family::Family::ALL
         .into_iter()
         .map(|f| format!("  {}: {}", f.display_name(), f.decode_kinds().join(", ")))
         .collect::<Vec<_>>()
         .join("\n");
-    Cli::command()
-        .after_help(format!("{LINKS}\n{exit_codes}"))
-        .mut_subcommand("decode", |c| c.after_help(format!("Kinds:\n{kinds}")))
+    let cmd = Cli::command().after_help(format!("{LINKS}\n{exit_codes}")).mut_subcommand("decode", |c| {
+        let examples = examples::after_help("decode").unwrap_or_default();
+        c.after_help(format!("Kinds:\n{kinds}\n\n{examples}"))
+    });
+    finish(cmd, "")
+}
+
+/// Applies to a command and all below it what clap only sets per argument.
+fn finish(cmd: clap::Command, path: &str) -> clap::Command {
+    // `--vel -0.05` and `pac-speed 1 -5` are values, not flags: clap only
+    // takes a leading `-` as a value where the argument allows negative numbers.
+    let mut cmd = cmd.mut_args(|a| if a.get_action().takes_values() { a.allow_negative_numbers(true) } else { a });
+    if !path.is_empty() && cmd.get_after_help().is_none() {
+        if let Some(text) = examples::after_help(path) {
+            cmd = cmd.after_help(text);
+        }
+    }
+    cmd.mut_subcommands(|sub| {
+        let path = if path.is_empty() { sub.get_name().to_string() } else { format!("{path} {}", sub.get_name()) };
+        finish(sub, &path)
+    })
 }
 
 /// Parses the process arguments.
 pub fn parse(exit_codes: &str) -> Result<Cli, clap::Error> {
     let mut cmd = command(exit_codes);
-    let matches = cmd.try_get_matches_from_mut(std::env::args_os())?;
+    let matches = cmd.try_get_matches_from_mut(std::env::args_os()).map_err(|e| suggest::subcommand(e, &cmd))?;
     Cli::from_arg_matches(&matches).map_err(|e| e.with_cmd(&cmd))
 }

@@ -27,7 +27,7 @@ use crate::cli::dashboard::DashboardArgs;
 
 pub fn run(ctx: &Ctx, args: &DashboardArgs) -> anyhow::Result<()> {
     if !(MIN_RATE..=MAX_RATE).contains(&args.rate) {
-        return Err(usage(format!("--rate {} is out of range {MIN_RATE}..={MAX_RATE} polls per second", args.rate)));
+        return Err(usage(format!("--rate {} is out of range {MIN_RATE} to {MAX_RATE} polls per second", args.rate)));
     }
     let plans = plan(ctx, args)?;
     if !std::io::stdout().is_terminal() || !std::io::stdin().is_terminal() {

@@ -23,6 +23,7 @@ use serde_json::json;
 
 use super::{arm_interrupt, interrupted, usage, Ctx};
 use crate::cli::pac::{PacCommand, PacWait, ParamAccess};
+use crate::cli::Switch;
 use crate::output;
 use crate::output::{say, tell_part};
 
@@ -49,18 +50,22 @@ pub fn run(ctx: &Ctx, cmd: PacCommand) -> anyhow::Result<()> {
         PacCommand::PacAccel { axis, accel } => {
             simple(ctx, d, 0x0A8E, axis.axis.into(), Some(finite("acceleration", accel)?))
         }
-        PacCommand::PacStopAxis { axis, no_wait } => {
-            simple(ctx, d, if no_wait { 0x0A9A } else { 0x0A93 }, axis.axis.into(), None)
+        PacCommand::PacStopAxis { axis, wait, no_wait: _ } => {
+            simple(ctx, d, if wait { 0x0A93 } else { 0x0A9A }, axis.axis.into(), None)
         }
         PacCommand::PacAxis(a) => axis_info(ctx, d, a.axis),
         PacCommand::PacAxes => axes(ctx, d),
+        PacCommand::PacAxisPower { axis, state } => {
+            simple(ctx, d, if state.is_on() { 0x0A97 } else { 0x0A98 }, axis.axis.into(), None)
+        }
         PacCommand::PacAxisOn(a) => simple(ctx, d, 0x0A97, a.axis.into(), None),
         PacCommand::PacAxisOff(a) => simple(ctx, d, 0x0A98, a.axis.into(), None),
-        PacCommand::PacMeasure { axis, off } => {
-            simple(ctx, d, if off { 0x0AA1 } else { 0x0AA0 }, axis.axis.into(), None)
+        PacCommand::PacMeasure { axis, state, off } => {
+            let on = !off && state.is_some_and(Switch::is_on);
+            simple(ctx, d, if on { 0x0AA0 } else { 0x0AA1 }, axis.axis.into(), None)
         }
         PacCommand::PacLimitSwitch { axis, state } => {
-            simple(ctx, d, 0x0AA2, axis.into(), Some(if state == "on" { 1.0 } else { 0.0 }))
+            simple(ctx, d, 0x0AA2, axis.into(), Some(if state.is_on() { 1.0 } else { 0.0 }))
         }
         PacCommand::PacIn { number, word } => element(ctx, d, Element::Input, number, None, word),
         PacCommand::PacOut { number, value, word } => element(ctx, d, Element::Output, number, value, word),
@@ -358,7 +363,7 @@ fn axis_info(ctx: &Ctx, d: &mut Controller, axis: u8) -> anyhow::Result<()> {
         vec!["position".into(), doc["position"].to_string()],
         vec!["speed".into(), doc["speed"].to_string()],
         vec!["status".into(), format!("{} {}", doc["status"], doc["status_text"].as_str().unwrap_or(""))],
-        vec!["traverse area".into(), format!("{} ..= {}", doc["traverse_min"], doc["traverse_max"])],
+        vec!["traverse area".into(), format!("{} to {}", doc["traverse_min"], doc["traverse_max"])],
         vec!["power pack ready".into(), yes(&e["power_pack_ready"]).into()],
         vec!["+ limit switch activated".into(), yes(&e["positive_limit_activated"]).into()],
         vec!["- limit switch activated".into(), yes(&e["negative_limit_activated"]).into()],

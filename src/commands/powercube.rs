@@ -29,16 +29,21 @@ pub fn run(ctx: &Ctx, cmd: Command) -> anyhow::Result<()> {
         Command::Home { target, wait } => home(ctx, target, wait),
         Command::Reset { target } => simple(ctx, target, Simple::Reset),
         Command::Halt { target } => simple(ctx, target, Simple::Halt),
-        Command::MoveRamp { modules, pos, vel, acc, ticks, force, sync, wait } => {
+        Command::MoveRamp { modules, pos, vel, acc, ticks, relative, force, sync, wait } => {
             let ms: Vec<ModuleId> = modules.0.iter().map(|id| module(*id)).collect();
             match (&ms[..], &pos[..]) {
                 _ if sync => move_ramp_sync(ctx, &ms, &pos, (vel, acc), ticks, force, wait),
-                ([m], [p]) => move_ramp(ctx, *m, *p, vel, acc, ticks, force, wait),
+                ([m], [p]) => {
+                    let target = if relative { from_here(ctx, *m, *p, ticks)? } else { *p };
+                    move_ramp(ctx, *m, target, vel, acc, ticks, force, wait)
+                }
                 _ => Err(usage("several modules or positions move only together: add --sync; nothing was sent")),
             }
         }
-        Command::MoveStep { module: m, pos, time, ticks, force } => {
-            move_step(ctx, module(m.module), pos, time, ticks, force)
+        Command::MoveStep { module: m, pos, time, ticks, relative, force } => {
+            let m = module(m.module);
+            let target = if relative { from_here(ctx, m, pos, ticks)? } else { pos };
+            move_step(ctx, m, target, time, ticks, force)
         }
         Command::MoveVel { module: m, vel, ticks, force } => move_vel(ctx, module(m.module), vel, ticks, force),
         Command::MoveCur { module: m, amps, force } => move_cur(ctx, module(m.module), amps, force),
@@ -51,6 +56,18 @@ pub fn run(ctx: &Ctx, cmd: Command) -> anyhow::Result<()> {
         Command::Dio { module: m, out } => dio(ctx, module(m.module), out.as_deref()),
         Command::Watchdog { action } => watchdog(ctx, action),
     }
+}
+
+/// `--relative`: the target `distance` away from where the module is now,
+/// read before anything moves (a failed read sends nothing).
+fn from_here(ctx: &Ctx, m: ModuleId, distance: f64, ticks: bool) -> anyhow::Result<f64> {
+    if !distance.is_finite() {
+        return Err(usage(format!("distance {distance} is not a number; nothing was sent")));
+    }
+    let id = if ticks { ids::ACT_I_POS } else { ids::ACT_POS };
+    let mut cubes = cubes(ctx)?;
+    let here = f64_of(&cubes.session().get(m, axisctl::device::powercube::param(id))?);
+    Ok(here + distance)
 }
 
 fn module(id: u8) -> ModuleId {

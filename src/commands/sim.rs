@@ -177,8 +177,10 @@ pub fn run(ctx: &Ctx, args: &SimArgs) -> anyhow::Result<()> {
         let (pace, noise) = (pace(serial_format(Family::Pac)), noise(ByteProtocol::Pac, 2));
         threads.push(std::thread::spawn(move || serve::serial(Box::new(master), pac, clock, &stop, pace, noise)));
     }
-    if crate::output::failure().is_some() {
-        // Nobody can learn the links: serving on would only hang.
+    // The links could not be printed (a full disk): nobody can learn them,
+    // so serving on would only hang. A reader that took the lines it wanted
+    // and closed the pipe is served on.
+    if crate::output::failure().is_some_and(|(kind, _)| kind != std::io::ErrorKind::BrokenPipe) {
         return Ok(());
     }
     for t in threads {
