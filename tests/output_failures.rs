@@ -45,6 +45,8 @@ const COMMANDS: &[&[&str]] = &[
     // the interface itself
     &["completions", "bash"],
     &["man"],
+    &["params"],
+    &["flags", "config"],
 ];
 
 fn axisctl(json: bool, args: &[&str]) -> Command {

@@ -132,6 +132,8 @@ pub const EXAMPLES: &[(&str, &[&str])] = &[
         ],
     ),
     ("man", &["man | man -l -", "man --dir ~/.local/share/man/man1"]),
+    ("params", &["params", "params powercube", "--json params pac"]),
+    ("flags", &["flags", "flags config", "flags brake", "flags cdios-status"]),
 ];
 
 /// The help text of one subcommand's examples, or `None` when it has none.

@@ -9,7 +9,7 @@ pub mod monitor;
 pub mod pac;
 pub mod powercube;
 pub mod sim;
-mod suggest;
+pub mod suggest;
 pub mod wait;
 
 use std::path::PathBuf;
@@ -85,6 +85,18 @@ pub enum Command {
     Dashboard(dashboard::DashboardArgs),
     #[command(flatten)]
     Pac(pac::PacCommand),
+    /// List parameter and configuration names offline: PowerCube parameters, PA-CONTROL system and axis parameters, Cdios config fields
+    Params {
+        /// Only this family: powercube, pac or cdios
+        #[arg(value_name = "FAMILY", value_parser = dashboard::parse_family)]
+        family: Option<axisctl::family::Family>,
+    },
+    /// List status and Config flags offline: every word's flags, or those of WORD (a decode kind) or matching WORD
+    Flags {
+        /// A decode kind (config, cube-state, cdios-status, ...) or part of a flag name (brake)
+        #[arg(value_name = "WORD")]
+        word: Option<String>,
+    },
     /// Print a shell completion script: bash, zsh, fish, elvish or powershell
     #[command(
         after_help = "Examples:\n  axisctl completions bash > ~/.local/share/bash-completion/completions/axisctl\n  \

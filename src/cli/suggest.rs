@@ -6,8 +6,11 @@
 
 use clap::error::{ContextKind, ContextValue, ErrorKind};
 
-/// Names within this many edits (a swap counts once) are suggested.
-const MAX_EDITS: usize = 2;
+/// Names within this many edits (a swap counts once) are suggested; a
+/// long name may be a few more edits away.
+fn max_edits(typed: &str) -> usize {
+    (typed.len() / 4).max(2)
+}
 
 /// The names of `names` closest to `typed`, at most three, best first.
 pub fn closest<'a>(typed: &str, names: impl IntoIterator<Item = &'a str>) -> Vec<&'a str> {
@@ -15,12 +18,13 @@ pub fn closest<'a>(typed: &str, names: impl IntoIterator<Item = &'a str>) -> Vec
     let mut near: Vec<(usize, &str)> = names
         .into_iter()
         .map(|n| (strsim::damerau_levenshtein(&typed, &n.to_ascii_lowercase()), n))
-        .filter(|(d, _)| *d <= MAX_EDITS)
+        .filter(|(d, _)| *d <= max_edits(&typed))
         .collect();
     near.sort_by_key(|(d, _)| *d);
     if let Some(&(best, _)) = near.first() {
         near.retain(|(d, _)| *d == best);
     }
+    near.dedup_by_key(|(_, n)| n.to_ascii_lowercase());
     near.into_iter().take(3).map(|(_, n)| n).collect()
 }
 

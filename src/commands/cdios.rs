@@ -370,6 +370,7 @@ fn print_wait_end(ctx: &Ctx, what: &str, end: &WaitEnd, extra: Value) {
 
 fn config(ctx: &Ctx, t: ModuleTarget, items: &[String]) -> anyhow::Result<()> {
     // Every name and value is resolved and checked before anything is sent.
+    items.iter().try_for_each(|i| super::names::check_cdios_config_item(i))?;
     match ConfigRequest::parse(items)? {
         ConfigRequest::Show(groups) => show_config(ctx, &mut open(ctx, &t.node)?, t, &groups),
         ConfigRequest::Set(changes) => {
@@ -397,7 +398,7 @@ fn show_config(ctx: &Ctx, s: &mut Node, t: ModuleTarget, groups: &[String]) -> a
                 format!("{}.{}", servo::group_of(part), servo::key_of(part, f)),
                 shown,
                 f.unit.to_string(),
-                format!("{}..{}", f.min, f.max),
+                format!("{} to {}", f.min, f.max),
             ]);
         }
     }

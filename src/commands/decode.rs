@@ -13,7 +13,11 @@ use crate::output::{say, say_part};
 const PROFIBUS_IMAGE: &str = family::POWERCUBE_PROFIBUS_IMAGE;
 
 pub fn run(ctx: &Ctx, kind: &str, value: &str) -> anyhow::Result<()> {
-    let unknown = || usage(format!("unknown kind {kind:?}; kinds: {}", Family::all_decode_kinds().join(", ")));
+    let unknown = || {
+        let kinds = Family::all_decode_kinds();
+        let hint = super::names::did_you_mean(kind, kinds.iter().copied());
+        usage(format!("unknown kind {kind:?}{hint}; kinds: {}", kinds.join(", ")))
+    };
     match Family::of_decode_kind(kind).ok_or_else(unknown)? {
         Family::Cdios => super::cdios::decode_kind(ctx, kind, value).unwrap_or_else(|| Err(unknown())),
         Family::Pac => pac_word(ctx, pac_profibus::word(kind).ok_or_else(unknown)?, value),

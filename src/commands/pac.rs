@@ -427,7 +427,7 @@ fn element(
             output::json(&json!({key: number, "word": w, "set": members}));
         } else {
             let first = (number.max(1) - 1) / 16 * 16 + 1;
-            say!("{key}s {first}..{}: {w:#06x} {w:016b}  set: {members:?}", first + 15);
+            say!("{key}s {first} to {}: {w:#06x} {w:016b}  set: {members:?}", first + 15);
         }
     } else {
         let v = d.read_element(el, number)?;
@@ -466,7 +466,8 @@ fn parse_value(text: &str) -> anyhow::Result<f64> {
 fn sys_param(ctx: &Ctx, d: &mut Controller, name: &str, access: &ParamAccess) -> anyhow::Result<()> {
     let p = table::system_param_by_name(name).ok_or_else(|| {
         let names: Vec<_> = table::SYSTEM_PARAMS.iter().filter(|p| !p.unused).map(|p| p.name).collect();
-        usage(format!("unknown system parameter {name:?}; known: {}", names.join(", ")))
+        let hint = super::names::did_you_mean(name, names.iter().copied());
+        usage(format!("unknown system parameter {name:?}{hint}; known: {}", names.join(", ")))
     })?;
     let n = i64::from(p.number);
     let (what, value) = if access.min {
@@ -491,7 +492,8 @@ fn sys_param(ctx: &Ctx, d: &mut Controller, name: &str, access: &ParamAccess) ->
 
 fn axis_param(ctx: &Ctx, d: &mut Controller, axis: u8, name: &str, access: &ParamAccess) -> anyhow::Result<()> {
     let p = table::axis_param_by_name(name).ok_or_else(|| {
-        usage(format!("unknown axis parameter {name:?}; see `axisctl pac-axis-param --help` or the manual 5.2.3"))
+        let hint = super::names::did_you_mean(name, table::AXIS_PARAMS.iter().filter(|p| !p.unused).map(|p| p.name));
+        usage(format!("unknown axis parameter {name:?}{hint}; `axisctl params pac` lists them (manual 5.2.3)"))
     })?;
     let par1 = table::axis_param_par1(axis, p.number);
     let (what, value) = if access.min {

@@ -454,6 +454,7 @@ fn move_cur(ctx: &Ctx, m: ModuleId, amps: f64, force: bool) -> anyhow::Result<()
 }
 
 fn get_param(ctx: &Ctx, m: ModuleId, names: &[String], all: bool) -> anyhow::Result<()> {
+    names.iter().try_for_each(|n| super::names::check_powercube_param(n))?;
     let defs = device::readable_params(names, all)?;
     let mut cubes = cubes(ctx)?;
     // Config rides along so that "rad|m" units resolve for the module's kind.
@@ -481,6 +482,7 @@ fn get_param(ctx: &Ctx, m: ModuleId, names: &[String], all: bool) -> anyhow::Res
 }
 
 fn set_param(ctx: &Ctx, m: ModuleId, name: &str, text: &str, force: bool) -> anyhow::Result<()> {
+    super::names::check_powercube_param(name)?;
     let (d, value) = device::param_write(name, text)?;
     let held = cubes(ctx)?.write_param(m, d, value, force)?;
     if ctx.json {
@@ -520,6 +522,7 @@ fn set_config(ctx: &Ctx, m: ModuleId, changes: &[String], raw: Option<&str>, for
     // arrives as one of them.
     let force = force || changes.iter().any(|c| c == "--force");
     let changes: Vec<String> = changes.iter().filter(|c| *c != "--force").cloned().collect();
+    changes.iter().try_for_each(|c| super::names::check_config_flag(c))?;
     let change = ConfigChange::parse(&changes, raw)?;
     change.check_safeties(force)?;
     match cubes(ctx)?.write_config(m, change) {
