@@ -130,6 +130,9 @@ pub enum CdiosCommand {
         /// Maximum speed of this goto, RPM (sent first as 'Next GOTO Speed'; 0 = configured maximum)
         #[arg(long, value_name = "RPM")]
         speed: Option<i64>,
+        /// Skip the check of --speed against the module's configured speeds (the manual's ranges still apply)
+        #[arg(long)]
+        force: bool,
         #[command(flatten)]
         wait: WaitArgs,
     },

@@ -30,7 +30,7 @@ pub fn run(ctx: &Ctx, cmd: CdiosCommand) -> anyhow::Result<()> {
         CdiosCommand::Status(t) => status(ctx, t),
         CdiosCommand::Position { target, source, all } => position(ctx, target, source, all),
         CdiosCommand::SetPosition { target, position } => set_position(ctx, target, position),
-        CdiosCommand::Goto { target, position, relative, setpoint_relative, latched, speed, wait } => {
+        CdiosCommand::Goto { target, position, relative, setpoint_relative, latched, speed, force, wait } => {
             let mode = match (relative, setpoint_relative, latched) {
                 (false, false, false) => GotoMode::Absolute,
                 (false, false, true) => GotoMode::AbsoluteSync,
@@ -39,7 +39,7 @@ pub fn run(ctx: &Ctx, cmd: CdiosCommand) -> anyhow::Result<()> {
                 (false, true, false) => GotoMode::SetpointRelative,
                 (false, true, true) => GotoMode::SetpointRelativeSync,
             };
-            goto(ctx, target, mode, position, speed, wait)
+            goto(ctx, target, mode, position, (speed, force), wait)
         }
         CdiosCommand::Traject { target, traject, latched, wait } => run_traject(ctx, target, traject, latched, wait),
         CdiosCommand::Start { target, direction, option, speed, latched } => {
@@ -246,18 +246,45 @@ fn set_position(ctx: &Ctx, t: ModuleTarget, position: i64) -> anyhow::Result<()>
     Ok(())
 }
 
+/// `--speed` against the speeds the module is configured with: the
+/// controller would clamp a speed outside them without a word, so the move
+/// would not be the one asked for. `--force` skips this (never the manual's
+/// range, which [`device::goto_commands`] checks).
+fn check_goto_speed(s: &mut Node, m: ModuleId, speed: i64) -> anyhow::Result<()> {
+    if speed == 0 {
+        return Ok(()); // 0 means the configured maximum
+    }
+    let speeds = s.read_config(m, &["speeds".to_string()])?;
+    let get = |key| speeds.iter().find_map(|(_, r)| r.get(key));
+    let bound = match (get("minimum_speed"), get("maximum_speed")) {
+        (_, Some(max)) if speed > max => Some(("above", "maximum", max)),
+        (Some(min), _) if speed < min => Some(("below", "minimum", min)),
+        _ => None,
+    };
+    match bound {
+        Some((side, which, v)) => Err(usage(format!(
+            "--speed {speed} RPM is {side} module {m}'s configured {which} speed {v} RPM (the controller would \
+             clamp it); nothing was sent (use --force to send it anyway)"
+        ))),
+        None => Ok(()),
+    }
+}
+
 fn goto(
     ctx: &Ctx,
     t: ModuleTarget,
     mode: GotoMode,
     position: i64,
-    speed: Option<i64>,
+    (speed, force): (Option<i64>, bool),
     wait: WaitArgs,
 ) -> anyhow::Result<()> {
     let cmds = device::goto_commands(mode, position, speed)?;
     let (node, m) = (node_id(&t.node), module_id(&t));
     device::check(&cmds, m)?;
     let mut s = open(ctx, &t.node)?;
+    if let (Some(v), false) = (speed, force) {
+        check_goto_speed(&mut s, m, v)?;
+    }
     if wait.wait {
         // Supervised from before the first byte; without a wait the motion
         // is one-shot and unsupervised once sent.
