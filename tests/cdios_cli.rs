@@ -235,8 +235,6 @@ fn every_command_sends_the_manual_bytes() {
             &[0],
             &[nmt, "201#230008F401000000", "201#230000E803000000", "201#2100020000000000", ".."],
         ),
-        // A speed above the configured maximum (8000) is refused after the read: no goto sent.
-        (&["cdios-goto", "-m", "0", "1000", "--speed", "9000"], &[2], &[nmt, "201#2000800000000000"]),
         // Selector 2: relative to the current position, -200 = FFFFFF38.
         (&["cdios-goto", "-m", "0", "-200", "--relative"], &[0], &[nmt, "201#23000238FFFFFF00"]),
         (&["cdios-stop", "-m", "0", "--option", "fast"], &[0, 5], &[nmt, "201#2500000200000000"]),

@@ -130,3 +130,18 @@ fn keepalive_interval_says_what_it_accepts() {
     let help = ok(&["watchdog", "keepalive", "--help"]).stdout;
     assert!(help.contains("1 to 49 ms"), "{help}");
 }
+
+/// `cdios-goto --speed` above the module's configured maximum (8000 RPM on
+/// the bench) is refused after reading the speeds: no goto leaves. `--force`
+/// sends it (the motor is not enabled, so the controller refuses: exit 5).
+#[test]
+fn cdios_goto_checks_speed_against_the_configured_speeds_unless_forced() {
+    let r = run(&["--link", "sim", "--trace", "cdios-goto", "-m", "0", "1000", "--speed", "9000"]);
+    assert_eq!(r.code, 2, "{}", r.stderr);
+    assert!(r.stderr.contains("configured maximum speed 8000 RPM") && r.stderr.contains("--force"), "{}", r.stderr);
+    assert!(r.stderr.contains("read_servo_speeds"), "the speeds were read: {}", r.stderr);
+    assert!(!r.stderr.lines().any(|l| l.starts_with("-> 201#23")), "a goto was sent: {}", r.stderr);
+    let r = run(&["--link", "sim", "--trace", "cdios-goto", "-m", "0", "1000", "--speed", "9000", "--force"]);
+    assert!(r.stderr.lines().any(|l| l.starts_with("-> 201#23")), "no goto sent: {}", r.stderr);
+    assert!(!r.stderr.contains("read_servo_speeds"), "{}", r.stderr);
+}

@@ -183,7 +183,7 @@ fn move_outside_the_traverse_area_is_refused_unsent() {
     });
     let out = run(&["--link", &r.link(), "pac-move", "1", "1000.5"]);
     assert_eq!(out.code, 2, "{}", out.stderr);
-    assert!(out.stderr.contains("traverse area 0..=1000"), "{}", out.stderr);
+    assert!(out.stderr.contains("traverse area 0 to 1000"), "{}", out.stderr);
     assert!(!r.codes().contains(&0x0A94));
 }
 

@@ -47,7 +47,7 @@ pub struct Global {
     pub json: bool,
     /// How long to wait for each answer, in ms, 1 to 60000 (default 100 on CAN, 30 plus wire time on RS232)
     #[arg(long, global = true, env = "AXISCTL_TIMEOUT", value_name = "MS",
-          value_parser = clap::value_parser!(u64).range(1..=MAX_TIMEOUT_MS))]
+          value_parser = ids::number(1, MAX_TIMEOUT_MS, "ms"))]
     pub timeout: Option<u64>,
     /// Print every frame sent and received, decoded, on stderr
     #[arg(long, global = true)]
@@ -57,7 +57,7 @@ pub struct Global {
     pub log: Option<PathBuf>,
     /// How often a read is retried after a timeout, 0 to 10 (motion is never retried)
     #[arg(long, global = true, value_name = "N", default_value_t = 2,
-          value_parser = clap::value_parser!(u32).range(0..=i64::from(MAX_RETRIES)))]
+          value_parser = ids::number(0, MAX_RETRIES, ""))]
     pub retries: u32,
     /// PA-CONTROL: send CHECK as the XOR including ETX (default: strictly between STX and ETX)
     #[arg(long, global = true)]

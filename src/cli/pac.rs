@@ -7,7 +7,7 @@ use super::{ids, Switch};
 use axisctl::family::{IdRange, PAC_AXIS};
 
 /// An axis number (the controller's own count is checked when known).
-fn axis_parser() -> clap::builder::RangedI64ValueParser<u8> {
+fn axis_parser() -> impl Fn(&str) -> Result<u8, String> + Clone + Send + Sync + 'static {
     ids::id(PAC_AXIS)
 }
 

@@ -40,8 +40,8 @@ pub fn wait_timeout(text: &str) -> Result<Duration, String> {
 }
 
 /// `--poll`: 1..=[`MAX_POLL_MS`] ms.
-pub fn poll_ms() -> clap::builder::RangedU64ValueParser<u64> {
-    clap::value_parser!(u64).range(1..=MAX_POLL_MS)
+pub fn poll_ms() -> impl Fn(&str) -> Result<u64, String> + Clone + Send + Sync + 'static {
+    super::ids::number(1, MAX_POLL_MS, "ms")
 }
 
 #[cfg(test)]
