@@ -209,6 +209,23 @@ mod tests {
     }
 
     #[test]
+    fn the_top_level_examples_parse() {
+        let mut cmd = crate::cli::command("");
+        let help = cmd.render_long_help().to_string();
+        let examples = help.split("Examples:\n").nth(1).expect("top-level examples");
+        for line in examples.lines().filter_map(|l| l.trim().strip_prefix("axisctl ")) {
+            let line = line.split('#').next().unwrap_or_default();
+            let mut argv = vec!["axisctl"];
+            argv.extend(words(line));
+            let parsed = crate::cli::command("").try_get_matches_from(&argv);
+            // `pac-move --help` ends in clap's DisplayHelp, which is what it asks for.
+            if let Err(e) = parsed {
+                assert_eq!(e.kind(), clap::error::ErrorKind::DisplayHelp, "{line:?}: {e}");
+            }
+        }
+    }
+
+    #[test]
     fn every_argument_says_what_it_is() {
         let mut bad = Vec::new();
         for (path, sub) in subcommands() {

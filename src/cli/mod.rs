@@ -130,6 +130,14 @@ impl Switch {
     }
 }
 
+const TOP_EXAMPLES: &str = "Examples:
+  axisctl --link sim dashboard                   # every simulated device, live
+  axisctl --link socketcan:can0 scan             # the PowerCube modules on a bus
+  axisctl --link sim move-ramp -m 17 0.1 --wait
+  axisctl --link sim --json pac-axis 2
+  axisctl params powercube                       # the names the commands take
+  axisctl pac-move --help                        # every command's help ends with examples";
+
 const LINKS: &str = "Links: socketcan:IFACE, slcan:TTY[?bitrate=N], serial:TTY[?baud=N&format=8N1|7N1|7E1|7O1], sim";
 
 /// The parser, with what the registries know: `decode`'s kinds and the exit
@@ -140,10 +148,11 @@ pub fn command(exit_codes: &str) -> clap::Command {
         .map(|f| format!("  {}: {}", f.display_name(), f.decode_kinds().join(", ")))
         .collect::<Vec<_>>()
         .join("\n");
-    let cmd = Cli::command().after_help(format!("{LINKS}\n{exit_codes}")).mut_subcommand("decode", |c| {
-        let examples = examples::after_help("decode").unwrap_or_default();
-        c.after_help(format!("Kinds:\n{kinds}\n\n{examples}"))
-    });
+    let cmd =
+        Cli::command().after_help(format!("{LINKS}\n{exit_codes}\n\n{TOP_EXAMPLES}")).mut_subcommand("decode", |c| {
+            let examples = examples::after_help("decode").unwrap_or_default();
+            c.after_help(format!("Kinds:\n{kinds}\n\n{examples}"))
+        });
     finish(cmd, "")
 }
 
