@@ -42,6 +42,8 @@ const COMMANDS: &[&[&str]] = &[
     &["cdios-events", "-m", "0"],
     &["cdios-outputs", "-m", "0"],
     &["cdios-watch", "-m", "0", "--for", "0.3"],
+    // the bus monitor
+    &["monitor", "--from-log", "BUS_LOG", "--stats"],
     // the interface itself
     &["completions", "bash"],
     &["man"],
@@ -49,8 +51,22 @@ const COMMANDS: &[&[&str]] = &[
     &["flags", "config"],
 ];
 
+/// A candump log of a few frames for `monitor --from-log`, written once
+/// for every test of the process (under cargo's scratch directory).
+fn bus_log() -> &'static str {
+    static LOG: std::sync::OnceLock<()> = std::sync::OnceLock::new();
+    const PATH: &str = concat!(env!("CARGO_TARGET_TMPDIR"), "/output-failures-bus.log");
+    LOG.get_or_init(|| {
+        let frames: String =
+            (0..40).map(|i| format!("(1700000000.{i:06}) can0 0F1#01\n(1700000000.{i:06}) can0 0B1#01\n")).collect();
+        std::fs::write(PATH, frames).unwrap();
+    });
+    PATH
+}
+
 fn axisctl(json: bool, args: &[&str]) -> Command {
     let mut c = common::bin();
+    let args: Vec<&str> = args.iter().map(|a| if *a == "BUS_LOG" { bus_log() } else { a }).collect();
     c.args(["--link", "sim"]);
     if json {
         c.arg("--json");
