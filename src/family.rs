@@ -61,7 +61,7 @@ impl IdRange {
 
 impl fmt::Display for IdRange {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "{} {}..{}", self.what, self.min, self.max)
+        write!(f, "{} {} to {}", self.what, self.min, self.max)
     }
 }
 
@@ -269,7 +269,7 @@ mod tests {
             assert_eq!(CDIOS_NODE.contains(id), cdios::NodeId::new(id).is_some(), "{id}");
             assert_eq!(CDIOS_MODULE.contains(id), cdios::ModuleId::new(id).is_some(), "{id}");
         }
-        assert_eq!(PAC_AXIS.to_string(), "axis 1..16");
+        assert_eq!(PAC_AXIS.to_string(), "axis 1 to 16");
     }
 
     #[test]

@@ -18,22 +18,39 @@ fn main() -> ExitCode {
             let code = if e.use_stderr() { commands::exit::code(ErrorKind::Usage) } else { commands::exit::SUCCESS };
             if e.use_stderr() && json_requested() {
                 let _ = writeln!(std::io::stderr(), "{}", commands::error_json::usage(&e, code));
-            } else {
-                let _ = e.print();
+                return ExitCode::from(code);
             }
-            return ExitCode::from(code);
+            // Help and version go to stdout: a full disk fails them like any
+            // output; a reader that went away does not.
+            return match e.print() {
+                Err(io) if !e.use_stderr() && io.kind() != std::io::ErrorKind::BrokenPipe => {
+                    let _ = writeln!(std::io::stderr(), "axisctl: cannot write the output: {io}");
+                    ExitCode::from(commands::exit::code(ErrorKind::Other))
+                }
+                _ => ExitCode::from(code),
+            };
         }
     };
     let json = cli.global.json;
-    match commands::run(cli) {
+    let result = commands::run(cli);
+    output::flush();
+    match result {
         // The traffic log never fails the traffic (a halt must not wait for
         // it), so a log that could not be written is reported here.
-        Ok(()) => match supervisor::log_failure() {
-            Some(e) => {
+        Ok(()) => match (supervisor::log_failure(), output::failure()) {
+            (Some(e), _) => {
                 let _ = writeln!(std::io::stderr(), "axisctl: cannot write the --log file: {e}");
                 ExitCode::from(commands::exit::code(ErrorKind::Other))
             }
-            None => ExitCode::SUCCESS,
+            // The reader went away (`| head`): the convention of Unix tools
+            // is to end quietly.
+            (None, Some((std::io::ErrorKind::BrokenPipe, _))) | (None, None) => ExitCode::SUCCESS,
+            // A full disk or a failing device: the output is lost, so the
+            // command failed, even though the device did its part.
+            (None, Some((_, e))) => {
+                let _ = writeln!(std::io::stderr(), "axisctl: cannot write the output: {e}");
+                ExitCode::from(commands::exit::code(ErrorKind::Other))
+            }
         },
         Err(e) if is_broken_pipe(&e) => ExitCode::SUCCESS,
         Err(e) => {

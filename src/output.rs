@@ -69,28 +69,67 @@ pub fn parse_hex_bytes(text: &str) -> Option<Vec<u8>> {
     (0..digits.len()).step_by(2).map(|i| u8::from_str_radix(&digits[i..i + 2], 16).ok()).collect()
 }
 
+/// The first write to stdout or stderr that failed: the binary's exit code
+/// depends on its kind (a closed pipe is a normal end, a full disk is not).
+static FAILURE: std::sync::OnceLock<(std::io::ErrorKind, String)> = std::sync::OnceLock::new();
+
+/// Records a failed write of the command's output, here for the exit code
+/// and for the motion supervisor, which stops a supervised wait on it.
+pub fn note_failure(e: &std::io::Error) {
+    let _ = FAILURE.set((e.kind(), e.to_string()));
+    supervisor::note_output_failure(e);
+}
+
+/// The first output failure of the process, if any.
+pub fn failure() -> Option<(std::io::ErrorKind, String)> {
+    FAILURE.get().cloned()
+}
+
+/// Writes what stdout still buffers (a partial line); a failure is recorded.
+pub fn flush() {
+    if let Err(e) = std::io::stdout().flush() {
+        note_failure(&e);
+    }
+}
+
 /// Prints one JSON document on stdout. A failed write is not reported here
-/// (a closed pipe after `| head` is normal); it is recorded for the motion
-/// supervisor, which stops a supervised wait on it.
+/// (a closed pipe after `| head` is normal); it is recorded for the exit code
+/// and for the motion supervisor.
 pub fn json(value: &serde_json::Value) {
     let mut out = std::io::stdout().lock();
     let written = serde_json::to_writer(&mut out, value).map_err(std::io::Error::from).and_then(|()| writeln!(out));
     if let Err(e) = written {
-        supervisor::note_output_failure(&e);
+        note_failure(&e);
     }
 }
 
 /// One line on stdout that never panics: a failed write (a closed pipe,
-/// `/dev/full`) is recorded for the motion supervisor instead.
+/// `/dev/full`) is recorded instead.
 pub fn line(args: std::fmt::Arguments) {
     if let Err(e) = writeln!(std::io::stdout(), "{args}") {
+        note_failure(&e);
+    }
+}
+
+/// Text on stdout without a line end, like [`line`].
+pub fn text(args: std::fmt::Arguments) {
+    if let Err(e) = write!(std::io::stdout(), "{args}") {
+        note_failure(&e);
+    }
+}
+
+/// One line on stderr that never panics. A failure does not change the exit
+/// code (stderr is the diagnostics, not the result), but a supervised wait
+/// still stops on it: it would go on blind.
+pub fn err_line(args: std::fmt::Arguments) {
+    if let Err(e) = writeln!(std::io::stderr(), "{args}") {
         supervisor::note_output_failure(&e);
     }
 }
 
-/// One line on stderr, like [`line`].
-pub fn err_line(args: std::fmt::Arguments) {
-    if let Err(e) = writeln!(std::io::stderr(), "{args}") {
+/// Text on stderr without a line end (a progress line redrawn in place), like [`err_line`].
+pub fn err_text(args: std::fmt::Arguments) {
+    if let Err(e) = write!(std::io::stderr(), "{args}") {
         supervisor::note_output_failure(&e);
     }
 }
@@ -100,6 +139,18 @@ macro_rules! say {
     ($($t:tt)*) => { $crate::output::line(format_args!($($t)*)) };
 }
 pub(crate) use say;
+
+/// `print!` that never panics; see [`text`].
+macro_rules! say_part {
+    ($($t:tt)*) => { $crate::output::text(format_args!($($t)*)) };
+}
+pub(crate) use say_part;
+
+/// `eprint!` that never panics; see [`err_text`].
+macro_rules! tell_part {
+    ($($t:tt)*) => { $crate::output::err_text(format_args!($($t)*)) };
+}
+pub(crate) use tell_part;
 
 /// Prints rows as an aligned table; the first row is the header.
 pub fn table(rows: &[Vec<String>], style: Style) {
@@ -118,7 +169,10 @@ pub fn table(rows: &[Vec<String>], style: Style) {
             }
         }
         let line = if i == 0 { style.bold(&line) } else { line };
-        let _ = writeln!(out, "{}", line.trim_end());
+        if let Err(e) = writeln!(out, "{}", line.trim_end()) {
+            note_failure(&e);
+            return;
+        }
     }
 }
 

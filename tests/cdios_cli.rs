@@ -217,9 +217,23 @@ fn every_command_sends_the_manual_bytes() {
         (&["cdios-set-position", "-m", "0", "-1200"], &[0], &[nmt, "201#22000050FBFFFF00"]),
         // 24h option 5.
         (&["cdios-enable", "-m", "0"], &[0], &[nmt, "201#2400000005000000"]),
+        // The configured speeds are read (20h selector 80h) to check --speed against them, then
         // 23h selector 8 (speed 500 = 01F4), then selector 0 (1000 = 03E8), then the wait's reads.
         (
             &["cdios-goto", "-m", "0", "1000", "--speed", "500", "--wait"],
+            &[0],
+            &[
+                nmt,
+                "201#2000800000000000",
+                "201#230008F401000000",
+                "201#230000E803000000",
+                "201#2100020000000000",
+                "..",
+            ],
+        ),
+        // --force skips that check and its read; the manual's bytes are the same.
+        (
+            &["cdios-goto", "-m", "0", "1000", "--speed", "500", "--force", "--wait"],
             &[0],
             &[nmt, "201#230008F401000000", "201#230000E803000000", "201#2100020000000000", ".."],
         ),

@@ -182,7 +182,7 @@ fn pac_stop_from_a_second_process_stops_a_pac_move_wait_that_holds_the_line() {
     let holder =
         Holding::start(&locks, &["--link", link, "--timeout", "1000", "pac-move", "2", "900", "--wait"], "0A94");
     let pid = holder.pid();
-    let stop = locks.run(&["--link", link, "--timeout", "1000", "--json", "pac-stop-axis", "2"]);
+    let stop = locks.run(&["--link", link, "--timeout", "1000", "--json", "pac-stop-axis", "2", "--wait"]);
     assert_eq!(stop.code, 0, "{}", stop.stderr);
     let (code, stderr) = holder.end(10);
     assert_eq!(code, Some(143), "{stderr}");

@@ -29,7 +29,8 @@ fn bounded(args: &[&str], secs: u64) -> (Run, Duration) {
 fn wait_bounded(mut child: Child, secs: u64, what: &[&str]) -> Run {
     let deadline = Instant::now() + Duration::from_secs(secs);
     let mut so = child.stdout.take().unwrap();
-    let mut se = child.stderr.take().unwrap();
+    // None when the caller reads stderr itself.
+    let se = child.stderr.take();
     let t_out = std::thread::spawn(move || {
         let mut s = String::new();
         let _ = so.read_to_string(&mut s);
@@ -37,7 +38,9 @@ fn wait_bounded(mut child: Child, secs: u64, what: &[&str]) -> Run {
     });
     let t_err = std::thread::spawn(move || {
         let mut s = String::new();
-        let _ = se.read_to_string(&mut s);
+        if let Some(mut se) = se {
+            let _ = se.read_to_string(&mut s);
+        }
         s
     });
     let status = loop {
@@ -253,6 +256,42 @@ fn interrupt_after(args: &[&str], ms: u64) -> Run {
     wait_bounded(child, 10, args)
 }
 
+/// Runs axisctl with `--trace` and sends SIGINT `ms` after the request
+/// line naming `trigger` shows on stderr: a signal during the wait itself,
+/// however long the start took on a loaded machine.
+fn interrupt_when(args: &[&str], trigger: &str, ms: u64) -> Run {
+    use std::io::{BufRead, BufReader};
+    let mut all = vec!["--trace"];
+    all.extend_from_slice(args);
+    let mut child = common::bin()
+        .env_remove("AXISCTL_TIMEOUT")
+        .args(&all)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let err = child.stderr.take().unwrap();
+    let (tx, rx) = std::sync::mpsc::channel();
+    let trigger = trigger.to_string();
+    let reader = std::thread::spawn(move || {
+        let mut text = String::new();
+        for line in BufReader::new(err).lines().map_while(Result::ok) {
+            if line.starts_with("-> ") && line.contains(&trigger) {
+                let _ = tx.send(());
+            }
+            text.push_str(&line);
+            text.push('\n');
+        }
+        text
+    });
+    rx.recv_timeout(Duration::from_secs(10)).expect("the trigger line showed");
+    std::thread::sleep(Duration::from_millis(ms));
+    unsafe { libc::kill(child.id() as i32, libc::SIGINT) };
+    let mut run = wait_bounded(child, 10, args);
+    run.stderr = reader.join().unwrap();
+    run
+}
+
 #[test]
 fn ctrl_c_during_home_wait_halts_and_exits_130() {
     let s = Sim::start(&["--powercube", "pty-slcan"], 1);
@@ -271,7 +310,7 @@ fn ctrl_c_during_pac_ref_wait_stops_and_exits_130() {
     let link = s.link("pac").to_string();
     let (r, _) = bounded(&["--link", &link, "--timeout", "1000", "pac-online"], 10);
     assert_eq!(r.code, 0, "{}", r.stderr);
-    let r = interrupt_after(&["--link", &link, "--timeout", "1000", "pac-ref", "2", "--wait"], 500);
+    let r = interrupt_when(&["--link", &link, "--timeout", "1000", "pac-ref", "2", "--wait"], "0A84", 300);
     assert_eq!(r.code, 130, "{}", r.stderr);
     assert!(r.stderr.contains("axis 2 stopped"), "{}", r.stderr);
     let (a, _) = bounded(&["--link", &link, "--timeout", "1000", "--json", "pac-axis", "2"], 10);

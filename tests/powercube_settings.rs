@@ -57,8 +57,8 @@ fn set_param_velocity_and_acceleration_must_be_positive() {
 
 #[test]
 fn raw_current_keeps_the_manuals_range_even_with_force() {
-    assert_refused(&["set-param", "-m", "17", "RawCur", "30000"], "the manual's range -500..=500");
-    assert_refused(&["set-param", "-m", "17", "--force", "RawCur", "-501"], "the manual's range -500..=500");
+    assert_refused(&["set-param", "-m", "17", "RawCur", "30000"], "the manual's range -500 to 500");
+    assert_refused(&["set-param", "-m", "17", "--force", "RawCur", "-501"], "the manual's range -500 to 500");
     assert_written(&["set-param", "-m", "17", "RawCur", "-500"]);
 }
 

@@ -11,7 +11,7 @@ use axisctl::family::{CDIOS_MODULE, CDIOS_NODE};
 /// Which node, and how it is talked to.
 #[derive(Debug, Args, Clone, Copy)]
 pub struct NodeArgs {
-    /// Cdios node id (CANopen), 1..127; 1 is the factory setting
+    /// Cdios node id (CANopen), 1 to 127; 1 is the factory setting
     #[arg(long, value_name = "N", default_value_t = 1, value_parser = ids::id(CDIOS_NODE))]
     pub node: u8,
     /// Do not send the NMT start (the node is operational already)
@@ -27,7 +27,7 @@ pub struct NodeArgs {
 pub struct ModuleTarget {
     #[command(flatten)]
     pub node: NodeArgs,
-    /// 6168 module id on the node (DIP switch), 0..15
+    /// 6168 module id on the node (DIP switch), 0 to 15
     #[arg(short, long, value_name = "ID", value_parser = ids::id(CDIOS_MODULE))]
     pub module: u8,
 }
@@ -116,6 +116,7 @@ pub enum CdiosCommand {
     SetPosition {
         #[command(flatten)]
         target: ModuleTarget,
+        /// The position the motor takes as its current one and its setpoint, in counts
         #[arg(allow_negative_numbers = true)]
         position: i64,
     },
@@ -139,6 +140,9 @@ pub enum CdiosCommand {
         /// Maximum speed of this goto, RPM (sent first as 'Next GOTO Speed'; 0 = configured maximum)
         #[arg(long, value_name = "RPM")]
         speed: Option<i64>,
+        /// Skip the check of --speed against the module's configured speeds (the manual's ranges still apply)
+        #[arg(long)]
+        force: bool,
         #[command(flatten)]
         wait: WaitArgs,
     },
@@ -160,8 +164,10 @@ pub enum CdiosCommand {
     Start {
         #[command(flatten)]
         target: ModuleTarget,
+        /// Which way the motor turns
         #[arg(long, value_enum, default_value_t = DirectionArg::Forward)]
         direction: DirectionArg,
+        /// How the motor starts (the manual's start option)
         #[arg(long, value_enum)]
         option: StartOptionArg,
         /// Target speed for --option to-speed, RPM
@@ -176,6 +182,7 @@ pub enum CdiosCommand {
     Stop {
         #[command(flatten)]
         target: ModuleTarget,
+        /// How the motor stops (the manual's stop option)
         #[arg(long, value_enum, default_value_t = StopOptionArg::Decelerate)]
         option: StopOptionArg,
         /// Stop on the next SYNC
@@ -208,7 +215,7 @@ pub enum CdiosCommand {
     Outputs {
         #[command(flatten)]
         target: ModuleTarget,
-        /// Outputs 1..4 as bits 0..3 (e.g. 0b0101)
+        /// Outputs 1 to 4 as bits 0 to 3 (e.g. 0b0101)
         #[arg(long, value_name = "MASK")]
         set: Option<String>,
         /// Update on the next SYNC
@@ -223,7 +230,7 @@ pub enum CdiosCommand {
         /// Output 1 or 2 (both are shown by default)
         #[arg(long, value_name = "N")]
         output: Option<i64>,
-        /// New value in mV, -10000..10000
+        /// New value in mV, -10000 to 10000
         #[arg(long, value_name = "MV", allow_negative_numbers = true, requires = "output")]
         set: Option<i64>,
         /// Update on the next SYNC
@@ -241,20 +248,20 @@ pub enum CdiosCommand {
         /// The four mask bytes, e.g. 0x80,0,0x80,0
         #[arg(long, value_name = "M1,M2,M3,M4")]
         raw_masks: Option<String>,
-        /// 'Send current position' interval code 0..7 (0 never, 1 3.9 ms .. 7 250 ms)
+        /// 'Send current position' interval code 0 to 7 (0 never, 1 3.9 ms to 7 250 ms)
         #[arg(long, value_name = "CODE")]
         position_interval: Option<i64>,
         /// Send the position only when it changed
         #[arg(long, value_name = "BOOL")]
         position_on_change: Option<bool>,
-        /// 'Send MotorSpeed/RPM Error' interval code 0..7
+        /// 'Send MotorSpeed/RPM Error' interval code 0 to 7
         #[arg(long, value_name = "CODE")]
         speed_interval: Option<i64>,
         /// Send the speed only when it changed
         #[arg(long, value_name = "BOOL")]
         speed_on_change: Option<bool>,
     },
-    /// Cdios: store the configuration in EEPROM (05h; 260..750 ms; motor disabled)
+    /// Cdios: store the configuration in EEPROM (05h; 260 to 750 ms; motor disabled)
     #[command(name = "cdios-store")]
     Store {
         #[command(flatten)]

@@ -19,17 +19,17 @@ pub struct DashboardArgs {
     /// Link for the Cdios node (default: --link when it is CAN or sim)
     #[arg(long, value_name = "URI")]
     pub cdios_link: Option<String>,
-    /// PowerCube module ids, e.g. 3,5,17 or 1-8 (default: scan 1..31 at start)
-    #[arg(long, value_name = "LIST", value_parser = ids::list(POWERCUBE_MODULE))]
+    /// PowerCube module addresses, e.g. 3,5,17 or 1-8 (default: scan 1 to 31 at start)
+    #[arg(short = 'm', long = "module", alias = "modules", value_name = "LIST", value_parser = ids::list(POWERCUBE_MODULE))]
     pub modules: Option<IdList>,
     /// PA-CONTROL axes to show, e.g. 1,2 (default: as many as the controller has configured)
-    #[arg(long, value_name = "LIST", value_parser = ids::list(PAC_AXIS))]
+    #[arg(long = "axis", alias = "axes", value_name = "LIST", value_parser = ids::list(PAC_AXIS))]
     pub axes: Option<IdList>,
     /// Cdios node id
     #[arg(long, value_name = "N", default_value_t = 1, value_parser = ids::id(CDIOS_NODE))]
     pub node: u8,
-    /// Cdios 6168 module ids, e.g. 0,1 (default: scan 0..15 at start)
-    #[arg(long, value_name = "LIST", value_parser = ids::list(CDIOS_MODULE))]
+    /// Cdios 6168 module ids, e.g. 0,1 (default: scan 0 to 15 at start)
+    #[arg(long = "cdios-module", alias = "cdios-modules", value_name = "LIST", value_parser = ids::list(CDIOS_MODULE))]
     pub cdios_modules: Option<IdList>,
     /// Leave out families: powercube, pac, cdios (repeatable)
     #[arg(long, value_name = "FAMILY", value_parser = parse_family)]

@@ -3,9 +3,33 @@
 
 use axisctl::family::IdRange;
 
-/// One id of `range`, e.g. a PowerCube module address.
-pub fn id(range: IdRange) -> clap::builder::RangedI64ValueParser<u8> {
-    clap::value_parser!(u8).range(i64::from(range.min)..=i64::from(range.max))
+/// One id of `range`, e.g. a PowerCube module address. Its error says the
+/// range in words (`"32" is not a valid module id 1 to 31`), which clap's
+/// ranged parser would say as `1..=31`.
+pub fn id(range: IdRange) -> impl Fn(&str) -> Result<u8, String> + Clone + Send + Sync + 'static {
+    move |text| {
+        let t = text.trim();
+        t.parse::<u8>().ok().filter(|id| range.contains(*id)).ok_or_else(|| format!("{t:?} is not a valid {range}"))
+    }
+}
+
+/// A whole number from `min` to `max` (`unit` after it in the error).
+pub fn number<T>(
+    min: T,
+    max: T,
+    unit: &'static str,
+) -> impl Fn(&str) -> Result<T, String> + Clone + Send + Sync + 'static
+where
+    T: std::str::FromStr + PartialOrd + std::fmt::Display + Copy + Send + Sync + 'static,
+{
+    move |text| {
+        let t = text.trim();
+        let unit = if unit.is_empty() { String::new() } else { format!(" {unit}") };
+        t.parse::<T>()
+            .ok()
+            .filter(|v| (min..=max).contains(v))
+            .ok_or_else(|| format!("{t:?} is not a number from {min} to {max}{unit}"))
+    }
 }
 
 /// A list of ids as typed: `3,5,17`, `1-8` or both; sorted, each once.
@@ -130,8 +154,8 @@ mod tests {
 
     #[test]
     fn bad_lists_say_why() {
-        assert_eq!(parse_list("0", POWERCUBE_MODULE, false).unwrap_err(), "\"0\" is not a valid module id 1..31");
-        assert_eq!(parse_list("17", PAC_AXIS, false).unwrap_err(), "\"17\" is not a valid axis 1..16");
+        assert_eq!(parse_list("0", POWERCUBE_MODULE, false).unwrap_err(), "\"0\" is not a valid module id 1 to 31");
+        assert_eq!(parse_list("17", PAC_AXIS, false).unwrap_err(), "\"17\" is not a valid axis 1 to 16");
         assert_eq!(parse_list("x", PAC_AXIS, false).unwrap_err(), "\"x\" is not a number");
         assert_eq!(parse_list("5-3", PAC_AXIS, false).unwrap_err(), "range \"5-3\" runs backwards");
         assert_eq!(parse_list(" , ", CDIOS_MODULE, false).unwrap_err(), "the list names no module id");
@@ -144,17 +168,23 @@ mod tests {
         assert_eq!(p("17,"), Ok(Devices::List(IdList(vec![17]))));
         assert_eq!(p("5,3"), Ok(Devices::List(IdList(vec![3, 5]))));
         assert_eq!(p("ALL"), Ok(Devices::All));
-        assert_eq!(p("0").unwrap_err(), "\"0\" is not a valid module id 1..31");
+        assert_eq!(p("0").unwrap_err(), "\"0\" is not a valid module id 1 to 31");
         assert!(p("alle").is_err());
     }
 
     #[test]
     fn single_ids_take_the_registry_range() {
-        use clap::builder::TypedValueParser;
-        let cmd = clap::Command::new("t");
         let p = id(POWERCUBE_MODULE);
-        assert_eq!(p.parse_ref(&cmd, None, "31".as_ref()).unwrap(), 31);
-        assert!(p.parse_ref(&cmd, None, "32".as_ref()).is_err());
-        assert!(p.parse_ref(&cmd, None, "0".as_ref()).is_err());
+        assert_eq!(p("31"), Ok(31));
+        assert_eq!(p("32").unwrap_err(), "\"32\" is not a valid module id 1 to 31");
+        assert!(p("0").is_err() && p("300").is_err() && p("x").is_err());
+    }
+
+    #[test]
+    fn numbers_say_their_range_in_words() {
+        let p = number(1u64, 60_000, "ms");
+        assert_eq!(p("60000"), Ok(60_000));
+        assert_eq!(p("0").unwrap_err(), "\"0\" is not a number from 1 to 60000 ms");
+        assert!(p("abc").is_err());
     }
 }

@@ -3,11 +3,13 @@
 
 pub mod cdios;
 pub mod dashboard;
+pub mod examples;
 pub mod ids;
 pub mod monitor;
 pub mod pac;
 pub mod powercube;
 pub mod sim;
+pub mod suggest;
 pub mod wait;
 
 use std::path::PathBuf;
@@ -20,7 +22,7 @@ pub use sim::SimArgs;
 pub use wait::WaitArgs;
 
 #[derive(Debug, Parser)]
-#[command(name = "axisctl", version, about = "Commission PowerCube, PA-CONTROL and Cdios motion hardware")]
+#[command(name = "axisctl", version = env!("AXISCTL_VERSION"), about = "Commission PowerCube, PA-CONTROL and Cdios motion hardware")]
 pub struct Cli {
     #[command(flatten)]
     pub global: Global,
@@ -35,6 +37,7 @@ pub const MAX_TIMEOUT_MS: u64 = 60_000;
 pub const MAX_RETRIES: u32 = 10;
 
 #[derive(Debug, Args)]
+#[command(next_help_heading = "Global options")]
 pub struct Global {
     /// The link: socketcan:IFACE, slcan:TTY[?bitrate=N], serial:TTY[?baud=N&format=F] or sim
     #[arg(long, global = true, env = "AXISCTL_LINK", value_name = "URI")]
@@ -42,9 +45,9 @@ pub struct Global {
     /// Machine output: one JSON document on stdout (JSON Lines for streams)
     #[arg(long, global = true)]
     pub json: bool,
-    /// How long to wait for each answer, in ms, 1..=60000 (default 100 on CAN, 30 plus wire time on RS232)
+    /// How long to wait for each answer, in ms, 1 to 60000 (default 100 on CAN, 30 plus wire time on RS232)
     #[arg(long, global = true, env = "AXISCTL_TIMEOUT", value_name = "MS",
-          value_parser = clap::value_parser!(u64).range(1..=MAX_TIMEOUT_MS))]
+          value_parser = ids::number(1, MAX_TIMEOUT_MS, "ms"))]
     pub timeout: Option<u64>,
     /// Print every frame sent and received, decoded, on stderr
     #[arg(long, global = true)]
@@ -52,9 +55,9 @@ pub struct Global {
     /// Append every CAN frame in candump -l format (serial traffic as hex lines) to FILE
     #[arg(long, global = true, value_name = "FILE")]
     pub log: Option<PathBuf>,
-    /// How often a read is retried after a timeout, 0..=10 (motion is never retried)
+    /// How often a read is retried after a timeout, 0 to 10 (motion is never retried)
     #[arg(long, global = true, value_name = "N", default_value_t = 2,
-          value_parser = clap::value_parser!(u32).range(0..=i64::from(MAX_RETRIES)))]
+          value_parser = ids::number(0, MAX_RETRIES, ""))]
     pub retries: u32,
     /// PA-CONTROL: send CHECK as the XOR including ETX (default: strictly between STX and ETX)
     #[arg(long, global = true)]
@@ -82,25 +85,96 @@ pub enum Command {
     Dashboard(dashboard::DashboardArgs),
     #[command(flatten)]
     Pac(pac::PacCommand),
+    /// List parameter and configuration names offline: PowerCube parameters, PA-CONTROL system and axis parameters, Cdios config fields
+    Params {
+        /// Only this family: powercube, pac or cdios
+        #[arg(value_name = "FAMILY", value_parser = dashboard::parse_family)]
+        family: Option<axisctl::family::Family>,
+    },
+    /// List status and Config flags offline: every word's flags, or those of WORD (a decode kind) or matching WORD
+    Flags {
+        /// A decode kind (config, cube-state, cdios-status, ...) or part of a flag name (brake)
+        #[arg(value_name = "WORD")]
+        word: Option<String>,
+    },
+    /// Print a shell completion script: bash, zsh, fish, elvish or powershell
+    #[command(
+        after_help = "Examples:\n  axisctl completions bash > ~/.local/share/bash-completion/completions/axisctl\n  \
+                            axisctl completions zsh > ~/.zfunc/_axisctl\n  \
+                            axisctl completions fish > ~/.config/fish/completions/axisctl.fish"
+    )]
+    Completions {
+        /// The shell the script is for
+        shell: clap_complete::Shell,
+    },
+    /// Print the man page (roff), or with --dir write one page per subcommand
+    #[command(after_help = "Examples:\n  axisctl man | man -l -\n  \
+                            axisctl man --dir ~/.local/share/man/man1   # then: man axisctl-pac-move")]
+    Man {
+        /// Write axisctl.1 and axisctl-COMMAND.1 for every subcommand into this directory
+        #[arg(long, value_name = "DIR")]
+        dir: Option<PathBuf>,
+    },
 }
+
+/// `on` or `off`: how every switch is said (`watchdog on`, `pac-axis-power 2 off`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum Switch {
+    On,
+    Off,
+}
+
+impl Switch {
+    pub fn is_on(self) -> bool {
+        self == Self::On
+    }
+}
+
+const TOP_EXAMPLES: &str = "Examples:
+  axisctl --link sim dashboard                   # every simulated device, live
+  axisctl --link socketcan:can0 scan             # the PowerCube modules on a bus
+  axisctl --link sim move-ramp -m 17 0.1 --wait
+  axisctl --link sim --json pac-axis 2
+  axisctl params powercube                       # the names the commands take
+  axisctl pac-move --help                        # every command's help ends with examples";
 
 const LINKS: &str = "Links: socketcan:IFACE, slcan:TTY[?bitrate=N], serial:TTY[?baud=N&format=8N1|7N1|7E1|7O1], sim";
 
-/// The parser, with what the registries know: `decode`'s kinds and the exit codes.
+/// The parser, with what the registries know: `decode`'s kinds and the exit
+/// codes; every subcommand's examples; negative numbers as values everywhere.
 pub fn command(exit_codes: &str) -> clap::Command {
     let kinds = axisctl::family::Family::ALL
         .into_iter()
         .map(|f| format!("  {}: {}", f.display_name(), f.decode_kinds().join(", ")))
         .collect::<Vec<_>>()
         .join("\n");
-    Cli::command()
-        .after_help(format!("{LINKS}\n{exit_codes}"))
-        .mut_subcommand("decode", |c| c.after_help(format!("Kinds:\n{kinds}")))
+    let cmd =
+        Cli::command().after_help(format!("{LINKS}\n{exit_codes}\n\n{TOP_EXAMPLES}")).mut_subcommand("decode", |c| {
+            let examples = examples::after_help("decode").unwrap_or_default();
+            c.after_help(format!("Kinds:\n{kinds}\n\n{examples}"))
+        });
+    finish(cmd, "")
+}
+
+/// Applies to a command and all below it what clap only sets per argument.
+fn finish(cmd: clap::Command, path: &str) -> clap::Command {
+    // `--vel -0.05` and `pac-speed 1 -5` are values, not flags: clap only
+    // takes a leading `-` as a value where the argument allows negative numbers.
+    let mut cmd = cmd.mut_args(|a| if a.get_action().takes_values() { a.allow_negative_numbers(true) } else { a });
+    if !path.is_empty() && cmd.get_after_help().is_none() {
+        if let Some(text) = examples::after_help(path) {
+            cmd = cmd.after_help(text);
+        }
+    }
+    cmd.mut_subcommands(|sub| {
+        let path = if path.is_empty() { sub.get_name().to_string() } else { format!("{path} {}", sub.get_name()) };
+        finish(sub, &path)
+    })
 }
 
 /// Parses the process arguments.
 pub fn parse(exit_codes: &str) -> Result<Cli, clap::Error> {
     let mut cmd = command(exit_codes);
-    let matches = cmd.try_get_matches_from_mut(std::env::args_os())?;
+    let matches = cmd.try_get_matches_from_mut(std::env::args_os()).map_err(|e| suggest::subcommand(e, &cmd))?;
     Cli::from_arg_matches(&matches).map_err(|e| e.with_cmd(&cmd))
 }

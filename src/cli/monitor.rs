@@ -16,7 +16,7 @@ pub struct MonitorArgs {
     /// Only these families: powercube, cdios, other (repeatable)
     #[arg(long, value_name = "FAMILY", value_parser = FamilyFilter::parse)]
     pub family: Vec<FamilyFilter>,
-    /// Only frames of these module ids, e.g. 3,5 or 1-8 (PowerCube 1..31, Cdios 0..15; repeatable)
+    /// Only frames of these module ids, e.g. 3,5 or 1-8 (PowerCube 1 to 31, Cdios 0 to 15; repeatable)
     #[arg(short, long, value_name = "IDS", value_parser = ids::list(ANY_MODULE))]
     pub module: Vec<IdList>,
     /// Only these CAN ids, hex (e.g. 0F1; repeatable)

@@ -3,17 +3,17 @@
 
 use clap::{Args, Subcommand};
 
-use super::ids;
+use super::{ids, Switch};
 use axisctl::family::{IdRange, PAC_AXIS};
 
 /// An axis number (the controller's own count is checked when known).
-fn axis_parser() -> clap::builder::RangedI64ValueParser<u8> {
+fn axis_parser() -> impl Fn(&str) -> Result<u8, String> + Clone + Send + Sync + 'static {
     ids::id(PAC_AXIS)
 }
 
 #[derive(Debug, Args, Clone, Copy)]
 pub struct AxisArg {
-    /// Axis number, 1..16
+    /// Axis number, 1 to 16
     #[arg(value_name = "AXIS", value_parser = axis_parser())]
     pub axis: u8,
 }
@@ -32,7 +32,8 @@ pub struct PacWait {
     #[arg(long)]
     pub wait: bool,
     /// Give up waiting after this many seconds (the axis is stopped)
-    #[arg(long, value_name = "S", default_value = "600", value_parser = super::wait::wait_timeout, requires = "wait")]
+    #[arg(long, value_name = "S", default_value = super::wait::DEFAULT_WAIT_TIMEOUT, value_parser = super::wait::wait_timeout,
+          requires = "wait")]
     pub wait_timeout: std::time::Duration,
     /// Poll interval while waiting, in ms
     #[arg(long, value_name = "MS", default_value_t = 50, value_parser = super::wait::poll_ms(), requires = "wait")]
@@ -108,6 +109,7 @@ pub enum PacCommand {
     PacSetPos {
         #[command(flatten)]
         axis: AxisArg,
+        /// The position the axis takes as its current one, in the axis' unit
         #[arg(allow_negative_numbers = true)]
         pos: f64,
     },
@@ -115,35 +117,54 @@ pub enum PacCommand {
     PacSpeed {
         #[command(flatten)]
         axis: AxisArg,
+        /// Traverse speed, in the axis' unit per second
         speed: f64,
     },
     /// PA-CONTROL: set an axis' acceleration for online mode (0A8E)
     PacAccel {
         #[command(flatten)]
         axis: AxisArg,
+        /// Acceleration, in the axis' unit per second squared
         accel: f64,
     },
-    /// PA-CONTROL: stop an axis and wait for standstill (0A93; 0A9A with --no-wait)
+    /// PA-CONTROL: stop an axis (0A9A; with --wait 0A93, answered at standstill)
     PacStopAxis {
         #[command(flatten)]
         axis: AxisArg,
-        /// Return at once (0A9A) instead of waiting for standstill
+        /// Wait for standstill (0A93: the controller answers once the axis stands)
         #[arg(long)]
+        wait: bool,
+        /// The former default, now without effect: the stop returns at once unless --wait
+        #[arg(long, hide = true, conflicts_with = "wait")]
         no_wait: bool,
     },
     /// PA-CONTROL: position, speed, status and extended status of an axis
     PacAxis(AxesArg),
     /// PA-CONTROL: every configured axis with position and status
     PacAxes,
-    /// PA-CONTROL: switch an axis on (0A97)
+    /// PA-CONTROL: switch an axis on (0A97) or off (0A98)
+    PacAxisPower {
+        #[command(flatten)]
+        axis: AxisArg,
+        /// on or off
+        #[arg(value_enum)]
+        state: Switch,
+    },
+    /// The former name of `pac-axis-power AXIS on`
+    #[command(hide = true)]
     PacAxisOn(AxisArg),
-    /// PA-CONTROL: switch an axis off (0A98)
+    /// The former name of `pac-axis-power AXIS off`
+    #[command(hide = true)]
     PacAxisOff(AxisArg),
-    /// PA-CONTROL: measuring mode of an axis on (0AA0) or, with --off, off (0AA1)
+    /// PA-CONTROL: measuring mode of an axis on (0AA0) or off (0AA1)
     PacMeasure {
         #[command(flatten)]
         axis: AxisArg,
-        #[arg(long)]
+        /// on or off
+        #[arg(value_enum, required_unless_present = "off")]
+        state: Option<Switch>,
+        /// The former way to say `off`
+        #[arg(long, hide = true, conflicts_with = "state")]
         off: bool,
     },
     /// PA-CONTROL: limit switch monitoring of an axis (0 = all axes) on or off (0AA2)
@@ -152,31 +173,34 @@ pub enum PacCommand {
         #[arg(value_parser = ids::id(IdRange { min: 0, ..PAC_AXIS }))]
         axis: u8,
         /// on or off
-        #[arg(value_parser = ["on", "off"])]
-        state: String,
+        #[arg(value_enum)]
+        state: Switch,
     },
     /// PA-CONTROL: read an input (1900), or with --word the 16 inputs of its word (1901)
     PacIn {
-        /// Input number, 1..1024
+        /// Input number, 1 to 1024
         number: u16,
+        /// Read the 16 inputs of the word that holds NUMBER
         #[arg(long)]
         word: bool,
     },
     /// PA-CONTROL: read an output (1902 / 1903), or set it (0902 / 0903 with --word)
     PacOut {
-        /// Output number, 1..1024
+        /// Output number, 1 to 1024
         number: u16,
         /// 0 / 1, or the 16-bit word with --word (decimal, 0x hex or 0b binary)
         value: Option<String>,
+        /// The 16 outputs of the word that holds NUMBER
         #[arg(long)]
         word: bool,
     },
     /// PA-CONTROL: read a flag (1904 / 1905), set it (0904 / 0905), or read system flag SM (1934)
     PacFlag {
-        /// Flag number, 1..1024 (system flag number with --system)
+        /// Flag number, 1 to 1024 (system flag number with --system)
         number: u16,
         /// 0 / 1, or the 16-bit word with --word (decimal, 0x hex or 0b binary)
         value: Option<String>,
+        /// The 16 flags of the word that holds NUMBER
         #[arg(long, conflicts_with = "system")]
         word: bool,
         /// System flag SM (read only)
@@ -193,7 +217,7 @@ pub enum PacCommand {
     },
     /// PA-CONTROL: read, write or show the limits of a system parameter (home position only)
     PacSysParam {
-        /// Table name (e.g. number-of-axes) or number
+        /// Table name (e.g. number-of-axes) or number; `axisctl params pac` lists them
         param: String,
         #[command(flatten)]
         access: ParamAccess,
@@ -202,7 +226,7 @@ pub enum PacCommand {
     PacAxisParam {
         #[command(flatten)]
         axis: AxisArg,
-        /// Table name (e.g. acceleration) or number
+        /// Table name (e.g. acceleration) or number; `axisctl params pac` lists them
         param: String,
         #[command(flatten)]
         access: ParamAccess,

@@ -9,7 +9,7 @@ use axisctl::family::POWERCUBE_MODULE;
 
 #[derive(Debug, Args, Clone, Copy)]
 pub struct ModuleArg {
-    /// PowerCube module address, 1..31
+    /// PowerCube module address, 1 to 31
     #[arg(short, long, value_name = "ID", value_parser = ids::id(POWERCUBE_MODULE))]
     pub module: u8,
 }
@@ -26,7 +26,7 @@ pub struct ModulesArg {
 #[derive(Debug, Args, Clone, Copy)]
 #[group(required = true, multiple = false)]
 pub struct Target {
-    /// PowerCube module address, 1..31
+    /// PowerCube module address, 1 to 31
     #[arg(short, long, value_name = "ID", value_parser = ids::id(POWERCUBE_MODULE))]
     pub module: Option<u8>,
     /// Broadcast to every module on the bus (not acknowledged)
@@ -54,8 +54,9 @@ fn module_list(text: &str) -> Result<ModuleList, String> {
 pub enum PowerCubeCommand {
     /// List the PowerCube modules present on the link
     Scan {
-        /// Ids to probe, e.g. 1-31 or 3,5,17
-        #[arg(long, value_name = "LIST", default_value = "1-31", value_parser = ids::list(POWERCUBE_MODULE))]
+        /// Module addresses to probe, e.g. 1-31 or 3,5,17
+        #[arg(short = 'm', long = "module", alias = "ids", value_name = "LIST", default_value = "1-31",
+              value_parser = ids::list(POWERCUBE_MODULE))]
         ids: IdList,
     },
     /// Identity, kind, limits, position and state of modules
@@ -81,7 +82,7 @@ pub enum PowerCubeCommand {
     },
     /// Ramp (trapezoidal) motion to a position; with --sync several modules started together
     MoveRamp {
-        /// PowerCube module address, 1..31; with --sync a list such as 3,5,17 (one position each, in order)
+        /// PowerCube module address, 1 to 31; with --sync a list such as 3,5,17 (one position each, in order)
         #[arg(short, long = "module", value_name = "ID[,ID...]", value_parser = module_list)]
         modules: ModuleList,
         /// Target position (rad or m; encoder ticks with --ticks); with --sync one per module
@@ -96,6 +97,9 @@ pub enum PowerCubeCommand {
         /// Values are encoder ticks (IRAMP_MODE)
         #[arg(long)]
         ticks: bool,
+        /// POS is a distance from the current position (ActPos, or ActIPos with --ticks)
+        #[arg(long, conflicts_with = "sync")]
+        relative: bool,
         /// Skip the check against the module's own limits
         #[arg(long)]
         force: bool,
@@ -109,13 +113,19 @@ pub enum PowerCubeCommand {
     MoveStep {
         #[command(flatten)]
         module: ModuleArg,
+        /// Target position (rad or m; encoder ticks with --ticks)
         #[arg(allow_negative_numbers = true)]
         pos: f64,
         /// Time to reach the position, ms
         #[arg(long, value_name = "MS")]
         time: u16,
+        /// Values are encoder ticks
         #[arg(long)]
         ticks: bool,
+        /// POS is a distance from the current position (ActPos, or ActIPos with --ticks)
+        #[arg(long)]
+        relative: bool,
+        /// Skip the check against the module's own limits
         #[arg(long)]
         force: bool,
     },
@@ -123,10 +133,13 @@ pub enum PowerCubeCommand {
     MoveVel {
         #[command(flatten)]
         module: ModuleArg,
+        /// Velocity (rad/s or m/s; ticks/s with --ticks); 0 stops
         #[arg(allow_negative_numbers = true)]
         vel: f64,
+        /// Values are encoder ticks
         #[arg(long)]
         ticks: bool,
+        /// Skip the check against the module's own limits
         #[arg(long)]
         force: bool,
     },
@@ -134,8 +147,10 @@ pub enum PowerCubeCommand {
     MoveCur {
         #[command(flatten)]
         module: ModuleArg,
+        /// Motor current, A
         #[arg(allow_negative_numbers = true)]
         amps: f64,
+        /// Skip the check against the module's own limits
         #[arg(long)]
         force: bool,
     },
@@ -143,6 +158,7 @@ pub enum PowerCubeCommand {
     GetParam {
         #[command(flatten)]
         module: ModulesArg,
+        /// Parameters by manual name (ActPos, case-insensitive) or id (60, 0x3c); `axisctl params` lists them
         #[arg(value_name = "NAME|ID", required_unless_present = "all")]
         params: Vec<String>,
         /// Every readable parameter
@@ -153,8 +169,10 @@ pub enum PowerCubeCommand {
     SetParam {
         #[command(flatten)]
         module: ModuleArg,
+        /// The parameter by manual name (case-insensitive) or id; `axisctl params` lists them
         #[arg(value_name = "NAME|ID")]
         param: String,
+        /// The new value, in the parameter's unit
         #[arg(allow_negative_numbers = true)]
         value: String,
         /// Skip the check against the module's limits (never the manual's range or the wire type)
@@ -167,6 +185,7 @@ pub enum PowerCubeCommand {
     SetConfig {
         #[command(flatten)]
         module: ModuleArg,
+        /// Flags to set (+) or clear (-), by manual name or short form; `axisctl flags config` lists them
         #[arg(value_name = "+FLAG|-FLAG", allow_hyphen_values = true, required_unless_present = "raw")]
         changes: Vec<String>,
         /// Write the whole word (needs --force: it may clear any safety flag)
@@ -180,7 +199,7 @@ pub enum PowerCubeCommand {
     Dio {
         #[command(flatten)]
         module: ModuleArg,
-        /// Set outputs 0..3 to this 4-bit mask (e.g. 0b0101)
+        /// Set outputs 0 to 3 to this 4-bit mask (e.g. 0b0101)
         #[arg(long, value_name = "MASK")]
         out: Option<String>,
     },
@@ -191,6 +210,17 @@ pub enum PowerCubeCommand {
     },
 }
 
+/// The longest keep-alive interval: the modules trip 50 ms after the last refresh.
+pub const MAX_KEEPALIVE_MS: u64 = 49;
+
+/// `--interval`: said and checked as the same range.
+fn keepalive_interval(text: &str) -> Result<u64, String> {
+    match text.trim().parse::<u64>() {
+        Ok(ms @ 1..=MAX_KEEPALIVE_MS) => Ok(ms),
+        _ => Err(format!("{text:?} is not an interval of 1 to {MAX_KEEPALIVE_MS} ms (the modules trip after 50 ms)")),
+    }
+}
+
 #[derive(Debug, Subcommand)]
 pub enum WatchdogAction {
     /// Enable the watchdog in Config and switch it online, unless it is on already (then keep it alive!)
@@ -199,8 +229,8 @@ pub enum WatchdogAction {
     Off(ModuleArg),
     /// Broadcast the refresh [0x07, 0] until Ctrl-C (or --for S)
     Keepalive {
-        /// Refresh interval, ms (the modules trip after 50 ms)
-        #[arg(long, value_name = "MS", default_value_t = 20, value_parser = clap::value_parser!(u64).range(1..50))]
+        /// Refresh interval, 1 to 49 ms (the modules trip after 50 ms)
+        #[arg(long, value_name = "MS", default_value_t = 20, value_parser = keepalive_interval)]
         interval: u64,
         /// Stop after this many seconds
         #[arg(long = "for", value_name = "S")]

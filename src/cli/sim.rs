@@ -16,20 +16,22 @@ pub struct SimArgs {
     /// Serve the Cdios node: pty-slcan or socketcan:IFACE
     #[arg(long, value_name = "WHERE")]
     pub cdios: Option<String>,
-    /// PowerCube module ids
-    #[arg(long, value_name = "LIST", default_value = "3,5,17", value_parser = ids::list_or_none(POWERCUBE_MODULE))]
+    /// PowerCube module addresses, e.g. 3,5,17 or 1-8 (empty: none)
+    #[arg(short = 'm', long = "module", alias = "modules", value_name = "LIST", default_value = "3,5,17",
+          value_parser = ids::list_or_none(POWERCUBE_MODULE))]
     pub modules: IdList,
-    /// Which of them are linear
+    /// Which of them are linear (the others rotary)
     #[arg(long, value_name = "LIST", default_value = "17", value_parser = ids::list_or_none(POWERCUBE_MODULE))]
     pub linear: IdList,
-    /// PA-CONTROL axes
-    #[arg(long, default_value_t = 3, value_parser = ids::id(PAC_AXIS))]
+    /// How many axes the simulated PA-CONTROL has configured (axes 1 to N)
+    #[arg(long, value_name = "N", default_value_t = 3, value_parser = ids::id(PAC_AXIS))]
     pub axes: u8,
     /// Cdios node id
     #[arg(long, default_value_t = 1, value_parser = ids::id(CDIOS_NODE))]
     pub node: u8,
-    /// Cdios 6168 module ids
-    #[arg(long, value_name = "LIST", default_value = "0,1", value_parser = ids::list_or_none(CDIOS_MODULE))]
+    /// Cdios 6168 module ids, e.g. 0,1 (empty: none)
+    #[arg(long = "cdios-module", alias = "cdios-modules", value_name = "LIST", default_value = "0,1",
+          value_parser = ids::list_or_none(CDIOS_MODULE))]
     pub cdios_modules: IdList,
     /// Run the simulated lines at their real speed: serial at --baud, CAN at --bitrate
     #[arg(long)]

@@ -10,12 +10,16 @@ pub struct WaitArgs {
     #[arg(long)]
     pub wait: bool,
     /// Give up waiting after this many seconds (the module is halted)
-    #[arg(long, value_name = "S", default_value = "120", value_parser = wait_timeout, requires = "wait")]
+    #[arg(long, value_name = "S", default_value = DEFAULT_WAIT_TIMEOUT, value_parser = wait_timeout, requires = "wait")]
     pub wait_timeout: Duration,
     /// Poll interval while waiting, in ms
     #[arg(long, value_name = "MS", default_value_t = 20, value_parser = poll_ms(), requires = "wait")]
     pub poll: u64,
 }
+
+/// `--wait-timeout` of every family's waits, in seconds: a stuck wait is
+/// given up (and the device stopped) after two minutes unless told otherwise.
+pub const DEFAULT_WAIT_TIMEOUT: &str = "120";
 
 /// The longest wait a command accepts: a day. Checked before anything is
 /// sent, so that no value makes a wait that cannot end or a timer that
@@ -30,14 +34,14 @@ pub const MAX_POLL_MS: u64 = 60_000;
 pub fn wait_timeout(text: &str) -> Result<Duration, String> {
     let s: f64 = text.trim().parse().map_err(|_| format!("{text:?} is not a number of seconds"))?;
     if !(0.0..=MAX_WAIT.as_secs_f64()).contains(&s) {
-        return Err(format!("{text} s is outside 0..={} s", MAX_WAIT.as_secs()));
+        return Err(format!("{text} s is outside 0 to {} s", MAX_WAIT.as_secs()));
     }
     Ok(Duration::from_secs_f64(s))
 }
 
 /// `--poll`: 1..=[`MAX_POLL_MS`] ms.
-pub fn poll_ms() -> clap::builder::RangedU64ValueParser<u64> {
-    clap::value_parser!(u64).range(1..=MAX_POLL_MS)
+pub fn poll_ms() -> impl Fn(&str) -> Result<u64, String> + Clone + Send + Sync + 'static {
+    super::ids::number(1, MAX_POLL_MS, "ms")
 }
 
 #[cfg(test)]

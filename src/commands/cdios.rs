@@ -26,6 +26,7 @@ use crate::cli::cdios::{
 use crate::cli::ids::Devices;
 use crate::cli::WaitArgs;
 use crate::output;
+use crate::output::say;
 
 pub fn run(ctx: &Ctx, cmd: CdiosCommand) -> anyhow::Result<()> {
     match cmd {
@@ -33,7 +34,7 @@ pub fn run(ctx: &Ctx, cmd: CdiosCommand) -> anyhow::Result<()> {
         CdiosCommand::Status(t) => status(ctx, t),
         CdiosCommand::Position { target, source, all } => position(ctx, target, source, all),
         CdiosCommand::SetPosition { target, position } => set_position(ctx, target, position),
-        CdiosCommand::Goto { target, position, relative, setpoint_relative, latched, speed, wait } => {
+        CdiosCommand::Goto { target, position, relative, setpoint_relative, latched, speed, force, wait } => {
             let mode = match (relative, setpoint_relative, latched) {
                 (false, false, false) => GotoMode::Absolute,
                 (false, false, true) => GotoMode::AbsoluteSync,
@@ -42,7 +43,7 @@ pub fn run(ctx: &Ctx, cmd: CdiosCommand) -> anyhow::Result<()> {
                 (false, true, false) => GotoMode::SetpointRelative,
                 (false, true, true) => GotoMode::SetpointRelativeSync,
             };
-            goto(ctx, target, mode, position, speed, wait)
+            goto(ctx, target, mode, position, (speed, force), wait)
         }
         CdiosCommand::Traject { target, traject, latched, wait } => run_traject(ctx, target, traject, latched, wait),
         CdiosCommand::Start { target, direction, option, speed, latched } => {
@@ -169,9 +170,9 @@ fn identify(ctx: &Ctx, n: NodeArgs) -> anyhow::Result<()> {
         ]);
     }
     if rows.len() == 1 {
-        println!("node {node}: the controller reports no I/O modules");
+        say!("node {node}: the controller reports no I/O modules");
     } else {
-        println!("node {node}:");
+        say!("node {node}:");
         output::table(&rows, ctx.style);
     }
     Ok(())
@@ -191,7 +192,7 @@ fn status(ctx: &Ctx, t: ModulesTarget) -> anyhow::Result<()> {
                 json!({"state": status_json(&r), "motor_speed": speed, "rpm_error": rpm_error}),
             ));
         }
-        println!("node {node} module {m}: {}", status_line(ctx, &r));
+        say!("node {node} module {m}: {}", status_line(ctx, &r));
         let mut rows = Vec::new();
         for f in STATUS_FLAGS.iter().filter(|f| f.is_set(&r.status)) {
             let name = if f.class == table::Class::Error { ctx.style.error(f.name) } else { f.name.to_string() };
@@ -199,9 +200,9 @@ fn status(ctx: &Ctx, t: ModulesTarget) -> anyhow::Result<()> {
         }
         output::table(&rows, ctx.style);
         for (b, bit) in &r.reserved {
-            println!("  {}", ctx.style.warn(&format!("status {b} bit {bit} is set (reserved)")));
+            say!("  {}", ctx.style.warn(&format!("status {b} bit {bit} is set (reserved)")));
         }
-        println!("  motor speed {speed} RPM, RPM error {rpm_error}");
+        say!("  motor speed {speed} RPM, RPM error {rpm_error}");
         Ok(Value::Null)
     })
 }
@@ -259,7 +260,7 @@ fn position(ctx: &Ctx, t: ModulesTarget, kind: PositionKind, all: bool) -> anyho
             if ctx.json {
                 return Ok(doc(ctx, node, m, json!({"position": cur, "latched": latched, "setpoint": setpoint})));
             }
-            println!("node {node} module {m}: position {cur}, latched {latched}, setpoint {setpoint}");
+            say!("node {node} module {m}: position {cur}, latched {latched}, setpoint {setpoint}");
             return Ok(Value::Null);
         }
         let p = s.position(m, source_of(kind))?;
@@ -267,7 +268,7 @@ fn position(ctx: &Ctx, t: ModulesTarget, kind: PositionKind, all: bool) -> anyho
         if ctx.json {
             return Ok(doc(ctx, node, m, json!({"source": name, "position": p})));
         }
-        println!("node {node} module {m}: {name} position {p}");
+        say!("node {node} module {m}: {name} position {p}");
         Ok(Value::Null)
     })
 }
@@ -281,7 +282,7 @@ fn report_sent(ctx: &Ctx, node: NodeId, m: ModuleId, what: &str, confirmed: bool
         output::json(&doc);
     } else {
         let how = if confirmed { "confirmed" } else { "sent (confirmations off, no error came)" };
-        println!("node {node} module {m}: {what} {how}");
+        say!("node {node} module {m}: {what} {how}");
     }
 }
 
@@ -312,14 +313,14 @@ fn stop(ctx: &Ctx, t: ModuleTarget, cmds: &[Command]) -> anyhow::Result<()> {
     let mut extra = json!({});
     if let Some(h) = HolderReport::after_halt(takeover.as_ref()) {
         if !ctx.json {
-            println!("{}", h.line());
+            say!("{}", h.line());
         }
         extra["holder"] = h.json();
     }
     if already {
         extra["already_stopped"] = json!(true);
         if !ctx.json {
-            println!("node {} module {m}: its holder had already stopped the motor (MOTOR_NOT_RUNNING)", s.id());
+            say!("node {} module {m}: its holder had already stopped the motor (MOTOR_NOT_RUNNING)", s.id());
             return Ok(());
         }
     }
@@ -343,18 +344,45 @@ fn set_position(ctx: &Ctx, t: ModuleTarget, position: i64) -> anyhow::Result<()>
     Ok(())
 }
 
+/// `--speed` against the speeds the module is configured with: the
+/// controller would clamp a speed outside them without a word, so the move
+/// would not be the one asked for. `--force` skips this (never the manual's
+/// range, which [`device::goto_commands`] checks).
+fn check_goto_speed(s: &mut Node, m: ModuleId, speed: i64) -> anyhow::Result<()> {
+    if speed == 0 {
+        return Ok(()); // 0 means the configured maximum
+    }
+    let speeds = s.read_config(m, &["speeds".to_string()])?;
+    let get = |key| speeds.iter().find_map(|(_, r)| r.get(key));
+    let bound = match (get("minimum_speed"), get("maximum_speed")) {
+        (_, Some(max)) if speed > max => Some(("above", "maximum", max)),
+        (Some(min), _) if speed < min => Some(("below", "minimum", min)),
+        _ => None,
+    };
+    match bound {
+        Some((side, which, v)) => Err(usage(format!(
+            "--speed {speed} RPM is {side} module {m}'s configured {which} speed {v} RPM (the controller would \
+             clamp it); nothing was sent (use --force to send it anyway)"
+        ))),
+        None => Ok(()),
+    }
+}
+
 fn goto(
     ctx: &Ctx,
     t: ModuleTarget,
     mode: GotoMode,
     position: i64,
-    speed: Option<i64>,
+    (speed, force): (Option<i64>, bool),
     wait: WaitArgs,
 ) -> anyhow::Result<()> {
     let cmds = device::goto_commands(mode, position, speed)?;
     let (node, m) = (node_id(&t.node), module_id(&t));
     device::check(&cmds, m)?;
     let mut s = open(ctx, &t.node)?;
+    if let (Some(v), false) = (speed, force) {
+        check_goto_speed(&mut s, m, v)?;
+    }
     if wait.wait {
         // Supervised from before the first byte; without a wait the motion
         // is one-shot and unsupervised once sent.
@@ -470,6 +498,7 @@ fn print_wait_end(ctx: &Ctx, (node, m): (NodeId, ModuleId), what: &str, end: &Wa
 
 fn config(ctx: &Ctx, t: ModuleTarget, items: &[String]) -> anyhow::Result<()> {
     // Every name and value is resolved and checked before anything is sent.
+    items.iter().try_for_each(|i| super::names::check_cdios_config_item(i))?;
     match ConfigRequest::parse(items)? {
         ConfigRequest::Show(groups) => show_config(ctx, &mut open(ctx, &t.node)?, t, &groups),
         ConfigRequest::Set(changes) => {
@@ -497,14 +526,14 @@ fn show_config(ctx: &Ctx, s: &mut Node, t: ModuleTarget, groups: &[String]) -> a
                 format!("{}.{}", servo::group_of(part), servo::key_of(part, f)),
                 shown,
                 f.unit.to_string(),
-                format!("{}..{}", f.min, f.max),
+                format!("{} to {}", f.min, f.max),
             ]);
         }
     }
     if ctx.json {
         output::json(&self::doc(ctx, node, m, json!({"config": doc})));
     } else {
-        println!("node {node} module {m}:");
+        say!("node {node} module {m}:");
         output::table(&rows, ctx.style);
     }
     Ok(())
@@ -521,7 +550,7 @@ fn outputs(ctx: &Ctx, t: ModuleTarget, set: Option<&str>, latched: bool) -> anyh
         output::json(&doc(ctx, node, m, json!({"outputs": state, "bits": bits})));
     } else {
         let on: Vec<String> = (0..4).filter(|i| bits[*i]).map(|i| (i + 1).to_string()).collect();
-        println!(
+        say!(
             "node {node} module {m}: outputs {state:#06b} (on: {})",
             if on.is_empty() { "none".into() } else { on.join(", ") }
         );
@@ -544,7 +573,7 @@ fn analog(ctx: &Ctx, t: ModuleTarget, output: Option<i64>, set: Option<i64>, lat
         output::json(&doc(ctx, node, m, json!({"analog": list})));
     } else {
         for a in &list {
-            println!("node {node} module {m}: analog output {} = {} V", a["output"], a["volts"]);
+            say!("node {node} module {m}: analog output {} = {} V", a["output"], a["volts"]);
         }
     }
     Ok(())
@@ -574,14 +603,14 @@ fn events(ctx: &Ctx, t: ModuleTarget, change: &EventChange) -> anyhow::Result<()
         ));
     } else {
         let names = device::mask_flags(masks);
-        println!("node {node} module {m}: event masks {:02x?}", masks);
-        println!("  events on: {}", if names.is_empty() { "-".into() } else { names.join(" ") });
+        say!("node {node} module {m}: event masks {:02x?}", masks);
+        say!("  events on: {}", if names.is_empty() { "-".into() } else { names.join(" ") });
         let every = |c: u8, change: bool| match c {
             0 => "never".to_string(),
             _ => format!("every {} ms{}", ms(c), if change { " when changed" } else { "" }),
         };
-        println!("  position: {}", every(timers.position_interval, timers.position_on_change));
-        println!("  speed:    {}", every(timers.speed_interval, timers.speed_on_change));
+        say!("  position: {}", every(timers.position_interval, timers.position_on_change));
+        say!("  speed:    {}", every(timers.speed_interval, timers.speed_on_change));
     }
     Ok(())
 }
@@ -602,7 +631,7 @@ fn store(ctx: &Ctx, t: ModuleTarget, defaults: bool) -> anyhow::Result<()> {
         ));
     } else {
         let what = if defaults { "default configuration" } else { "configuration" };
-        println!("node {node} module {m}: {what} stored in EEPROM ({} ms)", elapsed.as_millis());
+        say!("node {node} module {m}: {what} stored in EEPROM ({} ms)", elapsed.as_millis());
     }
     Ok(())
 }
@@ -664,7 +693,7 @@ fn watch(
                     let body = json!({"type": "status", "t_ms": t_ms, "position": pos, "state": status_json(&r)});
                     output::json(&doc(ctx, node, m, body));
                 } else {
-                    println!("{:>9.3} status   pos {pos:<11} {}", t_ms as f64 / 1e3, status_line(ctx, &r));
+                    say!("{:>9.3} status   pos {pos:<11} {}", t_ms as f64 / 1e3, status_line(ctx, &r));
                 }
                 lines += 1;
             }
@@ -685,7 +714,7 @@ fn watch(
                 output::json(&event_json(ctx, &ev, start));
             } else {
                 let t_ms = ev.at.saturating_duration_since(start).as_millis() as f64 / 1e3;
-                println!("{t_ms:>9.3} event    {}", ev.answer);
+                say!("{t_ms:>9.3} event    {}", ev.answer);
             }
             lines += 1;
         }
@@ -723,7 +752,7 @@ fn decode_status_bytes(ctx: &Ctx, value: &str) -> anyhow::Result<()> {
         output::json(&doc);
         return Ok(());
     }
-    println!("Cdios 6168 status {}", status_line(ctx, &r));
+    say!("Cdios 6168 status {}", status_line(ctx, &r));
     let mut rows = vec![["BIT", "FLAG", "CLASS", "MEANING"].map(String::from).to_vec()];
     for f in STATUS_FLAGS.iter().filter(|f| f.is_set(&status)) {
         let name = if f.class == table::Class::Error { ctx.style.error(f.name) } else { f.name.to_string() };
@@ -733,7 +762,7 @@ fn decode_status_bytes(ctx: &Ctx, value: &str) -> anyhow::Result<()> {
         output::table(&rows, ctx.style);
     }
     for (b, bit) in &r.reserved {
-        println!("{}", ctx.style.warn(&format!("status {b} bit {bit} is set (reserved)")));
+        say!("{}", ctx.style.warn(&format!("status {b} bit {bit} is set (reserved)")));
     }
     Ok(())
 }
@@ -761,12 +790,12 @@ fn decode_error(ctx: &Ctx, value: &str) -> anyhow::Result<()> {
         }));
         return Ok(());
     }
-    println!("{}", e.describe());
+    say!("{}", e.describe());
     if let Some((name, text)) = general {
-        println!("general error {} {name}: {text}", e.general);
+        say!("general error {} {name}: {text}", e.general);
     }
     for f in e.flags() {
-        println!("  error status {} bit {}: {} ({})", f.byte, f.bit, ctx.style.error(f.name), f.meaning);
+        say!("  error status {} bit {}: {} ({})", f.byte, f.bit, ctx.style.error(f.name), f.meaning);
     }
     Ok(())
 }

@@ -27,7 +27,7 @@ use crate::cli::dashboard::DashboardArgs;
 
 pub fn run(ctx: &Ctx, args: &DashboardArgs) -> anyhow::Result<()> {
     if !(MIN_RATE..=MAX_RATE).contains(&args.rate) {
-        return Err(usage(format!("--rate {} is out of range {MIN_RATE}..={MAX_RATE} polls per second", args.rate)));
+        return Err(usage(format!("--rate {} is out of range {MIN_RATE} to {MAX_RATE} polls per second", args.rate)));
     }
     let plans = plan(ctx, args)?;
     if !std::io::stdout().is_terminal() || !std::io::stdin().is_terminal() {
@@ -37,7 +37,7 @@ pub fn run(ctx: &Ctx, args: &DashboardArgs) -> anyhow::Result<()> {
     if let Some(t) = r.as_ref().err().and_then(|e| e.downcast_ref::<axisctl::tui::Terminated>()) {
         // The terminal is restored by now; exit as a shell reports a
         // process ended by the signal (143 SIGTERM, 129 SIGHUP).
-        eprintln!("axisctl: {t}");
+        crate::output::err_line(format_args!("axisctl: {t}"));
         std::process::exit(128 + t.signal);
     }
     r

@@ -8,11 +8,16 @@ use serde_json::json;
 
 use super::{usage, Ctx};
 use crate::output;
+use crate::output::{say, say_part};
 
 const PROFIBUS_IMAGE: &str = family::POWERCUBE_PROFIBUS_IMAGE;
 
 pub fn run(ctx: &Ctx, kind: &str, value: &str) -> anyhow::Result<()> {
-    let unknown = || usage(format!("unknown kind {kind:?}; kinds: {}", Family::all_decode_kinds().join(", ")));
+    let unknown = || {
+        let kinds = Family::all_decode_kinds();
+        let hint = super::names::did_you_mean(kind, kinds.iter().copied());
+        usage(format!("unknown kind {kind:?}{hint}; kinds: {}", kinds.join(", ")))
+    };
     match Family::of_decode_kind(kind).ok_or_else(unknown)? {
         Family::Cdios => super::cdios::decode_kind(ctx, kind, value).unwrap_or_else(|| Err(unknown())),
         Family::Pac => pac_word(ctx, pac_profibus::word(kind).ok_or_else(unknown)?, value),
@@ -34,7 +39,7 @@ fn flag_word(ctx: &Ctx, word: &'static flags::FlagWord, value: &str) -> anyhow::
         return Ok(());
     }
     let width = (word.bits / 4) as usize;
-    println!("{} {:#0w$x}", word.name, raw, w = width + 2);
+    say!("{} {:#0w$x}", word.name, raw, w = width + 2);
     let mut rows = Vec::new();
     for f in word.set_flags(raw) {
         rows.push(vec![
@@ -45,14 +50,14 @@ fn flag_word(ctx: &Ctx, word: &'static flags::FlagWord, value: &str) -> anyhow::
         ]);
     }
     if rows.is_empty() {
-        println!("(no flags set)");
+        say!("(no flags set)");
     } else {
         let mut t = vec![["BIT", "FLAG", "CLASS", "MEANING"].map(String::from).to_vec()];
         t.extend(rows);
         output::table(&t, ctx.style);
     }
     if d.unknown_bits != 0 {
-        println!("{}", ctx.style.warn(&format!("unknown bits {:#x}", d.unknown_bits)));
+        say!("{}", ctx.style.warn(&format!("unknown bits {:#x}", d.unknown_bits)));
     }
     Ok(())
 }
@@ -84,10 +89,10 @@ fn profibus_image(ctx: &Ctx, value: &str) -> anyhow::Result<()> {
     }
     let hex: Vec<String> = img.answer.iter().map(|b| format!("{b:02x}")).collect();
     let text = decoded.unwrap_or_else(|e| format!("(not an acknowledge: {e})"));
-    println!("answer      {}  {text}", hex.join(" "));
-    println!("position    {} ticks", img.position_ticks);
-    println!("short state {:#06x} {}", img.short_state, state.flags.join(" "));
-    println!("ms          {}", img.ms);
+    say!("answer      {}  {text}", hex.join(" "));
+    say!("position    {} ticks", img.position_ticks);
+    say!("short state {:#06x} {}", img.short_state, state.flags.join(" "));
+    say!("ms          {}", img.ms);
     Ok(())
 }
 
@@ -111,7 +116,7 @@ fn pac_word(ctx: &Ctx, def: &'static pac_profibus::WordDef, value: &str) -> anyh
     if ctx.json {
         output::json(&pac_word_json(&d));
     } else {
-        print!("{d}");
+        say_part!("{d}");
     }
     Ok(())
 }

@@ -6,7 +6,9 @@ mod dashboard;
 mod decode;
 pub mod error_json;
 pub mod exit;
+mod manual;
 mod monitor;
+mod names;
 mod pac;
 mod powercube;
 mod sim;
@@ -279,5 +281,9 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Dashboard(args) => dashboard::run(&ctx, &args),
         Command::Pac(cmd) => pac::run(&ctx, cmd),
         Command::PowerCube(c) => powercube::run(&ctx, c),
+        Command::Params { family } => names::params(&ctx, family),
+        Command::Flags { word } => names::flags(&ctx, word.as_deref()),
+        Command::Completions { shell } => manual::completions(shell),
+        Command::Man { dir } => manual::man(dir.as_deref()),
     }
 }

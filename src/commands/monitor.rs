@@ -105,7 +105,12 @@ pub fn run(ctx: &Ctx, a: &MonitorArgs) -> anyhow::Result<()> {
         let info = describe(f);
         if filter.pass(f, &info) {
             stats.add(f, &info);
-            p.frame(ts, f, &info)?;
+            if let Err(e) = p.frame(ts, f, &info) {
+                // Nothing more can be shown: the exit code follows the
+                // failure's kind (a closed pipe is a normal end).
+                crate::output::note_failure(&e);
+                return Ok(false);
+            }
             shown += 1;
         }
         Ok(shown < limit)
@@ -133,14 +138,17 @@ pub fn run(ctx: &Ctx, a: &MonitorArgs) -> anyhow::Result<()> {
             }
         }
     }
-    if a.stats {
-        if ctx.json {
-            writeln!(p.out, "{}", json!({"stats": stats}))?;
-        } else {
-            writeln!(p.out, "{} frames, {} undecodable", stats.frames, stats.errors)?;
-            for (k, n) in &stats.by_kind {
-                writeln!(p.out, "  {k:<22} {n}")?;
+    if a.stats && crate::output::failure().is_none() {
+        let mut print = || -> std::io::Result<()> {
+            if ctx.json {
+                writeln!(p.out, "{}", json!({"stats": stats}))
+            } else {
+                writeln!(p.out, "{} frames, {} undecodable", stats.frames, stats.errors)?;
+                stats.by_kind.iter().try_for_each(|(k, n)| writeln!(p.out, "  {k:<22} {n}"))
             }
+        };
+        if let Err(e) = print() {
+            crate::output::note_failure(&e);
         }
     }
     Ok(())

@@ -27,7 +27,9 @@ use super::takeover::HolderReport;
 use super::{arm_interrupt, interrupted, usage, Ctx};
 use crate::cli::ids::Devices;
 use crate::cli::pac::{PacCommand, PacWait, ParamAccess};
+use crate::cli::Switch;
 use crate::output;
+use crate::output::{say, tell_part};
 
 pub fn run(ctx: &Ctx, cmd: PacCommand) -> anyhow::Result<()> {
     // The stops work from another terminal too: a line held by another
@@ -57,18 +59,22 @@ pub fn run(ctx: &Ctx, cmd: PacCommand) -> anyhow::Result<()> {
         PacCommand::PacAccel { axis, accel } => {
             simple(ctx, d, 0x0A8E, Some(axis.axis), Some(finite("acceleration", accel)?))
         }
-        PacCommand::PacStopAxis { axis, no_wait } => {
-            stop(ctx, d, if no_wait { 0x0A9A } else { 0x0A93 }, Some(axis.axis), takeover.as_ref())
+        PacCommand::PacStopAxis { axis, wait, no_wait: _ } => {
+            stop(ctx, d, if wait { 0x0A93 } else { 0x0A9A }, Some(axis.axis), takeover.as_ref())
         }
         PacCommand::PacAxis(a) => axes_info(ctx, d, &a.axis),
         PacCommand::PacAxes => axes(ctx, d),
+        PacCommand::PacAxisPower { axis, state } => {
+            simple(ctx, d, if state.is_on() { 0x0A97 } else { 0x0A98 }, Some(axis.axis), None)
+        }
         PacCommand::PacAxisOn(a) => simple(ctx, d, 0x0A97, Some(a.axis), None),
         PacCommand::PacAxisOff(a) => simple(ctx, d, 0x0A98, Some(a.axis), None),
-        PacCommand::PacMeasure { axis, off } => {
-            simple(ctx, d, if off { 0x0AA1 } else { 0x0AA0 }, Some(axis.axis), None)
+        PacCommand::PacMeasure { axis, state, off } => {
+            let on = !off && state.is_some_and(Switch::is_on);
+            simple(ctx, d, if on { 0x0AA0 } else { 0x0AA1 }, Some(axis.axis), None)
         }
         PacCommand::PacLimitSwitch { axis, state } => {
-            simple(ctx, d, 0x0AA2, Some(axis), Some(if state == "on" { 1.0 } else { 0.0 }))
+            simple(ctx, d, 0x0AA2, Some(axis), Some(if state.is_on() { 1.0 } else { 0.0 }))
         }
         PacCommand::PacIn { number, word } => element(ctx, d, Element::Input, number, None, word),
         PacCommand::PacOut { number, value, word } => element(ctx, d, Element::Output, number, value, word),
@@ -187,7 +193,7 @@ fn report(ctx: &Ctx, code: u16, axis: Option<u8>, value: Option<f64>, ack: Ack, 
         output::json(&doc);
     } else {
         if let Some(h) = &holder {
-            println!("{}", h.line());
+            say!("{}", h.line());
         }
         let mut line = format!("{} ({}) done", def.name, def.code_hex());
         if let Some(v) = ack_value {
@@ -197,7 +203,7 @@ fn report(ctx: &Ctx, code: u16, axis: Option<u8>, value: Option<f64>, ack: Ack, 
         if ack.error != 0 {
             line.push_str(&format!(", {}", ctx.style.error(&format!("PA-CONTROL error {}", ack.error))));
         }
-        println!("{line}");
+        say!("{line}");
     }
 }
 
@@ -215,9 +221,9 @@ fn state(ctx: &Ctx, d: &mut Controller) -> anyhow::Result<()> {
         doc["mode"] = json!(mode);
         output::json(&doc);
     } else {
-        println!("status {} {} ({} mode)", ack.status, table::operating_status_text(ack.status), mode.unwrap_or("?"));
+        say!("status {} {} ({} mode)", ack.status, table::operating_status_text(ack.status), mode.unwrap_or("?"));
         if ack.error != 0 {
-            println!("{}", ctx.style.error(&format!("PA-CONTROL error {} (see pac-error)", ack.error)));
+            say!("{}", ctx.style.error(&format!("PA-CONTROL error {} (see pac-error)", ack.error)));
         }
     }
     Ok(())
@@ -231,9 +237,9 @@ fn error(ctx: &Ctx, d: &mut Controller) -> anyhow::Result<()> {
         doc["controller_error"] = json!(number);
         output::json(&doc);
     } else if number == 0 {
-        println!("no PA-CONTROL error");
+        say!("no PA-CONTROL error");
     } else {
-        println!("{}", ctx.style.error(&format!("PA-CONTROL error E{number}")));
+        say!("{}", ctx.style.error(&format!("PA-CONTROL error E{number}")));
     }
     Ok(())
 }
@@ -247,9 +253,9 @@ fn reset_error(ctx: &Ctx, d: &mut Controller) -> anyhow::Result<()> {
         doc["remaining_error"] = json!(left);
         output::json(&doc);
     } else if left == 0 {
-        println!("error reset");
+        say!("error reset");
     } else {
-        println!("{}", ctx.style.error(&format!("error E{left} could not be reset")));
+        say!("{}", ctx.style.error(&format!("error E{left} could not be reset")));
     }
     Ok(reset.check()?)
 }
@@ -315,7 +321,7 @@ fn move_axis(
             merge(&mut doc, status_json(&started.ack));
             output::json(&doc);
         } else {
-            println!(
+            say!(
                 "axis {axis}: moving from {start_position} to {target} {POSITION_UNIT} ({} started)",
                 def(code).code_hex()
             );
@@ -370,9 +376,9 @@ fn reference(ctx: &Ctx, d: &mut Controller, axis: u8, wait: PacWait) -> anyhow::
             merge(&mut doc, status_json(&ack));
             output::json(&doc);
         } else if done {
-            println!("axis {axis}: reference drive done");
+            say!("axis {axis}: reference drive done");
         } else {
-            println!(
+            say!(
                 "axis {axis}: reference drive started; until it ends the controller accepts only polls \
                  (use --wait to follow it)"
             );
@@ -565,14 +571,14 @@ fn element(
             output::json(&doc(controller(ctx), json!({key: number, "word": w, "set": members})));
         } else {
             let first = (number.max(1) - 1) / 16 * 16 + 1;
-            println!("{key}s {first}..{}: {w:#06x} {w:016b}  set: {members:?}", first + 15);
+            say!("{key}s {first} to {}: {w:#06x} {w:016b}  set: {members:?}", first + 15);
         }
     } else {
         let v = d.read_element(el, number)?;
         if ctx.json {
             output::json(&doc(controller(ctx), json!({key: number, "value": v})));
         } else {
-            println!("{key} {number}: {v}");
+            say!("{key} {number}: {v}");
         }
     }
     Ok(())
@@ -597,7 +603,7 @@ fn reg(ctx: &Ctx, d: &mut Controller, register: &str, value: Option<&str>) -> an
             json!({"register": reg.to_string(), "type": if reg.is_float() { "float" } else { "int" }, "value": value}),
         ));
     } else {
-        println!("{reg} = {q_par}");
+        say!("{reg} = {q_par}");
     }
     Ok(())
 }
@@ -625,7 +631,8 @@ fn parse_value(text: &str) -> anyhow::Result<f64> {
 fn sys_param(ctx: &Ctx, d: &mut Controller, name: &str, access: &ParamAccess) -> anyhow::Result<()> {
     let p = table::system_param_by_name(name).ok_or_else(|| {
         let names: Vec<_> = table::SYSTEM_PARAMS.iter().filter(|p| !p.unused).map(|p| p.name).collect();
-        usage(format!("unknown system parameter {name:?}; known: {}", names.join(", ")))
+        let hint = super::names::did_you_mean(name, names.iter().copied());
+        usage(format!("unknown system parameter {name:?}{hint}; known: {}", names.join(", ")))
     })?;
     let n = i64::from(p.number);
     let (what, value) = if access.min {
@@ -643,14 +650,15 @@ fn sys_param(ctx: &Ctx, d: &mut Controller, name: &str, access: &ParamAccess) ->
     if ctx.json {
         output::json(&doc(controller(ctx), param_json(p.name, p.number, "int", "", json!(value), what)));
     } else {
-        println!("system parameter {} ({}) {what}: {value}", p.number, p.manual_name);
+        say!("system parameter {} ({}) {what}: {value}", p.number, p.manual_name);
     }
     Ok(())
 }
 
 fn axis_param(ctx: &Ctx, d: &mut Controller, axis: u8, name: &str, access: &ParamAccess) -> anyhow::Result<()> {
     let p = table::axis_param_by_name(name).ok_or_else(|| {
-        usage(format!("unknown axis parameter {name:?}; see `axisctl pac-axis-param --help` or the manual 5.2.3"))
+        let hint = super::names::did_you_mean(name, table::AXIS_PARAMS.iter().filter(|p| !p.unused).map(|p| p.name));
+        usage(format!("unknown axis parameter {name:?}{hint}; `axisctl params pac` lists them (manual 5.2.3)"))
     })?;
     let par1 = table::axis_param_par1(axis, p.number);
     let (what, value) = if access.min {
@@ -668,7 +676,7 @@ fn axis_param(ctx: &Ctx, d: &mut Controller, axis: u8, name: &str, access: &Para
     if ctx.json {
         output::json(&doc(on_axis(ctx, axis), param_json(p.name, p.number, "float", p.unit, json!(value), what)));
     } else {
-        println!("axis {axis} parameter {} ({}) {what}: {value} {}", p.number, p.manual_name, p.unit);
+        say!("axis {axis} parameter {} ({}) {what}: {value} {}", p.number, p.manual_name, p.unit);
     }
     Ok(())
 }
@@ -702,12 +710,12 @@ fn raw(ctx: &Ctx, d: &mut Controller, code_text: &str, par1: i64, par2: Option<&
     let show = !ctx.json && std::io::stderr().is_terminal();
     let result = d.follow(&cmd, &mut |p: &Progress| {
         if show && !p.ack.be {
-            eprint!("\r  BE 0, poll {}: Q_PAR {}   ", p.polls, p.ack.q_par);
+            tell_part!("\r  BE 0, poll {}: Q_PAR {}   ", p.polls, p.ack.q_par);
         }
         !stoppable || !interrupted()
     });
     if show {
-        eprint!("\r\x1b[K");
+        tell_part!("\r\x1b[K");
     }
     let done = result?;
     let ack = done.ack;
@@ -722,7 +730,7 @@ fn raw(ctx: &Ctx, d: &mut Controller, code_text: &str, par1: i64, par2: Option<&
         merge(&mut doc, status_json(&ack));
         output::json(&doc);
     } else {
-        println!(
+        say!(
             "{:04X} {}: QUIT {} BE {} STATUS {} ({}) ERROR {} Q_PAR {}{}",
             cmd.code,
             def.map_or("(unknown code)", |d| d.name),

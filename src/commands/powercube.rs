@@ -19,7 +19,7 @@ use super::{interrupted, usage, Ctx, Interrupted};
 use crate::cli::ids::{Devices, IdList};
 use crate::cli::{PowerCubeCommand as Command, Target, WaitArgs, WatchdogAction};
 use crate::output;
-use crate::output::say;
+use crate::output::{say, say_part};
 use axisctl::device::supervisor;
 
 pub fn run(ctx: &Ctx, cmd: Command) -> anyhow::Result<()> {
@@ -30,7 +30,7 @@ pub fn run(ctx: &Ctx, cmd: Command) -> anyhow::Result<()> {
         Command::Home { target, wait } => home(ctx, target, wait),
         Command::Reset { target } => simple(ctx, target, Simple::Reset),
         Command::Halt { target } => halt(ctx, target),
-        Command::MoveRamp { modules, pos, vel, acc, ticks, force, sync, wait } => {
+        Command::MoveRamp { modules, pos, vel, acc, ticks, relative, force, sync, wait } => {
             let ms: Vec<ModuleId> = modules.0.iter().map(|id| module(*id)).collect();
             if ms.len() > 1 {
                 // A failure of a synchronized move is the group's, not the
@@ -39,17 +39,23 @@ pub fn run(ctx: &Ctx, cmd: Command) -> anyhow::Result<()> {
             }
             match (&ms[..], &pos[..]) {
                 _ if sync => move_ramp_sync(ctx, &ms, &pos, (vel, acc), ticks, force, wait),
-                ([m], [p]) => move_ramp(ctx, *m, *p, vel, acc, ticks, force, wait),
+                ([m], [p]) => {
+                    let target = if relative { from_here(ctx, *m, *p, ticks)? } else { *p };
+                    move_ramp(ctx, *m, target, vel, acc, ticks, force, wait)
+                }
                 _ => Err(usage("several modules or positions move only together: add --sync; nothing was sent")),
             }
         }
-        Command::MoveStep { module: m, pos, time, ticks, force } => {
-            move_step(ctx, module(m.module), pos, time, ticks, force)
+        Command::MoveStep { module: m, pos, time, ticks, relative, force } => {
+            let m = module(m.module);
+            let target = if relative { from_here(ctx, m, pos, ticks)? } else { pos };
+            move_step(ctx, m, target, time, ticks, force)
         }
         Command::MoveVel { module: m, vel, ticks, force } => move_vel(ctx, module(m.module), vel, ticks, force),
         Command::MoveCur { module: m, amps, force } => move_cur(ctx, module(m.module), amps, force),
         Command::GetParam { module: m, params, all } => {
             // Every name is resolved before the link opens: a typo sends nothing.
+            params.iter().try_for_each(|n| super::names::check_powercube_param(n))?;
             let defs = device::readable_params(&params, all)?;
             let several = !matches!(m.module, Devices::One(_));
             read_each(ctx, &m.module, |ctx, cubes, id| get_param(ctx, cubes, id, (&defs, all), several))
@@ -62,6 +68,18 @@ pub fn run(ctx: &Ctx, cmd: Command) -> anyhow::Result<()> {
         Command::Dio { module: m, out } => dio(ctx, module(m.module), out.as_deref()),
         Command::Watchdog { action } => watchdog(ctx, action),
     }
+}
+
+/// `--relative`: the target `distance` away from where the module is now,
+/// read before anything moves (a failed read sends nothing).
+fn from_here(ctx: &Ctx, m: ModuleId, distance: f64, ticks: bool) -> anyhow::Result<f64> {
+    if !distance.is_finite() {
+        return Err(usage(format!("distance {distance} is not a number; nothing was sent")));
+    }
+    let id = if ticks { ids::ACT_I_POS } else { ids::ACT_POS };
+    let mut cubes = cubes(ctx)?;
+    let here = f64_of(&cubes.session().get(m, axisctl::device::powercube::param(id))?);
+    Ok(here + distance)
 }
 
 fn module(id: u8) -> ModuleId {
@@ -128,18 +146,18 @@ fn word_json(word: &FlagWord, raw: u32) -> serde_json::Value {
 
 /// Flags of a word, one per line, coloured by class.
 fn print_word(ctx: &Ctx, word: &FlagWord, raw: u32) {
-    println!("{} {:#010x}", word.name, raw);
+    say!("{} {:#010x}", word.name, raw);
     let mut rows = Vec::new();
     for d in word.set_flags(raw) {
         rows.push(vec![format!("  {}", ctx.style.flag(d.name, d.class)), d.class.name().into()]);
     }
     if rows.is_empty() {
-        println!("  (no flags set)");
+        say!("  (no flags set)");
     }
     output::table(&[vec![String::new(), String::new()]].into_iter().chain(rows).collect::<Vec<_>>()[1..], ctx.style);
     let unknown = raw & !word.known_mask();
     if unknown != 0 {
-        println!("  {}", ctx.style.warn(&format!("unknown bits {unknown:#010x}")));
+        say!("  {}", ctx.style.warn(&format!("unknown bits {unknown:#010x}")));
     }
 }
 
@@ -253,7 +271,7 @@ fn info(ctx: &Ctx, cubes: &mut Cubes, m: ModuleId) -> anyhow::Result<serde_json:
             }),
         ));
     }
-    println!("module {m}: {kind}, serial {}, version {}", num(0) as u32, version_text(version));
+    say!("module {m}: {kind}, serial {}, version {}", num(0) as u32, version_text(version));
     let mut t = vec![["PARAMETER", "VALUE", "UNIT"].map(String::from).to_vec()];
     for (d, v) in defs.iter().zip(&vals).skip(3).take(13) {
         match v {
@@ -262,7 +280,7 @@ fn info(ctx: &Ctx, cubes: &mut Cubes, m: ModuleId) -> anyhow::Result<serde_json:
         }
     }
     output::table(&t, ctx.style);
-    println!("state: {}", state_summary(ctx, cube));
+    say!("state: {}", state_summary(ctx, cube));
     Ok(serde_json::Value::Null)
 }
 
@@ -285,7 +303,7 @@ fn show_state(ctx: &Ctx, cubes: &mut Cubes, m: ModuleId) -> anyhow::Result<serde
         let short = flags::short_state_from_cube_state(cube);
         return Ok(doc(ctx, m, json!({"state": word_json(&flags::CUBE_STATE, cube), "short_state": short})));
     }
-    print!("module {m}: ");
+    say_part!("module {m}: ");
     print_word(ctx, &flags::CUBE_STATE, cube);
     Ok(serde_json::Value::Null)
 }
@@ -324,11 +342,11 @@ fn report_sent(ctx: &Ctx, target: Target, what: &str, holder: Option<&super::tak
         output::json(&out);
     } else {
         if let Some(h) = holder {
-            println!("{}", h.line());
+            say!("{}", h.line());
         }
         match target.module {
-            Some(m) => println!("module {m}: {what} acknowledged"),
-            None => println!("{what} broadcast to all modules"),
+            Some(m) => say!("module {m}: {what} acknowledged"),
+            None => say!("{what} broadcast to all modules"),
         }
     }
 }
@@ -593,6 +611,7 @@ fn get_param(
 }
 
 fn set_param(ctx: &Ctx, m: ModuleId, name: &str, text: &str, force: bool) -> anyhow::Result<()> {
+    super::names::check_powercube_param(name)?;
     let (d, value) = device::param_write(name, text)?;
     let held = cubes(ctx)?.write_param(m, d, value, force)?;
     if ctx.json {
@@ -605,9 +624,9 @@ fn set_param(ctx: &Ctx, m: ModuleId, name: &str, text: &str, force: bool) -> any
         return Ok(());
     }
     match held {
-        Some(h) if h != value => println!("module {m}: {} = {value} acknowledged; the module reads back {h}", d.name),
-        Some(_) => println!("module {m}: {} = {value} acknowledged and read back", d.name),
-        None => println!("module {m}: {} = {value} acknowledged (write-only: the module does not report it)", d.name),
+        Some(h) if h != value => say!("module {m}: {} = {value} acknowledged; the module reads back {h}", d.name),
+        Some(_) => say!("module {m}: {} = {value} acknowledged and read back", d.name),
+        None => say!("module {m}: {} = {value} acknowledged (write-only: the module does not report it)", d.name),
     }
     Ok(())
 }
@@ -616,7 +635,7 @@ fn print_config(ctx: &Ctx, m: ModuleId, raw: u32) {
     if ctx.json {
         output::json(&doc(ctx, m, json!({"config": word_json(&flags::CONFIG, raw)})));
     } else {
-        print!("module {m}: ");
+        say_part!("module {m}: ");
         print_word(ctx, &flags::CONFIG, raw);
     }
 }
@@ -634,6 +653,7 @@ fn set_config(ctx: &Ctx, m: ModuleId, changes: &[String], raw: Option<&str>, for
     // arrives as one of them.
     let force = force || changes.iter().any(|c| c == "--force");
     let changes: Vec<String> = changes.iter().filter(|c| *c != "--force").cloned().collect();
+    changes.iter().try_for_each(|c| super::names::check_config_flag(c))?;
     let change = ConfigChange::parse(&changes, raw)?;
     change.check_safeties(force)?;
     match cubes(ctx)?.write_config(m, change) {
@@ -661,7 +681,7 @@ fn dio(ctx: &Ctx, m: ModuleId, out: Option<&str>) -> anyhow::Result<()> {
             "inputs": raw & 0xf, "outputs": (raw >> 4) & 0xf}),
         ));
     } else {
-        print!("module {m}: ");
+        say_part!("module {m}: ");
         print_word(ctx, &flags::DIO_SETUP, raw);
     }
     Ok(())
@@ -676,9 +696,9 @@ fn watchdog(ctx: &Ctx, action: WatchdogAction) -> anyhow::Result<()> {
             if ctx.json {
                 output::json(&doc(ctx, m, json!({"watchdog": "on", "changed": changed})));
             } else if changed {
-                println!("module {m}: watchdog online; keep it alive with `axisctl watchdog keepalive`, or it halts within 50 ms");
+                say!("module {m}: watchdog online; keep it alive with `axisctl watchdog keepalive`, or it halts within 50 ms");
             } else {
-                println!("module {m}: watchdog already on (CONFIGID_MOD_WATCHDOG_ENABLE set); nothing sent");
+                say!("module {m}: watchdog already on (CONFIGID_MOD_WATCHDOG_ENABLE set); nothing sent");
             }
             Ok(())
         }
@@ -688,9 +708,9 @@ fn watchdog(ctx: &Ctx, action: WatchdogAction) -> anyhow::Result<()> {
             if ctx.json {
                 output::json(&doc(ctx, m, json!({"watchdog": "off", "changed": changed})));
             } else if changed {
-                println!("module {m}: watchdog off (CONFIGID_MOD_WATCHDOG_ENABLE cleared)");
+                say!("module {m}: watchdog off (CONFIGID_MOD_WATCHDOG_ENABLE cleared)");
             } else {
-                println!("module {m}: watchdog already off; nothing sent");
+                say!("module {m}: watchdog already off; nothing sent");
             }
             Ok(())
         }
@@ -720,7 +740,7 @@ fn keepalive(ctx: &Ctx, pc: &mut PowerCube, interval_ms: u64, duration: Option<f
             "max_gap_ms": ms(st.max_gap_us), "scheduling": scheduling}),
         ));
     } else {
-        println!(
+        say!(
             "{} watchdog refreshes, interval {interval_ms} ms, gaps min {:.2} / mean {:.2} / p99 {:.2} / max {:.2} ms \
              ({scheduling} scheduling)",
             st.refreshes,

@@ -54,19 +54,28 @@ fn parse_where(text: &str, family: Family) -> anyhow::Result<Where> {
     }
 }
 
+/// One line per served link, flushed at once: a client waits for it. A
+/// failed write is recorded; the caller stops serving, since no client can
+/// learn the link.
 fn announce(family: Family, link: &str) {
     let mut out = std::io::stdout().lock();
-    let _ = writeln!(out, "{}", serde_json::json!({"family": family, "link": link}));
-    let _ = out.flush();
+    let written = writeln!(out, "{}", serde_json::json!({"family": family, "link": link})).and_then(|()| out.flush());
+    if let Err(e) = written {
+        crate::output::note_failure(&e);
+    }
 }
 
 fn serial_format(f: Family) -> link::SerialFormat {
     f.serial_default().map_or(link::SerialFormat::F8N1, |d| d.format)
 }
 
-/// The `--link` a client passes to reach a served line, in the family's format.
+/// The `--link` a client passes to reach a served line. What equals the
+/// family's default is left out, so that the link has no `&` and pastes
+/// into a shell unquoted: `serial:/dev/pts/8` for the PA-CONTROL's 9600 7N1.
 fn serial_uri(path: &str, baud: u32, f: Family) -> String {
-    LinkSpec::Serial { path: path.into(), baud: Some(baud), format: Some(serial_format(f)) }.to_string()
+    let default = f.serial_default();
+    let baud = (default.map(|d| d.baud) != Some(baud)).then_some(baud);
+    LinkSpec::Serial { path: path.into(), baud, format: default.is_none().then(|| serial_format(f)) }.to_string()
 }
 
 pub fn run(ctx: &Ctx, args: &SimArgs) -> anyhow::Result<()> {
@@ -104,7 +113,8 @@ pub fn run(ctx: &Ctx, args: &SimArgs) -> anyhow::Result<()> {
         .transpose()?;
     let bench = Bench::new(&cfg, Arc::clone(&ctx.clock));
     if ctx.trace {
-        axisctl::sim::shared::lock(&bench.powercube).set_tracer(Some(|s| eprintln!("sim: {s}")));
+        axisctl::sim::shared::lock(&bench.powercube)
+            .set_tracer(Some(|s| crate::output::err_line(format_args!("sim: {s}"))));
     }
     if args.wire_speed {
         bench.bus.set_bitrate(Some(args.bitrate));
@@ -166,6 +176,12 @@ pub fn run(ctx: &Ctx, args: &SimArgs) -> anyhow::Result<()> {
         let (pac, clock, stop) = (Arc::clone(&bench.pac), Arc::clone(&ctx.clock), Arc::clone(&stop));
         let (pace, noise) = (pace(serial_format(Family::Pac)), noise(ByteProtocol::Pac, 2));
         threads.push(std::thread::spawn(move || serve::serial(Box::new(master), pac, clock, &stop, pace, noise)));
+    }
+    // The links could not be printed (a full disk): nobody can learn them,
+    // so serving on would only hang. A reader that took the lines it wanted
+    // and closed the pipe is served on.
+    if crate::output::failure().is_some_and(|(kind, _)| kind != std::io::ErrorKind::BrokenPipe) {
+        return Ok(());
     }
     for t in threads {
         match t.join() {

@@ -223,7 +223,7 @@ pub fn dio_outputs(text: &str) -> Result<u8, Error> {
     parse_int(text)
         .filter(|v| (0..=0xf).contains(v))
         .map(|v| v as u8)
-        .ok_or_else(|| Error::Refused(format!("--out {text:?} must be a 4-bit mask 0..15 (e.g. 0b0101)")))
+        .ok_or_else(|| Error::Refused(format!("--out {text:?} must be a 4-bit mask 0 to 15 (e.g. 0b0101)")))
 }
 
 /// Whether a Config word describes a linear module.

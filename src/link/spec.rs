@@ -141,7 +141,7 @@ impl std::str::FromStr for LinkSpec {
                         "baud" => {
                             let b = number(k, v)?;
                             if !(300..=4_000_000).contains(&b) {
-                                return Err(SpecError(format!("{uri:?}: baud {b} out of range 300..=4000000")));
+                                return Err(SpecError(format!("{uri:?}: baud {b} out of range 300 to 4000000")));
                             }
                             baud = Some(b)
                         }

@@ -24,7 +24,7 @@ pub enum Error {
     #[error("target position {target} is not a finite number; nothing was sent")]
     NotFinite { target: f64 },
     #[error(
-        "target position {target} is outside axis {axis}'s traverse area {}..={} (1913 / 1914); nothing was sent",
+        "target position {target} is outside axis {axis}'s traverse area {} to {} (1913 / 1914); nothing was sent",
         area.min, area.max
     )]
     OutsideTraverseArea { axis: u8, target: f64, area: TraverseArea },

@@ -220,7 +220,7 @@ fn targets_are_finite_and_inside_the_traverse_area() {
     let e = check_target(2, 1000.5, area).unwrap_err();
     assert_eq!(
         e.to_string(),
-        "target position 1000.5 is outside axis 2's traverse area 0..=1000 (1913 / 1914); nothing was sent"
+        "target position 1000.5 is outside axis 2's traverse area 0 to 1000 (1913 / 1914); nothing was sent"
     );
     assert_eq!(e.kind(), ErrorKind::Usage);
 }

@@ -146,9 +146,9 @@ impl Address {
 /// Why a command was not encoded (nothing is sent): the manual's ranges.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
 pub enum ValidationError {
-    #[error("module id {0} out of range 0..=15")]
+    #[error("module id {0} out of range 0 to 15")]
     Module(u8),
-    #[error("node id {0} out of range 1..=127")]
+    #[error("node id {0} out of range 1 to 127")]
     Node(u8),
     #[error("{command}: selector {selector:#04x} is not valid")]
     Selector { command: &'static str, selector: u8 },
@@ -156,7 +156,7 @@ pub enum ValidationError {
     UnknownCode(u8),
     #[error("empty command")]
     Empty,
-    #[error("{field} = {value} is out of range {min}..={max}")]
+    #[error("{field} = {value} is out of range {min} to {max}")]
     OutOfRange { field: &'static str, value: i64, min: i64, max: i64 },
     #[error("{command}: missing value for {field}")]
     MissingField { command: &'static str, field: &'static str },

@@ -1457,7 +1457,7 @@ pub fn encode(
     match (def.target, address) {
         (Target::Module, Address::Module(_)) | (Target::Controller, Address::Controller) => {}
         (Target::Module, Address::Controller) => {
-            return Err(ValidationError::Address { command: def.key, expected: "a module 0..=15" })
+            return Err(ValidationError::Address { command: def.key, expected: "a module 0 to 15" })
         }
         (Target::Controller, Address::Module(_)) => {
             return Err(ValidationError::Address { command: def.key, expected: "the controller (0xFF)" })
@@ -1490,7 +1490,7 @@ impl DecodedCommand {
     pub fn validate(&self) -> Result<(), ValidationError> {
         match (self.def.target, self.address) {
             (Target::Module, Address::Controller) => {
-                return Err(ValidationError::Address { command: self.def.key, expected: "a module 0..=15" })
+                return Err(ValidationError::Address { command: self.def.key, expected: "a module 0 to 15" })
             }
             (Target::Controller, Address::Module(_)) => {
                 return Err(ValidationError::Address { command: self.def.key, expected: "the controller (0xFF)" })

@@ -42,9 +42,9 @@ pub enum ValidationError {
     UnknownCommand { code: u16 },
     #[error("command {code:04X} is sent with TYP {expected} ({expected_type:?}), not {got}")]
     WrongType { code: u16, expected: u8, expected_type: DataType, got: u8 },
-    #[error("axis {axis} out of range 1..={max}")]
+    #[error("axis {axis} out of range 1 to {max}")]
     Axis { axis: i64, max: u8 },
-    #[error("{what} {value} out of range {min}..={max}")]
+    #[error("{what} {value} out of range {min} to {max}")]
     Par1Range { what: &'static str, value: i64, min: i64, max: i64 },
     #[error("unknown system parameter {0}")]
     UnknownSystemParameter(i64),
@@ -52,7 +52,7 @@ pub enum ValidationError {
     UnusedSystemParameter(i64),
     #[error("unknown axis parameter {param} (PAR_1 {par1} = axis {axis} * 256 + {param})")]
     UnknownAxisParameter { par1: i64, axis: u8, param: u8 },
-    #[error("{what} {value} out of range {min}..={max}")]
+    #[error("{what} {value} out of range {min} to {max}")]
     Par2Range { what: String, value: f64, min: f64, max: f64 },
     #[error("{what} {value} is not a whole number")]
     NotIntegral { what: &'static str, value: f64 },

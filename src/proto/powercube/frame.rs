@@ -218,7 +218,7 @@ pub use crate::proto::parse_int;
 pub enum ValueError {
     #[error("{text:?} is not a valid {} value", ty.name())]
     NotANumber { text: String, ty: ParamType },
-    #[error("{text:?} is outside the {} range {min}..={max}", ty.name())]
+    #[error("{text:?} is outside the {} range {min} to {max}", ty.name())]
     OutOfRange { text: String, ty: ParamType, min: i64, max: i64 },
     #[error("values of type {} cannot be written", ty.name())]
     NotWritable { ty: ParamType },

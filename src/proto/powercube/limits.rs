@@ -30,7 +30,7 @@ pub enum LimitError {
     NotTicks { what: &'static str, value: f64 },
     #[error("{what} must be positive, got {value}")]
     NotPositive { what: &'static str, value: f64 },
-    #[error("{what} {value} is outside the manual's range {lo}..={hi}; nothing was sent")]
+    #[error("{what} {value} is outside the manual's range {lo} to {hi}; nothing was sent")]
     OutsideManual { what: &'static str, value: f64, lo: f64, hi: f64 },
     /// The wire carries a 32-bit float: a larger value would go out as infinity.
     #[error("{what} {value} does not fit the wire's 32-bit float (|value| <= {})", f32::MAX)]
@@ -273,7 +273,7 @@ mod tests {
         assert!(raw.check_manual("RawCur", -500.0).is_ok());
         assert_eq!(
             raw.check_manual("RawCur", 501.0).unwrap_err().to_string(),
-            "RawCur 501 is outside the manual's range -500..=500; nothing was sent"
+            "RawCur 501 is outside the manual's range -500 to 500; nothing was sent"
         );
         assert!(raw.check_manual("RawCur", -501.0).is_err());
         assert_eq!(raw.module_limits(), None);

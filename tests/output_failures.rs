@@ -1,0 +1,163 @@
+//! Output that cannot be written never panics (exit 101): a reader that
+//! went away (`| head -c 1`) ends the command quietly with exit 0, a full
+//! disk (`> /dev/full`) is exit 1 with a message, and a stderr that cannot
+//! be written leaves the exit code as it was. Every command family, with
+//! and without `--json`, against the in-process bench.
+
+mod common;
+
+use std::io::Read;
+use std::process::{Command, Stdio};
+
+/// Representative commands of every family that print on stdout and end
+/// by themselves.
+const COMMANDS: &[&[&str]] = &[
+    // offline
+    &["decode", "cube-state", "0xffffffff"],
+    &["decode", "config", "0x00000001"],
+    &["decode", "pac-ext-axis-status", "0xffff"],
+    &["decode", "cdios-status", "81008010"],
+    // PowerCube
+    &["scan"],
+    &["info", "-m", "17"],
+    &["state", "-m", "17"],
+    &["get-param", "-m", "17", "ActPos", "CubeState"],
+    &["get-config", "-m", "17"],
+    &["dio", "-m", "17"],
+    &["home", "-m", "17"],
+    &["halt", "-m", "17"],
+    &["move-ramp", "-m", "17", "0.01"],
+    // PA-CONTROL
+    &["pac-state"],
+    &["pac-error"],
+    &["pac-axis", "2"],
+    &["pac-axes"],
+    &["pac-online"],
+    &["pac-in", "1"],
+    // Cdios
+    &["cdios-identify"],
+    &["cdios-status", "-m", "0"],
+    &["cdios-position", "-m", "0"],
+    &["cdios-config", "-m", "0"],
+    &["cdios-events", "-m", "0"],
+    &["cdios-outputs", "-m", "0"],
+    &["cdios-watch", "-m", "0", "--for", "0.3"],
+    // the bus monitor
+    &["monitor", "--from-log", "BUS_LOG", "--stats"],
+    // the interface itself
+    &["completions", "bash"],
+    &["man"],
+    &["params"],
+    &["flags", "config"],
+];
+
+/// A candump log of a few frames for `monitor --from-log`, written once
+/// for every test of the process (under cargo's scratch directory).
+fn bus_log() -> &'static str {
+    static LOG: std::sync::OnceLock<()> = std::sync::OnceLock::new();
+    const PATH: &str = concat!(env!("CARGO_TARGET_TMPDIR"), "/output-failures-bus.log");
+    LOG.get_or_init(|| {
+        let frames: String =
+            (0..40).map(|i| format!("(1700000000.{i:06}) can0 0F1#01\n(1700000000.{i:06}) can0 0B1#01\n")).collect();
+        std::fs::write(PATH, frames).unwrap();
+    });
+    PATH
+}
+
+fn axisctl(json: bool, args: &[&str]) -> Command {
+    let mut c = common::bin();
+    let args: Vec<&str> = args.iter().map(|a| if *a == "BUS_LOG" { bus_log() } else { a }).collect();
+    c.args(["--link", "sim"]);
+    if json {
+        c.arg("--json");
+    }
+    c.args(args);
+    c
+}
+
+fn each(mut f: impl FnMut(bool, &[&str])) {
+    for json in [false, true] {
+        for args in COMMANDS {
+            f(json, args);
+        }
+    }
+}
+
+fn stderr_of(child: std::process::Child) -> (i32, String) {
+    let out = child.wait_with_output().expect("wait for axisctl");
+    (out.status.code().unwrap_or(-1), String::from_utf8_lossy(&out.stderr).into_owned())
+}
+
+fn dev_full() -> Stdio {
+    Stdio::from(std::fs::OpenOptions::new().write(true).open("/dev/full").expect("/dev/full"))
+}
+
+/// The reader closes at once, before the first line: every write fails
+/// with EPIPE.
+#[test]
+fn a_closed_stdout_ends_every_command_quietly() {
+    each(|json, args| {
+        let mut child = axisctl(json, args).stdout(Stdio::piped()).stderr(Stdio::piped()).spawn().unwrap();
+        drop(child.stdout.take());
+        let (code, stderr) = stderr_of(child);
+        assert_eq!(code, 0, "json={json} {args:?}: {stderr}");
+        assert!(!stderr.contains("panicked"), "json={json} {args:?}: {stderr}");
+    });
+}
+
+/// `| head -c 1`: the reader takes one byte, then goes away mid-output.
+#[test]
+fn head_c_1_never_makes_a_command_fail() {
+    each(|json, args| {
+        let mut child = axisctl(json, args).stdout(Stdio::piped()).stderr(Stdio::piped()).spawn().unwrap();
+        let mut out = child.stdout.take().unwrap();
+        let mut one = [0u8; 1];
+        assert_eq!(out.read(&mut one).unwrap(), 1, "json={json} {args:?} printed nothing");
+        drop(out);
+        let (code, stderr) = stderr_of(child);
+        assert_eq!(code, 0, "json={json} {args:?}: {stderr}");
+    });
+}
+
+#[test]
+fn a_full_disk_is_exit_1_with_a_message() {
+    each(|json, args| {
+        let child = axisctl(json, args).stdout(dev_full()).stderr(Stdio::piped()).spawn().unwrap();
+        let (code, stderr) = stderr_of(child);
+        assert_eq!(code, 1, "json={json} {args:?}: {stderr}");
+        assert!(stderr.contains("cannot write the output") && stderr.contains("No space left"), "{args:?}: {stderr}");
+    });
+}
+
+#[test]
+fn help_version_and_sim_into_a_full_disk_fail_too() {
+    for args in [&["--help"][..], &["--version"], &["pac-move", "--help"], &["sim"]] {
+        let child = common::bin().args(args).stdout(dev_full()).stderr(Stdio::piped()).spawn().unwrap();
+        let (code, stderr) = stderr_of(child);
+        assert_eq!(code, 1, "{args:?}: {stderr}");
+        assert!(stderr.contains("cannot write the output"), "{args:?}: {stderr}");
+    }
+}
+
+/// Failures whose message goes to a full or closed stderr: the exit code
+/// is the failure's, not a panic's.
+#[test]
+fn errors_to_a_broken_stderr_keep_their_exit_code() {
+    let failures: &[(&[&str], i32)] = &[
+        (&["pac-axis", "9"], 5),
+        (&["state", "-m", "4"], 4),
+        (&["get-param", "-m", "17", "NoSuchParam"], 2),
+        (&["info", "-m", "99"], 2),
+        (&["decode", "cube-state", "zz"], 2),
+        (&["no-such-command"], 2),
+    ];
+    for json in [false, true] {
+        for (args, expected) in failures {
+            let full = axisctl(json, args).stdout(Stdio::null()).stderr(dev_full()).spawn().unwrap();
+            assert_eq!(stderr_of(full).0, *expected, "json={json} {args:?} 2>/dev/full");
+            let mut closed = axisctl(json, args).stdout(Stdio::null()).stderr(Stdio::piped()).spawn().unwrap();
+            drop(closed.stderr.take());
+            assert_eq!(closed.wait().unwrap().code(), Some(*expected), "json={json} {args:?} 2>&-");
+        }
+    }
+}
