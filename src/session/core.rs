@@ -262,6 +262,20 @@ mod tests {
         assert_eq!(run(true, Some(link), 2), 0, "a link error is not retried");
     }
 
+    // Only a timeout or a malformed answer sends a read again: after a link
+    // error or a refusal the same request would fail the same way.
+    #[test]
+    fn a_read_that_fails_otherwise_goes_out_once() {
+        let mut c = Counter { core: Core::new(Duration::ZERO), calls: 0 };
+        c.core.retry = RetryPolicy { read_retries: 2 };
+        let r: Result<(), _> = with_read_retries(&mut c, true, None, |c| {
+            c.calls += 1;
+            Err(SessionError::Link(LinkError::Closed))
+        });
+        assert!(matches!(r, Err(SessionError::Link(LinkError::Closed))), "{r:?}");
+        assert_eq!(c.calls, 1);
+    }
+
     // --trace says when a read goes out again, and only then: the first
     // attempt is not a retry.
     #[test]
