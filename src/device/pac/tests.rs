@@ -48,6 +48,8 @@ impl Rig {
 struct Fake {
     status: u16,
     silent: Vec<u16>,
+    /// Codes answered with BE = 0 (still running); polls are never answered.
+    running: Vec<u16>,
     seen: Arc<Mutex<Vec<u16>>>,
     decoder: CommandDecoder,
 }
@@ -61,7 +63,7 @@ impl ByteDevice for Fake {
             if !self.silent.contains(&command.code) {
                 let ack = Ack {
                     quit: 0,
-                    be: true,
+                    be: !self.running.contains(&command.code),
                     status: self.status,
                     error: 0,
                     // In the command's own type, as the controller answers.
@@ -78,9 +80,19 @@ impl ByteDevice for Fake {
 }
 
 fn fake(status: u16, silent: &[u16]) -> (Controller, Arc<Mutex<Vec<u16>>>) {
+    fake_running(status, silent, &[])
+}
+
+fn fake_running(status: u16, silent: &[u16], running: &[u16]) -> (Controller, Arc<Mutex<Vec<u16>>>) {
     let clock = VirtualClock::new();
     let seen = Arc::new(Mutex::new(Vec::new()));
-    let dev = Fake { status, silent: silent.to_vec(), seen: Arc::clone(&seen), decoder: CommandDecoder::new() };
+    let dev = Fake {
+        status,
+        silent: silent.to_vec(),
+        running: running.to_vec(),
+        seen: Arc::clone(&seen),
+        decoder: CommandDecoder::new(),
+    };
     let clock: Arc<dyn Clock> = Arc::new(clock);
     let link = MemByteLink::new(Box::new(dev), Arc::clone(&clock));
     let mut pac = Pac::new(Box::new(link), 9600, SerialFormat::F7N1).with_clock(clock);
@@ -445,4 +457,23 @@ fn a_move_seen_running_ends_the_wait_when_the_axis_stands() {
         .unwrap();
     assert!((end.position - 250.0).abs() < 1e-6, "{end:?}");
     assert_eq!(looks, 2, "moving at the first look, standing at the second");
+}
+
+// A reference drive (0A84, start and wait) that stops answering while it
+// runs, or whose acknowledge never comes, may be moving: its axis is
+// stopped (0A93) before the error. A refusal moved nothing: no stop.
+#[test]
+fn a_followed_motion_that_loses_its_answers_is_stopped_and_a_refused_one_is_not() {
+    let reference = Command::new(0x0A84, 2, Par2::Int(0));
+    for (silent, running) in [(&[][..], &[0x0A84][..]), (&[0x0A84][..], &[][..])] {
+        let (mut ctl, seen) = fake_running(31, silent, running);
+        let e = ctl.follow(&reference, &mut |_| true).unwrap_err();
+        assert!(matches!(e, Error::Stopped { .. }), "silent {silent:04X?}, running {running:04X?}: {e:?}");
+        assert_eq!(codes(&seen).last(), Some(&0x0A93), "{:04X?}", codes(&seen));
+    }
+    let rig = Rig::new(2);
+    let mut ctl = rig.controller();
+    ctl.online().unwrap();
+    let e = ctl.follow(&Command::new(0x0A84, 9, Par2::Int(0)), &mut |_| true).unwrap_err();
+    assert!(matches!(e, Error::Session(SessionError::Device { .. })), "axis 9 is unknown: {e:?}");
 }
