@@ -145,3 +145,50 @@ fn config_assignments_are_resolved_and_checked_before_sending() {
     let read = r.node.read_config(id(0), &groups).unwrap();
     assert_eq!(read[0].1.get("maximum_speed"), Some(1000));
 }
+
+/// A link that loses every Cdios answer (the commands arrive).
+struct LosesAnswers(crate::device::tests::Recording);
+
+impl crate::link::CanLink for LosesAnswers {
+    fn send(&mut self, frame: &CanFrame) -> Result<(), crate::link::LinkError> {
+        self.0.send(frame)
+    }
+    fn send_many(&mut self, frames: &[CanFrame]) -> Result<(), crate::link::LinkError> {
+        self.0.send_many(frames)
+    }
+    fn recv(&mut self, timeout: Duration) -> Result<Option<CanFrame>, crate::link::LinkError> {
+        let frame = self.0.recv(timeout)?;
+        let answer = |f: &CanFrame| {
+            matches!(crate::proto::cdios::session::incoming(f), crate::proto::cdios::session::Incoming::Answer(_))
+        };
+        Ok(frame.filter(|f| !answer(f)))
+    }
+}
+
+// A motion under supervision goes out; without its answer the motor may be
+// running, so it is fast-stopped before the error; an error reply from the
+// node moved nothing and needs no stop.
+#[test]
+fn a_supervised_motion_that_loses_its_answer_is_fast_stopped_and_a_refused_one_is_not() {
+    let mut r = rig();
+    let goto = goto_commands(GotoMode::Absolute, 1_000_000, None).unwrap();
+    let e = r.node.send_supervised(id(0), &goto, 2).unwrap_err();
+    assert!(matches!(e, Error::Session(SessionError::Device { .. })), "not enabled: {e:?}");
+    r.node.send(id(0), &enable_commands(false)).unwrap();
+    r.node.send_supervised(id(0), &goto, 2).unwrap();
+    r.clock.advance(Duration::from_millis(200));
+    assert!(r.motor(0).0, "the goto went out");
+
+    r.node.send(id(1), &enable_commands(false)).unwrap();
+    let shared: Arc<dyn Clock> = Arc::new(r.clock.clone());
+    let link = crate::device::tests::Recording { inner: Box::new(r.bench.bus.open()), sent: Arc::clone(&r.sent) };
+    let mut blind = Node::new(
+        Cdios::new(Box::new(LosesAnswers(link))).with_clock(shared),
+        NodeId::new(1).unwrap(),
+        RetryPolicy::default(),
+    );
+    let e = blind.send_supervised(id(1), &goto, 2).unwrap_err();
+    assert!(matches!(e, Error::LostTrack { stop_failed: Some(_), .. }), "{e:?}");
+    r.clock.advance(Duration::from_millis(500));
+    assert!(!r.motor(1).0, "the fast stop reached the motor");
+}
