@@ -192,3 +192,45 @@ fn a_supervised_motion_that_loses_its_answer_is_fast_stopped_and_a_refused_one_i
     r.clock.advance(Duration::from_millis(500));
     assert!(!r.motor(1).0, "the fast stop reached the motor");
 }
+
+fn wait_spec() -> WaitSpec {
+    WaitSpec { poll: Duration::from_millis(20), timeout: Duration::from_secs(120), stop_attempts: 1 }
+}
+
+// A goto ends when the motor stands at its target, not at the first look.
+#[test]
+fn a_goto_wait_ends_standing_at_the_target() {
+    let mut r = rig();
+    r.node.send(id(0), &enable_commands(false)).unwrap();
+    r.node.send(id(0), &goto_commands(GotoMode::Absolute, 20_000, None).unwrap()).unwrap();
+    let mut looks = 0;
+    let end = r.node.wait(id(0), Goal::Goto, wait_spec(), &|| false, &mut |_, _| looks += 1).unwrap();
+    assert_eq!(end.target, Some(20_000));
+    assert!((i64::from(end.position) - 20_000).abs() <= 100, "{end:?}");
+    assert!(looks > 1, "{looks} looks");
+    assert!(!r.motor(0).0);
+}
+
+// A goto seen running that stops short (another program's stop) ends the
+// wait where the motor stands.
+#[test]
+fn a_goto_wait_ends_when_the_motor_seen_running_stands_short_of_the_target() {
+    let mut r = rig();
+    r.node.send(id(0), &enable_commands(false)).unwrap();
+    r.node.send(id(0), &goto_commands(GotoMode::Absolute, 1_000_000, None).unwrap()).unwrap();
+    let shared: Arc<dyn Clock> = Arc::new(r.clock.clone());
+    let link = crate::device::tests::Recording { inner: Box::new(r.bench.bus.open()), sent: Arc::clone(&r.sent) };
+    let mut other =
+        Node::new(Cdios::new(Box::new(link)).with_clock(shared), NodeId::new(1).unwrap(), RetryPolicy::default());
+    let mut stopped = false;
+    let end = r
+        .node
+        .wait(id(0), Goal::Goto, wait_spec(), &|| false, &mut |pos, _| {
+            if pos > 5_000 && !stopped {
+                other.stop_retrying(id(0), 1).unwrap();
+                stopped = true;
+            }
+        })
+        .unwrap();
+    assert!(stopped && end.position < 500_000, "{end:?}");
+}
