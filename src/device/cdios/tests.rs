@@ -208,7 +208,12 @@ fn a_goto_wait_ends_standing_at_the_target() {
     assert_eq!(end.target, Some(20_000));
     assert!((i64::from(end.position) - 20_000).abs() <= 100, "{end:?}");
     assert!(looks > 1, "{looks} looks");
+    assert!(looks as u128 <= end.elapsed.as_millis() / 20 + 2, "one look per poll: {looks} in {end:?}");
     assert!(!r.motor(0).0);
+    // Standing at the target already: done at the first look.
+    let mut looks = 0;
+    r.node.wait(id(0), Goal::Goto, wait_spec(), &|| false, &mut |_, _| looks += 1).unwrap();
+    assert_eq!(looks, 1);
 }
 
 // A goto seen running that stops short (another program's stop) ends the
