@@ -239,3 +239,23 @@ fn a_goto_wait_ends_when_the_motor_seen_running_stands_short_of_the_target() {
         .unwrap();
     assert!(stopped && end.position < 500_000, "{end:?}");
 }
+
+// A trajectory has no target to compare with: it ends when the motor, seen
+// running, stands again.
+#[test]
+fn a_traject_wait_ends_when_the_motor_seen_running_stands() {
+    let mut r = rig();
+    let fields = ["traject1.end_position=20000", "traject1.length=1", "traject1.initial_speed=1000"];
+    let config::Request::Set(changes) = config::Request::parse(&fields.map(String::from)).unwrap() else {
+        panic!("an assignment")
+    };
+    r.node.write_config(id(0), &changes).unwrap();
+    r.node.send(id(0), &enable_commands(false)).unwrap();
+    r.node.send(id(0), &[traject_command(1, false).unwrap()]).unwrap();
+    let mut looks = 0;
+    let end = r.node.wait(id(0), Goal::Traject, wait_spec(), &|| false, &mut |_, _| looks += 1).unwrap();
+    assert_eq!(end.target, None);
+    assert!(looks > 1, "{looks} looks");
+    assert!((i64::from(end.position) - 20_000).abs() <= 100, "{end:?}");
+    assert!(!r.motor(0).0);
+}
