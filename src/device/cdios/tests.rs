@@ -259,3 +259,42 @@ fn a_traject_wait_ends_when_the_motor_seen_running_stands() {
     assert!((i64::from(end.position) - 20_000).abs() <= 100, "{end:?}");
     assert!(!r.motor(0).0);
 }
+
+/// A link that passes the first `keep` Cdios answers and loses the rest.
+struct KeepsAnswers {
+    inner: crate::device::tests::Recording,
+    keep: usize,
+}
+
+impl crate::link::CanLink for KeepsAnswers {
+    fn send(&mut self, frame: &CanFrame) -> Result<(), crate::link::LinkError> {
+        self.inner.send(frame)
+    }
+    fn send_many(&mut self, frames: &[CanFrame]) -> Result<(), crate::link::LinkError> {
+        self.inner.send_many(frames)
+    }
+    fn recv(&mut self, timeout: Duration) -> Result<Option<CanFrame>, crate::link::LinkError> {
+        let Some(f) = self.inner.recv(timeout)? else { return Ok(None) };
+        if !matches!(crate::proto::cdios::session::incoming(&f), crate::proto::cdios::session::Incoming::Answer(_)) {
+            return Ok(Some(f));
+        }
+        if self.keep == 0 {
+            return Ok(None);
+        }
+        self.keep -= 1;
+        Ok(Some(f))
+    }
+}
+
+// A refused fast stop counts as "not running" only when the status read
+// says so: with the status unreadable the refusal is reported.
+#[test]
+fn a_refused_fast_stop_is_no_failure_only_when_the_status_says_not_running() {
+    let r = rig();
+    let shared: Arc<dyn Clock> = Arc::new(r.clock.clone());
+    let inner = crate::device::tests::Recording { inner: Box::new(r.bench.bus.open()), sent: Arc::clone(&r.sent) };
+    let s = Cdios::new(Box::new(KeepsAnswers { inner, keep: 1 })).with_clock(shared);
+    let mut node = Node::new(s, NodeId::new(1).unwrap(), RetryPolicy::default());
+    let report = node.halt_all(&[id(0)]);
+    assert!(matches!(&report[0].1, Err(Error::Session(SessionError::Device { .. }))), "{report:?}");
+}
