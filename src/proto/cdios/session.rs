@@ -312,6 +312,7 @@ mod tests {
         assert!(!Burst::pipelinable(&reads[..1]));
         assert!(!Burst::pipelinable(&[reads[0], reads[0]]));
         let mut b = Burst::new(node1(), m(0), &reads);
+        assert_eq!(b.pending(), 2);
         assert_eq!(
             b.frames().map(|f| f.to_string()).collect::<Vec<_>>(),
             ["201#2100000000000000", "201#2600000000000000"]
@@ -322,6 +323,7 @@ mod tests {
         assert_eq!(b.handle(&answer("181#2101000900000000")), Settled::OtherTarget);
         assert_eq!(b.pending(), 1);
         assert_eq!(b.handle(&answer("181#210000B0FBFFFF00")), Settled::Read(0));
+        assert_eq!(b.pending(), 0);
         let got = b.into_replies();
         assert_eq!(got[0].as_ref().unwrap().get("position"), Some(-1104));
     }
