@@ -293,6 +293,15 @@ mod tests {
         assert_eq!(dout.handle(&answer("181#1100000500000000")), Verdict::Reply);
     }
 
+    // A code the table does not know is answered by the same code.
+    #[test]
+    fn an_unknown_code_is_matched_by_its_code() {
+        let raw = Exchange::new(node1(), m(0), data("201#3E00000000000000"));
+        assert!(table::command_for(0x3E, 0).is_none());
+        assert_eq!(raw.handle(&answer("181#3E00000000000000")), Verdict::Reply);
+        assert_eq!(raw.handle(&answer("181#2100000000000000")), Verdict::OtherCommand);
+    }
+
     #[test]
     fn waits_follow_the_confirm_setting() {
         let t = Duration::from_millis(100);
