@@ -369,3 +369,62 @@ fn in_process_sim_answers_pac_state() {
     assert_eq!(r.json()["controller_error"], 0);
     assert!(r.json().get("error").is_none(), "a success carries no error key");
 }
+
+/// A one-shot command on a clean line sends at once: the quiet-line wait
+/// (one answer timeout, at most 1 s) is only for a line with input pending.
+#[test]
+fn sim_one_shot_on_a_clean_line_does_not_wait_for_quiet() {
+    let sim = pac_sim();
+    let link = sim.link("pac");
+    ok(&["--link", link, "--json", "pac-state"]);
+    let t0 = Instant::now();
+    let r = run(&["--link", link, "--timeout", "60000", "--json", "pac-state"]);
+    let took = t0.elapsed();
+    assert_eq!(r.code, 0, "{}", r.stderr);
+    assert!(took < Duration::from_millis(900), "a 1 s quiet-line wait came back: {took:?}");
+}
+
+/// Issue 12: a client SIGKILLed while its 190C (a position, float) is on
+/// the wire at 9600 baud. Every answer comes 400 ms late, so the killed
+/// client's answer reaches the line while the next client waits for its
+/// own: every later run still reads its own values, none is shifted by one.
+#[test]
+fn sim_a_killed_client_does_not_poison_the_line() {
+    let sim = Sim::start(&["--pac", "pty-serial", "--wire-speed", "--fault", "delay=400ms"], 1);
+    let link = sim.link("pac").to_string();
+    let slow = |args: &[&str]| {
+        let mut all = vec!["--link", &link, "--timeout", "3000", "--json"];
+        all.extend_from_slice(args);
+        let r = run(&all);
+        assert_eq!(r.code, 0, "{args:?}: {}", r.stderr);
+        r.json()
+    };
+    let axis = slow(&["pac-axis", "2"]);
+    let state = slow(&["pac-state"]);
+
+    let mut killed = common::bin()
+        .args(["--link", &link, "--timeout", "3000", "--trace", "pac-axis", "2"])
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut err = std::io::BufReader::new(killed.stderr.take().unwrap());
+    let mut line = String::new();
+    use std::io::BufRead;
+    while !line.starts_with("-> ") {
+        line.clear();
+        assert!(err.read_line(&mut line).unwrap() > 0, "the client ended before sending");
+    }
+    assert!(line.contains("190C"), "{line}");
+    std::thread::sleep(Duration::from_millis(50));
+    killed.kill().unwrap();
+    killed.wait().unwrap();
+
+    // 190B reads an integer: the stale position arrives while it waits.
+    for _ in 0..2 {
+        assert_eq!(slow(&["pac-state"]), state);
+    }
+    for _ in 0..2 {
+        assert_eq!(slow(&["pac-axis", "2"]), axis);
+    }
+}

@@ -229,3 +229,146 @@ pub fn sleep(d: Duration) {
         while unsafe { libc::read(fd, buf.as_mut_ptr().cast(), buf.len()) } > 0 {}
     }
 }
+
+#[cfg(test)]
+mod tests {
+    //! The state here is process-wide (signal handlers, flags that never
+    //! reset), so each scenario runs in a child process of this test binary:
+    //! the test starts itself again with [`CHILD`] naming it.
+    use super::*;
+    use std::process::{Command, Stdio};
+    use std::time::Instant;
+
+    const CHILD: &str = "AXISCTL_STOP_TEST_CHILD";
+
+    /// True in the child (run the scenario); in the parent, runs the test
+    /// `name` in a child, fails if it fails or outlives 20 s, and returns false.
+    fn in_child(name: &str) -> bool {
+        if std::env::var(CHILD).as_deref() == Ok(name) {
+            return true;
+        }
+        let mut child = Command::new(std::env::current_exe().unwrap())
+            .args(["--exact", &format!("clock::stop::tests::{name}"), "--nocapture"])
+            .env(CHILD, name)
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap();
+        let deadline = Instant::now() + Duration::from_secs(20);
+        while child.try_wait().unwrap().is_none() {
+            if Instant::now() > deadline {
+                let _ = child.kill();
+                let _ = child.wait();
+                panic!("{name}: the child hung");
+            }
+            std::thread::sleep(Duration::from_millis(10));
+        }
+        let out = child.wait_with_output().unwrap();
+        let text = format!("{}{}", String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr));
+        assert!(out.status.success(), "{name}: {:?}\n{text}", out.status);
+        assert!(text.contains("1 passed"), "{name} did not run in the child:\n{text}");
+        false
+    }
+
+    fn took(f: impl FnOnce()) -> Duration {
+        let t0 = Instant::now();
+        f();
+        t0.elapsed()
+    }
+
+    /// A thread that only receives signals, so the sleeping thread is woken
+    /// by the pipe alone, not by an interrupted poll(2).
+    fn signal_catcher() -> libc::pthread_t {
+        let (tx, rx) = std::sync::mpsc::channel();
+        std::thread::spawn(move || {
+            // SAFETY: pthread_self has no preconditions.
+            tx.send(unsafe { libc::pthread_self() }).unwrap();
+            loop {
+                std::thread::park();
+            }
+        });
+        rx.recv().unwrap()
+    }
+
+    fn send(thread: libc::pthread_t, sig: i32) {
+        // SAFETY: the thread lives for the whole process.
+        assert_eq!(unsafe { libc::pthread_kill(thread, sig) }, 0);
+    }
+
+    #[test]
+    fn signal_names_for_messages() {
+        assert_eq!(signal_name(libc::SIGINT), "SIGINT");
+        assert_eq!(signal_name(libc::SIGTERM), "SIGTERM");
+        assert_eq!(signal_name(libc::SIGHUP), "SIGHUP");
+        assert_eq!(signal_name(libc::SIGQUIT), "SIGQUIT");
+        assert_eq!(signal_name(libc::SIGUSR1), "a signal");
+    }
+
+    // Armed, a signal no longer ends the process: it is recorded (the first
+    // one wins), it cuts a 30 s sleep short, and every later sleep returns at once.
+    #[test]
+    fn an_armed_signal_is_recorded_and_wakes_the_sleep() {
+        if !in_child("an_armed_signal_is_recorded_and_wakes_the_sleep") {
+            return;
+        }
+        assert_eq!(caught(), None);
+        assert!(!stop_requested());
+        let d = took(|| sleep(Duration::from_millis(100)));
+        assert!(d >= Duration::from_millis(100), "before arm: a plain sleep ({d:?})");
+        arm().unwrap();
+        arm().unwrap();
+        let d = took(|| sleep(Duration::from_millis(100)));
+        assert!(d >= Duration::from_millis(100) && d < Duration::from_secs(5), "armed, no signal: {d:?}");
+        assert!(!stop_requested());
+        let catcher = signal_catcher();
+        std::thread::spawn(move || {
+            std::thread::sleep(Duration::from_millis(100));
+            send(catcher, libc::SIGTERM);
+        });
+        let d = took(|| sleep(Duration::from_secs(30)));
+        assert!(d < Duration::from_secs(10), "the signal woke the sleep: {d:?}");
+        assert_eq!(caught(), Some(libc::SIGTERM));
+        assert!(stop_requested());
+        send(catcher, libc::SIGINT);
+        assert_eq!(caught(), Some(libc::SIGTERM), "the first signal is kept");
+        assert!(took(|| sleep(Duration::from_secs(30))) < Duration::from_secs(10));
+        assert_eq!(output_failure(), None);
+    }
+
+    // A failed output write asks a supervised wait to stop, and keeps its
+    // first error; before arm a sleep stays a plain sleep.
+    #[test]
+    fn an_output_failure_stops_the_wait_and_keeps_the_first_error() {
+        if !in_child("an_output_failure_stops_the_wait_and_keeps_the_first_error") {
+            return;
+        }
+        assert_eq!(output_failure(), None);
+        note_output_failure(&std::io::Error::other("broken pipe"));
+        assert_eq!(output_failure().as_deref(), Some("broken pipe"));
+        note_output_failure(&std::io::Error::other("later"));
+        assert_eq!(output_failure().as_deref(), Some("broken pipe"), "the first error is kept");
+        assert_eq!(caught(), None);
+        assert!(stop_requested(), "an output failure alone asks for the stop");
+        assert_eq!(log_failure(), None);
+        let d = took(|| sleep(Duration::from_millis(100)));
+        assert!(d >= Duration::from_millis(100), "before arm: a plain sleep ({d:?})");
+        arm().unwrap();
+        assert!(took(|| sleep(Duration::from_secs(30))) < Duration::from_secs(10));
+    }
+
+    // A failed --log write is kept for the final report and stops the wait
+    // as an output failure that names the log.
+    #[test]
+    fn a_log_failure_is_kept_and_stops_the_wait() {
+        if !in_child("a_log_failure_is_kept_and_stops_the_wait") {
+            return;
+        }
+        assert_eq!(log_failure(), None);
+        note_log_failure(&std::io::Error::other("no space left"));
+        assert_eq!(log_failure().as_deref(), Some("no space left"));
+        assert_eq!(output_failure().as_deref(), Some("--log: no space left"));
+        assert!(stop_requested());
+        note_log_failure(&std::io::Error::other("later"));
+        assert_eq!(log_failure().as_deref(), Some("no space left"), "the first error is kept");
+    }
+}

@@ -261,4 +261,40 @@ mod tests {
         let link = SessionError::Link(LinkError::Closed);
         assert_eq!(run(true, Some(link), 2), 0, "a link error is not retried");
     }
+
+    // Only a timeout or a malformed answer sends a read again: after a link
+    // error or a refusal the same request would fail the same way.
+    #[test]
+    fn a_read_that_fails_otherwise_goes_out_once() {
+        let mut c = Counter { core: Core::new(Duration::ZERO), calls: 0 };
+        c.core.retry = RetryPolicy { read_retries: 2 };
+        let r: Result<(), _> = with_read_retries(&mut c, true, None, |c| {
+            c.calls += 1;
+            Err(SessionError::Link(LinkError::Closed))
+        });
+        assert!(matches!(r, Err(SessionError::Link(LinkError::Closed))), "{r:?}");
+        assert_eq!(c.calls, 1);
+    }
+
+    // --trace says when a read goes out again, and only then: the first
+    // attempt is not a retry.
+    #[test]
+    fn each_retry_is_traced_and_the_first_attempt_is_not() {
+        let notes = std::sync::Arc::new(std::sync::Mutex::new(Vec::new()));
+        let mut c = Counter { core: Core::new(Duration::ZERO), calls: 0 };
+        c.core.retry = RetryPolicy { read_retries: 2 };
+        let seen = std::sync::Arc::clone(&notes);
+        c.core.set_tracer(Box::new(move |ev| {
+            if let TraceEvent::Note(n) = ev {
+                seen.lock().unwrap().push(n);
+            }
+        }));
+        let r: Result<(), _> = with_read_retries(&mut c, true, None, |c| {
+            c.calls += 1;
+            Err(timeout())
+        });
+        assert!(r.is_err());
+        assert_eq!(c.calls, 3);
+        assert_eq!(*notes.lock().unwrap(), ["retrying read (1/2)", "retrying read (2/2)"]);
+    }
 }

@@ -4,13 +4,15 @@
 //! - The line is half-duplex and acknowledges do not name the command they
 //!   answer, so stale input is dropped before each command and the first
 //!   acknowledge after it that can answer it ([`Transaction::could_answer`]:
-//!   the command's data type) is taken as its answer. While the line's state
-//!   is unknown (a new session: the last client may have been killed with an
-//!   answer on its way; or after a skipped stale acknowledge) the session
-//!   first waits for the line to fall quiet for an answer timeout, dropping
-//!   what arrives, so a late answer cannot shift every later exchange by one.
-//!   A timeout does not make the line unknown: waiting there would let the
-//!   late answer of one try be taken for the answer of the next.
+//!   the command's data type) is taken as its answer. A new session looks
+//!   for input already pending (the last client may have been killed with an
+//!   answer on its way) and, only if there is some, waits for the line to
+//!   fall quiet for an answer timeout, dropping what arrives: a one-shot
+//!   command on a clean line costs no wait. After a skipped stale
+//!   acknowledge the session always waits for quiet before the next request,
+//!   so a late answer cannot shift every later exchange by one. A timeout
+//!   does not make the line suspect: waiting there would let the late
+//!   answer of one try be taken for the answer of the next.
 //! - While an acknowledge says BE = 0 the session polls with a lone EOT every
 //!   [`Pac::set_poll_interval`] until BE = 1 or the overall busy timeout
 //!   ([`Pac::set_busy_timeout`], generous by default: moves and reference
@@ -119,9 +121,20 @@ pub struct Pac {
     last_status: Option<u16>,
     last_quit: Option<u16>,
     last_check: Option<CheckRule>,
-    /// An answer to some older exchange may still be on its way: wait for a
-    /// quiet line before the next request ([`Pac::settle`]).
-    line_unknown: bool,
+    /// What is known about older answers still on the line ([`Pac::settle`]).
+    line: Line,
+}
+
+/// What the session knows about answers to older exchanges on the line.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Line {
+    /// Nothing of an older exchange can still arrive.
+    Quiet,
+    /// A new session: an answer to a killed client may be arriving. Input
+    /// already pending says so; a clean line costs no wait.
+    Unchecked,
+    /// A stale acknowledge was seen: more may follow, wait for quiet.
+    Suspect,
 }
 
 /// Longest wait for a quiet line: a line that never falls quiet is not
@@ -158,7 +171,7 @@ impl Pac {
             last_status: None,
             last_quit: None,
             last_check: None,
-            line_unknown: true,
+            line: Line::Unchecked,
         }
     }
 
@@ -298,29 +311,37 @@ impl Pac {
         self.await_ack(t)
     }
 
-    /// While the line's state is unknown, reads and drops input until nothing
-    /// has come for an answer timeout (at most [`MAX_SETTLE`]): an answer still
-    /// on its way is not yet in the buffer that clearing the input empties.
+    /// Unless the line is known to be quiet, reads and drops input until
+    /// nothing has come for an answer timeout (at most [`MAX_SETTLE`]): an
+    /// answer still on its way is not yet in the buffer that clearing the
+    /// input empties. A new session waits only if input is already pending.
     fn settle(&mut self) -> Result<(), PacError> {
-        if !self.line_unknown {
-            return Ok(());
-        }
-        let quiet = self.answer_timeout(MAX_ACK_CHARS as usize);
-        let Self { link, core, .. } = self;
-        let limit = core.now() + MAX_SETTLE;
         let mut dropped = 0usize;
-        core.read_until(&mut **link, (core.now() + quiet).min(limit), |core, chunk, deadline| {
-            if !chunk.is_empty() {
-                dropped += chunk.len();
-                *deadline = (core.now() + quiet).min(limit);
+        match self.line {
+            Line::Quiet => return Ok(()),
+            Line::Unchecked => {
+                let mut buf = [0u8; 128];
+                dropped = self.link.read(&mut buf, Duration::ZERO).map_err(SessionError::from)?;
             }
-            ControlFlow::<()>::Continue(())
-        })
-        .map_err(SessionError::from)?;
+            Line::Suspect => {}
+        }
+        if self.line == Line::Suspect || dropped > 0 {
+            let quiet = self.answer_timeout(MAX_ACK_CHARS as usize);
+            let Self { link, core, .. } = self;
+            let limit = core.now() + MAX_SETTLE;
+            core.read_until(&mut **link, (core.now() + quiet).min(limit), |core, chunk, deadline| {
+                if !chunk.is_empty() {
+                    dropped += chunk.len();
+                    *deadline = (core.now() + quiet).min(limit);
+                }
+                ControlFlow::<()>::Continue(())
+            })
+            .map_err(SessionError::from)?;
+        }
         if dropped > 0 {
             self.core.trace(|| TraceEvent::Note(format!("dropped {dropped} stale byte(s) before the request")));
         }
-        self.line_unknown = false;
+        self.line = Line::Quiet;
         Ok(())
     }
 
@@ -389,7 +410,7 @@ impl Pac {
     fn await_ack(&mut self, t: &Transaction) -> Result<Ack, PacError> {
         let cmd = t.command();
         let timeout = self.answer_timeout(24);
-        let Self { link, core, decoder, line_unknown, .. } = self;
+        let Self { link, core, decoder, line, .. } = self;
         let deadline = core.now() + timeout;
         let ack = core.read_until(&mut **link, deadline, |core, chunk, _| {
             decoder.push(chunk);
@@ -401,7 +422,7 @@ impl Pac {
                                 "skipped: {ack} cannot answer {cmd} (stale, of an older exchange)"
                             ))
                         });
-                        *line_unknown = true;
+                        *line = Line::Suspect;
                     }
                     Ok(ack) => {
                         core.trace(|| TraceEvent::Received(ack.to_string()));
@@ -439,6 +460,10 @@ mod tests {
     use crate::session::RetryPolicy;
     use std::collections::VecDeque;
     use std::sync::{Arc, Mutex};
+    use std::time::Instant;
+
+    /// Bytes on the wire and the instant they arrive.
+    type Arrival = (Instant, Vec<u8>);
 
     /// A scripted line: each write is recorded and answered with the next
     /// scripted reply (`None`: silence).
@@ -450,6 +475,11 @@ mod tests {
         /// An answer on its way when the session starts: clearing the input
         /// does not reach it, it shows up at the next read.
         inflight: Arc<Mutex<Vec<u8>>>,
+        /// Bytes still on the wire: each arrives at its instant, out of
+        /// reach of clearing the input until then.
+        arriving: Arc<Mutex<Vec<Arrival>>>,
+        /// How long a reply takes to arrive (zero: at once).
+        latency: Duration,
     }
 
     struct ScriptLink {
@@ -461,7 +491,11 @@ mod tests {
         fn write_all(&mut self, bytes: &[u8]) -> Result<(), LinkError> {
             self.s.written.lock().unwrap().push(bytes.to_vec());
             if let Some(Some(r)) = self.s.replies.lock().unwrap().pop_front() {
-                self.s.pending.lock().unwrap().extend(r);
+                if self.s.latency.is_zero() {
+                    self.s.pending.lock().unwrap().extend(r);
+                } else {
+                    self.s.arrive(self.clock.now() + self.s.latency, r);
+                }
             }
             Ok(())
         }
@@ -469,8 +503,20 @@ mod tests {
             let mut p = self.s.pending.lock().unwrap();
             let late: Vec<u8> = self.s.inflight.lock().unwrap().drain(..).collect();
             p.splice(0..0, late);
+            let end = self.clock.now() + timeout;
+            loop {
+                let mut arriving = self.s.arriving.lock().unwrap();
+                let now = self.clock.now();
+                while arriving.first().is_some_and(|(at, _)| *at <= now) {
+                    p.extend(arriving.remove(0).1);
+                }
+                match arriving.first() {
+                    Some((at, _)) if p.is_empty() && *at <= end => self.clock.advance(*at - now),
+                    _ => break,
+                }
+            }
             if p.is_empty() {
-                self.clock.advance(timeout);
+                self.clock.advance(end - self.clock.now());
                 return Ok(0);
             }
             let n = p.len().min(buf.len());
@@ -484,6 +530,14 @@ mod tests {
         }
     }
 
+    impl Script {
+        fn arrive(&self, at: Instant, bytes: Vec<u8>) {
+            let mut a = self.arriving.lock().unwrap();
+            a.push((at, bytes));
+            a.sort_by_key(|(at, _)| *at);
+        }
+    }
+
     fn hex(s: &str) -> Vec<u8> {
         s.split_whitespace().map(|b| u8::from_str_radix(b, 16).unwrap()).collect()
     }
@@ -493,8 +547,12 @@ mod tests {
     }
 
     fn session(replies: Vec<Option<Vec<u8>>>) -> (Pac, Script, VirtualClock) {
+        session_with_latency(replies, Duration::ZERO)
+    }
+
+    fn session_with_latency(replies: Vec<Option<Vec<u8>>>, latency: Duration) -> (Pac, Script, VirtualClock) {
         let clock = VirtualClock::new();
-        let s = Script { replies: Arc::new(Mutex::new(replies.into())), ..Default::default() };
+        let s = Script { replies: Arc::new(Mutex::new(replies.into())), latency, ..Default::default() };
         let link = ScriptLink { s: s.clone(), clock: clock.clone() };
         let pac = Pac::new(Box::new(link), 9600, SerialFormat::F7N1).with_clock(Arc::new(clock.clone()));
         (pac, s, clock)
@@ -623,13 +681,52 @@ mod tests {
     }
 
     // The same, with an answer of the same type on its way when the session
-    // starts: only waiting for a quiet line tells it from the real answer.
+    // starts: it is pending at the first look, and only dropping it tells it
+    // from the real answer.
     #[test]
     fn an_answer_on_its_way_at_the_start_is_drained() {
         let replies = (7..9).map(|v| Some(ack(0, true, 31, Par2::Int(v), CheckRule::Strict))).collect();
         let (mut pac, s, _) = session(replies);
         *s.inflight.lock().unwrap() = ack(0, true, 31, Par2::Int(99), CheckRule::Strict);
         assert_eq!(read_1910(&mut pac), Par2::Int(7));
+        assert_eq!(read_1910(&mut pac), Par2::Int(8));
+    }
+
+    // Input pending at the start means a killed client's answers are still
+    // coming: the next one, 2 ms later, is dropped too, because the session
+    // waits for a quiet line before it sends.
+    #[test]
+    fn pending_input_at_the_start_is_waited_out_to_a_quiet_line() {
+        let replies = vec![Some(ack(0, true, 31, Par2::Int(7), CheckRule::Strict))];
+        let (mut pac, s, clock) = session_with_latency(replies, Duration::from_millis(5));
+        *s.inflight.lock().unwrap() = ack(0, true, 31, Par2::Int(99), CheckRule::Strict);
+        s.arrive(clock.now() + Duration::from_millis(2), ack(0, true, 31, Par2::Int(98), CheckRule::Strict));
+        assert_eq!(read_1910(&mut pac), Par2::Int(7));
+    }
+
+    // A one-shot command on a clean line: nothing pending, so no wait for a
+    // quiet line before the request (it used to cost an answer timeout).
+    #[test]
+    fn a_clean_line_costs_no_wait_at_the_start() {
+        let (mut pac, s, clock) = session(vec![Some(ack(0, true, 31, Par2::Int(7), CheckRule::Strict))]);
+        let t0 = clock.now();
+        assert_eq!(read_1910(&mut pac), Par2::Int(7));
+        assert_eq!(clock.now() - t0, Duration::ZERO);
+        assert_eq!(written(&s).len(), 1);
+    }
+
+    // After a skipped stale acknowledge more of them may still be coming (a
+    // killed client's later answers): the next request waits for a quiet
+    // line, even with nothing pending yet, so the one arriving 3 ms later is
+    // not taken for the answer to it.
+    #[test]
+    fn after_a_skipped_stale_acknowledge_the_next_request_waits_for_quiet() {
+        let stale = ack(0, true, 31, Par2::Float(161.477), CheckRule::Strict);
+        let mine = ack(0, true, 31, Par2::Int(7), CheckRule::Strict);
+        let replies = vec![Some([stale, mine].concat()), Some(ack(0, true, 31, Par2::Int(8), CheckRule::Strict))];
+        let (mut pac, s, clock) = session_with_latency(replies, Duration::from_millis(5));
+        assert_eq!(read_1910(&mut pac), Par2::Int(7));
+        s.arrive(clock.now() + Duration::from_millis(3), ack(0, true, 31, Par2::Int(99), CheckRule::Strict));
         assert_eq!(read_1910(&mut pac), Par2::Int(8));
     }
 

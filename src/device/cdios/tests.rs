@@ -145,3 +145,156 @@ fn config_assignments_are_resolved_and_checked_before_sending() {
     let read = r.node.read_config(id(0), &groups).unwrap();
     assert_eq!(read[0].1.get("maximum_speed"), Some(1000));
 }
+
+/// A link that loses every Cdios answer (the commands arrive).
+struct LosesAnswers(crate::device::tests::Recording);
+
+impl crate::link::CanLink for LosesAnswers {
+    fn send(&mut self, frame: &CanFrame) -> Result<(), crate::link::LinkError> {
+        self.0.send(frame)
+    }
+    fn send_many(&mut self, frames: &[CanFrame]) -> Result<(), crate::link::LinkError> {
+        self.0.send_many(frames)
+    }
+    fn recv(&mut self, timeout: Duration) -> Result<Option<CanFrame>, crate::link::LinkError> {
+        let frame = self.0.recv(timeout)?;
+        let answer = |f: &CanFrame| {
+            matches!(crate::proto::cdios::session::incoming(f), crate::proto::cdios::session::Incoming::Answer(_))
+        };
+        Ok(frame.filter(|f| !answer(f)))
+    }
+}
+
+// A motion under supervision goes out; without its answer the motor may be
+// running, so it is fast-stopped before the error; an error reply from the
+// node moved nothing and needs no stop.
+#[test]
+fn a_supervised_motion_that_loses_its_answer_is_fast_stopped_and_a_refused_one_is_not() {
+    let mut r = rig();
+    let goto = goto_commands(GotoMode::Absolute, 1_000_000, None).unwrap();
+    let e = r.node.send_supervised(id(0), &goto, 2).unwrap_err();
+    assert!(matches!(e, Error::Session(SessionError::Device { .. })), "not enabled: {e:?}");
+    r.node.send(id(0), &enable_commands(false)).unwrap();
+    r.node.send_supervised(id(0), &goto, 2).unwrap();
+    r.clock.advance(Duration::from_millis(200));
+    assert!(r.motor(0).0, "the goto went out");
+
+    r.node.send(id(1), &enable_commands(false)).unwrap();
+    let shared: Arc<dyn Clock> = Arc::new(r.clock.clone());
+    let link = crate::device::tests::Recording { inner: Box::new(r.bench.bus.open()), sent: Arc::clone(&r.sent) };
+    let mut blind = Node::new(
+        Cdios::new(Box::new(LosesAnswers(link))).with_clock(shared),
+        NodeId::new(1).unwrap(),
+        RetryPolicy::default(),
+    );
+    let e = blind.send_supervised(id(1), &goto, 2).unwrap_err();
+    assert!(matches!(e, Error::LostTrack { stop_failed: Some(_), .. }), "{e:?}");
+    r.clock.advance(Duration::from_millis(500));
+    assert!(!r.motor(1).0, "the fast stop reached the motor");
+}
+
+fn wait_spec() -> WaitSpec {
+    WaitSpec { poll: Duration::from_millis(20), timeout: Duration::from_secs(120), stop_attempts: 1 }
+}
+
+// A goto ends when the motor stands at its target, not at the first look.
+#[test]
+fn a_goto_wait_ends_standing_at_the_target() {
+    let mut r = rig();
+    r.node.send(id(0), &enable_commands(false)).unwrap();
+    r.node.send(id(0), &goto_commands(GotoMode::Absolute, 20_000, None).unwrap()).unwrap();
+    let mut looks = 0;
+    let end = r.node.wait(id(0), Goal::Goto, wait_spec(), &|| false, &mut |_, _| looks += 1).unwrap();
+    assert_eq!(end.target, Some(20_000));
+    assert!((i64::from(end.position) - 20_000).abs() <= 100, "{end:?}");
+    assert!(looks > 1, "{looks} looks");
+    assert!(looks as u128 <= end.elapsed.as_millis() / 20 + 2, "one look per poll: {looks} in {end:?}");
+    assert!(!r.motor(0).0);
+    // Standing at the target already: done at the first look.
+    let mut looks = 0;
+    r.node.wait(id(0), Goal::Goto, wait_spec(), &|| false, &mut |_, _| looks += 1).unwrap();
+    assert_eq!(looks, 1);
+}
+
+// A goto seen running that stops short (another program's stop) ends the
+// wait where the motor stands.
+#[test]
+fn a_goto_wait_ends_when_the_motor_seen_running_stands_short_of_the_target() {
+    let mut r = rig();
+    r.node.send(id(0), &enable_commands(false)).unwrap();
+    r.node.send(id(0), &goto_commands(GotoMode::Absolute, 1_000_000, None).unwrap()).unwrap();
+    let shared: Arc<dyn Clock> = Arc::new(r.clock.clone());
+    let link = crate::device::tests::Recording { inner: Box::new(r.bench.bus.open()), sent: Arc::clone(&r.sent) };
+    let mut other =
+        Node::new(Cdios::new(Box::new(link)).with_clock(shared), NodeId::new(1).unwrap(), RetryPolicy::default());
+    let mut stopped = false;
+    let end = r
+        .node
+        .wait(id(0), Goal::Goto, wait_spec(), &|| false, &mut |pos, _| {
+            if pos > 5_000 && !stopped {
+                other.stop_retrying(id(0), 1).unwrap();
+                stopped = true;
+            }
+        })
+        .unwrap();
+    assert!(stopped && end.position < 500_000, "{end:?}");
+}
+
+// A trajectory has no target to compare with: it ends when the motor, seen
+// running, stands again.
+#[test]
+fn a_traject_wait_ends_when_the_motor_seen_running_stands() {
+    let mut r = rig();
+    let fields = ["traject1.end_position=20000", "traject1.length=1", "traject1.initial_speed=1000"];
+    let config::Request::Set(changes) = config::Request::parse(&fields.map(String::from)).unwrap() else {
+        panic!("an assignment")
+    };
+    r.node.write_config(id(0), &changes).unwrap();
+    r.node.send(id(0), &enable_commands(false)).unwrap();
+    r.node.send(id(0), &[traject_command(1, false).unwrap()]).unwrap();
+    let mut looks = 0;
+    let end = r.node.wait(id(0), Goal::Traject, wait_spec(), &|| false, &mut |_, _| looks += 1).unwrap();
+    assert_eq!(end.target, None);
+    assert!(looks > 1, "{looks} looks");
+    assert!((i64::from(end.position) - 20_000).abs() <= 100, "{end:?}");
+    assert!(!r.motor(0).0);
+}
+
+/// A link that passes the first `keep` Cdios answers and loses the rest.
+struct KeepsAnswers {
+    inner: crate::device::tests::Recording,
+    keep: usize,
+}
+
+impl crate::link::CanLink for KeepsAnswers {
+    fn send(&mut self, frame: &CanFrame) -> Result<(), crate::link::LinkError> {
+        self.inner.send(frame)
+    }
+    fn send_many(&mut self, frames: &[CanFrame]) -> Result<(), crate::link::LinkError> {
+        self.inner.send_many(frames)
+    }
+    fn recv(&mut self, timeout: Duration) -> Result<Option<CanFrame>, crate::link::LinkError> {
+        let Some(f) = self.inner.recv(timeout)? else { return Ok(None) };
+        if !matches!(crate::proto::cdios::session::incoming(&f), crate::proto::cdios::session::Incoming::Answer(_)) {
+            return Ok(Some(f));
+        }
+        if self.keep == 0 {
+            return Ok(None);
+        }
+        self.keep -= 1;
+        Ok(Some(f))
+    }
+}
+
+// A refused fast stop counts as "not running" only when the status read
+// says so: with the status unreadable the refusal is reported.
+#[test]
+fn a_refused_fast_stop_is_no_failure_only_when_the_status_says_not_running() {
+    let r = rig();
+    let shared: Arc<dyn Clock> = Arc::new(r.clock.clone());
+    let inner = crate::device::tests::Recording { inner: Box::new(r.bench.bus.open()), sent: Arc::clone(&r.sent) };
+    let s = Cdios::new(Box::new(KeepsAnswers { inner, keep: 1 })).with_clock(shared);
+    let mut node = Node::new(s, NodeId::new(1).unwrap(), RetryPolicy::default());
+    let report = node.halt_all(&[id(0)]);
+    assert!(matches!(&report[0].1, Err(Error::Session(SessionError::Device { .. }))), "{report:?}");
+}

@@ -195,13 +195,22 @@ impl Controller {
 
     /// Sends an already built command (or one the table does not know) and
     /// polls it to its end. A start-and-wait motion command whose wait is
-    /// given up, or whose polls fail while it runs, has its axis stopped.
+    /// given up, whose acknowledge is lost, or whose polls fail while it
+    /// runs, has its axis stopped.
     pub fn follow(&mut self, cmd: &Command, observe: &mut dyn FnMut(&Progress) -> bool) -> Result<Done> {
         let axis = stoppable_axis(cmd);
         match (self.pac.transact_with(cmd, observe), axis) {
             (Ok(done), _) => Ok(done),
             (Err(PacError::Abandoned { .. }), Some(axis)) => Err(Error::Interrupted(self.halt_axis(axis))),
-            (Err(e @ PacError::Session(_)), Some(axis)) if self.pac.busy_command().is_some() => {
+            // Running (BE = 0 seen), or its acknowledge lost or garbled: the
+            // axis may be moving. A refusal (QUIT) moved nothing.
+            (Err(e @ PacError::Session(_)), Some(axis))
+                if self.pac.busy_command().is_some()
+                    || matches!(
+                        e,
+                        PacError::Session(SessionError::Timeout { .. } | SessionError::Malformed { .. })
+                    ) =>
+            {
                 let context = self.halt_axis(axis).to_string();
                 Err(Error::Stopped { context, source: Box::new(e.into()) })
             }

@@ -48,6 +48,8 @@ impl Rig {
 struct Fake {
     status: u16,
     silent: Vec<u16>,
+    /// Codes answered with BE = 0 (still running); polls are never answered.
+    running: Vec<u16>,
     seen: Arc<Mutex<Vec<u16>>>,
     decoder: CommandDecoder,
 }
@@ -61,7 +63,7 @@ impl ByteDevice for Fake {
             if !self.silent.contains(&command.code) {
                 let ack = Ack {
                     quit: 0,
-                    be: true,
+                    be: !self.running.contains(&command.code),
                     status: self.status,
                     error: 0,
                     // In the command's own type, as the controller answers.
@@ -78,9 +80,19 @@ impl ByteDevice for Fake {
 }
 
 fn fake(status: u16, silent: &[u16]) -> (Controller, Arc<Mutex<Vec<u16>>>) {
+    fake_running(status, silent, &[])
+}
+
+fn fake_running(status: u16, silent: &[u16], running: &[u16]) -> (Controller, Arc<Mutex<Vec<u16>>>) {
     let clock = VirtualClock::new();
     let seen = Arc::new(Mutex::new(Vec::new()));
-    let dev = Fake { status, silent: silent.to_vec(), seen: Arc::clone(&seen), decoder: CommandDecoder::new() };
+    let dev = Fake {
+        status,
+        silent: silent.to_vec(),
+        running: running.to_vec(),
+        seen: Arc::clone(&seen),
+        decoder: CommandDecoder::new(),
+    };
     let clock: Arc<dyn Clock> = Arc::new(clock);
     let link = MemByteLink::new(Box::new(dev), Arc::clone(&clock));
     let mut pac = Pac::new(Box::new(link), 9600, SerialFormat::F7N1).with_clock(clock);
@@ -364,4 +376,104 @@ fn halt_all_online_without_known_axes_sends_stop() {
     assert_eq!(targets(&steps), [HaltTarget::Controller]);
     assert_eq!(steps[0].result.as_deref().unwrap(), "online, no axes known: STOP (0600) sent");
     assert_eq!(codes(&seen), [0x190B, 0x0600]);
+}
+
+// The axis to stop is the one a start-and-wait motion command (0A84, 0A87,
+// 0A89) names; start-and-return moves, stops and reads name none.
+#[test]
+fn only_start_and_wait_motion_names_an_axis_to_stop() {
+    let cmd = |code, par1| Command::new(code, par1, Par2::Float(0.0));
+    assert_eq!(stoppable_axis(&cmd(0x0A84, 2)), Some(2));
+    assert_eq!(stoppable_axis(&cmd(0x0A87, 3)), Some(3));
+    assert_eq!(stoppable_axis(&cmd(0x0A94, 2)), None, "returns at once: nothing to follow");
+    assert_eq!(stoppable_axis(&cmd(0x0A93, 2)), None, "the stop itself");
+    assert_eq!(stoppable_axis(&cmd(0x190C, 2)), None, "a read");
+    assert_eq!(stoppable_axis(&cmd(0x0A84, 300)), None, "no such axis");
+}
+
+// A stop after a refused exchange still carries the controller's QUIT.
+#[test]
+fn a_stopped_error_keeps_the_refusal_of_its_cause() {
+    let rig = Rig::new(2);
+    let mut ctl = rig.controller();
+    online(&mut ctl, 1);
+    let e = ctl.start_move(1, 99_999.0, false, false).unwrap_err();
+    let refusal = e.refusal();
+    assert!(refusal.is_some(), "{e:?}");
+    let stopped = Error::Stopped { context: "axis 1 stopped".into(), source: Box::new(e) };
+    assert_eq!(stopped.refusal(), refusal);
+}
+
+// A move that never shows as started (status 0 far from the target at every
+// look) ends the wait only after a grace of four polls.
+#[test]
+fn a_wait_that_never_sees_the_move_ends_after_four_polls() {
+    let (mut ctl, _) = fake(31, &[]);
+    let poll = Duration::from_millis(50);
+    let mut looks = 0;
+    let end = ctl
+        .wait_move(1, 100.0, poll, Duration::from_secs(60), &mut |_| {
+            looks += 1;
+            true
+        })
+        .unwrap();
+    assert!(end.elapsed >= poll * 4, "{end:?}");
+    assert!(looks >= 5, "{looks} looks");
+}
+
+// Standing at the target (within 1e-6 of it, relative) ends the wait at the
+// first look, before any grace.
+#[test]
+fn a_wait_on_an_axis_standing_at_its_target_ends_at_the_first_look() {
+    let rig = Rig::new(2);
+    let mut ctl = rig.controller();
+    online(&mut ctl, 1);
+    for target in [100.0, 100.0 + 5e-5] {
+        let mut looks = 0;
+        let end = ctl
+            .wait_move(1, target, Duration::from_millis(50), Duration::from_secs(60), &mut |_| {
+                looks += 1;
+                true
+            })
+            .unwrap();
+        assert_eq!((looks, end.status), (1, 0), "axis 1 stands at 100 after power-up; target {target}");
+    }
+}
+
+// A move seen running ends the wait as soon as the axis stands, wherever it
+// stands (a stop, a limit): no grace is waited out.
+#[test]
+fn a_move_seen_running_ends_the_wait_when_the_axis_stands() {
+    let rig = Rig::new(2);
+    let mut ctl = rig.controller();
+    online(&mut ctl, 1);
+    ctl.start_move(1, 150.0, true, true).unwrap();
+    let mut looks = 0;
+    let end = ctl
+        .wait_move(1, 9_000.0, Duration::from_secs(5), Duration::from_secs(600), &mut |_| {
+            looks += 1;
+            true
+        })
+        .unwrap();
+    assert!((end.position - 250.0).abs() < 1e-6, "{end:?}");
+    assert_eq!(looks, 2, "moving at the first look, standing at the second");
+}
+
+// A reference drive (0A84, start and wait) that stops answering while it
+// runs, or whose acknowledge never comes, may be moving: its axis is
+// stopped (0A93) before the error. A refusal moved nothing: no stop.
+#[test]
+fn a_followed_motion_that_loses_its_answers_is_stopped_and_a_refused_one_is_not() {
+    let reference = Command::new(0x0A84, 2, Par2::Int(0));
+    for (silent, running) in [(&[][..], &[0x0A84][..]), (&[0x0A84][..], &[][..])] {
+        let (mut ctl, seen) = fake_running(31, silent, running);
+        let e = ctl.follow(&reference, &mut |_| true).unwrap_err();
+        assert!(matches!(e, Error::Stopped { .. }), "silent {silent:04X?}, running {running:04X?}: {e:?}");
+        assert_eq!(codes(&seen).last(), Some(&0x0A93), "{:04X?}", codes(&seen));
+    }
+    let rig = Rig::new(2);
+    let mut ctl = rig.controller();
+    ctl.online().unwrap();
+    let e = ctl.follow(&Command::new(0x0A84, 9, Par2::Int(0)), &mut |_| true).unwrap_err();
+    assert!(matches!(e, Error::Session(SessionError::Device { .. })), "axis 9 is unknown: {e:?}");
 }

@@ -368,3 +368,64 @@ fn a_failed_wait_of_a_synchronized_move_halts_the_other_modules() {
         assert!(cube & state::HALTED != 0 && vel == 0.0, "module {m} halted with the move: {cube:#x}");
     }
 }
+
+/// A link that loses every acknowledge of one module (the requests arrive).
+struct LosesAcksOf {
+    inner: Recording,
+    module: u8,
+}
+
+impl CanLink for LosesAcksOf {
+    fn send(&mut self, frame: &CanFrame) -> Result<(), LinkError> {
+        self.inner.send(frame)
+    }
+    fn send_many(&mut self, frames: &[CanFrame]) -> Result<(), LinkError> {
+        self.inner.send_many(frames)
+    }
+    fn recv(&mut self, timeout: Duration) -> Result<Option<CanFrame>, LinkError> {
+        let frame = self.inner.recv(timeout)?;
+        let lost = frame.as_ref().is_some_and(
+            |f| matches!(classify(f), Ok(Some(CanMessage::Ack { module, .. })) if module.get() == self.module),
+        );
+        Ok(if lost { None } else { frame })
+    }
+}
+
+fn homes_and_halts(sent: &[CanMessage]) -> (usize, usize) {
+    let count = |s: Simple| {
+        sent.iter().filter(|m| matches!(m, CanMessage::Request { request, .. } if *request == s.request())).count()
+    };
+    (count(Simple::Home), count(Simple::Halt))
+}
+
+#[test]
+fn a_supervised_home_is_sent_once_and_a_lost_acknowledge_halts_the_module() {
+    let mut r = rig();
+    r.cubes.home_supervised(id(3), 2).unwrap();
+    assert_eq!(homes_and_halts(&r.take_sent()), (1, 0));
+
+    let r = rig();
+    let shared: Arc<dyn Clock> = Arc::new(r.clock.clone());
+    let inner = Recording { inner: Box::new(r.bench.bus.open()), sent: Arc::clone(&r.sent) };
+    let mut cubes = Cubes::new(PowerCube::over_can(Box::new(LosesAcksOf { inner, module: 3 })).with_clock(shared));
+    let e = cubes.home_supervised(id(3), 2).unwrap_err();
+    assert!(matches!(&e, Error::MotionUnconfirmed { module, halt_failed: Some(_), .. } if module.get() == 3), "{e:?}");
+    assert_eq!(homes_and_halts(&r.take_sent()), (1, 2), "Home never again, Halt until its attempts are used up");
+    assert_ne!(r.module(3).0 & state::HALTED, 0, "the Halts reached the module");
+}
+
+// Online / offline is the enable flag (read back through the config), never
+// a blind 0x07 toggle.
+#[test]
+fn watchdog_on_sets_its_enable_flag_and_off_clears_it() {
+    let mut r = rig();
+    let flag = |r: &mut Rig| r.cubes.get_u32(id(5), ids::CONFIG).unwrap() & config::WATCHDOG_ENABLE != 0;
+    r.cubes.watchdog_off(id(5)).unwrap();
+    assert!(!flag(&mut r));
+    assert!(!r.cubes.watchdog_off(id(5)).unwrap(), "already off: nothing written");
+    assert!(r.cubes.watchdog_on(id(5)).unwrap());
+    assert!(flag(&mut r));
+    assert!(!r.cubes.watchdog_on(id(5)).unwrap(), "already on: no second toggle");
+    assert!(r.cubes.watchdog_off(id(5)).unwrap());
+    assert!(!flag(&mut r));
+}

@@ -293,6 +293,15 @@ mod tests {
         assert_eq!(dout.handle(&answer("181#1100000500000000")), Verdict::Reply);
     }
 
+    // A code the table does not know is answered by the same code.
+    #[test]
+    fn an_unknown_code_is_matched_by_its_code() {
+        let raw = Exchange::new(node1(), m(0), data("201#3E00000000000000"));
+        assert!(table::command_for(0x3E, 0).is_none());
+        assert_eq!(raw.handle(&answer("181#3E00000000000000")), Verdict::Reply);
+        assert_eq!(raw.handle(&answer("181#2100000000000000")), Verdict::OtherCommand);
+    }
+
     #[test]
     fn waits_follow_the_confirm_setting() {
         let t = Duration::from_millis(100);
@@ -312,6 +321,7 @@ mod tests {
         assert!(!Burst::pipelinable(&reads[..1]));
         assert!(!Burst::pipelinable(&[reads[0], reads[0]]));
         let mut b = Burst::new(node1(), m(0), &reads);
+        assert_eq!(b.pending(), 2);
         assert_eq!(
             b.frames().map(|f| f.to_string()).collect::<Vec<_>>(),
             ["201#2100000000000000", "201#2600000000000000"]
@@ -322,6 +332,7 @@ mod tests {
         assert_eq!(b.handle(&answer("181#2101000900000000")), Settled::OtherTarget);
         assert_eq!(b.pending(), 1);
         assert_eq!(b.handle(&answer("181#210000B0FBFFFF00")), Settled::Read(0));
+        assert_eq!(b.pending(), 0);
         let got = b.into_replies();
         assert_eq!(got[0].as_ref().unwrap().get("position"), Some(-1104));
     }

@@ -227,6 +227,7 @@ mod tests {
         let mut t = Transaction::new(Command::new(0x0A87, 2, Par2::Float(5552.0)));
         assert!(t.def().unwrap().is_start_and_wait());
         assert_eq!(t.request().unwrap(), b"\x01\x020A87;2;1;5552.0\x0395\x04");
+        assert!(!t.is_busy(), "sent, no acknowledge yet: not busy");
         assert!(t.allows(Outgoing::Poll));
         assert!(!t.allows(Outgoing::Command(&Command::new(0x190B, 0, Par2::Int(0)))));
         let answers = [
@@ -253,6 +254,7 @@ mod tests {
         assert_eq!(t.polls(), 3);
         assert_eq!(t.state(), State::Done);
         assert!(t.allows(Outgoing::Command(&other)));
+        assert!(!t.is_busy(), "finished: no longer busy");
         assert_eq!(t.handle_ack(ack), Err(TransactionError::AlreadyDone));
     }
 
