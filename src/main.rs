@@ -54,6 +54,13 @@ fn main() -> ExitCode {
         },
         Err(e) if is_broken_pipe(&e) => ExitCode::SUCCESS,
         Err(e) => {
+            // An interruption that no signal caused came from a failed
+            // output or a panic (also one before the motion frame left, so
+            // nothing was sent): said and exited as such, 1, not 130.
+            let e = match (commands::classify(&e), supervisor::caught()) {
+                (ErrorKind::Interrupted, None) => commands::stopped_by_output(e),
+                _ => e,
+            };
             let kind = commands::classify(&e);
             // A supervised motion that a signal ended exits like the signal
             // would have (130 SIGINT, 143 SIGTERM, 129 SIGHUP, 131 SIGQUIT).

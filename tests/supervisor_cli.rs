@@ -455,3 +455,19 @@ fn pac_a_signal_during_the_checks_before_the_move_sends_no_move() {
     let sent_move = r.stderr.lines().any(|l| l.starts_with("-> ") && l.contains("0A94"));
     assert!(!sent_move, "the move went out: {}", r.stderr);
 }
+
+/// The same on Cdios: the signal comes during the 100 ms the node is given
+/// to settle after its NMT start, before the goto; no goto goes out.
+#[test]
+fn cdios_a_signal_while_the_node_starts_sends_no_goto() {
+    let s = Sim::start(&["--cdios", "pty-slcan"], 1);
+    let link = s.link("cdios");
+    let on = run_bounded(&["--link", link, "cdios-enable", "-m", "0"]);
+    assert_eq!(on.code, 0, "{}", on.stderr);
+    let args = ["--link", link, "cdios-goto", "-m", "0", "1000000", "--wait"];
+    let r = signal_when(&args, "NMT start", Duration::from_millis(20), libc::SIGINT);
+    assert_eq!((r.code, r.killed_by), (130, None), "{}", r.stderr);
+    assert!(r.stderr.contains("nothing moved"), "{}", r.stderr);
+    let sent_goto = r.stderr.lines().any(|l| l.starts_with("-> ") && l.contains("goto"));
+    assert!(!sent_goto, "the goto went out: {}", r.stderr);
+}

@@ -83,7 +83,7 @@ struct Family {
 }
 
 fn cube_stands(link: &str) -> bool {
-    let (code, out) = quiet(&["--link", link, "--json", "state", "-m", "3"]);
+    let (code, out) = quiet(&["--link", link, "--timeout", "2000", "--json", "state", "-m", "3"]);
     let v: serde_json::Value = serde_json::from_str(&out).unwrap_or_default();
     code == 0 && v["state"]["raw"].as_u64().is_some_and(|raw| raw & 0x800 == 0)
 }
@@ -95,7 +95,10 @@ fn pac_stands(link: &str) -> bool {
 }
 
 fn cdios_stands(link: &str) -> bool {
-    let (code, out) = quiet(&["--link", link, "--json", "cdios-status", "-m", "0"]);
+    // A long timeout: a late answer (the simulator delays 30 % of them)
+    // must not be taken for a device that does not answer, nor a failed
+    // read for a moving motor.
+    let (code, out) = quiet(&["--link", link, "--timeout", "2000", "--json", "cdios-status", "-m", "0"]);
     let v: serde_json::Value = serde_json::from_str(&out).unwrap_or_default();
     let flags = v["state"]["flags"].to_string();
     code == 0 && v["state"]["flags"].is_array() && !flags.contains("GOTO_ACTIVE") && !flags.contains("RUNNING")

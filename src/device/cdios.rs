@@ -183,6 +183,9 @@ impl Node {
     /// stopped (up to `stop_attempts` times) before the error is returned.
     /// An error reply from the node needs no stop.
     pub fn send_supervised(&mut self, m: ModuleId, cmds: &[Command], stop_attempts: u32) -> Result<bool, Error> {
+        // The node's start (NMT and its settle time) comes first: a signal
+        // during it means the motion is not sent at all.
+        self.s.start_node(self.node)?;
         if supervisor::stop_requested() {
             return Err(Error::InterruptedBefore { node: self.node, module: m });
         }
