@@ -371,4 +371,25 @@ mod tests {
         note_log_failure(&std::io::Error::other("later"));
         assert_eq!(log_failure().as_deref(), Some("no space left"), "the first error is kept");
     }
+
+    // A process started with stdin closed gets fd 0 for the wake pipe's read
+    // end; that is a real descriptor, so a signal must still cut the sleep short.
+    #[test]
+    fn a_wake_pipe_on_fd_0_still_wakes_the_sleep() {
+        if !in_child("a_wake_pipe_on_fd_0_still_wakes_the_sleep") {
+            return;
+        }
+        // SAFETY: nothing in this child reads stdin.
+        assert_eq!(unsafe { libc::close(0) }, 0);
+        arm().unwrap();
+        assert_eq!(WAKE_READ.load(Ordering::SeqCst), 0, "pipe2 took the lowest free descriptor");
+        let catcher = signal_catcher();
+        std::thread::spawn(move || {
+            std::thread::sleep(Duration::from_millis(100));
+            send(catcher, libc::SIGTERM);
+        });
+        let d = took(|| sleep(Duration::from_secs(15)));
+        assert!(d < Duration::from_secs(10), "the signal woke the sleep: {d:?}");
+        assert_eq!(caught(), Some(libc::SIGTERM));
+    }
 }

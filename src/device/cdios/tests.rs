@@ -240,6 +240,26 @@ fn a_goto_wait_ends_when_the_motor_seen_running_stands_short_of_the_target() {
     assert!(stopped && end.position < 500_000, "{end:?}");
 }
 
+// A motor never seen running that stands away from its setpoint (pushed
+// while disabled, so nothing brings it back) has not reached its goto: the
+// wait runs to its timeout instead of taking that position for the target.
+#[test]
+fn a_wait_on_a_motor_never_seen_running_away_from_its_setpoint_times_out() {
+    let mut r = rig();
+    r.node.send(id(0), &[Command::SetPosition { position: 10_000 }]).unwrap();
+    lock(&r.bench.cdios).module_mut(0).unwrap().push(20_000.0);
+    assert_eq!(r.node.position(id(0), PositionSource::Setpoint).unwrap(), 10_000);
+    assert_eq!(r.node.position(id(0), PositionSource::Current).unwrap(), 30_000);
+    let tolerance = r.node.positioning_error(id(0)).unwrap();
+    assert!((3..20_000).contains(&tolerance), "between the ratio 3 and the distance 20000: {tolerance}");
+    let spec = WaitSpec { timeout: Duration::from_secs(2), ..wait_spec() };
+    let mut looks = 0;
+    let e = r.node.wait(id(0), Goal::Goto, spec, &|| false, &mut |_, _| looks += 1).unwrap_err();
+    assert!(matches!(e, Error::Session(SessionError::Timeout { .. })), "{e:?}");
+    assert!(looks > 1, "{looks} looks");
+    assert!(!r.motor(0).0);
+}
+
 // A trajectory has no target to compare with: it ends when the motor, seen
 // running, stands again.
 #[test]

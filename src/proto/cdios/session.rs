@@ -336,4 +336,45 @@ mod tests {
         let got = b.into_replies();
         assert_eq!(got[0].as_ref().unwrap().get("position"), Some(-1104));
     }
+
+    // A burst settles only a reply that decodes with its command's row. The
+    // confirmation of 20h (set servo speeds) names it by its code, but with
+    // 80h in the selector byte it decodes as the read of the servo speeds:
+    // that is not this set's confirmation, so it goes again on its own.
+    #[test]
+    fn a_burst_leaves_a_reply_that_decodes_with_another_row() {
+        let cmds = [data("201#2100000000000000"), data("201#2000000000000000")];
+        assert!(Burst::pipelinable(&cmds));
+        let mut b = Burst::new(node1(), m(0), &cmds);
+        let odd = answer("181#2000800000000000");
+        assert!(is_reply_to(&odd, &cmds[1]), "it names the set");
+        assert_eq!(b.handle(&odd), Settled::LeftForSingle);
+        assert_eq!(b.pending(), 2);
+        assert_eq!(b.handle(&answer("181#2000000000000000")), Settled::Read(1));
+        assert_eq!(b.pending(), 1);
+    }
+
+    // Why `Exchange::handle` never finds a read's reply malformed with the
+    // table as it is: every reply that names a read (its code, and its
+    // selector where echoed) decodes with that read's layout. The guard
+    // only matters for a row added that breaks this, and then this fails.
+    #[test]
+    fn every_reply_that_names_a_read_decodes_with_its_layout() {
+        for c in table::COMMANDS {
+            for sel in (0..=255u8).filter(|&s| c.selector(s).is_some()) {
+                let cmd = [c.code, 0, sel, 0, 0, 0, 0, 0];
+                let read = Exchange::new(node1(), m(0), cmd);
+                if !read.is_read() {
+                    continue;
+                }
+                let code = table::command_for(c.code, sel).unwrap().reply.code;
+                for echoed in 0..=255u8 {
+                    let a = Answer::from_data(node1(), &[code, 0, echoed, 0, 0, 0, 0, 0]).unwrap();
+                    if is_reply_to(&a, &cmd) {
+                        assert_eq!(read.handle(&a), Verdict::Reply, "{} {sel:#04x}: {:02x?}", c.key, a.data);
+                    }
+                }
+            }
+        }
+    }
 }
