@@ -161,3 +161,59 @@ fn errors_to_a_broken_stderr_keep_their_exit_code() {
         }
     }
 }
+
+/// Every `--link sim` example of docs/json*.md (every command that has
+/// one, far more than the list above), in its JSON and its human form: run
+/// normally, then into a full disk, then into a reader that is gone. No run
+/// may panic; a run that printed and succeeded must fail with exit 1 on the
+/// full disk and end quietly (exit 0) on the closed pipe.
+#[test]
+fn every_documented_sim_example_survives_a_full_disk_and_a_closed_pipe() {
+    let docs = concat!(env!("CARGO_MANIFEST_DIR"), "/docs");
+    let mut lines: Vec<String> = Vec::new();
+    for entry in std::fs::read_dir(docs).unwrap() {
+        let path = entry.unwrap().path();
+        if !path.file_name().unwrap().to_string_lossy().starts_with("json") {
+            continue;
+        }
+        let text = std::fs::read_to_string(&path).unwrap();
+        lines.extend(text.lines().filter_map(|l| l.strip_prefix("$ axisctl --link sim ")).map(str::to_string));
+    }
+    assert!(lines.len() > 50, "found only {} examples", lines.len());
+    let mut checked = 0;
+    for line in &lines {
+        let words: Vec<&str> = line.split_whitespace().collect();
+        let human: Vec<&str> = words.iter().copied().filter(|w| *w != "--json").collect();
+        for args in [&words, &human] {
+            let run = |stdout: Stdio| {
+                let mut c = common::bin();
+                c.args(["--link", "sim"]).args(args.iter()).stdout(stdout).stderr(Stdio::piped());
+                c
+            };
+            let normal = run(Stdio::piped()).output().unwrap();
+            let code = normal.status.code().unwrap_or(-1);
+            assert_ne!(code, 101, "{args:?}: {}", String::from_utf8_lossy(&normal.stderr));
+            let (full, full_err) = stderr_of(run(dev_full()).spawn().unwrap());
+            assert_ne!(full, 101, "{args:?} > /dev/full: {full_err}");
+            let mut child = run(Stdio::piped()).spawn().unwrap();
+            drop(child.stdout.take());
+            let (closed, closed_err) = stderr_of(child);
+            assert_ne!(closed, 101, "{args:?} | closed: {closed_err}");
+            if code == 0 && !normal.stdout.is_empty() {
+                assert_eq!(full, 1, "{args:?} > /dev/full: {full_err}");
+                if args.contains(&"--wait") || args.contains(&"keepalive") {
+                    // A supervised motion (or the watchdog keep-alive) whose
+                    // output cannot be written is stopped (docs/safety.md
+                    // § 5): exit 1 saying so, or 0 if nothing was written
+                    // before it ended.
+                    let halted = closed == 1 && closed_err.contains("so the motion was stopped");
+                    assert!(closed == 0 || halted, "{args:?} | closed: {closed} {closed_err}");
+                } else {
+                    assert_eq!(closed, 0, "{args:?} | closed: {closed_err}");
+                }
+                checked += 1;
+            }
+        }
+    }
+    assert!(checked > 50, "only {checked} examples printed and succeeded");
+}
