@@ -238,6 +238,21 @@ pub fn current_target() -> Option<serde_json::Map<String, serde_json::Value>> {
     TARGET.lock().ok().and_then(|t| t.clone())
 }
 
+static LINK: std::sync::Mutex<Option<String>> = std::sync::Mutex::new(None);
+
+/// Records the link as given (`--link` or `AXISCTL_LINK`) for the error
+/// object, which names it like every device document does.
+pub fn set_link(link: &str) {
+    if let Ok(mut l) = LINK.lock() {
+        *l = (!link.is_empty()).then(|| link.to_string());
+    }
+}
+
+/// The link [`set_link`] recorded, if one was given.
+pub fn current_link() -> Option<String> {
+    LINK.lock().ok().and_then(|l| l.clone())
+}
+
 /// `{"value": v, "unit": "m"}`: a number with the manual's unit (`""` for
 /// none), the one value shape of every family.
 pub fn with_unit(value: serde_json::Value, unit: &str) -> serde_json::Value {

@@ -105,6 +105,7 @@ fn other_errors_carry_the_address_but_no_device_object() {
 fn link_errors_under_json() {
     let e = error_with(&["--link", "serial:/dev/axisctl-none", "--json", "state", "-m", "3"], 3);
     assert_eq!(e["kind"], "link");
+    assert_eq!(e["link"], "serial:/dev/axisctl-none", "the error names the link: {e}");
     assert!(e["message"].as_str().unwrap().contains("/dev/axisctl-none"), "{e}");
     let r = common::bin().env_remove("AXISCTL_LINK").args(["--json", "state", "-m", "3"]).output().unwrap();
     assert_eq!(r.status.code(), Some(2));

@@ -18,6 +18,9 @@ pub fn failure(kind: &str, exit_code: u8, message: String, refusal: Option<&Refu
     if let Some(target) = output::current_target() {
         error.extend(target);
     }
+    if let Some(link) = output::current_link() {
+        error.insert("link".into(), link.into());
+    }
     if let Some(r) = refusal {
         error.insert("device".into(), device(r));
     }

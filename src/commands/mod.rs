@@ -171,6 +171,7 @@ pub struct Ctx {
 
 impl Ctx {
     fn resolve(g: &Global) -> anyhow::Result<Self> {
+        crate::output::set_link(g.link.as_deref().unwrap_or_default());
         let link = g.link.as_deref().map(str::parse::<LinkSpec>).transpose()?;
         let clock: Arc<dyn Clock> = Arc::new(SystemClock);
         let opener = Opener::new(Arc::clone(&clock)).with_log(g.log.clone()).with_wire_speed(WireSpeed::from_env());
