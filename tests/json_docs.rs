@@ -6,19 +6,7 @@ mod common;
 
 use serde_json::Value;
 
-/// A validator for one definition of the published schema.
-fn schema(def: &str) -> jsonschema::Validator {
-    let text = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/schema/axisctl.schema.json")).unwrap();
-    let mut root: Value = serde_json::from_str(&text).expect("the schema is JSON");
-    root.as_object_mut().unwrap().remove("oneOf");
-    root["$ref"] = Value::from(format!("#/$defs/{def}"));
-    jsonschema::validator_for(&root).unwrap_or_else(|e| panic!("schema: {e}"))
-}
-
-fn schema_errors(v: &jsonschema::Validator, doc: &Value) -> Option<String> {
-    let errors: Vec<String> = v.iter_errors(doc).map(|e| format!("{} at {}", e, e.instance_path())).collect();
-    (!errors.is_empty()).then(|| errors.join("\n"))
-}
+use common::{schema, schema_errors};
 
 /// (command line, documented JSON) pairs of one markdown file.
 fn examples(md: &str) -> Vec<(String, String)> {

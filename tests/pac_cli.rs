@@ -302,7 +302,7 @@ fn sim_online_reference_and_move_with_live_position() {
         .stderr
         .lines()
         .filter_map(|l| serde_json::from_str::<serde_json::Value>(l).ok())
-        .filter_map(|v| v["progress"]["position"].as_f64())
+        .filter_map(|v| v["progress"]["position"]["value"].as_f64())
         .collect();
     let distinct: std::collections::BTreeSet<i64> = positions.iter().map(|p| (p * 1000.0) as i64).collect();
     assert!(distinct.len() >= 3, "several live positions: {positions:?}");

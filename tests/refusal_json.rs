@@ -9,11 +9,7 @@ use serde_json::{json, Value};
 
 /// The published schema's error document.
 fn error_schema() -> jsonschema::Validator {
-    let text = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/schema/axisctl.schema.json")).unwrap();
-    let mut root: Value = serde_json::from_str(&text).unwrap();
-    root.as_object_mut().unwrap().remove("oneOf");
-    root["$ref"] = json!("#/$defs/error_document");
-    jsonschema::validator_for(&root).unwrap()
+    common::schema("error_document")
 }
 
 /// The error object of a failed run: alone on stderr, nothing on stdout,

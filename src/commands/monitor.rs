@@ -48,6 +48,8 @@ struct Printer<'a> {
     ctx: &'a Ctx,
     candump: bool,
     iface: String,
+    /// The link listened on, for the envelope; `None` for a log replay.
+    link: Option<&'a str>,
     out: std::io::StdoutLock<'static>,
 }
 
@@ -64,6 +66,9 @@ impl Printer<'_> {
             // `error` is kept for the error object (`jq -e .error`).
             if let Some(e) = v.as_object_mut().and_then(|o| o.remove("error")) {
                 v["decode_error"] = e;
+            }
+            if let Some(link) = self.link {
+                v["link"] = json!(link);
             }
             v["timestamp"] = json!(ts);
             v["frame"] = json!(f.to_string());
@@ -100,7 +105,8 @@ pub fn run(ctx: &Ctx, a: &MonitorArgs) -> anyhow::Result<()> {
     let mut shown = 0u64;
     let limit = a.count.unwrap_or(u64::MAX);
     let iface = ctx.link.as_ref().map_or_else(|| "can0".to_string(), axisctl::link::log::log_iface);
-    let mut p = Printer { ctx, candump: a.candump, iface, out: std::io::stdout().lock() };
+    let link = a.from_log.is_none().then_some(ctx.link_text.as_str());
+    let mut p = Printer { ctx, candump: a.candump, iface, link, out: std::io::stdout().lock() };
     let mut handle = |ts: f64, f: &CanFrame, p: &mut Printer| -> anyhow::Result<bool> {
         let info = describe(f);
         if filter.pass(f, &info) {

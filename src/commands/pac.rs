@@ -264,20 +264,25 @@ fn reset_error(ctx: &Ctx, d: &mut Controller) -> anyhow::Result<()> {
 struct Reporter {
     bar: Option<indicatif::ProgressBar>,
     json: bool,
+    link: String,
 }
 
 impl Reporter {
     fn new(ctx: &Ctx, wait: &PacWait) -> Self {
         let bar = crate::output::spinner(ctx.json);
-        Self { bar, json: wait.progress_json }
+        Self { bar, json: wait.progress_json, link: ctx.link_text.clone() }
     }
 
-    fn report(&self, doc: serde_json::Value, text: String) {
+    /// One poll: the spinner's text, and with `--progress-json` a line on
+    /// stderr about the axis in the contract's envelope.
+    fn report(&self, axis: u8, body: serde_json::Value, text: String) {
         if let Some(bar) = &self.bar {
             bar.set_message(text);
             bar.tick();
         }
         if self.json {
+            let envelope = crate::output::envelope(Family::Pac, &self.link, &[("axis", axis.into())]);
+            let doc = crate::output::device_doc(envelope, body);
             crate::output::err_line(format_args!("{}", json!({ "progress": doc })));
         }
     }
@@ -334,7 +339,8 @@ fn move_axis(
     let result = d.wait_move(axis, target, poll, limit, &mut |p| {
         let (position, status) = (p.position, p.status);
         reporter.report(
-            json!({"axis": axis, "position": position, "axis_status": status,
+            axis,
+            json!({"position": crate::output::with_unit(json!(position), "AE"), "axis_status": status,
                    "elapsed_ms": p.elapsed.as_millis() as u64}),
             format!("axis {axis} -> {target}: position {position:.3}  {}", table::axis_status_text(status)),
         );
@@ -392,7 +398,8 @@ fn reference(ctx: &Ctx, d: &mut Controller, axis: u8, wait: PacWait) -> anyhow::
     let result = d.reference(axis, poll, limit, &mut |p: &Progress| {
         // 0A84's acknowledge date has no meaning (5.2.6.3): only time shows.
         reporter.report(
-            json!({"axis": axis, "polls": p.polls, "done": p.ack.be, "operating_status": p.ack.status,
+            axis,
+            json!({"polls": p.polls, "done": p.ack.be, "operating_status": p.ack.status,
                    "elapsed_ms": p.elapsed.as_millis() as u64}),
             format!("axis {axis}: reference drive, {} poll(s)", p.polls),
         );

@@ -56,14 +56,19 @@ pub fn family_name(family: Option<Family>) -> &'static str {
     family.map_or("other", Family::name)
 }
 
+/// In JSON a frame of no known family has `"family": null`: the key is the
+/// contract's envelope, whose family is one of the registry's names.
 fn serialize_family<S: serde::Serializer>(f: &Option<Family>, s: S) -> Result<S::Ok, S::Error> {
-    s.serialize_str(family_name(*f))
+    match f {
+        Some(f) => s.serialize_str(f.name()),
+        None => s.serialize_none(),
+    }
 }
 
 /// One decoded frame.
 #[derive(Debug, Clone, Serialize)]
 pub struct FrameInfo {
-    /// `None` for a frame of no known family (`"other"` in JSON).
+    /// `None` for a frame of no known family (`null` in JSON, `other` in text).
     #[serde(serialize_with = "serialize_family")]
     pub family: Option<Family>,
     /// request, ack, broadcast, nmt, command, reply, event, error or raw.
@@ -308,7 +313,7 @@ mod tests {
         assert_eq!(d("000#0101").kind, "nmt");
         assert_eq!(d("7FF#00").family, None);
         assert_eq!(d("12345678#00").family, None);
-        assert_eq!(serde_json::to_value(d("7FF#00")).unwrap()["family"], "other");
+        assert_eq!(serde_json::to_value(d("7FF#00")).unwrap()["family"], serde_json::Value::Null);
         let bad = d("0B1#0B");
         assert!(bad.error.is_some(), "a truncated ack is an error of its family");
     }

@@ -79,3 +79,19 @@ impl Drop for Sim {
         let _ = self.child.wait();
     }
 }
+
+/// A validator for one definition of the published schema
+/// (schema/axisctl.schema.json), e.g. `document`, `error_document`, `stream_line`.
+pub fn schema(def: &str) -> jsonschema::Validator {
+    let text = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/schema/axisctl.schema.json")).unwrap();
+    let mut root: serde_json::Value = serde_json::from_str(&text).expect("the schema is JSON");
+    root.as_object_mut().unwrap().remove("anyOf");
+    root["$ref"] = serde_json::Value::from(format!("#/$defs/{def}"));
+    jsonschema::validator_for(&root).unwrap_or_else(|e| panic!("schema: {e}"))
+}
+
+/// Every way `doc` breaks the definition, one per line; `None` when valid.
+pub fn schema_errors(v: &jsonschema::Validator, doc: &serde_json::Value) -> Option<String> {
+    let errors: Vec<String> = v.iter_errors(doc).map(|e| format!("{} at {}", e, e.instance_path())).collect();
+    (!errors.is_empty()).then(|| errors.join("\n"))
+}
