@@ -81,3 +81,22 @@ fn home_all_wait_times_every_module_from_the_broadcast() {
     let ms: Vec<u64> = doc["devices"].as_array().unwrap().iter().map(|d| d["elapsed_ms"].as_u64().unwrap()).collect();
     assert!(ms.iter().all(|&t| t > 0) && ms.windows(2).all(|w| w[1] >= w[0]), "{ms:?}");
 }
+
+// `--node` takes a list as `-m` does: each node's modules are read on one
+// link, in node order. The bench has node 1 only, so node 2 is asked after
+// node 1 answered, and its silence is the command's error.
+#[test]
+fn cdios_reads_take_a_list_of_nodes() {
+    let (ids, doc) = devices(&["--link", "sim", "--json", "cdios-status", "--node", "1,", "-m", "0"], "node");
+    assert_eq!(ids, [1], "a list of one node is still a list: {doc}");
+    let r =
+        run(&["--link", "sim", "--json", "--trace", "--retries", "0", "cdios-position", "--node", "2,1", "-m", "0"]);
+    assert_eq!(r.code, 4, "{}", r.stderr);
+    let asked: Vec<&str> = r.stderr.lines().filter(|l| l.contains("read_position current to")).collect();
+    assert_eq!(asked.len(), 2, "{}", r.stderr);
+    assert!(asked[0].ends_with("to node 1 module 0") && asked[1].ends_with("to node 2 module 0"), "{asked:?}");
+    let error: Value = serde_json::from_str(r.stderr.lines().last().unwrap()).unwrap();
+    assert_eq!((&error["error"]["node"], &error["error"]["module"]), (&2.into(), &0.into()), "{error}");
+    let all = run(&["--link", "sim", "--json", "cdios-status", "--node", "all", "-m", "0"]);
+    assert_eq!(all.code, 2, "{}", all.stderr);
+}

@@ -32,11 +32,38 @@ pub struct ModuleTarget {
     pub module: u8,
 }
 
-/// The 6168 modules a read is about: `-m 0`, `-m 0,1` or `-m all`.
+/// The nodes a read is about: `--node 1` or a list, `--node 1,2`.
+#[derive(Debug, Args, Clone)]
+pub struct NodesArgs {
+    /// Cdios node id (CANopen) 1 to 127, or a list (1,2 or 1-3: the modules of each node); 1 is the factory setting
+    #[arg(long, value_name = "N[,N...]", default_value = "1", value_parser = ids::nodes(CDIOS_NODE))]
+    pub node: ids::Devices,
+    /// Do not send the NMT start (the node is operational already)
+    #[arg(long)]
+    pub no_nmt: bool,
+    /// The controller's 'Confirm' is 0: do not wait for confirmations, only for errors
+    #[arg(long)]
+    pub no_confirm: bool,
+}
+
+impl NodesArgs {
+    /// Each node named, in id order, with the options of this command.
+    pub fn each(&self) -> Vec<NodeArgs> {
+        let ids = match &self.node {
+            ids::Devices::One(n) => vec![*n],
+            ids::Devices::List(l) => l.0.clone(),
+            ids::Devices::All => unreachable!("ids::nodes refuses all"),
+        };
+        ids.into_iter().map(|node| NodeArgs { node, no_nmt: self.no_nmt, no_confirm: self.no_confirm }).collect()
+    }
+}
+
+/// The 6168 modules a read is about: `-m 0`, `-m 0,1` or `-m all`, on one
+/// node or several.
 #[derive(Debug, Args, Clone)]
 pub struct ModulesTarget {
     #[command(flatten)]
-    pub node: NodeArgs,
+    pub node: NodesArgs,
     /// 6168 module id 0..15, a list (0,1 or 0-3: one object per module) or all (every module the node reports)
     #[arg(short, long, value_name = "ID[,ID...]|all", value_parser = ids::devices(CDIOS_MODULE))]
     pub module: ids::Devices,

@@ -68,8 +68,15 @@ pub const EXAMPLES: &[(&str, &[&str])] = &[
     ),
     ("monitor", &["--link slcan:/dev/ttyACM0 monitor -m 3,5", "monitor --from-log bus.log --family powercube --stats"]),
     ("cdios-identify", &["--link sim cdios-identify", "--link sim cdios-identify --node 2"]),
-    ("cdios-status", &["--link sim cdios-status -m 0", "--link sim --json cdios-status -m 1 --node 1"]),
-    ("cdios-position", &["--link sim cdios-position -m 0", "--link sim cdios-position -m 0 --all"]),
+    ("cdios-status", &["--link sim cdios-status -m 0", "--link sim --json cdios-status -m all --node 1"]),
+    (
+        "cdios-position",
+        &[
+            "--link sim cdios-position -m 0",
+            "--link sim cdios-position -m 0 --all",
+            "--link slcan:/dev/ttyACM0 cdios-position --node 1,2 -m 0,1",
+        ],
+    ),
     ("cdios-set-position", &["--link sim cdios-set-position -m 0 -1200"]),
     (
         "cdios-goto",

@@ -122,6 +122,16 @@ pub fn devices(range: IdRange) -> impl Fn(&str) -> Result<Devices, String> + Clo
     }
 }
 
+/// A clap parser for the nodes of a read: one id or a list. `all` would
+/// mean asking each of 127 node ids on the bus, which is a scan, not a read.
+pub fn nodes(range: IdRange) -> impl Fn(&str) -> Result<Devices, String> + Clone + Send + Sync + 'static {
+    let devices = devices(range);
+    move |text| match devices(text)? {
+        Devices::All => Err(format!("name the {} (e.g. 1 or 1,2); all is not supported", range.what)),
+        d => Ok(d),
+    }
+}
+
 /// A clap parser for a non-empty list of ids of `range`.
 pub fn list(range: IdRange) -> impl Fn(&str) -> Result<IdList, String> + Clone + Send + Sync + 'static {
     move |text| parse_list(text, range, false)

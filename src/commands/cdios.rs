@@ -207,30 +207,40 @@ fn status(ctx: &Ctx, t: ModulesTarget) -> anyhow::Result<()> {
     })
 }
 
-/// A read of each module asked for: one JSON object for `-m ID`, else
-/// `{"devices": [...]}` in id order (`-m all`: the modules the node reports).
-/// `read` prints the human form itself and returns the JSON object.
+/// A read of each module asked for: one JSON object for `--node N -m ID`,
+/// else `{"devices": [...]}` in (node, module) order (`-m all`: the modules
+/// each node reports). `read` prints the human form itself and returns the
+/// JSON object. One session serves every node.
 fn read_each(
     ctx: &Ctx,
     t: &ModulesTarget,
     mut read: impl FnMut(&Ctx, &mut Node, NodeId, ModuleId) -> anyhow::Result<Value>,
 ) -> anyhow::Result<()> {
-    let node = node_id(&t.node);
-    output::target(Family::Cdios, &[("node", node.get().into())]);
-    let mut s = open(ctx, &t.node)?;
-    let ids: Vec<u8> = match &t.module {
-        Devices::One(m) => vec![*m],
-        Devices::List(l) => l.0.clone(),
-        Devices::All => s.identify()?.iter().filter(|slot| slot.ty != 0).map(|slot| slot.module).collect(),
-    };
+    let nodes = t.node.each();
+    let mut session = None;
     let mut docs = Vec::new();
-    for id in ids {
-        let m = module_id(&ModuleTarget { node: t.node, module: id });
-        docs.push(read(ctx, &mut s, node, m)?);
+    for n in &nodes {
+        let node = node_id(n);
+        output::target(Family::Cdios, &[("node", node.get().into())]);
+        let s = match session.take() {
+            Some(s) => s,
+            None => ctx.cdios()?,
+        };
+        let mut s = self::node(s, n, ctx);
+        let ids: Vec<u8> = match &t.module {
+            Devices::One(m) => vec![*m],
+            Devices::List(l) => l.0.clone(),
+            Devices::All => s.identify()?.iter().filter(|slot| slot.ty != 0).map(|slot| slot.module).collect(),
+        };
+        for id in ids {
+            let m = module_id(&ModuleTarget { node: *n, module: id });
+            docs.push(read(ctx, &mut s, node, m)?);
+        }
+        session = Some(s.into_session());
     }
     if ctx.json {
-        match t.module {
-            Devices::One(_) => output::json(&docs[0]),
+        match (&t.node.node, &t.module) {
+            (Devices::One(_), Devices::One(_)) => output::json(&docs[0]),
             _ => output::json(&json!({ "devices": docs })),
         }
     }

@@ -166,6 +166,11 @@ impl Node {
         &mut self.s
     }
 
+    /// The session back, to talk to another node on the same link.
+    pub fn into_session(self) -> Cdios {
+        self.s
+    }
+
     /// Checks every command, then sends them one after the other, each
     /// awaited. `true` when every one was confirmed (confirmations can be
     /// switched off).
