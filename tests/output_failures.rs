@@ -217,3 +217,105 @@ fn every_documented_sim_example_survives_a_full_disk_and_a_closed_pipe() {
     }
     assert!(checked > 50, "only {checked} examples printed and succeeded");
 }
+
+/// Every subcommand by path (`watchdog on`), read from the binary's own
+/// help, with the example lines of its help that run on `--link sim`.
+fn subcommands_and_sim_examples(path: &[String], out: &mut Vec<(String, Vec<Vec<String>>)>) {
+    let help = common::run(&[path.iter().map(String::as_str).collect::<Vec<_>>(), vec!["--help"]].concat()).stdout;
+    let section = |name: &str| -> Vec<String> {
+        help.split(&format!("\n{name}:\n"))
+            .nth(1)
+            .map(|s| s.lines().take_while(|l| l.starts_with("  ") || l.is_empty()).map(str::to_string).collect())
+            .unwrap_or_default()
+    };
+    let examples = section("Examples")
+        .iter()
+        .filter_map(|l| l.trim().strip_prefix("axisctl --link sim "))
+        .map(|l| {
+            let l = l.split('#').next().unwrap_or_default();
+            // Redirections and pipes belong to the shell, not to axisctl.
+            l.split_whitespace().take_while(|w| !matches!(*w, ">" | "|" | "&&")).map(str::to_string).collect()
+        })
+        .collect();
+    if !path.is_empty() {
+        out.push((path.join(" "), examples));
+    }
+    for line in section("Commands") {
+        let Some(name) = line.split_whitespace().next().filter(|n| *n != "help") else { continue };
+        let mut sub = path.to_vec();
+        sub.push(name.to_string());
+        subcommands_and_sim_examples(&sub, out);
+    }
+}
+
+/// What runs until stopped, or needs a terminal, and is proved elsewhere.
+const NOT_ONE_SHOT: &[(&str, &str)] = &[
+    ("sim", "serves until stopped: help_version_and_sim_into_a_full_disk_fail_too"),
+    ("dashboard", "a terminal UI: its failed draws halt (tui tests, docs/safety.md)"),
+    ("watchdog keepalive", "runs until stopped: every_documented_sim_example_... covers --for"),
+];
+
+/// `for c in $(every command); do axisctl --link sim ... | head -c 1; done`
+/// never exits 101: every subcommand the binary has is run through a full
+/// disk and a reader that is gone, by the examples of its own help or the
+/// list above, so a new command cannot be added without its coverage.
+#[test]
+fn every_subcommand_survives_a_full_disk_and_a_closed_pipe() {
+    let mut subs = Vec::new();
+    subcommands_and_sim_examples(&[], &mut subs);
+    assert!(subs.len() > 70, "found only {} subcommands", subs.len());
+    let not_one_shot =
+        |words: &str| NOT_ONE_SHOT.iter().any(|(p, _)| words == *p || words.starts_with(&format!("{p} ")));
+    let mut uncovered = Vec::new();
+    let mut runs = Vec::new();
+    for (path, examples) in &subs {
+        if not_one_shot(path) {
+            continue;
+        }
+        let listed = COMMANDS.iter().any(|c| c.join(" ").starts_with(&format!("{path} ")) || c.join(" ") == *path);
+        if examples.is_empty() && !listed {
+            uncovered.push(path.clone());
+        }
+        for words in examples {
+            let command: Vec<&str> = words.iter().map(String::as_str).skip_while(|w| w.starts_with("--")).collect();
+            if !not_one_shot(&command.join(" ")) {
+                runs.extend([false, true].map(|json| (json, words.clone())));
+            }
+        }
+    }
+    assert!(runs.len() > 100, "only {} example runs", runs.len());
+    // Two at a time: most of the time goes into the simulated motions.
+    let queue = std::sync::Mutex::new(runs);
+    std::thread::scope(|s| {
+        for _ in 0..2 {
+            s.spawn(|| loop {
+                let Some((json, words)) = queue.lock().unwrap().pop() else { break };
+                let words: Vec<&str> = words.iter().map(String::as_str).collect();
+                let mut full = axisctl(json, &words).stdout(dev_full()).stderr(Stdio::piped()).spawn().unwrap();
+                let (code, err) = stderr_with_deadline(&mut full, &words);
+                assert_ne!(code, 101, "json={json} {words:?} > /dev/full: {err}");
+                let mut closed = axisctl(json, &words).stdout(Stdio::piped()).stderr(Stdio::piped()).spawn().unwrap();
+                drop(closed.stdout.take());
+                let (code, err) = stderr_with_deadline(&mut closed, &words);
+                assert_ne!(code, 101, "json={json} {words:?} | closed: {err}");
+                assert!(!err.contains("panicked"), "json={json} {words:?}: {err}");
+            });
+        }
+    });
+    assert!(uncovered.is_empty(), "subcommands with no --link sim example and not in COMMANDS: {uncovered:?}");
+}
+
+/// The exit code and stderr of a child that must end within 60 s.
+fn stderr_with_deadline(child: &mut std::process::Child, words: &[&str]) -> (i32, String) {
+    let deadline = std::time::Instant::now() + std::time::Duration::from_secs(60);
+    while child.try_wait().unwrap().is_none() {
+        if std::time::Instant::now() > deadline {
+            let _ = child.kill();
+            panic!("{words:?} still running after 60 s");
+        }
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+    let mut err = String::new();
+    child.stderr.take().unwrap().read_to_string(&mut err).unwrap();
+    (child.wait().unwrap().code().unwrap_or(-1), err)
+}
