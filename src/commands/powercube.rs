@@ -39,17 +39,13 @@ pub fn run(ctx: &Ctx, cmd: Command) -> anyhow::Result<()> {
             }
             match (&ms[..], &pos[..]) {
                 _ if sync => move_ramp_sync(ctx, &ms, &pos, (vel, acc), ticks, force, wait),
-                ([m], [p]) => {
-                    let target = if relative { from_here(ctx, *m, *p, ticks)? } else { *p };
-                    move_ramp(ctx, *m, target, vel, acc, ticks, force, wait)
-                }
+                ([m], [p]) => move_ramp(ctx, *m, target(*p, relative), vel, acc, ticks, force, wait),
                 _ => Err(usage("several modules or positions move only together: add --sync; nothing was sent")),
             }
         }
         Command::MoveStep { module: m, pos, time, ticks, relative, force } => {
             let m = module(m.module);
-            let target = if relative { from_here(ctx, m, pos, ticks)? } else { pos };
-            move_step(ctx, m, target, time, ticks, force)
+            move_step(ctx, m, target(pos, relative), time, ticks, force)
         }
         Command::MoveVel { module: m, vel, ticks, force } => move_vel(ctx, module(m.module), vel, ticks, force),
         Command::MoveCur { module: m, amps, force } => move_cur(ctx, module(m.module), amps, force),
@@ -70,16 +66,14 @@ pub fn run(ctx: &Ctx, cmd: Command) -> anyhow::Result<()> {
     }
 }
 
-/// `--relative`: the target `distance` away from where the module is now,
-/// read before anything moves (a failed read sends nothing).
-fn from_here(ctx: &Ctx, m: ModuleId, distance: f64, ticks: bool) -> anyhow::Result<f64> {
-    if !distance.is_finite() {
-        return Err(usage(format!("distance {distance} is not a number; nothing was sent")));
+/// A position as typed, or with `--relative` a distance from where the
+/// module is when the command runs.
+fn target(value: f64, relative: bool) -> device::Target {
+    if relative {
+        device::Target::By(value)
+    } else {
+        device::Target::To(value)
     }
-    let id = if ticks { ids::ACT_I_POS } else { ids::ACT_POS };
-    let mut cubes = cubes(ctx)?;
-    let here = f64_of(&cubes.session().get(m, axisctl::device::powercube::param(id))?);
-    Ok(here + distance)
 }
 
 fn module(id: u8) -> ModuleId {
@@ -454,9 +448,47 @@ fn print_wait_results(ctx: &Ctx, cubes: &mut Cubes, what: &str, results: &[WaitE
 
 /// Checks and sends a move; the checks that need no module come before the
 /// link is opened. A move to be waited for must start on its own.
+/// Checks the motion, opens the link and sends it.
 fn send_move(ctx: &Ctx, m: ModuleId, mv: Move, ticks: bool, force: bool, wait: bool) -> anyhow::Result<Cubes> {
     mv.check(ticks)?;
     let mut cubes = cubes(ctx)?;
+    send_on(ctx, &mut cubes, m, mv, ticks, force, wait)?;
+    Ok(cubes)
+}
+
+/// A ramp or step to `target`: a relative one is resolved on the open link
+/// (a read, before anything moves), then `to` builds the motion for the
+/// absolute position. Returns the open modules and that position.
+fn send_move_to(
+    ctx: &Ctx,
+    m: ModuleId,
+    target: device::Target,
+    to: impl Fn(f64) -> Move,
+    ticks: bool,
+    force: bool,
+    wait: bool,
+) -> anyhow::Result<(Cubes, f64)> {
+    if let device::Target::To(p) = target {
+        // The checks that need no module, before the link opens.
+        to(p).check(ticks)?;
+    }
+    let mut cubes = cubes(ctx)?;
+    let pos = cubes.resolve(m, target, ticks)?;
+    let mv = to(pos);
+    mv.check(ticks)?;
+    send_on(ctx, &mut cubes, m, mv, ticks, force, wait)?;
+    Ok((cubes, pos))
+}
+
+fn send_on(
+    ctx: &Ctx,
+    cubes: &mut Cubes,
+    m: ModuleId,
+    mv: Move,
+    ticks: bool,
+    force: bool,
+    wait: bool,
+) -> anyhow::Result<()> {
     let moved = if wait {
         // Supervised from before the motion byte leaves; without a wait the
         // motion is one-shot and unsupervised once acknowledged.
@@ -468,21 +500,22 @@ fn send_move(ctx: &Ctx, m: ModuleId, mv: Move, ticks: bool, force: bool, wait: b
     if !ctx.json {
         say!("module {m}: {} acknowledged", moved.described);
     }
-    Ok(cubes)
+    Ok(())
 }
 
 #[allow(clippy::too_many_arguments)]
 fn move_ramp(
     ctx: &Ctx,
     m: ModuleId,
-    pos: f64,
+    target: device::Target,
     vel: Option<f64>,
     acc: Option<f64>,
     ticks: bool,
     force: bool,
     wait: WaitArgs,
 ) -> anyhow::Result<()> {
-    let mut cubes = send_move(ctx, m, Move::Ramp { pos, vel, acc }, ticks, force, wait.wait)?;
+    let ramp = |pos| Move::Ramp { pos, vel, acc };
+    let (mut cubes, pos) = send_move_to(ctx, m, target, ramp, ticks, force, wait.wait)?;
     if !wait.wait {
         if ctx.json {
             output::json(&doc(ctx, m, json!({"command": "move-ramp", "target": pos, "acknowledged": true})));
@@ -552,8 +585,15 @@ fn move_ramp_sync(
     print_wait_results(ctx, &mut cubes, "move-ramp", &ends)
 }
 
-fn move_step(ctx: &Ctx, m: ModuleId, pos: f64, time: u16, ticks: bool, force: bool) -> anyhow::Result<()> {
-    send_move(ctx, m, Move::Step { pos, time_ms: time }, ticks, force, false)?;
+fn move_step(
+    ctx: &Ctx,
+    m: ModuleId,
+    target: device::Target,
+    time: u16,
+    ticks: bool,
+    force: bool,
+) -> anyhow::Result<()> {
+    let (_, pos) = send_move_to(ctx, m, target, |pos| Move::Step { pos, time_ms: time }, ticks, force, false)?;
     if ctx.json {
         output::json(&doc(
             ctx,

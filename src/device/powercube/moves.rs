@@ -25,8 +25,8 @@ pub enum Move {
     Cur(f64),
 }
 
-/// Where a dashboard ramp goes: to a position, or by a step from where the
-/// module is.
+/// Where a ramp or step goes: to a position, or by a distance from where
+/// the module is (`--relative`, the dashboard's jog keys).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Target {
     To(f64),
@@ -234,19 +234,26 @@ impl Cubes {
         }
     }
 
+    /// Where `target` lies, in units or with `ticks` in encoder ticks: a
+    /// step is added to where the module is now (ActPos or ActIPos), read
+    /// before anything moves, so a failed read sends no motion.
+    pub fn resolve(&mut self, m: ModuleId, target: Target, ticks: bool) -> Result<f64, Error> {
+        match target {
+            Target::To(p) => Ok(p),
+            Target::By(step) => {
+                limits::check_finite("relative distance", step)?;
+                Ok(self.read_now(m, &[if ticks { ids::ACT_I_POS } else { ids::ACT_POS }])?[0] + step)
+            }
+        }
+    }
+
     /// A ramp in units with the module's current velocity and acceleration,
     /// to a position or by a step from ActPos: checked like
     /// [`Self::move_module`]. Returns the target position. A module in sync
     /// mode is refused: a key press that moves nothing until someone's
     /// broadcast would start it later, unexpected.
     pub fn ramp(&mut self, m: ModuleId, target: Target) -> Result<f64, Error> {
-        let pos = match target {
-            Target::To(p) => p,
-            Target::By(step) => {
-                limits::check_finite("jog step", step)?;
-                self.read_now(m, &[ids::ACT_POS])?[0] + step
-            }
-        };
+        let pos = self.resolve(m, target, false)?;
         let mv = Move::Ramp { pos, vel: None, acc: None };
         mv.check(false)?;
         self.ensure_starts_alone(m)?;

@@ -192,6 +192,25 @@ fn a_jog_is_a_checked_ramp_from_where_the_module_stands() {
 }
 
 #[test]
+fn a_relative_target_is_read_from_the_position_in_the_unit_of_the_move() {
+    let mut r = rig();
+    r.cubes.move_module(id(3), Move::Ramp { pos: 0.5, vel: None, acc: None }, false, false).unwrap();
+    r.clock.advance(Duration::from_secs(30));
+    let here = r.cubes.read_now(id(3), &[ids::ACT_POS, ids::ACT_I_POS]).unwrap();
+    assert!((here[0] - 0.5).abs() < 1e-3 && here[1] != here[0], "{here:?}");
+    r.take_sent();
+    assert_eq!(r.cubes.resolve(id(3), Target::By(-0.1), false).unwrap(), here[0] - 0.1);
+    assert_eq!(r.cubes.resolve(id(3), Target::By(100.0), true).unwrap(), here[1] + 100.0);
+    assert_eq!(r.cubes.resolve(id(3), Target::To(0.3), false).unwrap(), 0.3);
+    assert!(matches!(
+        r.cubes.resolve(id(3), Target::By(f64::NAN), true),
+        Err(Error::Limit(LimitError::NotFinite { .. }))
+    ));
+    let sent = r.take_sent();
+    assert_eq!(sent.len(), 2, "one read per relative target, none for an absolute one: {sent:?}");
+}
+
+#[test]
 fn force_skips_the_module_limits_but_not_the_wire_checks() {
     let mut r = rig();
     r.cubes.move_module(id(3), Move::Cur(1e3), false, true).unwrap();
