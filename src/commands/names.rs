@@ -22,13 +22,13 @@ pub fn did_you_mean<'a>(typed: &str, names: impl IntoIterator<Item = &'a str>) -
     }
 }
 
-/// A range as said to people: "0 to 10000", or "-" when the table has none.
-pub fn range<T: std::fmt::Display>(min: Option<T>, max: Option<T>) -> String {
+/// A range as said to people: "0 to 10000"; `None` when the table has none.
+pub fn range<T: std::fmt::Display>(min: Option<T>, max: Option<T>) -> Option<String> {
     match (min, max) {
-        (Some(lo), Some(hi)) => format!("{lo} to {hi}"),
-        (Some(lo), None) => format!("from {lo}"),
-        (None, Some(hi)) => format!("up to {hi}"),
-        (None, None) => "-".into(),
+        (Some(lo), Some(hi)) => Some(format!("{lo} to {hi}")),
+        (Some(lo), None) => Some(format!("from {lo}")),
+        (None, Some(hi)) => Some(format!("up to {hi}")),
+        (None, None) => None,
     }
 }
 
@@ -94,16 +94,13 @@ fn dedup(mut v: Vec<String>) -> Vec<String> {
 /// `axisctl params [FAMILY]`.
 /// Table rows grouped by family (`{"powercube": [...], ...}`): the key
 /// `family` belongs to the envelope of a device document, and a row of a
-/// table is not one. A range the manual does not give is `null`.
+/// table is not one.
 fn by_family(rows: &[Value]) -> Value {
     let mut out = serde_json::Map::new();
     for row in rows {
         let mut row = row.clone();
         let Some(obj) = row.as_object_mut() else { continue };
         let family = obj.remove("family").and_then(|f| f.as_str().map(str::to_string)).unwrap_or_default();
-        if obj.get("range").and_then(Value::as_str) == Some("-") {
-            obj.insert("range".into(), Value::Null);
-        }
         if let Some(list) = out.entry(family).or_insert_with(|| Value::Array(Vec::new())).as_array_mut() {
             list.push(row);
         }
