@@ -6,7 +6,6 @@
 
 mod common;
 
-use std::io::Read;
 use std::process::{Child, Stdio};
 use std::time::{Duration, Instant};
 
@@ -26,35 +25,8 @@ fn bounded(args: &[&str], secs: u64) -> (Run, Duration) {
     (out, t0.elapsed())
 }
 
-fn wait_bounded(mut child: Child, secs: u64, what: &[&str]) -> Run {
-    let deadline = Instant::now() + Duration::from_secs(secs);
-    let mut so = child.stdout.take().unwrap();
-    // None when the caller reads stderr itself.
-    let se = child.stderr.take();
-    let t_out = std::thread::spawn(move || {
-        let mut s = String::new();
-        let _ = so.read_to_string(&mut s);
-        s
-    });
-    let t_err = std::thread::spawn(move || {
-        let mut s = String::new();
-        if let Some(mut se) = se {
-            let _ = se.read_to_string(&mut s);
-        }
-        s
-    });
-    let status = loop {
-        if let Some(st) = child.try_wait().unwrap() {
-            break st;
-        }
-        if Instant::now() > deadline {
-            let _ = child.kill();
-            let _ = child.wait();
-            panic!("axisctl {what:?} hung for {secs} s");
-        }
-        std::thread::sleep(Duration::from_millis(10));
-    };
-    Run { code: status.code().unwrap_or(-1), stdout: t_out.join().unwrap(), stderr: t_err.join().unwrap() }
+fn wait_bounded(child: Child, secs: u64, what: &[&str]) -> Run {
+    common::wait_bounded(child, secs, what).run()
 }
 
 fn sim(family_args: &[&str], fault: &str, seed: &str) -> Sim {
@@ -260,36 +232,8 @@ fn interrupt_after(args: &[&str], ms: u64) -> Run {
 /// line naming `trigger` shows on stderr: a signal during the wait itself,
 /// however long the start took on a loaded machine.
 fn interrupt_when(args: &[&str], trigger: &str, ms: u64) -> Run {
-    use std::io::{BufRead, BufReader};
-    let mut all = vec!["--trace"];
-    all.extend_from_slice(args);
-    let mut child = common::bin()
-        .env_remove("AXISCTL_TIMEOUT")
-        .args(&all)
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
-    let err = child.stderr.take().unwrap();
-    let (tx, rx) = std::sync::mpsc::channel();
-    let trigger = trigger.to_string();
-    let reader = std::thread::spawn(move || {
-        let mut text = String::new();
-        for line in BufReader::new(err).lines().map_while(Result::ok) {
-            if line.starts_with("-> ") && line.contains(&trigger) {
-                let _ = tx.send(());
-            }
-            text.push_str(&line);
-            text.push('\n');
-        }
-        text
-    });
-    rx.recv_timeout(Duration::from_secs(10)).expect("the trigger line showed");
-    std::thread::sleep(Duration::from_millis(ms));
-    unsafe { libc::kill(child.id() as i32, libc::SIGINT) };
-    let mut run = wait_bounded(child, 10, args);
-    run.stderr = reader.join().unwrap();
-    run
+    let r = common::signal_when(args, trigger, Duration::from_millis(ms), libc::SIGINT);
+    Run { code: r.code, stdout: r.stdout, stderr: r.stderr }
 }
 
 #[test]

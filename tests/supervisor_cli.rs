@@ -7,82 +7,15 @@
 
 mod common;
 
-use std::io::{BufRead, BufReader, Read};
-use std::process::{Child, Stdio};
-use std::sync::mpsc;
-use std::time::{Duration, Instant};
+use std::io::Read;
+use std::process::Stdio;
+use std::time::Duration;
 
-use common::{Run, Sim};
-
-fn wait_bounded(mut child: Child, secs: u64, what: &[&str]) -> (i32, Option<i32>) {
-    use std::os::unix::process::ExitStatusExt;
-    let deadline = Instant::now() + Duration::from_secs(secs);
-    loop {
-        if let Some(st) = child.try_wait().unwrap() {
-            return (st.code().unwrap_or(-1), st.signal());
-        }
-        if Instant::now() > deadline {
-            let _ = child.kill();
-            let _ = child.wait();
-            panic!("axisctl {what:?} hung for {secs} s");
-        }
-        std::thread::sleep(Duration::from_millis(5));
-    }
-}
+use common::{signal_when, wait_bounded, Ended, Run, Sim};
 
 fn run_bounded(args: &[&str]) -> Run {
     let child = common::bin().args(args).stdout(Stdio::piped()).stderr(Stdio::piped()).spawn().unwrap();
-    let out = child.wait_with_output().unwrap();
-    Run {
-        code: out.status.code().unwrap_or(-1),
-        stdout: String::from_utf8_lossy(&out.stdout).into(),
-        stderr: String::from_utf8_lossy(&out.stderr).into(),
-    }
-}
-
-/// Runs axisctl with `--trace` and sends `sig` as soon as a trace line
-/// containing `trigger` shows on stderr, then `after`. Returns the exit code, the signal that ended it (if it died of
-/// one), stderr, and the time from the signal to the exit.
-struct Signalled {
-    code: i32,
-    killed_by: Option<i32>,
-    stderr: String,
-    reaction: Duration,
-}
-
-fn signal_when(args: &[&str], trigger: &str, after: Duration, sig: i32) -> Signalled {
-    let mut all = vec!["--trace"];
-    all.extend_from_slice(args);
-    let mut child = common::bin()
-        .env_remove("AXISCTL_TIMEOUT")
-        .args(&all)
-        .stdout(Stdio::null())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
-    let (tx, rx) = mpsc::channel();
-    let err = child.stderr.take().unwrap();
-    let trigger = trigger.to_string();
-    let reader = std::thread::spawn(move || {
-        let mut text = String::new();
-        let mut told = false;
-        for line in BufReader::new(err).lines().map_while(Result::ok) {
-            if !told && line.starts_with("-> ") && line.contains(&trigger) {
-                told = true;
-                let _ = tx.send(());
-            }
-            text.push_str(&line);
-            text.push('\n');
-        }
-        text
-    });
-    rx.recv_timeout(Duration::from_secs(10)).expect("the trigger line showed");
-    std::thread::sleep(after);
-    let t0 = Instant::now();
-    unsafe { libc::kill(child.id() as i32, sig) };
-    let (code, killed_by) = wait_bounded(child, 15, args);
-    let reaction = t0.elapsed();
-    Signalled { code, killed_by, stderr: reader.join().unwrap(), reaction }
+    wait_bounded(child, 60, args).run()
 }
 
 /// PowerCube module 3 stands: HALTED set and no MOTION.
@@ -165,7 +98,7 @@ fn a_closed_trace_pipe_mid_wait_halts_without_a_panic() {
     let _ = err.read(&mut head);
     std::thread::sleep(Duration::from_millis(300));
     drop(err);
-    let (code, killed_by) = wait_bounded(child, 15, &all);
+    let Ended { code, signal: killed_by, .. } = wait_bounded(child, 15, &all);
     assert_eq!((code, killed_by), (1, None), "not a panic (101) nor a signal");
     assert!(cube_stands(link), "module 3 still moving");
 }
@@ -186,7 +119,7 @@ fn pac_progress_json_into_a_closed_pipe_stops_the_axis_without_a_panic() {
     let mut head = [0u8; 20];
     let _ = err.read(&mut head);
     drop(err);
-    let (code, killed_by) = wait_bounded(child, 15, &args);
+    let Ended { code, signal: killed_by, .. } = wait_bounded(child, 15, &args);
     assert_eq!((code, killed_by), (1, None), "not a panic (101) nor a signal");
     let a = run_bounded(&["--link", link, "--timeout", "1000", "--json", "pac-axis", "2"]);
     assert_eq!(a.code, 0, "{}", a.stderr);

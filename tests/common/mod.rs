@@ -95,3 +95,105 @@ pub fn schema_errors(v: &jsonschema::Validator, doc: &serde_json::Value) -> Opti
     let errors: Vec<String> = v.iter_errors(doc).map(|e| format!("{} at {}", e, e.instance_path())).collect();
     (!errors.is_empty()).then(|| errors.join("\n"))
 }
+
+/// How a child ended under a deadline: its exit code (-1 when a signal
+/// ended it), that signal, and what it printed on the pipes it still had.
+pub struct Ended {
+    pub code: i32,
+    pub signal: Option<i32>,
+    pub stdout: String,
+    pub stderr: String,
+}
+
+impl Ended {
+    pub fn run(self) -> Run {
+        Run { code: self.code, stdout: self.stdout, stderr: self.stderr }
+    }
+}
+
+/// Waits at most `secs` for `child`, reading its stdout and stderr if they
+/// are still piped; a child that hangs is killed and fails the test.
+pub fn wait_bounded(mut child: Child, secs: u64, what: &[&str]) -> Ended {
+    use std::io::Read;
+    use std::os::unix::process::ExitStatusExt;
+    use std::time::{Duration, Instant};
+    fn drain(pipe: Option<impl Read + Send + 'static>) -> std::thread::JoinHandle<String> {
+        std::thread::spawn(move || {
+            let mut s = String::new();
+            if let Some(mut p) = pipe {
+                let _ = p.read_to_string(&mut s);
+            }
+            s
+        })
+    }
+    let (out, err) = (drain(child.stdout.take()), drain(child.stderr.take()));
+    let deadline = Instant::now() + Duration::from_secs(secs);
+    let status = loop {
+        if let Some(st) = child.try_wait().unwrap() {
+            break st;
+        }
+        if Instant::now() > deadline {
+            let _ = child.kill();
+            let _ = child.wait();
+            panic!("axisctl {what:?} hung for {secs} s");
+        }
+        std::thread::sleep(Duration::from_millis(5));
+    };
+    Ended {
+        code: status.code().unwrap_or(-1),
+        signal: status.signal(),
+        stdout: out.join().unwrap(),
+        stderr: err.join().unwrap(),
+    }
+}
+
+/// A run that a signal interrupted: how it ended, and the time from the
+/// signal to its exit.
+pub struct Signalled {
+    pub code: i32,
+    pub killed_by: Option<i32>,
+    pub stdout: String,
+    pub stderr: String,
+    pub reaction: std::time::Duration,
+}
+
+/// Runs axisctl with `--trace` and the real default timeout, and sends
+/// `sig` `after` the first sent frame whose trace line contains `trigger`.
+pub fn signal_when(args: &[&str], trigger: &str, after: std::time::Duration, sig: i32) -> Signalled {
+    use std::time::{Duration, Instant};
+    let mut all = vec!["--trace"];
+    all.extend_from_slice(args);
+    let mut child =
+        bin().env_remove("AXISCTL_TIMEOUT").args(&all).stdout(Stdio::piped()).stderr(Stdio::piped()).spawn().unwrap();
+    let (tx, rx) = std::sync::mpsc::channel();
+    let err = child.stderr.take().unwrap();
+    let trigger = trigger.to_string();
+    let reader = std::thread::spawn(move || {
+        let mut text = String::new();
+        let mut told = false;
+        for line in BufReader::new(err).lines().map_while(Result::ok) {
+            if !told && line.starts_with("-> ") && line.contains(&trigger) {
+                told = true;
+                let _ = tx.send(());
+            }
+            text.push_str(&line);
+            text.push('\n');
+        }
+        text
+    });
+    rx.recv_timeout(Duration::from_secs(10)).expect("the trigger line showed");
+    std::thread::sleep(after);
+    let t0 = Instant::now();
+    unsafe {
+        libc::kill(child.id() as i32, sig);
+    }
+    let ended = wait_bounded(child, 15, args);
+    let reaction = t0.elapsed();
+    Signalled {
+        code: ended.code,
+        killed_by: ended.signal,
+        stdout: ended.stdout,
+        stderr: reader.join().unwrap(),
+        reaction,
+    }
+}
