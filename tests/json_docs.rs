@@ -193,3 +193,53 @@ fn schema_rejects_broken_conventions() {
         assert!(schema_errors(&error, &bad).is_some(), "accepted {bad}");
     }
 }
+
+/// Beyond the documented examples: every `--link sim` example of every
+/// subcommand's own help, run with `--json`, prints one document that the
+/// schema accepts (JSON Lines of stream lines for a stream), or on failure
+/// one error object on stderr carrying the exit code.
+#[test]
+fn every_help_example_under_json_follows_the_schema() {
+    let (document, stream, error) = (schema("document"), schema("stream_line"), schema("error_document"));
+    let mut subs = Vec::new();
+    common::subcommands_and_sim_examples(&[], &mut subs);
+    // Text, a terminal UI, or streams that run until stopped (tests/json_streams.rs).
+    let text_only = ["completions", "man", "sim", "dashboard", "watchdog keepalive", "cdios-watch", "monitor"];
+    let (mut documents, mut errors) = (0, 0);
+    for (path, examples) in subs {
+        if text_only.iter().any(|t| path == *t || path.starts_with(&format!("{t} "))) {
+            continue;
+        }
+        for words in examples {
+            let command: Vec<&str> = words.iter().map(String::as_str).skip_while(|w| w.starts_with("--")).collect();
+            if text_only.iter().any(|t| command.join(" ").starts_with(t)) {
+                continue;
+            }
+            let mut args = vec!["--link", "sim"];
+            args.extend(words.iter().map(String::as_str).filter(|w| *w != "--json"));
+            args.insert(2, "--json");
+            let r = common::run(&args);
+            if r.code == 0 {
+                let docs: Vec<(Value, &jsonschema::Validator)> = match serde_json::from_str::<Value>(&r.stdout) {
+                    Ok(v) => vec![(v, &document)],
+                    Err(_) => r.stdout.lines().map(|l| (serde_json::from_str(l).unwrap(), &stream)).collect(),
+                };
+                for (v, schema) in docs {
+                    if let Some(e) = schema_errors(schema, &v) {
+                        panic!("`axisctl {}`: {v} breaks the schema:\n{e}", args.join(" "));
+                    }
+                }
+                documents += 1;
+            } else {
+                let line = r.stderr.lines().last().unwrap_or_default();
+                let v: Value = serde_json::from_str(line).unwrap_or_else(|e| panic!("{args:?}: {e}: {}", r.stderr));
+                if let Some(e) = schema_errors(&error, &v) {
+                    panic!("`axisctl {}`: {v} breaks the schema:\n{e}", args.join(" "));
+                }
+                assert_eq!(v["error"]["exit_code"], r.code, "{args:?}");
+                errors += 1;
+            }
+        }
+    }
+    assert!(documents > 60, "only {documents} examples printed a document ({errors} errors)");
+}

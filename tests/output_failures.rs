@@ -218,36 +218,6 @@ fn every_documented_sim_example_survives_a_full_disk_and_a_closed_pipe() {
     assert!(checked > 50, "only {checked} examples printed and succeeded");
 }
 
-/// Every subcommand by path (`watchdog on`), read from the binary's own
-/// help, with the example lines of its help that run on `--link sim`.
-fn subcommands_and_sim_examples(path: &[String], out: &mut Vec<(String, Vec<Vec<String>>)>) {
-    let help = common::run(&[path.iter().map(String::as_str).collect::<Vec<_>>(), vec!["--help"]].concat()).stdout;
-    let section = |name: &str| -> Vec<String> {
-        help.split(&format!("\n{name}:\n"))
-            .nth(1)
-            .map(|s| s.lines().take_while(|l| l.starts_with("  ") || l.is_empty()).map(str::to_string).collect())
-            .unwrap_or_default()
-    };
-    let examples = section("Examples")
-        .iter()
-        .filter_map(|l| l.trim().strip_prefix("axisctl --link sim "))
-        .map(|l| {
-            let l = l.split('#').next().unwrap_or_default();
-            // Redirections and pipes belong to the shell, not to axisctl.
-            l.split_whitespace().take_while(|w| !matches!(*w, ">" | "|" | "&&")).map(str::to_string).collect()
-        })
-        .collect();
-    if !path.is_empty() {
-        out.push((path.join(" "), examples));
-    }
-    for line in section("Commands") {
-        let Some(name) = line.split_whitespace().next().filter(|n| *n != "help") else { continue };
-        let mut sub = path.to_vec();
-        sub.push(name.to_string());
-        subcommands_and_sim_examples(&sub, out);
-    }
-}
-
 /// What runs until stopped, or needs a terminal, and is proved elsewhere.
 const NOT_ONE_SHOT: &[(&str, &str)] = &[
     ("sim", "serves until stopped: help_version_and_sim_into_a_full_disk_fail_too"),
@@ -262,7 +232,7 @@ const NOT_ONE_SHOT: &[(&str, &str)] = &[
 #[test]
 fn every_subcommand_survives_a_full_disk_and_a_closed_pipe() {
     let mut subs = Vec::new();
-    subcommands_and_sim_examples(&[], &mut subs);
+    common::subcommands_and_sim_examples(&[], &mut subs);
     assert!(subs.len() > 70, "found only {} subcommands", subs.len());
     let not_one_shot =
         |words: &str| NOT_ONE_SHOT.iter().any(|(p, _)| words == *p || words.starts_with(&format!("{p} ")));

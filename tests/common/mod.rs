@@ -197,3 +197,33 @@ pub fn signal_when(args: &[&str], trigger: &str, after: std::time::Duration, sig
         reaction,
     }
 }
+
+/// Every subcommand by path (`watchdog on`), read from the binary's own
+/// help, with the example lines of its help that run on `--link sim`.
+pub fn subcommands_and_sim_examples(path: &[String], out: &mut Vec<(String, Vec<Vec<String>>)>) {
+    let help = run(&[path.iter().map(String::as_str).collect::<Vec<_>>(), vec!["--help"]].concat()).stdout;
+    let section = |name: &str| -> Vec<String> {
+        help.split(&format!("\n{name}:\n"))
+            .nth(1)
+            .map(|s| s.lines().take_while(|l| l.starts_with("  ") || l.is_empty()).map(str::to_string).collect())
+            .unwrap_or_default()
+    };
+    let examples = section("Examples")
+        .iter()
+        .filter_map(|l| l.trim().strip_prefix("axisctl --link sim "))
+        .map(|l| {
+            let l = l.split('#').next().unwrap_or_default();
+            // Redirections and pipes belong to the shell, not to axisctl.
+            l.split_whitespace().take_while(|w| !matches!(*w, ">" | "|" | "&&")).map(str::to_string).collect()
+        })
+        .collect();
+    if !path.is_empty() {
+        out.push((path.join(" "), examples));
+    }
+    for line in section("Commands") {
+        let Some(name) = line.split_whitespace().next().filter(|n| *n != "help") else { continue };
+        let mut sub = path.to_vec();
+        sub.push(name.to_string());
+        subcommands_and_sim_examples(&sub, out);
+    }
+}
