@@ -18,6 +18,7 @@
 pub mod app;
 pub mod cdios;
 pub mod event;
+pub mod history;
 pub mod keys;
 pub mod pac;
 pub mod powercube;

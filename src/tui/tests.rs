@@ -565,9 +565,13 @@ fn every_key_in_the_help_works() {
         if b.action == KeyAction::ScrollDown {
             rig.key(KeyCode::PageUp);
         }
-        let before = (rig.app.selected, rig.app.mode.clone(), rig.app.jog, rig.app.rate, rig.app.scroll);
+        let state = |app: &App| {
+            let views = (app.chart, app.overview, app.snapshot.clone());
+            (app.selected, app.mode.clone(), app.jog, app.rate, app.scroll, views)
+        };
+        let before = state(&rig.app);
         rig.key(b.codes[0]);
-        let after = (rig.app.selected, rig.app.mode.clone(), rig.app.jog, rig.app.rate, rig.app.scroll);
+        let after = state(&rig.app);
         let did = !rig.sent.is_empty() || before != after || rig.app.quit;
         assert!(did, "{} ({:?}) did nothing on {:?}", b.keys, b.action, device);
         if let Some(e) = rig.app.events.iter().find(|e| e.level == super::app::Level::Error) {
