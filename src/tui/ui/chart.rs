@@ -19,12 +19,10 @@ const SIDE_BY_SIDE_MIN: u16 = 36;
 /// A plot lower than this leaves out the time labels under it.
 const X_LABELS_MIN: u16 = 6;
 
-fn colour(name: &str) -> Color {
-    match name {
-        "position" => Color::Cyan,
-        "velocity" => Color::Yellow,
-        _ => Color::Magenta,
-    }
+/// The colour the SVG snapshot gives the `index`-th series.
+fn colour(index: usize) -> Color {
+    let (r, g, b) = crate::plot::colour(index);
+    Color::Rgb(r, g, b)
 }
 
 pub fn draw(f: &mut Frame, app: &App, area: Rect) {
@@ -46,41 +44,84 @@ pub fn draw(f: &mut Frame, app: &App, area: Rect) {
         return;
     };
     let decimals = d.snap.as_ref().and_then(history::motion).map_or(3, |(u, _, _)| u.decimals);
+    let decimals_of = |t: &Trace| if t.name == "current" { 3 } else { decimals };
     let n = req.traces.len() as u32;
+    // Too low for a title in each plot: one line names them all, in their colours.
+    let inner = if inner.height / n as u16 >= 4 {
+        inner
+    } else {
+        let mut spans = Vec::new();
+        for (i, t) in req.traces.iter().enumerate() {
+            let d = decimals_of(t);
+            let newest = t.points.last().map_or_else(|| "–".to_string(), |p| format!("{:.d$}", p.1));
+            spans.push(Span::styled(format!("{} ", t.name), Style::new().fg(colour(i))));
+            spans.push(Span::styled(format!("{newest} {}   ", t.unit), BOLD));
+        }
+        let [legend, rest] = Layout::vertical([Constraint::Length(1), Constraint::Min(0)]).areas(inner);
+        f.render_widget(Paragraph::new(Line::from(spans)), legend);
+        rest
+    };
     let stacked = inner.height / n as u16 >= X_LABELS_MIN || inner.width / n as u16 <= SIDE_BY_SIDE_MIN;
     let areas = if stacked {
         Layout::vertical((0..n).map(|_| Constraint::Ratio(1, n))).split(inner)
     } else {
         Layout::horizontal((0..n).map(|_| Constraint::Ratio(1, n))).split(inner)
     };
+    let label_w = req
+        .traces
+        .iter()
+        .zip(areas.iter())
+        .flat_map(|(t, a)| y_labels(t, decimals_of(t), a.height))
+        .map(|l| l.chars().count())
+        .max()
+        .unwrap_or(0);
     for (i, (trace, a)) in req.traces.iter().zip(areas.iter()).enumerate() {
         // Stacked plots share the time axis: only the lowest is labelled.
         let labelled = (!stacked || i + 1 == n as usize) && a.height >= X_LABELS_MIN;
-        plot(f, trace, *a, if trace.name == "current" { 3 } else { decimals }, labelled);
+        plot(f, i, trace, *a, decimals_of(trace), labelled, label_w);
     }
 }
 
 /// One quantity: its newest value in the axis title, the y range fitted to
 /// what is on screen.
-fn plot(f: &mut Frame, trace: &Trace, area: Rect, decimals: usize, labelled: bool) {
-    let columns = usize::from(area.width.saturating_sub(10)).max(1);
-    let points = history::thin(&trace.points, columns);
-    let newest = points.last().map_or_else(|| "–".to_string(), |p| format!("{:.decimals$}", p.1));
-    let style = Style::new().fg(colour(trace.name));
+/// The y range of a trace: what it holds and a little more; a flat line
+/// sits in the middle of a small range around it.
+fn fit(points: &[(f64, f64)], decimals: usize) -> (f64, f64) {
     let (mut lo, mut hi) =
         points.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), p| (lo.min(p.1), hi.max(p.1)));
     if !lo.is_finite() || !hi.is_finite() {
         (lo, hi) = (-1.0, 1.0);
     }
-    // A flat line sits in the middle of a small range around it.
     let least = 10f64.powi(-(decimals as i32));
     let pad = ((hi - lo) * 0.05).max((hi.abs().max(lo.abs()) * 0.05).min(least * 10.0)).max(least);
-    let (lo, hi) = (lo - pad, hi + pad);
-    let mut y_labels = vec![Span::raw(format!("{lo:.decimals$}"))];
-    if area.height >= 7 {
-        y_labels.push(Span::raw(format!("{:.decimals$}", (lo + hi) / 2.0)));
+    (lo - pad, hi + pad)
+}
+
+/// The y labels, bottom to top, with the unit on each (stacked plots tell
+/// themselves apart by it).
+fn y_labels(trace: &Trace, decimals: usize, height: u16) -> Vec<String> {
+    let (lo, hi) = fit(&trace.points, decimals);
+    let unit = trace.unit;
+    let mut out = vec![format!("{lo:.decimals$} {unit}")];
+    if height >= 7 {
+        out.push(format!("{:.decimals$} {unit}", (lo + hi) / 2.0));
     }
-    y_labels.push(Span::raw(format!("{hi:.decimals$}")));
+    out.push(format!("{hi:.decimals$} {unit}"));
+    out
+}
+
+/// One quantity: its newest value in the axis title (when there is room),
+/// the y range fitted to the window, labels `label_w` wide so that the time
+/// axes of stacked plots line up.
+fn plot(f: &mut Frame, index: usize, trace: &Trace, area: Rect, decimals: usize, labelled: bool, label_w: usize) {
+    // Thinning keeps each column's extremes: the range is the trace's.
+    let columns = usize::from(area.width.saturating_sub(label_w as u16 + 1)).max(1);
+    let points = history::thin(&trace.points, columns);
+    let newest = points.last().map_or_else(|| "–".to_string(), |p| format!("{:.decimals$}", p.1));
+    let style = Style::new().fg(colour(index));
+    let (lo, hi) = fit(&trace.points, decimals);
+    let labels: Vec<Span> =
+        y_labels(trace, decimals, area.height).into_iter().map(|l| Span::raw(format!("{l:>label_w$}"))).collect();
     let span = history::WINDOW.as_secs_f64();
     let mut x_axis = Axis::default().bounds([-span, 0.0]).style(DIM);
     if labelled {
@@ -96,7 +137,7 @@ fn plot(f: &mut Frame, trace: &Trace, area: Rect, decimals: usize, labelled: boo
                     Span::styled(format!("{newest} {}", trace.unit), BOLD),
                 ]))
                 .bounds([lo, hi])
-                .labels(y_labels)
+                .labels(labels)
                 .style(DIM),
         )
         .legend_position(None);
