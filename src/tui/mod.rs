@@ -22,6 +22,7 @@ pub mod history;
 pub mod keys;
 pub mod pac;
 pub mod powercube;
+pub mod screenshot;
 pub mod snapshot;
 pub mod source;
 pub mod ui;

@@ -1292,3 +1292,62 @@ fn the_snapshot_key_writes_an_svg_from_the_running_dashboard() {
     let screen = terminal.backend().to_string();
     assert!(screen.contains("chart written to"), "{screen}");
 }
+
+/// The pictures of docs/img, drawn by the dashboard's own code on the
+/// simulated bench: (file name, screen).
+fn docs_pictures() -> Vec<(&'static str, String)> {
+    let (w, h) = (120, 36);
+    let mut rig = Rig::new();
+    rig.moving_for(40);
+    rig.select(DeviceKey::Cube(17));
+    let mut out = vec![("dashboard.svg", super::screenshot::svg(rig.terminal(w, h).backend().buffer()))];
+    rig.keys("c");
+    out.push(("dashboard-chart.svg", super::screenshot::svg(rig.terminal(w, h).backend().buffer())));
+    rig.keys("v");
+    out.push(("dashboard-overview.svg", super::screenshot::svg(rig.terminal(w, h).backend().buffer())));
+    out
+}
+
+/// docs/img/dashboard*.svg (shown in the README and the guide) are what
+/// the code draws now: a change to the screen fails here until
+/// `scripts/screenshots.sh` draws them again.
+#[test]
+fn the_docs_pictures_are_what_the_dashboard_draws() {
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("docs/img");
+    let write = std::env::var_os("AXISCTL_WRITE_DOCS_IMG").is_some();
+    for (name, svg) in docs_pictures() {
+        well_formed(&svg).unwrap_or_else(|e| panic!("{name}: {e}"));
+        let path = dir.join(name);
+        if write {
+            std::fs::create_dir_all(&dir).unwrap();
+            std::fs::write(&path, &svg).unwrap();
+            continue;
+        }
+        let committed = std::fs::read_to_string(&path).unwrap_or_default();
+        assert!(committed == svg, "docs/img/{name} is not what the dashboard draws now: run scripts/screenshots.sh");
+    }
+}
+
+/// The picture of a screen: every character where its cell is, in the
+/// cell's colours, and the box lines as strokes.
+#[test]
+fn a_screen_as_svg() {
+    use ratatui::style::{Modifier, Style};
+    let mut buf = ratatui::buffer::Buffer::empty(ratatui::layout::Rect::new(0, 0, 6, 2));
+    buf.set_string(0, 0, "┌a<b┐", Style::new().fg(Color::Red));
+    buf.set_string(1, 1, "ok", Style::new().add_modifier(Modifier::REVERSED | Modifier::BOLD));
+    let svg = super::screenshot::svg(&buf);
+    well_formed(&svg).unwrap();
+    assert!(svg.contains("width=\"50\" height=\"34\""), "{svg}");
+    assert!(
+        svg.contains("fill=\"#cd3131\">  a&lt;b</text>") || svg.contains("fill=\"#cd3131\"> a&lt;b</text>"),
+        "{svg}"
+    );
+    assert!(
+        svg.contains("<path d=\"M4.2 8.5H8.4M33.6 8.5H37.8M4.2 8.5V17.0M37.8 8.5V17.0\" stroke=\"#cd3131\""),
+        "{svg}"
+    );
+    // Reversed: light background, dark text, bold.
+    assert!(svg.contains("<rect x=\"8.4\" y=\"17.0\" width=\"16.8\" height=\"17\" fill=\"#d4d4d4\"/>"), "{svg}");
+    assert!(svg.contains("fill=\"#1e1e1e\" font-weight=\"bold\">ok</text>"), "{svg}");
+}
