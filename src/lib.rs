@@ -14,6 +14,7 @@
 //! - [`open`]: from a `--link` and a family to a ready link or session, `sim` and `--log` included.
 //! - [`monitor`]: passive decoding of any frame on a CAN bus.
 //! - [`tui`]: the dashboard, adapters over [`device`].
+//! - [`plot`]: charts of sampled values as SVG (recordings, dashboard snapshots); pure.
 //! - `cli` and `commands` (binary side): the command line as typed, and thin subcommands.
 
 pub mod clock;
@@ -22,6 +23,7 @@ pub mod family;
 pub mod link;
 pub mod monitor;
 pub mod open;
+pub mod plot;
 pub mod proto;
 pub mod session;
 pub mod sim;

@@ -19,7 +19,8 @@ const LAYERS: &[(&str, &[&str])] = &[
     ("open", &["proto", "link", "clock", "family", "session", "sim"]),
     ("device", &["proto", "link", "session", "clock", "family"]),
     ("monitor", &["proto", "family"]),
-    ("tui", &["device", "session", "proto", "link", "clock", "family", "monitor"]),
+    ("tui", &["device", "session", "proto", "link", "clock", "family", "monitor", "plot"]),
+    ("plot", &[]),
 ];
 
 /// Top-level modules of the binary crate (declared in main.rs): not layers

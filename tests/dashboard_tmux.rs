@@ -65,9 +65,11 @@ impl Drop for Tmux {
 }
 
 fn smoke(w: u16, h: u16) {
+    let snapshots = tempfile::tempdir().unwrap();
     let t = Tmux::start(w, h);
     t.wait_for("READY$");
-    t.keys(&[&format!("{} --link sim dashboard", env!("CARGO_BIN_EXE_axisctl")), "Enter"]);
+    let dir = snapshots.path().display();
+    t.keys(&[&format!("{} --link sim dashboard --snapshot-dir {dir}", env!("CARGO_BIN_EXE_axisctl")), "Enter"]);
     let screen = t.wait_for("module 17");
     // tmux reports the mode a moment after the screen shows it.
     let deadline = Instant::now() + Duration::from_secs(5);
@@ -82,6 +84,29 @@ fn smoke(w: u16, h: u16) {
     t.keys(&["h"]);
     t.wait_for("Home acknowledged");
     t.wait_for("moving");
+    // The chart of module 3 while it homes, then a snapshot of it to SVG.
+    t.keys(&["c"]);
+    t.wait_for("Chart · PowerCube 3 · last 30 s");
+    t.wait_for("position");
+    t.keys(&["p"]);
+    let screen = t.wait_for("chart written to");
+    let written: Vec<_> = std::fs::read_dir(snapshots.path()).unwrap().map(|e| e.unwrap().path()).collect();
+    assert_eq!(written.len(), 1, "one snapshot: {written:?}\n{screen}");
+    let name = written[0].file_name().unwrap().to_string_lossy().to_string();
+    assert!(name.starts_with("axisctl-chart-powercube-3-") && name.ends_with("Z.svg"), "{name}");
+    let svg = std::fs::read_to_string(&written[0]).unwrap();
+    assert!(svg.starts_with("<svg") && svg.trim_end().ends_with("</svg>"), "{svg}");
+    for label in ["position [rad]", "velocity [rad/s]", "current [A]"] {
+        assert!(svg.contains(label), "no {label:?} in the snapshot:\n{svg}");
+    }
+    // The overview: every device in one table, then back to the list.
+    t.keys(&["c", "v"]);
+    let screen = t.wait_for("Overview · 9 device(s)");
+    for want in ["PowerCube 17", "PA axis 3", "Cdios 1/1", " rad/s", " AE/s", " rpm"] {
+        assert!(screen.contains(want), "{want:?} missing from the overview:\n{screen}");
+    }
+    t.keys(&["v"]);
+    t.wait_for("Devices");
     // The help, and any key closes it.
     t.keys(&["?"]);
     t.wait_for("Keys (any key closes)");
@@ -229,4 +254,20 @@ fn sigterm_halts_restores_the_terminal_and_exits_143() {
 #[test]
 fn sighup_halts_restores_the_terminal_and_exits_129() {
     ends_on(libc::SIGHUP, "SIGHUP", 129);
+}
+
+/// A snapshot directory that does not exist is bad input: exit 2 before
+/// any link is opened or the terminal taken.
+#[test]
+fn a_missing_snapshot_dir_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let gone = dir.path().join("gone");
+    let out = Command::new(env!("CARGO_BIN_EXE_axisctl"))
+        .args(["--link", "sim", "dashboard", "--snapshot-dir"])
+        .arg(&gone)
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2), "{out:?}");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains(&format!("--snapshot-dir {}: no such directory", gone.display())), "{err}");
 }

@@ -31,6 +31,9 @@ pub struct DashboardArgs {
     /// Cdios 6168 module ids, e.g. 0,1 (default: scan 0 to 15 at start)
     #[arg(long = "cdios-module", alias = "cdios-modules", value_name = "LIST", value_parser = ids::list(CDIOS_MODULE))]
     pub cdios_modules: Option<IdList>,
+    /// Directory the chart snapshots (key p) are written to, as axisctl-chart-DEVICE-UTCTIME.svg
+    #[arg(long, value_name = "DIR", default_value = ".")]
+    pub snapshot_dir: std::path::PathBuf,
     /// Leave out families: powercube, pac, cdios (repeatable)
     #[arg(long, value_name = "FAMILY", value_parser = parse_family)]
     pub without: Vec<Family>,

@@ -29,11 +29,14 @@ pub fn run(ctx: &Ctx, args: &DashboardArgs) -> anyhow::Result<()> {
     if !(MIN_RATE..=MAX_RATE).contains(&args.rate) {
         return Err(usage(format!("--rate {} is out of range {MIN_RATE} to {MAX_RATE} polls per second", args.rate)));
     }
+    if !args.snapshot_dir.is_dir() {
+        return Err(usage(format!("--snapshot-dir {}: no such directory", args.snapshot_dir.display())));
+    }
     let plans = plan(ctx, args)?;
     if !std::io::stdout().is_terminal() || !std::io::stdin().is_terminal() {
         return Err(usage("the dashboard needs a terminal (stdin and stdout); for scripts use the other commands"));
     }
-    let r = axisctl::tui::run(plans, args.rate, Arc::clone(&ctx.clock));
+    let r = axisctl::tui::run(plans, args.rate, args.snapshot_dir.clone(), Arc::clone(&ctx.clock));
     if let Some(t) = r.as_ref().err().and_then(|e| e.downcast_ref::<axisctl::tui::Terminated>()) {
         // The terminal is restored by now; exit as a shell reports a
         // process ended by the signal (143 SIGTERM, 129 SIGHUP).

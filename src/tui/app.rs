@@ -8,6 +8,7 @@ use std::time::{Duration, Instant};
 use crossterm::event::{KeyCode, KeyEvent, KeyEventKind};
 
 use super::event::{Event, LinkEvent, LinkId, ToWorker};
+use super::history::{self, History, Trace};
 use super::keys::{self, KeyAction};
 use super::source::{Action, DeviceKey, Health, Snapshot};
 use crate::family::Family;
@@ -119,7 +120,22 @@ pub struct DeviceView {
     pub error: Option<String>,
     /// When each field last changed (field names as [`changed_fields`] gives them).
     pub changed: HashMap<&'static str, Instant>,
+    /// Position, velocity and current over the last 30 s, for the chart.
+    pub history: History,
 }
+
+/// The chart of one device, as the `p` key asks for it to be written to
+/// SVG: the dashboard's loop writes it (the App does no I/O) and reports
+/// back with [`Event::Saved`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct ChartRequest {
+    pub device: DeviceKey,
+    pub title: String,
+    pub traces: Vec<Trace>,
+}
+
+/// How long a notice (a snapshot written) stays in the status bar.
+pub const NOTICE: Duration = Duration::from_secs(10);
 
 /// What the screen shows over the panes.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -160,6 +176,14 @@ pub struct App {
     /// Why the dashboard halted what it moved and quit, other than a signal
     /// (a panic, a failed draw).
     pub stopped: Option<String>,
+    /// The chart of the selected device is shown (`c`).
+    pub chart: bool,
+    /// Every device in one table instead of the list and the detail (`v`).
+    pub overview: bool,
+    /// A chart to write to SVG (`p`), taken by the dashboard's loop.
+    pub snapshot: Option<ChartRequest>,
+    /// A line for the status bar until it is older than [`NOTICE`].
+    pub notice: Option<(Instant, String)>,
 }
 
 impl App {
@@ -179,7 +203,31 @@ impl App {
             chosen: false,
             moved: Vec::new(),
             stopped: None,
+            chart: false,
+            overview: false,
+            snapshot: None,
+            notice: None,
         }
+    }
+
+    /// The status bar's notice, while it is recent.
+    pub fn notice(&self) -> Option<&str> {
+        self.notice
+            .as_ref()
+            .filter(|(at, _)| self.now.saturating_duration_since(*at) < NOTICE)
+            .map(|(_, text)| text.as_str())
+    }
+
+    /// The selected device's motion over the window, with a title; `None`
+    /// when it has no motion values (the PA-CONTROL controller line) or
+    /// has not answered yet.
+    pub fn chart_of(&self, d: &DeviceView) -> Option<ChartRequest> {
+        let (units, _, _) = history::motion(d.snap.as_ref()?)?;
+        Some(ChartRequest {
+            device: d.key,
+            title: format!("{} · last {} s", d.key.label(), history::WINDOW.as_secs()),
+            traces: d.history.traces(units, self.now),
+        })
     }
 
     pub fn selected(&self) -> Option<&DeviceView> {
@@ -269,6 +317,19 @@ impl App {
                 self.stopped.get_or_insert(why);
                 out
             }
+            Event::Saved(result) => {
+                match result {
+                    Ok(path) => {
+                        self.log(Level::Info, format!("chart written to {path}"));
+                        self.notice = Some((self.now, format!("chart written to {path}")));
+                    }
+                    Err(e) => {
+                        self.log(Level::Error, format!("chart not written: {e}"));
+                        self.notice = Some((self.now, format!("chart not written: {e}")));
+                    }
+                }
+                vec![]
+            }
         }
     }
 
@@ -306,6 +367,7 @@ impl App {
                             ok_at: None,
                             error: None,
                             changed: HashMap::new(),
+                            history: History::default(),
                         });
                     }
                 }
@@ -335,6 +397,7 @@ impl App {
                         if d.error.take().is_some() {
                             note = Some((Level::Info, format!("{}: answers again", device.label())));
                         }
+                        d.history.push(&snap, at);
                         d.snap = Some(snap);
                         d.ok_at = Some(at);
                     }
@@ -496,6 +559,22 @@ impl App {
             }
             KeyAction::Help => {
                 self.mode = Mode::Help;
+                vec![]
+            }
+            KeyAction::Chart => {
+                self.chart = !self.chart;
+                vec![]
+            }
+            KeyAction::Overview => {
+                self.overview = !self.overview;
+                vec![]
+            }
+            KeyAction::Snapshot => {
+                match self.selected().map(|d| (d.key, self.chart_of(d))) {
+                    None => self.log(Level::Warn, "no device selected"),
+                    Some((key, None)) => self.log(Level::Warn, format!("{}: no motion values to chart", key.label())),
+                    Some((_, Some(req))) => self.snapshot = Some(req),
+                }
                 vec![]
             }
             KeyAction::Quit => self.quit(),

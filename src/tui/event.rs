@@ -22,6 +22,9 @@ pub enum Event {
     /// Nobody can vouch for the screen or a worker any more (a panic, a
     /// failed draw; the text says which): halt what the dashboard moved, quit.
     Stop(String),
+    /// The chart snapshot asked for with `p` was written (its path) or not
+    /// (why).
+    Saved(Result<String, String>),
 }
 
 /// What a link worker reports.

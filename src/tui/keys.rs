@@ -28,6 +28,9 @@ pub enum KeyAction {
     Rescan,
     ScrollUp,
     ScrollDown,
+    Chart,
+    Overview,
+    Snapshot,
     Help,
     Quit,
 }
@@ -141,6 +144,9 @@ pub const KEYS: &[KeyBinding] = &[
     k(&[Char('n')], "n", KeyAction::Rescan, "rescan the links for devices that were missing", "rescan", None),
     k(&[PageUp], "PgUp", KeyAction::ScrollUp, "scroll the event pane back", "events", None),
     k(&[PageDown], "PgDn", KeyAction::ScrollDown, "scroll the event pane forward", "", None),
+    k(&[Char('c')], "c", KeyAction::Chart, "chart of the selected device, last 30 s", "chart", None),
+    k(&[Char('p')], "p", KeyAction::Snapshot, "write the chart to SVG", "", None),
+    k(&[Char('v')], "v", KeyAction::Overview, "overview: every device in one table", "overview", None),
     k(&[Char('?')], "?", KeyAction::Help, "this help (any key closes it)", "help", None),
     k(&[Char('q'), Esc], "q / Esc", KeyAction::Quit, "quit (the devices keep doing what they do)", "quit", None),
 ];

@@ -18,9 +18,12 @@
 pub mod app;
 pub mod cdios;
 pub mod event;
+pub mod history;
 pub mod keys;
 pub mod pac;
 pub mod powercube;
+pub mod screenshot;
+pub mod snapshot;
 pub mod source;
 pub mod ui;
 pub mod worker;
@@ -29,6 +32,7 @@ pub mod worker;
 mod tests;
 
 use std::io::{self, Stdout, Write};
+use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc;
 use std::sync::Arc;
@@ -113,8 +117,9 @@ fn install_panic_hook() {
     }));
 }
 
-/// Runs the dashboard until the user quits.
-pub fn run(plans: Vec<LinkPlan>, rate: f64, clock: Arc<dyn Clock>) -> anyhow::Result<()> {
+/// Runs the dashboard until the user quits; chart snapshots (`p`) go
+/// into `snapshot_dir`.
+pub fn run(plans: Vec<LinkPlan>, rate: f64, snapshot_dir: PathBuf, clock: Arc<dyn Clock>) -> anyhow::Result<()> {
     install_panic_hook();
     // SIGTERM and SIGHUP (terminal closed, SSH dropped), and SIGINT / SIGQUIT
     // sent with kill, would end the dashboard in raw mode with an axis it
@@ -127,7 +132,7 @@ pub fn run(plans: Vec<LinkPlan>, rate: f64, clock: Arc<dyn Clock>) -> anyhow::Re
     execute!(io::stdout(), EnterAlternateScreen, cursor::Hide)?;
     let mut terminal: Terminal<CrosstermBackend<Stdout>> = Terminal::new(CrosstermBackend::new(io::stdout()))?;
     terminal.clear()?;
-    let r = run_loop(&mut terminal, plans, rate, clock);
+    let r = run_loop(&mut terminal, plans, rate, &snapshot_dir, clock);
     drop(terminal);
     r
 }
@@ -138,12 +143,13 @@ pub fn run_loop<B: Backend>(
     terminal: &mut Terminal<B>,
     plans: Vec<LinkPlan>,
     rate: f64,
+    snapshot_dir: &Path,
     clock: Arc<dyn Clock>,
 ) -> anyhow::Result<()>
 where
     B::Error: Send + Sync + 'static,
 {
-    run_with_keys(terminal, plans, rate, clock, read_keys)
+    run_with_keys(terminal, plans, rate, snapshot_dir, clock, read_keys)
 }
 
 /// Keys come from their own thread so that a slow draw never drops one.
@@ -193,6 +199,7 @@ pub fn run_with_keys<B: Backend>(
     terminal: &mut Terminal<B>,
     plans: Vec<LinkPlan>,
     rate: f64,
+    snapshot_dir: &Path,
     clock: Arc<dyn Clock>,
     keys: impl FnOnce(mpsc::Sender<Event>) -> io::Result<()>,
 ) -> anyhow::Result<()>
@@ -218,8 +225,9 @@ where
     drop(tx);
     let mut app = App::new(links, rate, clock.now());
     app.log(app::Level::Info, "press ? for the keys, space to halt everything");
-    let ended =
-        std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| ui_loop(terminal, &mut app, &rx, &senders, &clock)));
+    let ended = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+        ui_loop(terminal, &mut app, &rx, &senders, &clock, snapshot_dir)
+    }));
     let end = match ended {
         Ok(end) => end,
         Err(payload) => {
@@ -272,6 +280,7 @@ fn ui_loop<B: Backend>(
     rx: &mpsc::Receiver<Event>,
     senders: &[mpsc::Sender<ToWorker>],
     clock: &Arc<dyn Clock>,
+    snapshot_dir: &Path,
 ) -> End
 where
     B::Error: Send + Sync + 'static,
@@ -329,6 +338,11 @@ where
                 }
             }
             dispatch(senders, app.handle(ev));
+        }
+        // `p`: the App asked for its chart on disk; it hears back at once.
+        if let Some(req) = app.snapshot.take() {
+            let r = snapshot::write(snapshot_dir, &req, std::time::SystemTime::now());
+            dispatch(senders, app.handle(Event::Saved(r.map(|p| p.display().to_string()).map_err(|e| e.to_string()))));
         }
         if app.quit {
             return End::Quit;

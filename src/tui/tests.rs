@@ -565,9 +565,13 @@ fn every_key_in_the_help_works() {
         if b.action == KeyAction::ScrollDown {
             rig.key(KeyCode::PageUp);
         }
-        let before = (rig.app.selected, rig.app.mode.clone(), rig.app.jog, rig.app.rate, rig.app.scroll);
+        let state = |app: &App| {
+            let views = (app.chart, app.overview, app.snapshot.clone());
+            (app.selected, app.mode.clone(), app.jog, app.rate, app.scroll, views)
+        };
+        let before = state(&rig.app);
         rig.key(b.codes[0]);
-        let after = (rig.app.selected, rig.app.mode.clone(), rig.app.jog, rig.app.rate, rig.app.scroll);
+        let after = state(&rig.app);
         let did = !rig.sent.is_empty() || before != after || rig.app.quit;
         assert!(did, "{} ({:?}) did nothing on {:?}", b.keys, b.action, device);
         if let Some(e) = rig.app.events.iter().find(|e| e.level == super::app::Level::Error) {
@@ -828,16 +832,22 @@ struct Live {
     clock: Arc<dyn Clock>,
     mode: Arc<std::sync::atomic::AtomicU8>,
     worker_panics: Arc<std::sync::atomic::AtomicBool>,
+    /// Where `p` writes its charts.
+    snapshots: std::path::PathBuf,
+    _dir: tempfile::TempDir,
 }
 
 impl Live {
     fn new() -> Self {
         let clock: Arc<dyn Clock> = Arc::new(crate::clock::SystemClock);
+        let dir = tempfile::tempdir().unwrap();
         Self {
             bench: Bench::contract(Arc::clone(&clock)),
             clock,
             mode: Arc::new(std::sync::atomic::AtomicU8::new(0)),
             worker_panics: Arc::new(std::sync::atomic::AtomicBool::new(false)),
+            snapshots: dir.path().to_path_buf(),
+            _dir: dir,
         }
     }
 
@@ -902,7 +912,7 @@ impl Live {
                 }
                 press(KeyCode::Char('q'));
             });
-            super::run_with_keys(&mut terminal, plans, 10.0, Arc::clone(&self.clock), move |tx| {
+            super::run_with_keys(&mut terminal, plans, 10.0, &self.snapshots, Arc::clone(&self.clock), move |tx| {
                 let _ = key_tx.send(tx);
                 Ok(())
             })
@@ -961,4 +971,383 @@ fn a_worker_panic_halts_what_the_dashboard_moved() {
          moved and quit"
     );
     live.assert_both_halted();
+}
+
+impl Rig {
+    /// Every family moving, polled every 100 ms for `rounds` rounds.
+    fn moving_for(&mut self, rounds: u32) {
+        self.everything_moving();
+        for _ in 0..rounds {
+            self.advance(Duration::from_millis(100));
+            self.round();
+        }
+    }
+}
+
+/// Cells of the screen drawn with braille dots (the chart's lines).
+fn braille_cells(t: &Terminal<TestBackend>) -> usize {
+    t.backend()
+        .buffer()
+        .content
+        .iter()
+        .filter(|c| c.symbol().chars().any(|ch| ('\u{2801}'..='\u{28ff}').contains(&ch)))
+        .count()
+}
+
+/// `v`: one table with every device of the three families, position,
+/// velocity and current in the device's units, and the state word.
+#[test]
+fn overview_shows_the_whole_bench_with_units() {
+    let mut rig = Rig::new();
+    rig.moving_for(10);
+    rig.select(DeviceKey::Cube(17));
+    rig.keys("v");
+    assert!(rig.app.overview);
+    for (w, h) in [(80, 24), (200, 50)] {
+        let screen = rig.screen(w, h);
+        for d in &rig.app.devices {
+            assert!(screen.contains(&d.key.label()), "{} missing at {w}x{h}:\n{screen}", d.key.label());
+        }
+        for unit in [" rad ", " rad/s", " m ", " m/s", " A ", " AE ", " AE/s", " counts", " rpm"] {
+            assert!(screen.contains(unit), "no {unit:?} at {w}x{h}:\n{screen}");
+        }
+        for word in ["moving", "online", "off"] {
+            assert!(screen.contains(word), "no state {word:?} at {w}x{h}:\n{screen}");
+        }
+    }
+    insta::assert_snapshot!("overview_80x24", rig.screen(80, 24));
+    insta::assert_snapshot!("overview_200x50", rig.screen(200, 50));
+    // Actions still act on the selected row.
+    rig.keys("s");
+    assert!(rig.sent.contains(&ToWorker::Act(DeviceKey::Cube(17), super::source::Action::Halt)));
+    rig.keys("v");
+    assert!(!rig.app.overview);
+    assert!(rig.screen(80, 24).contains("Devices"));
+}
+
+/// `c`: the selected device's position, velocity and current, each on its
+/// own axis with its unit, drawn from the polls of the last 30 s.
+#[test]
+fn chart_shows_the_motion_of_the_selected_device() {
+    let mut rig = Rig::new();
+    rig.moving_for(20);
+    rig.select(DeviceKey::Cube(17));
+    let plain = rig.terminal(80, 24);
+    assert_eq!(braille_cells(&plain), 0);
+    rig.keys("c");
+    assert!(rig.app.chart);
+    for (w, h) in [(80, 24), (200, 50)] {
+        let t = rig.terminal(w, h);
+        let screen = t.backend().to_string();
+        for name in ["position", "velocity", "current", " m/s", "last 30 s"] {
+            assert!(screen.contains(name), "no {name:?} at {w}x{h}:\n{screen}");
+        }
+        assert!(braille_cells(&t) > 20, "no chart lines at {w}x{h}:\n{screen}");
+    }
+    assert!(rig.screen(200, 50).contains("-30 s"), "the time axis is labelled when there is room");
+    insta::assert_snapshot!("chart_80x24", rig.screen(80, 24));
+    insta::assert_snapshot!("chart_200x50", rig.screen(200, 50));
+    // A PA axis and a Cdios module have no current: two plots.
+    rig.select(DeviceKey::PacAxis(1));
+    let screen = rig.screen(80, 24);
+    assert!(screen.contains("AE/s") && !screen.contains("current"), "{screen}");
+    rig.select(DeviceKey::Cdios { node: 1, module: 0 });
+    let screen = rig.screen(80, 24);
+    assert!(screen.contains("rpm") && screen.contains("counts"), "{screen}");
+    // The controller line has no motion values, and says so.
+    rig.select(DeviceKey::PacController);
+    assert!(rig.screen(80, 24).contains("no motion values to chart"));
+    // Overview and chart together.
+    rig.select(DeviceKey::Cube(17));
+    rig.keys("v");
+    insta::assert_snapshot!("overview_chart_80x24", rig.screen(80, 24));
+    insta::assert_snapshot!("overview_chart_200x50", rig.screen(200, 50));
+    rig.keys("c");
+    assert!(!rig.app.chart);
+}
+
+fn axis_poll(link: usize, axis: u8, at: std::time::Instant, position: f64) -> Event {
+    let snap = super::source::PacAxisSnap {
+        position,
+        speed: 1.0,
+        status: 1,
+        ext_status: 0x0101_0101,
+        min_pos: None,
+        max_pos: None,
+    };
+    Event::Link(LinkEvent::Polled {
+        link,
+        device: DeviceKey::PacAxis(axis),
+        at,
+        result: Ok(Snapshot::PacAxis(snap)),
+        health: super::source::Health::Answer,
+    })
+}
+
+/// The history is pure App state: 30 s of polls, never more than
+/// CAPACITY samples whatever the rate and however long it runs.
+#[test]
+fn history_keeps_30_s_in_a_bounded_ring() {
+    use super::history::{CAPACITY, WINDOW};
+    let t0 = std::time::Instant::now();
+    let mut app = App::new(vec![LinkView::new("l", vec![Family::Pac], 10.0)], 10.0, t0);
+    app.handle(Event::Link(LinkEvent::Discovered {
+        link: 0,
+        devices: vec![DeviceKey::PacAxis(1), DeviceKey::PacAxis(2)],
+        errors: vec![],
+    }));
+    // Axis 1 at 10 Hz for 2 minutes: the last 30 s stay (and the one sample
+    // before them, where the line enters the chart).
+    for i in 0..1200u64 {
+        app.handle(axis_poll(0, 1, t0 + Duration::from_millis(100 * i), i as f64));
+    }
+    let now = t0 + Duration::from_millis(100 * 1199);
+    let h = &app.device(DeviceKey::PacAxis(1)).unwrap().history;
+    assert_eq!(h.len(), 302, "30 s at 10 Hz, both ends, and one before");
+    let oldest = h.samples().next().unwrap();
+    assert!(now.duration_since(oldest.at) > WINDOW);
+    assert!(now.duration_since(h.samples().nth(1).unwrap().at) <= WINDOW);
+    // Axis 2 at 1 kHz, ten times the fastest poll rate, for 60 s: bounded.
+    let t1 = now;
+    for i in 0..60_000u64 {
+        app.handle(axis_poll(0, 2, t1 + Duration::from_millis(i), i as f64));
+        if i % 10_000 == 0 {
+            assert!(app.device(DeviceKey::PacAxis(2)).unwrap().history.len() <= CAPACITY);
+        }
+    }
+    assert_eq!(app.device(DeviceKey::PacAxis(2)).unwrap().history.len(), CAPACITY);
+    // A report older than the newest sample (a clock step) is not charted.
+    app.handle(axis_poll(0, 2, t1, -1.0));
+    let h = &app.device(DeviceKey::PacAxis(2)).unwrap().history;
+    assert!(h.samples().all(|s| s.pos >= 0.0));
+    // The chart's traces: x within the window before now, newest at 0.
+    app.handle(Event::Tick(t1 + Duration::from_millis(59_999)));
+    app.selected = 1;
+    let req = app.chart_of(app.selected().unwrap()).unwrap();
+    let names: Vec<_> = req.traces.iter().map(|t| (t.name, t.unit)).collect();
+    assert_eq!(names, [("position", "AE"), ("velocity", "AE/s")]);
+    let xs: Vec<f64> = req.traces[0].points.iter().map(|p| p.0).collect();
+    assert_eq!(*xs.last().unwrap(), 0.0);
+    assert!(xs.iter().all(|x| (-31.0..=0.0).contains(x)), "{:?}", &xs[..3]);
+    // At 1 kHz the ring holds the last 3 s; thinned for drawing to at most
+    // two points per column, the extremes kept.
+    assert!(xs[0] > -3.1, "{}", xs[0]);
+    let points = &req.traces[0].points;
+    let thin = super::history::thin(points, 50);
+    assert!(thin.len() <= 100, "{}", thin.len());
+    assert_eq!((thin.first(), thin.last()), (points.first(), points.last()));
+    let axis1 = app.device(DeviceKey::PacAxis(1)).unwrap().history.traces(
+        super::history::motion(app.device(DeviceKey::PacAxis(1)).unwrap().snap.as_ref().unwrap()).unwrap().0,
+        now,
+    );
+    let thin = super::history::thin(&axis1[0].points, 50);
+    assert!((50..=100).contains(&thin.len()), "{}", thin.len());
+}
+
+/// `c` and `v` toggle the views, `p` asks for the selected device's
+/// chart (and only for a device with motion values); none of them sends
+/// anything to a worker.
+#[test]
+fn chart_overview_and_snapshot_keys() {
+    let mut rig = Rig::new();
+    rig.moving_for(5);
+    rig.sent.clear();
+    rig.select(DeviceKey::Cube(3));
+    rig.keys("cv");
+    assert!(rig.app.chart && rig.app.overview);
+    rig.keys("cv");
+    assert!(!rig.app.chart && !rig.app.overview);
+    rig.keys("p");
+    let req = rig.app.snapshot.take().expect("a chart to write");
+    assert_eq!(req.device, DeviceKey::Cube(3));
+    let names: Vec<_> = req.traces.iter().map(|t| (t.name, t.unit)).collect();
+    assert_eq!(names, [("position", "rad"), ("velocity", "rad/s"), ("current", "A")]);
+    assert!(req.traces.iter().all(|t| t.points.len() >= 5), "{req:?}");
+    rig.select(DeviceKey::PacController);
+    rig.keys("p");
+    assert!(rig.app.snapshot.is_none());
+    assert!(rig.app.events.iter().any(|e| e.text == "PA-CONTROL: no motion values to chart"));
+    assert!(rig.sent.is_empty(), "{:?}", rig.sent);
+    // The loop's answer lands in the events and, for a while, the status bar.
+    rig.app.handle(Event::Saved(Ok("./axisctl-chart-powercube-3-x.svg".into())));
+    assert!(rig.screen(80, 24).contains("chart written to ./axisctl-chart-powercube-3-x.svg"));
+    assert_eq!(rig.screen(80, 24).matches("chart written to").count(), 2, "in the events and the status bar");
+    rig.advance(super::app::NOTICE);
+    assert_eq!(rig.screen(80, 24).matches("chart written to").count(), 1, "the notice goes away");
+    assert!(rig.app.events.iter().any(|e| e.text == "chart written to ./axisctl-chart-powercube-3-x.svg"));
+}
+
+/// Whether every element of an SVG document is closed, in order.
+fn well_formed(svg: &str) -> Result<(), String> {
+    let mut open: Vec<String> = Vec::new();
+    let mut rest = svg;
+    while let Some(i) = rest.find('<') {
+        let end = rest[i..].find('>').ok_or("unclosed tag")? + i;
+        let tag = &rest[i + 1..end];
+        rest = &rest[end + 1..];
+        if tag.starts_with('?') || tag.starts_with('!') {
+            continue;
+        }
+        if let Some(name) = tag.strip_prefix('/') {
+            let top = open.pop().ok_or(format!("</{name}> closes nothing"))?;
+            if top != name.trim() {
+                return Err(format!("</{name}> closes <{top}>"));
+            }
+        } else if !tag.ends_with('/') {
+            open.push(tag.split_whitespace().next().unwrap_or("").to_string());
+        }
+    }
+    if open.is_empty() {
+        Ok(())
+    } else {
+        Err(format!("never closed: {open:?}"))
+    }
+}
+
+/// Checks a chart snapshot: an SVG document with one line per quantity
+/// and the quantities with their units on the axes.
+fn assert_chart_svg(svg: &str, labels: &[&str]) {
+    assert!(svg.starts_with("<svg"), "{svg}");
+    well_formed(svg).unwrap_or_else(|e| panic!("{e}:\n{svg}"));
+    let lines = svg
+        .split("<polyline")
+        .skip(1)
+        .filter(|p| p.contains(&format!("stroke-width=\"{}\"", crate::plot::LINE_WIDTH)))
+        .count();
+    assert_eq!(lines, labels.len(), "one line per quantity:\n{svg}");
+    for l in labels {
+        assert!(svg.contains(&format!(">{l}<")) || svg.contains(&format!(">\n{l}\n<")), "no {l:?} in:\n{svg}");
+    }
+}
+
+/// `p` through the snapshot writer: the file is named after the device and
+/// the time, holds the chart, and a second snapshot in the same second
+/// does not overwrite the first.
+#[test]
+fn snapshot_writes_the_chart_as_svg() {
+    let mut rig = Rig::new();
+    rig.moving_for(10);
+    rig.select(DeviceKey::Cube(17));
+    rig.keys("p");
+    let req = rig.app.snapshot.take().unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let when = std::time::UNIX_EPOCH + Duration::from_secs(1_796_182_576);
+    let path = super::snapshot::write(dir.path(), &req, when).unwrap();
+    assert_eq!(path, dir.path().join("axisctl-chart-powercube-17-20261202T033616Z.svg"));
+    let svg = std::fs::read_to_string(&path).unwrap();
+    assert_chart_svg(&svg, &["position [m]", "velocity [m/s]", "current [A]"]);
+    assert!(svg.contains("PowerCube 17 · last 30 s"), "{svg}");
+    let again = super::snapshot::write(dir.path(), &req, when).unwrap();
+    assert_eq!(again, dir.path().join("axisctl-chart-powercube-17-20261202T033616Z-2.svg"));
+    assert_eq!(std::fs::read_to_string(&path).unwrap(), svg, "the first file stands");
+    // A directory that cannot be written: an error, said in the events.
+    let gone = dir.path().join("gone");
+    let e = super::snapshot::write(&gone, &req, when).unwrap_err();
+    assert!(e.to_string().starts_with(&format!("cannot write {}", gone.display())), "{e}");
+}
+
+/// The real loop: `c` then `p` on a running dashboard write the chart of
+/// the selected module into the snapshot directory and say where.
+#[test]
+fn the_snapshot_key_writes_an_svg_from_the_running_dashboard() {
+    let clock: Arc<dyn Clock> = Arc::new(crate::clock::SystemClock);
+    let bench = Bench::contract(Arc::clone(&clock));
+    let pc = PowerCube::over_can(Box::new(bench.bus.open())).with_clock(Arc::clone(&clock));
+    let source = CubeSource::new(pc, Some(vec![crate::proto::powercube::ModuleId::new(3).unwrap()]));
+    let plans = vec![super::LinkPlan { name: "can".into(), sources: vec![Box::new(source)], reopen: None }];
+    let dir = tempfile::tempdir().unwrap();
+    let mut terminal = Terminal::new(TestBackend::new(100, 30)).unwrap();
+    let files = || std::fs::read_dir(dir.path()).unwrap().count();
+    let r = std::thread::scope(|scope| {
+        let (key_tx, key_rx) = std::sync::mpsc::channel::<std::sync::mpsc::Sender<Event>>();
+        scope.spawn(move || {
+            let Ok(tx) = key_rx.recv() else { return };
+            let press = |c| {
+                let _ = tx.send(Event::Key(KeyEvent::new(KeyCode::Char(c), KeyModifiers::NONE)));
+            };
+            // A few polls first, so that the chart has samples.
+            std::thread::sleep(Duration::from_millis(600));
+            press('c');
+            press('p');
+            for _ in 0..100 {
+                if files() > 0 {
+                    break;
+                }
+                std::thread::sleep(Duration::from_millis(50));
+            }
+            press('q');
+        });
+        super::run_with_keys(&mut terminal, plans, 20.0, dir.path(), Arc::clone(&clock), move |tx| {
+            let _ = key_tx.send(tx);
+            Ok(())
+        })
+    });
+    r.unwrap();
+    let written: Vec<_> = std::fs::read_dir(dir.path()).unwrap().map(|e| e.unwrap().path()).collect();
+    assert_eq!(written.len(), 1, "{written:?}");
+    let name = written[0].file_name().unwrap().to_string_lossy().to_string();
+    assert!(name.starts_with("axisctl-chart-powercube-3-") && name.ends_with("Z.svg"), "{name}");
+    let svg = std::fs::read_to_string(&written[0]).unwrap();
+    assert_chart_svg(&svg, &["position [rad]", "velocity [rad/s]", "current [A]"]);
+    let screen = terminal.backend().to_string();
+    assert!(screen.contains("chart written to"), "{screen}");
+}
+
+/// The pictures of docs/img, drawn by the dashboard's own code on the
+/// simulated bench: (file name, screen).
+fn docs_pictures() -> Vec<(&'static str, String)> {
+    let (w, h) = (120, 36);
+    let mut rig = Rig::new();
+    rig.moving_for(40);
+    rig.select(DeviceKey::Cube(17));
+    let mut out = vec![("dashboard.svg", super::screenshot::svg(rig.terminal(w, h).backend().buffer()))];
+    rig.keys("c");
+    out.push(("dashboard-chart.svg", super::screenshot::svg(rig.terminal(w, h).backend().buffer())));
+    rig.keys("v");
+    out.push(("dashboard-overview.svg", super::screenshot::svg(rig.terminal(w, h).backend().buffer())));
+    out
+}
+
+/// docs/img/dashboard*.svg (shown in the README and the guide) are what
+/// the code draws now: a change to the screen fails here until
+/// `scripts/screenshots.sh` draws them again.
+#[test]
+fn the_docs_pictures_are_what_the_dashboard_draws() {
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("docs/img");
+    let write = std::env::var_os("AXISCTL_WRITE_DOCS_IMG").is_some();
+    for (name, svg) in docs_pictures() {
+        well_formed(&svg).unwrap_or_else(|e| panic!("{name}: {e}"));
+        let path = dir.join(name);
+        if write {
+            std::fs::create_dir_all(&dir).unwrap();
+            std::fs::write(&path, &svg).unwrap();
+            continue;
+        }
+        let committed = std::fs::read_to_string(&path).unwrap_or_default();
+        assert!(committed == svg, "docs/img/{name} is not what the dashboard draws now: run scripts/screenshots.sh");
+    }
+}
+
+/// The picture of a screen: every character where its cell is, in the
+/// cell's colours, and the box lines as strokes.
+#[test]
+fn a_screen_as_svg() {
+    use ratatui::style::{Modifier, Style};
+    let mut buf = ratatui::buffer::Buffer::empty(ratatui::layout::Rect::new(0, 0, 6, 2));
+    buf.set_string(0, 0, "┌a<b┐", Style::new().fg(Color::Red));
+    buf.set_string(1, 1, "ok", Style::new().add_modifier(Modifier::REVERSED | Modifier::BOLD));
+    let svg = super::screenshot::svg(&buf);
+    well_formed(&svg).unwrap();
+    assert!(svg.contains("width=\"50\" height=\"34\""), "{svg}");
+    assert!(
+        svg.contains("fill=\"#cd3131\">  a&lt;b</text>") || svg.contains("fill=\"#cd3131\"> a&lt;b</text>"),
+        "{svg}"
+    );
+    assert!(
+        svg.contains("<path d=\"M4.2 8.5H8.4M33.6 8.5H37.8M4.2 8.5V17.0M37.8 8.5V17.0\" stroke=\"#cd3131\""),
+        "{svg}"
+    );
+    // Reversed: light background, dark text, bold.
+    assert!(svg.contains("<rect x=\"8.4\" y=\"17.0\" width=\"16.8\" height=\"17\" fill=\"#d4d4d4\"/>"), "{svg}");
+    assert!(svg.contains("fill=\"#1e1e1e\" font-weight=\"bold\">ok</text>"), "{svg}");
 }

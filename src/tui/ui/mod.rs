@@ -2,9 +2,15 @@
 //!
 //! Layout: the device list on the left, the selected device's detail on the
 //! right above the event pane, the status bar (link health, key hints) at
-//! the bottom; the help and the target prompt are drawn over it.
+//! the bottom; the help and the target prompt are drawn over it. The
+//! overview (`v`) puts one table of every device in the place of the list
+//! and the detail; the chart (`c`) goes below the detail or the table, or
+//! in the place of the detail (of the event pane under the table) when
+//! the screen is too low for both.
 
+mod chart;
 mod detail;
+mod overview;
 
 use ratatui::layout::{Constraint, Layout, Rect};
 use ratatui::style::{Color, Modifier, Style};
@@ -28,23 +34,66 @@ pub fn draw(f: &mut Frame, app: &App) {
     let area = f.area();
     let status = status_lines(app, area.width);
     let [main, bar] = Layout::vertical([Constraint::Min(6), Constraint::Length(status.len() as u16)]).areas(area);
-    let list_w = if area.width >= 120 { 30 } else { 24 };
-    let [list, right] = Layout::horizontal([Constraint::Length(list_w), Constraint::Min(20)]).areas(main);
     let events_h = (main.height / 3).clamp(4, 14);
-    let [detail_area, events] = Layout::vertical([Constraint::Min(8), Constraint::Length(events_h)]).areas(right);
-    draw_list(f, app, list);
-    detail::draw(f, app, detail_area);
-    draw_events(f, app, events);
+    // Where the target prompt goes: over the lower part of the values.
+    let prompt_area =
+        if app.overview { draw_overview(f, app, main, events_h) } else { draw_panes(f, app, main, events_h) };
     f.render_widget(Paragraph::new(status), bar);
     match &app.mode {
         Mode::Help => draw_help(f, area),
-        Mode::Target(text) => draw_prompt(f, app, detail_area, text),
+        Mode::Target(text) => draw_prompt(f, app, prompt_area, text),
         Mode::Normal => {}
     }
 }
 
+/// Rows a chart needs to be worth drawing next to something else.
+const CHART_MIN: u16 = 12;
+/// Rows the detail keeps above a chart.
+const DETAIL_MIN: u16 = 14;
+
+/// The list, the detail (and the chart), the events.
+fn draw_panes(f: &mut Frame, app: &App, main: Rect, events_h: u16) -> Rect {
+    let list_w = if main.width >= 120 { 30 } else { 24 };
+    let [list, right] = Layout::horizontal([Constraint::Length(list_w), Constraint::Min(20)]).areas(main);
+    let [upper, events] = Layout::vertical([Constraint::Min(8), Constraint::Length(events_h)]).areas(right);
+    draw_list(f, app, list);
+    draw_events(f, app, events);
+    if !app.chart {
+        detail::draw(f, app, upper);
+    } else if upper.height >= DETAIL_MIN + CHART_MIN {
+        let [detail_area, chart_area] = Layout::vertical([Constraint::Fill(1), Constraint::Fill(1)]).areas(upper);
+        detail::draw(f, app, detail_area);
+        chart::draw(f, app, chart_area);
+    } else {
+        chart::draw(f, app, upper);
+    }
+    upper
+}
+
+/// The overview table over the full width, the chart and the events below.
+fn draw_overview(f: &mut Frame, app: &App, main: Rect, events_h: u16) -> Rect {
+    let table_h = overview::height(app).min(main.height.saturating_sub(if app.chart { 6 } else { events_h }));
+    if !app.chart {
+        let [table, events] = Layout::vertical([Constraint::Min(table_h), Constraint::Length(events_h)]).areas(main);
+        overview::draw(f, app, table);
+        draw_events(f, app, events);
+        return table;
+    }
+    let [table, rest] = Layout::vertical([Constraint::Length(table_h), Constraint::Min(0)]).areas(main);
+    overview::draw(f, app, table);
+    if rest.height >= CHART_MIN + events_h {
+        let [chart_area, events] =
+            Layout::vertical([Constraint::Min(CHART_MIN), Constraint::Length(events_h)]).areas(rest);
+        chart::draw(f, app, chart_area);
+        draw_events(f, app, events);
+    } else {
+        chart::draw(f, app, rest);
+    }
+    table
+}
+
 /// A short word for the list: what most needs attention.
-fn summary(app: &App, d: &DeviceView) -> (String, Style) {
+pub(super) fn summary(app: &App, d: &DeviceView) -> (String, Style) {
     use crate::proto::powercube::flags::{state, CUBE_STATE};
     if app.stale(d).is_some() {
         return ("STALE".into(), YELLOW.add_modifier(Modifier::REVERSED));
@@ -202,6 +251,9 @@ fn status_lines(app: &App, width: u16) -> Vec<Line<'static>> {
         lines.push(Line::from(joined));
     } else {
         lines.extend(per_link.into_iter().map(Line::from));
+    }
+    if let Some(notice) = app.notice() {
+        lines.push(Line::styled(notice.to_string(), BOLD));
     }
     lines.push(hint_line(app, width));
     lines
