@@ -1,0 +1,351 @@
+//! `backup`, `diff` and `restore` through the real binary: against the
+//! in-process bench (`--link sim`, a fresh bench per process) and against
+//! served simulators, whose state carries over between commands.
+
+mod common;
+
+use std::path::{Path, PathBuf};
+
+use common::{run, Run, Sim};
+use serde_json::Value;
+
+fn ok(r: &Run, what: &str) {
+    assert_eq!(r.code, 0, "{what}: stdout {}\nstderr {}", r.stdout, r.stderr);
+}
+
+fn tmp() -> tempfile::TempDir {
+    tempfile::tempdir().unwrap()
+}
+
+fn path(dir: &tempfile::TempDir, name: &str) -> PathBuf {
+    dir.path().join(name)
+}
+
+fn s(p: &Path) -> &str {
+    p.to_str().unwrap()
+}
+
+fn read_json(p: &Path) -> Value {
+    serde_json::from_str(&std::fs::read_to_string(p).unwrap()).unwrap()
+}
+
+fn write_json(p: &Path, v: &Value) {
+    std::fs::write(p, serde_json::to_string_pretty(v).unwrap()).unwrap();
+}
+
+/// The device of `family` at `key` = `id` in a backup document.
+fn device<'a>(doc: &'a mut Value, family: &str, key: &str, id: u64) -> &'a mut Value {
+    doc["devices"]
+        .as_array_mut()
+        .unwrap()
+        .iter_mut()
+        .find(|d| d["family"] == family && d[key] == id)
+        .unwrap_or_else(|| panic!("no {family} {key} {id}"))
+}
+
+/// The validator of one definition of the published schema.
+fn schema(def: &str) -> jsonschema::Validator {
+    let text = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/schema/axisctl.schema.json")).unwrap();
+    let mut root: Value = serde_json::from_str(&text).unwrap();
+    root.as_object_mut().unwrap().remove("oneOf");
+    root["$ref"] = Value::from(format!("#/$defs/{def}"));
+    jsonschema::validator_for(&root).unwrap()
+}
+
+fn valid(def: &str, doc: &Value) {
+    let v = schema(def);
+    let errors: Vec<String> = v.iter_errors(doc).map(|e| format!("{e} at {}", e.instance_path())).collect();
+    assert!(errors.is_empty(), "{def}: {}\n{doc:#}", errors.join("\n"));
+}
+
+/// The PowerCube SetExtended frames (a write) in a candump `--log`: request
+/// ids 0x0E0..=0x0FF with command byte 08.
+fn cube_writes(log: &Path) -> Vec<String> {
+    std::fs::read_to_string(log)
+        .unwrap_or_default()
+        .lines()
+        .filter_map(|l| l.split_whitespace().last())
+        .filter(|f| {
+            let (id, data) = f.split_once('#').unwrap_or(("", ""));
+            u32::from_str_radix(id, 16).is_ok_and(|id| (0x0E0..=0x0FF).contains(&id)) && data.starts_with("08")
+        })
+        .map(str::to_string)
+        .collect()
+}
+
+fn lines(log: &Path) -> usize {
+    std::fs::read_to_string(log).map(|t| t.lines().count()).unwrap_or(0)
+}
+
+fn outcomes(report: &Value, family: &str, key: &str, id: u64) -> Vec<(String, String)> {
+    report["devices"].as_array().unwrap().iter().find(|d| d["family"] == family && d[key] == id).unwrap()["results"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|r| r["outcome"] != "unchanged")
+        .map(|r| (r["name"].as_str().unwrap().to_string(), r["outcome"].as_str().unwrap().to_string()))
+        .collect()
+}
+
+// ---- PowerCube ----
+
+#[test]
+fn powercube_backup_holds_identity_and_settings_with_units_and_validates() {
+    let dir = tmp();
+    let file = path(&dir, "bench.json");
+    let r = run(&["--link", "sim", "--json", "backup", "--family", "powercube", "--out", s(&file)]);
+    ok(&r, "backup");
+    valid("document", &r.json());
+    assert_eq!(r.json()["devices"].as_array().unwrap().len(), 3, "{}", r.stdout);
+    let mut doc = read_json(&file);
+    valid("backup_document", &doc);
+    assert_eq!(doc["schema"], "axisctl-backup/1");
+    let m17 = device(&mut doc, "powercube", "module", 17);
+    assert_eq!(m17["identity"]["type"], "linear");
+    assert!(m17["identity"]["serial"].is_u64());
+    assert_eq!(m17["settings"]["MaxVel"]["unit"], "m/s");
+    assert_eq!(m17["settings"]["MaxVel"]["restore"], true);
+    assert_eq!(m17["settings"]["DefMaxVel"]["restore"], false, "read-only values are marked");
+    assert!(m17["settings"].get("ActPos").is_none(), "live values are no setting");
+    // Without --out the document itself is the output.
+    let r = run(&["--link", "sim", "backup", "-m", "3"]);
+    ok(&r, "backup -m 3");
+    let doc = r.json();
+    assert_eq!(doc["devices"].as_array().unwrap().len(), 1);
+    assert_eq!(doc["devices"][0]["identity"]["type"], "rotary");
+    assert_eq!(doc["devices"][0]["settings"]["MaxVel"]["unit"], "rad/s");
+}
+
+#[test]
+fn powercube_restore_on_the_in_process_bench_writes_reads_back_and_diffs_empty() {
+    let dir = tmp();
+    let saved = path(&dir, "saved.json");
+    ok(&run(&["--link", "sim", "backup", "--family", "powercube", "--out", s(&saved)]), "backup");
+    // The file wants other values than the fresh bench holds.
+    let mut doc = read_json(&saved);
+    let m17 = device(&mut doc, "powercube", "module", 17);
+    m17["settings"]["MaxVel"]["value"] = 0.07.into();
+    m17["settings"]["ActC0"]["value"] = 31.into();
+    let changed = path(&dir, "changed.json");
+    write_json(&changed, &doc);
+    let r = run(&["--link", "sim", "diff", s(&changed)]);
+    ok(&r, "diff");
+    assert!(r.stdout.contains("MaxVel") && r.stdout.contains("0.07") && r.stdout.contains("m/s"), "{}", r.stdout);
+    assert!(r.stdout.contains("2 differences on 1 device"), "{}", r.stdout);
+    let r = run(&["--link", "sim", "--json", "diff", s(&changed)]);
+    ok(&r, "diff --json");
+    valid("document", &r.json());
+    valid("diff_report", &r.json());
+    assert_eq!(r.json()["differs"], true);
+    let log = path(&dir, "restore.log");
+    let r = run(&["--link", "sim", "--json", "--log", s(&log), "restore", s(&changed)]);
+    ok(&r, "restore");
+    valid("document", &r.json());
+    valid("restore_report", &r.json());
+    let rep = r.json();
+    assert_eq!(
+        outcomes(&rep, "powercube", "module", 17),
+        [("MaxVel".into(), "written".into()), ("ActC0".into(), "written".into())]
+    );
+    assert_eq!(rep["summary"]["written"], 2);
+    assert_eq!(cube_writes(&log).len(), 2, "one SetExtended per changed value");
+    // The original file against a fresh bench: no difference.
+    let r = run(&["--link", "sim", "--json", "diff", s(&saved)]);
+    ok(&r, "diff saved");
+    assert_eq!(r.json()["differs"], false, "{}", r.stdout);
+    assert!(run(&["--link", "sim", "diff", s(&saved)]).stdout.starts_with("no differences"));
+}
+
+#[test]
+fn powercube_round_trip_on_served_simulators() {
+    let sim = Sim::start(&[], 3);
+    let link = sim.link("powercube");
+    let dir = tmp();
+    let saved = path(&dir, "saved.json");
+    ok(&run(&["--link", link, "backup", "-m", "3,17", "--out", s(&saved)]), "backup");
+    ok(&run(&["--link", link, "set-param", "-m", "17", "MaxVel", "0.05"]), "set-param");
+    ok(&run(&["--link", link, "set-param", "-m", "3", "ActC0", "40"]), "set-param");
+    ok(&run(&["--link", link, "set-config", "-m", "17", "+brake-present"]), "set-config");
+    let r = run(&["--link", link, "--json", "diff", s(&saved)]);
+    ok(&r, "diff");
+    let names: Vec<&str> = r.json()["devices"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .flat_map(|d| d["differences"].as_array().unwrap().iter().map(|x| x["name"].as_str().unwrap()))
+        .map(|n| Box::leak(n.to_string().into_boxed_str()) as &str)
+        .collect();
+    assert_eq!(names, ["ActC0", "Config", "MaxVel"], "{}", r.stdout);
+    // A dry run shows the diff and sends no write.
+    let log = path(&dir, "dry.log");
+    let r = run(&["--link", link, "--log", s(&log), "restore", s(&saved), "--dry-run"]);
+    ok(&r, "dry run");
+    assert!(r.stdout.contains("MaxVel") && r.stdout.contains("dry run"), "{}", r.stdout);
+    assert!(lines(&log) > 0, "the dry run read the bench");
+    assert_eq!(cube_writes(&log), Vec::<String>::new());
+    let r = run(&["--link", link, "--json", "restore", s(&saved)]);
+    ok(&r, "restore");
+    valid("document", &r.json());
+    valid("restore_report", &r.json());
+    assert_eq!(
+        outcomes(&r.json(), "powercube", "module", 17),
+        [("Config".into(), "written".into()), ("MaxVel".into(), "written".into())]
+    );
+    assert_eq!(outcomes(&r.json(), "powercube", "module", 3), [("ActC0".into(), "written".into())]);
+    let r = run(&["--link", link, "--json", "diff", s(&saved)]);
+    ok(&r, "diff after");
+    assert_eq!(r.json()["differs"], false, "{}", r.stdout);
+}
+
+#[test]
+fn bad_files_exit_2_and_send_nothing() {
+    let dir = tmp();
+    let saved = path(&dir, "saved.json");
+    ok(&run(&["--link", "sim", "backup", "-m", "17", "--out", s(&saved)]), "backup");
+    let mut newer = read_json(&saved);
+    newer["schema"] = "axisctl-backup/2".into();
+    let newer_file = path(&dir, "newer.json");
+    write_json(&newer_file, &newer);
+    let broken = path(&dir, "broken.json");
+    std::fs::write(&broken, "{\"schema\": \"axisctl-backup/1\", \"devices\": [").unwrap();
+    let mut unknown = read_json(&saved);
+    unknown["devices"][0]["settings"]["NoSuchParam"] = serde_json::json!({"unit": "", "value": 1, "restore": true});
+    unknown["devices"][0]["settings"]["ActPos"] = serde_json::json!({"unit": "m", "value": 1, "restore": true});
+    unknown["devices"][0]["settings"]["ActC0"]["value"] = 1.5.into();
+    let unknown_file = path(&dir, "unknown.json");
+    write_json(&unknown_file, &unknown);
+    for (file, says) in [
+        (&newer_file, "newer axisctl"),
+        (&broken, "is not JSON"),
+        (&unknown_file, "3 invalid values"),
+        (&path(&dir, "missing.json"), "cannot read"),
+    ] {
+        for cmd in ["restore", "diff"] {
+            let log = path(&dir, "bad.log");
+            let _ = std::fs::remove_file(&log);
+            let r = run(&["--link", "sim", "--json", "--log", s(&log), cmd, s(file)]);
+            if cmd == "diff" && file == &unknown_file {
+                ok(&r, "a diff does not validate");
+                continue;
+            }
+            assert_eq!(r.code, 2, "{cmd} {file:?}: {}", r.stderr);
+            assert!(r.stdout.is_empty());
+            let err: Value = serde_json::from_str(&r.stderr).unwrap();
+            assert!(err["error"]["message"].as_str().unwrap().contains(says), "{}", r.stderr);
+            assert_eq!(lines(&log), 0, "{cmd} {file:?}: no frame left");
+        }
+    }
+    // The invalid values are listed, each.
+    let r = run(&["--link", "sim", "restore", s(&unknown_file)]);
+    for name in ["NoSuchParam", "ActPos", "ActC0"] {
+        assert!(r.stderr.contains(name), "{}", r.stderr);
+    }
+}
+
+#[test]
+fn values_outside_the_modules_range_are_listed_and_skipped_only_when_asked() {
+    let dir = tmp();
+    let saved = path(&dir, "saved.json");
+    ok(&run(&["--link", "sim", "backup", "-m", "17", "--out", s(&saved)]), "backup");
+    let mut doc = read_json(&saved);
+    doc["devices"][0]["settings"]["MaxPos"]["value"] = 99.into();
+    doc["devices"][0]["settings"]["MaxVel"]["value"] = 0.07.into();
+    let file = path(&dir, "range.json");
+    write_json(&file, &doc);
+    let log = path(&dir, "range.log");
+    let r = run(&["--link", "sim", "--log", s(&log), "restore", s(&file)]);
+    assert_eq!(r.code, 2, "{}", r.stderr);
+    assert!(r.stderr.contains("MaxPos: 99 m is outside the module's range"), "{}", r.stderr);
+    assert_eq!(cube_writes(&log), Vec::<String>::new(), "nothing written");
+    let r = run(&["--link", "sim", "--json", "restore", s(&file), "--skip-invalid"]);
+    ok(&r, "--skip-invalid");
+    valid("document", &r.json());
+    valid("restore_report", &r.json());
+    assert_eq!(
+        outcomes(&r.json(), "powercube", "module", 17),
+        [("MaxPos".into(), "skipped".into()), ("MaxVel".into(), "written".into())]
+    );
+    assert_eq!(r.json()["problems"][0]["name"], "MaxPos");
+}
+
+#[test]
+fn a_file_of_another_module_is_refused_unless_to_names_the_target() {
+    let dir = tmp();
+    let m3 = path(&dir, "m3.json");
+    ok(&run(&["--link", "sim", "backup", "-m", "3", "--out", s(&m3)]), "backup");
+    // Module 5 is another rotary module with its own serial number.
+    let mut doc = read_json(&m3);
+    doc["devices"][0]["module"] = 5.into();
+    doc["devices"][0]["settings"]["ActC0"]["value"] = 33.into();
+    let moved = path(&dir, "moved.json");
+    write_json(&moved, &doc);
+    let log = path(&dir, "mismatch.log");
+    let r = run(&["--link", "sim", "--log", s(&log), "restore", s(&moved)]);
+    assert_eq!(r.code, 2, "{}", r.stderr);
+    assert!(r.stderr.contains("taken from another device") && r.stderr.contains("serial"), "{}", r.stderr);
+    assert_eq!(cube_writes(&log), Vec::<String>::new());
+    // The linear module 17 is of another type too; --to passes the
+    // identity check, not the module's ranges.
+    let r = run(&["--link", "sim", "restore", s(&m3), "--to", "17", "--dry-run"]);
+    assert_eq!(r.code, 2, "{}", r.stderr);
+    assert!(r.stderr.contains("MaxPos: 3.1 rad is outside the module's range 0 to 1"), "{}", r.stderr);
+    doc["devices"][0]["module"] = 17.into();
+    write_json(&moved, &doc);
+    let r = run(&["--link", "sim", "restore", s(&moved)]);
+    assert_eq!(r.code, 2);
+    assert!(r.stderr.contains("type \"rotary\" in the file, \"linear\" on the device"), "{}", r.stderr);
+    // --to writes the file's one device to the module named.
+    let r = run(&["--link", "sim", "--json", "restore", s(&m3), "--to", "5"]);
+    ok(&r, "restore --to 5");
+    assert_eq!(r.json()["devices"][0]["module"], 5);
+    let r = run(&["--link", "sim", "restore", s(&saved_all(&dir)), "--to", "5"]);
+    assert_eq!(r.code, 2, "--to needs a file of one device: {}", r.stderr);
+}
+
+fn saved_all(dir: &tempfile::TempDir) -> PathBuf {
+    let p = path(dir, "all.json");
+    ok(&run(&["--link", "sim", "backup", "--family", "powercube", "--out", s(&p)]), "backup");
+    p
+}
+
+#[test]
+fn two_files_diff_without_a_link() {
+    let dir = tmp();
+    let a = saved_all(&dir);
+    let mut doc = read_json(&a);
+    device(&mut doc, "powercube", "module", 5)["settings"]["MaxAcc"]["value"] = 1.25.into();
+    let b = path(&dir, "b.json");
+    write_json(&b, &doc);
+    let r = run(&["--json", "diff", s(&a), s(&b)]);
+    ok(&r, "diff two files");
+    valid("document", &r.json());
+    valid("diff_report", &r.json());
+    let d = &r.json()["devices"];
+    let m5 = d.as_array().unwrap().iter().find(|d| d["module"] == 5).unwrap();
+    assert_eq!(m5["differences"][0]["name"], "MaxAcc");
+    assert_eq!(m5["differences"][0]["unit"], "rad/s²");
+    assert_eq!(m5["differences"][0]["right"], 1.25);
+    assert_eq!(r.json()["differs"], true);
+    let r = run(&["--json", "diff", s(&a), s(&a)]);
+    assert_eq!(r.json()["differs"], false);
+}
+
+#[test]
+fn the_documented_backup_file_is_valid_and_restores() {
+    let file = concat!(env!("CARGO_MANIFEST_DIR"), "/docs/examples/module17.json");
+    valid("backup_document", &read_json(Path::new(file)));
+    let r = run(&["--link", "sim", "--json", "restore", file]);
+    ok(&r, "restore the documented file");
+    assert_eq!(r.json()["summary"]["written"], 2, "{}", r.stdout);
+    // The schema is no formality: a setting without restore, a newer
+    // schema name and a device without its address are rejected.
+    let mut doc = read_json(Path::new(file));
+    doc["devices"][0]["settings"]["MaxVel"].as_object_mut().unwrap().remove("restore");
+    assert!(schema("backup_document").iter_errors(&doc).next().is_some());
+    let mut doc = read_json(Path::new(file));
+    doc["schema"] = "backup".into();
+    assert!(schema("backup_document").iter_errors(&doc).next().is_some());
+    let mut doc = read_json(Path::new(file));
+    doc["devices"][0].as_object_mut().unwrap().remove("module");
+    assert!(schema("backup_document").iter_errors(&doc).next().is_some());
+}
