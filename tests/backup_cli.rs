@@ -349,3 +349,96 @@ fn the_documented_backup_file_is_valid_and_restores() {
     doc["devices"][0].as_object_mut().unwrap().remove("module");
     assert!(schema("backup_document").iter_errors(&doc).next().is_some());
 }
+
+// ---- PA-CONTROL ----
+
+/// The PA-CONTROL write frames (0700 system, 0800 axis parameter) sent, in
+/// a serial `--log` (`(time) tx 01 02 30 37 30 30 3B ...`: SOH STX "0700;").
+fn pac_writes(log: &Path) -> usize {
+    std::fs::read_to_string(log)
+        .unwrap_or_default()
+        .lines()
+        .filter_map(|l| l.split_once(" tx ").map(|(_, hex)| hex.to_uppercase()))
+        .filter(|hex| hex.starts_with("01 02 30 37 30 30 3B") || hex.starts_with("01 02 30 38 30 30 3B"))
+        .count()
+}
+
+#[test]
+fn pac_backup_restore_round_trip_on_the_in_process_bench() {
+    let dir = tmp();
+    let saved = path(&dir, "pac.json");
+    let r = run(&["--link", "sim", "--json", "backup", "--family", "pac", "--out", s(&saved)]);
+    ok(&r, "backup");
+    valid("document", &r.json());
+    let mut doc = read_json(&saved);
+    valid("backup_document", &doc);
+    let devices = doc["devices"].as_array().unwrap();
+    assert_eq!(devices.len(), 4, "the controller and its 3 axes");
+    assert_eq!(devices[0]["identity"]["axes"], 3);
+    assert!(devices[0].get("axis").is_none());
+    assert_eq!(devices[2]["settings"]["traverse-speed"]["unit"], "AE/s");
+    assert!(devices[2]["settings"].get("p-share").is_none(), "unused parameters are left out");
+    device(&mut doc, "pac", "axis", 2)["settings"]["traverse-speed"]["value"] = 1500.0.into();
+    device(&mut doc, "pac", "axis", 2)["settings"]["traverse-area-max"]["value"] = 9000.0.into();
+    doc["devices"][0]["settings"]["language"]["value"] = 2.into();
+    let changed = path(&dir, "changed.json");
+    write_json(&changed, &doc);
+    let log = path(&dir, "dry.log");
+    let r = run(&["--link", "sim", "--log", s(&log), "restore", s(&changed), "--dry-run"]);
+    ok(&r, "dry run");
+    assert!(r.stdout.contains("3 differences on 2 devices"), "{}", r.stdout);
+    assert!(lines(&log) > 0, "read");
+    assert_eq!(pac_writes(&log), 0, "a dry run writes nothing");
+    let log = path(&dir, "restore.log");
+    let r = run(&["--link", "sim", "--json", "--log", s(&log), "restore", s(&changed)]);
+    ok(&r, "restore");
+    valid("restore_report", &r.json());
+    assert_eq!(pac_writes(&log), 3, "one write per changed value");
+    let rep = r.json();
+    let ctrl: Vec<_> =
+        rep["devices"][0]["results"].as_array().unwrap().iter().filter(|x| x["outcome"] == "written").collect();
+    assert_eq!(ctrl.len(), 1);
+    assert_eq!(
+        outcomes(&rep, "pac", "axis", 2),
+        [("traverse-area-max".into(), "written".into()), ("traverse-speed".into(), "written".into())],
+        "the area before the speeds"
+    );
+    let r = run(&["--link", "sim", "--json", "diff", s(&saved)]);
+    assert_eq!(r.json()["differs"], false, "{}", r.stdout);
+}
+
+#[test]
+fn pac_values_outside_the_controllers_limits_and_another_controller_are_refused() {
+    let dir = tmp();
+    let saved = path(&dir, "pac.json");
+    ok(&run(&["--link", "sim", "backup", "--family", "pac", "--out", s(&saved)]), "backup");
+    let mut doc = read_json(&saved);
+    device(&mut doc, "pac", "axis", 1)["settings"]["traverse-speed"]["value"] = 1e9.into();
+    device(&mut doc, "pac", "axis", 1)["settings"]["direction-of-rotation"]["value"] = 2.0.into();
+    device(&mut doc, "pac", "axis", 3)["settings"]["acceleration"]["value"] = 500.0.into();
+    let file = path(&dir, "bad.json");
+    write_json(&file, &doc);
+    // direction-of-rotation 2 is wrong in the file alone: refused before the link opens.
+    let log = path(&dir, "bad.log");
+    let r = run(&["--link", "sim", "--log", s(&log), "restore", s(&file)]);
+    assert_eq!(r.code, 2, "{}", r.stderr);
+    assert!(r.stderr.contains("direction-of-rotation") && r.stderr.contains("nothing was sent"), "{}", r.stderr);
+    assert_eq!(lines(&log), 0);
+    device(&mut doc, "pac", "axis", 1)["settings"]["direction-of-rotation"]["value"] = 0.0.into();
+    write_json(&file, &doc);
+    let r = run(&["--link", "sim", "--log", s(&log), "restore", s(&file)]);
+    assert_eq!(r.code, 2, "{}", r.stderr);
+    assert!(r.stderr.contains("traverse-speed: 1000000000 AE/s is outside the controller's limits"), "{}", r.stderr);
+    assert_eq!(pac_writes(&log), 0);
+    let r = run(&["--link", "sim", "--json", "restore", s(&file), "--skip-invalid"]);
+    ok(&r, "--skip-invalid");
+    assert_eq!(outcomes(&r.json(), "pac", "axis", 1), [("traverse-speed".into(), "skipped".into())]);
+    assert_eq!(outcomes(&r.json(), "pac", "axis", 3), [("acceleration".into(), "written".into())]);
+    // A file of a controller with another number of axes.
+    let mut doc = read_json(&saved);
+    doc["devices"][0]["identity"]["axes"] = 2.into();
+    write_json(&file, &doc);
+    let r = run(&["--link", "sim", "restore", s(&file)]);
+    assert_eq!(r.code, 2, "{}", r.stderr);
+    assert!(r.stderr.contains("axes 2 in the file, 3 on the device"), "{}", r.stderr);
+}

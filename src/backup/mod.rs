@@ -10,6 +10,7 @@
 //! restore writes them, and how a read-back value is reported.
 
 mod diff;
+pub mod pac;
 pub mod powercube;
 
 #[cfg(test)]

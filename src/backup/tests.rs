@@ -179,3 +179,43 @@ fn a_new_range_above_the_old_one_writes_max_pos_first() {
     let tv = order.iter().position(|n| *n == "TargetVelInc").unwrap();
     assert!(order.iter().position(|n| *n == "MaxVel").unwrap() < tv, "limits before the values within them");
 }
+
+fn pac_axis(settings: &[(&str, f64)]) -> Device {
+    let mut dev = Device::new(Family::Pac, "sim");
+    dev.axis = Some(2);
+    for (name, v) in settings {
+        dev.settings.insert((*name).into(), Setting::new((*v).into(), "AE", true));
+    }
+    dev
+}
+
+#[test]
+fn pac_order_puts_units_before_the_area_and_the_area_before_the_speeds() {
+    let live = pac_axis(&[("traverse-area-min", 0.0), ("traverse-area-max", 100.0)]);
+    let order = pac::order(&live, &live);
+    let at = |n: &str| order.iter().position(|x| *x == n).unwrap();
+    assert!(at("gear-factor") < at("traverse-area-min"));
+    assert!(at("traverse-area-min") < at("traverse-area-max"));
+    assert!(at("traverse-area-max") < at("traverse-speed"));
+    assert!(at("traverse-area-max") < at("acceleration"));
+    let above = pac_axis(&[("traverse-area-min", 200.0), ("traverse-area-max", 300.0)]);
+    let order = pac::order(&above, &live);
+    let at = |n: &str| order.iter().position(|x| *x == n).unwrap();
+    assert!(at("traverse-area-max") < at("traverse-area-min"), "max first when the new area lies above");
+    let mut ctrl = Device::new(Family::Pac, "sim");
+    ctrl.settings.insert("language".into(), Setting::new(1.into(), "", true));
+    assert!(!pac::order(&ctrl, &ctrl).contains(&"number-of-axes"), "the configuration is never written");
+}
+
+#[test]
+fn pac_file_checks() {
+    let dev = pac_axis(&[("traverse-speed", 10.0), ("p-share", 1.0), ("direction-of-rotation", 3.0), ("nope", 1.0)]);
+    let names: Vec<String> = pac::check_file(&dev).into_iter().map(|p| p.name).collect();
+    assert_eq!(names, ["direction-of-rotation", "nope", "p-share"]);
+    let mut ctrl = Device::new(Family::Pac, "sim");
+    ctrl.settings.insert("language".into(), Setting::new(1.5.into(), "", true));
+    ctrl.settings.insert("number-of-axes".into(), Setting::new(2.into(), "", true));
+    ctrl.settings.insert("autostart".into(), Setting::new(0.into(), "", true));
+    let names: Vec<String> = pac::check_file(&ctrl).into_iter().map(|p| p.name).collect();
+    assert_eq!(names, ["language", "number-of-axes"]);
+}

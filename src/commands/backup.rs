@@ -6,6 +6,7 @@ use std::collections::BTreeSet;
 use std::path::Path;
 
 use axisctl::backup::{self, Address, Device, Difference, Document, Problem, ValueResult};
+use axisctl::device::pac::Controller;
 use axisctl::device::powercube::{Cubes, Error as CubeError};
 use axisctl::family::Family;
 use axisctl::link::LinkSpec;
@@ -55,11 +56,12 @@ fn families(ctx: &Ctx, named: &[Family]) -> anyhow::Result<Vec<Family>> {
 struct Live<'a> {
     ctx: &'a Ctx,
     cubes: Option<Cubes>,
+    pac: Option<Controller>,
 }
 
 impl<'a> Live<'a> {
     fn new(ctx: &'a Ctx) -> Self {
-        Self { ctx, cubes: None }
+        Self { ctx, cubes: None, pac: None }
     }
 
     fn cubes(&mut self) -> anyhow::Result<&mut Cubes> {
@@ -67,6 +69,13 @@ impl<'a> Live<'a> {
             self.cubes = Some(Cubes::new(self.ctx.powercube()?));
         }
         Ok(self.cubes.as_mut().expect("opened above"))
+    }
+
+    fn pac(&mut self) -> anyhow::Result<&mut Controller> {
+        if self.pac.is_none() {
+            self.pac = Some(Controller::new(self.ctx.pac()?));
+        }
+        Ok(self.pac.as_mut().expect("opened above"))
     }
 
     /// The devices of `family` the selection names, or those present.
@@ -87,7 +96,14 @@ impl<'a> Live<'a> {
                 };
                 Ok(ids.into_iter().map(|id| addr(Some(id))).collect())
             }
-            Family::Pac | Family::Cdios => Ok(Vec::new()),
+            Family::Pac => {
+                let c = self.pac()?;
+                backup::pac::ensure_home(c)?;
+                let n = c.configured_axes()?;
+                let axes = (1..=n).map(|a| Address { axis: Some(a), ..addr(None) });
+                Ok(std::iter::once(addr(None)).chain(axes).collect())
+            }
+            Family::Cdios => Ok(Vec::new()),
         }
     }
 
@@ -97,15 +113,21 @@ impl<'a> Live<'a> {
         let link = self.ctx.link_text.clone();
         match at.family {
             Family::PowerCube => Ok(backup::powercube::capture(self.cubes()?, module(at)?, &link)?),
+            Family::Pac => Ok(match at.axis {
+                None => backup::pac::capture_controller(self.pac()?, &link)?,
+                Some(a) => backup::pac::capture_axis(self.pac()?, a, &link)?,
+            }),
             f => Err(usage(format!("backup of the {f} is not supported yet"))),
         }
     }
 
-    fn check_live(&self, file: &Device, live: &Device) -> Vec<Problem> {
-        match file.family {
+    fn check_live(&mut self, file: &Device, live: &Device) -> anyhow::Result<Vec<Problem>> {
+        target(file.address());
+        Ok(match file.family {
             Family::PowerCube => backup::powercube::check_live(file, live),
-            _ => Vec::new(),
-        }
+            Family::Pac => backup::pac::check_live(self.pac()?, file, live)?,
+            Family::Cdios => Vec::new(),
+        })
     }
 
     fn restore(&mut self, file: &Device, live: &Device, skip: &BTreeSet<String>) -> anyhow::Result<Vec<ValueResult>> {
@@ -116,6 +138,7 @@ impl<'a> Live<'a> {
                 let m = module(at)?;
                 Ok(backup::powercube::restore(self.cubes()?, m, file, live, skip)?)
             }
+            Family::Pac => Ok(backup::pac::restore(self.pac()?, file, live, skip)?),
             f => Err(usage(format!("restore of the {f} is not supported yet"))),
         }
     }
@@ -124,6 +147,7 @@ impl<'a> Live<'a> {
 fn check_file(dev: &Device) -> Vec<Problem> {
     match dev.family {
         Family::PowerCube => backup::powercube::check_file(dev),
+        Family::Pac => backup::pac::check_file(dev),
         f => {
             vec![Problem { device: dev.address(), name: "-".into(), message: format!("the {f} is not supported yet") }]
         }
@@ -134,7 +158,8 @@ fn check_file(dev: &Device) -> Vec<Problem> {
 fn identity_keys(f: Family) -> &'static [&'static str] {
     match f {
         Family::PowerCube => &backup::powercube::IDENTITY,
-        _ => &[],
+        Family::Pac => &backup::pac::IDENTITY,
+        Family::Cdios => &[],
     }
 }
 
@@ -354,7 +379,7 @@ fn restore(ctx: &Ctx, path: &Path, opts: Options) -> anyhow::Result<()> {
         // The file's settings, addressed to the target, against the live ones.
         let mut wanted = file_dev.clone();
         (wanted.module, wanted.axis, wanted.node, wanted.link) = (at.module, at.axis, at.node, now.link.clone());
-        problems.extend(live.check_live(&wanted, &now));
+        problems.extend(live.check_live(&wanted, &now)?);
         devices.push((wanted, now));
     }
     output::forget_target();
