@@ -442,3 +442,166 @@ fn pac_values_outside_the_controllers_limits_and_another_controller_are_refused(
     assert_eq!(r.code, 2, "{}", r.stderr);
     assert!(r.stderr.contains("axes 2 in the file, 3 on the device"), "{}", r.stderr);
 }
+
+// ---- Cdios ----
+
+/// The Cdios writes a command sent, from its `--trace` (requests decoded
+/// by the table's name: `set_*`, `store_configuration`).
+fn cdios_writes(stderr: &str) -> Vec<String> {
+    stderr
+        .lines()
+        .filter(|l| l.starts_with("-> ") && (l.contains(" set_") || l.contains(" store_configuration")))
+        .map(|l| l.split_whitespace().nth(1).unwrap_or("").to_string())
+        .collect()
+}
+
+fn cdios_backup(dir: &tempfile::TempDir) -> PathBuf {
+    let saved = path(dir, "cdios.json");
+    ok(&run(&["--link", "sim", "backup", "--family", "cdios", "--out", s(&saved)]), "backup");
+    saved
+}
+
+#[test]
+fn cdios_backup_restore_round_trip_and_the_store_only_when_asked() {
+    let dir = tmp();
+    let saved = cdios_backup(&dir);
+    let mut doc = read_json(&saved);
+    valid("backup_document", &doc);
+    let m0 = device(&mut doc, "cdios", "module", 0);
+    assert_eq!(m0["node"], 1);
+    assert!(m0["identity"]["type"].is_i64() && m0["identity"]["version"].is_i64());
+    assert_eq!(m0["settings"]["speeds.maximum_speed"]["unit"], "RPM");
+    for name in ["events.mask1", "events.speed_on_change", "outputs.digital", "traject1.speed3"] {
+        assert!(m0["settings"].get(name).is_some(), "{name}");
+    }
+    m0["settings"]["speeds.maximum_speed"]["value"] = 6000.into();
+    m0["settings"]["traject0.speed2"]["value"] = 100.into();
+    m0["settings"]["events.mask3"]["value"] = 128.into();
+    m0["settings"]["outputs.digital"]["value"] = 5.into();
+    let changed = path(&dir, "changed.json");
+    write_json(&changed, &doc);
+    let r = run(&["--link", "sim", "--trace", "restore", s(&changed), "--dry-run", "--store"]);
+    ok(&r, "dry run");
+    assert!(r.stdout.contains("4 differences on 1 device"), "{}", r.stdout);
+    assert_eq!(cdios_writes(&r.stderr), Vec::<String>::new(), "a dry run writes and stores nothing");
+    let r = run(&["--link", "sim", "--json", "--trace", "restore", s(&changed)]);
+    ok(&r, "restore");
+    valid("restore_report", &r.json());
+    assert_eq!(
+        outcomes(&r.json(), "cdios", "module", 0),
+        [
+            ("speeds.maximum_speed".into(), "written".into()),
+            ("traject0.speed2".into(), "written".into()),
+            ("events.mask3".into(), "written".into()),
+            ("outputs.digital".into(), "written".into()),
+        ]
+    );
+    let writes = cdios_writes(&r.stderr);
+    assert_eq!(writes.len(), 4, "one per selector, the event setup and the outputs: {writes:?}");
+    assert!(!writes.iter().any(|w| w.starts_with("201#05")), "no store without --store: {writes:?}");
+    assert!(r.json()["devices"][0].get("stored").is_none());
+    // The outputs are written last.
+    assert!(writes.last().unwrap().starts_with("201#10"), "{writes:?}");
+    let r = run(&["--link", "sim", "--json", "--trace", "restore", s(&changed), "--store"]);
+    ok(&r, "restore --store");
+    let stores: Vec<String> = cdios_writes(&r.stderr).into_iter().filter(|w| w.starts_with("201#05")).collect();
+    assert_eq!(stores.len(), 2, "one store per module of the file, after the writes: {stores:?}");
+    assert_eq!(r.json()["devices"][0]["stored"], true);
+    let r = run(&["--link", "sim", "--json", "diff", s(&saved)]);
+    assert_eq!(r.json()["differs"], false, "{}", r.stdout);
+}
+
+#[test]
+fn cdios_invalid_values_another_module_type_and_to() {
+    let dir = tmp();
+    let saved = cdios_backup(&dir);
+    let mut doc = read_json(&saved);
+    device(&mut doc, "cdios", "module", 0)["settings"]["speeds.maximum_speed"]["value"] = 99999.into();
+    device(&mut doc, "cdios", "module", 0)["settings"]["events.speed_on_change"]["value"] = 2.into();
+    device(&mut doc, "cdios", "module", 1)["settings"]["outputs.digital"]["value"] = 3.into();
+    let file = path(&dir, "bad.json");
+    write_json(&file, &doc);
+    let r = run(&["--link", "sim", "--trace", "restore", s(&file)]);
+    assert_eq!(r.code, 2, "{}", r.stderr);
+    assert!(r.stderr.contains("speeds.maximum_speed") && r.stderr.contains("events.speed_on_change"), "{}", r.stderr);
+    assert!(!r.stderr.contains("-> "), "refused before the link opened: {}", r.stderr);
+    let r = run(&["--link", "sim", "--json", "--trace", "restore", s(&file), "--skip-invalid"]);
+    ok(&r, "--skip-invalid");
+    assert_eq!(outcomes(&r.json(), "cdios", "module", 1), [("outputs.digital".into(), "written".into())]);
+    let skipped = outcomes(&r.json(), "cdios", "module", 0);
+    assert!(skipped.iter().all(|(_, o)| o == "skipped") && skipped.len() == 2, "{skipped:?}");
+    // Another module type at that address is refused; --to names the target.
+    let mut doc = read_json(&saved);
+    doc["devices"].as_array_mut().unwrap().truncate(1);
+    doc["devices"][0]["identity"]["type"] = 0x45.into();
+    doc["devices"][0]["settings"]["outputs.digital"]["value"] = 1.into();
+    write_json(&file, &doc);
+    let r = run(&["--link", "sim", "--trace", "restore", s(&file)]);
+    assert_eq!(r.code, 2, "{}", r.stderr);
+    assert!(r.stderr.contains("type 69 in the file, 68 on the device"), "{}", r.stderr);
+    assert_eq!(cdios_writes(&r.stderr), Vec::<String>::new());
+    let r = run(&["--link", "sim", "--json", "restore", s(&file), "--to", "1"]);
+    ok(&r, "--to 1");
+    assert_eq!(r.json()["devices"][0]["module"], 1);
+    assert_eq!(outcomes(&r.json(), "cdios", "module", 1), [("outputs.digital".into(), "written".into())]);
+}
+
+#[test]
+fn the_whole_simulated_bench_in_one_file() {
+    let dir = tmp();
+    let all = path(&dir, "bench.json");
+    let r = run(&["--link", "sim", "--json", "backup", "--out", s(&all)]);
+    ok(&r, "backup");
+    let families: Vec<&str> = r.json()["devices"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|d| match d["family"].as_str().unwrap() {
+            "powercube" => "powercube",
+            "pac" => "pac",
+            _ => "cdios",
+        })
+        .collect();
+    assert_eq!(families, ["powercube", "powercube", "powercube", "pac", "pac", "pac", "pac", "cdios", "cdios"]);
+    valid("backup_document", &read_json(&all));
+    let r = run(&["--link", "sim", "--json", "restore", s(&all)]);
+    ok(&r, "restore");
+    assert_eq!(r.json()["summary"]["written"], 0);
+    assert_eq!(r.json()["differs"], false);
+}
+
+#[test]
+fn cdios_and_pac_round_trip_on_served_simulators() {
+    let sim = Sim::start(&[], 3);
+    let dir = tmp();
+    for (family, link, change) in [
+        (
+            "cdios",
+            sim.link("cdios"),
+            &[&["cdios-config", "-m", "1", "speeds.slope=20"][..], &["cdios-events", "-m", "0", "--mask", "ENABLED"]][..],
+        ),
+        (
+            "pac",
+            sim.link("pac"),
+            &[&["pac-axis-param", "3", "acceleration", "2500"][..], &["pac-sys-param", "language", "2"]],
+        ),
+    ] {
+        let saved = path(&dir, &format!("{family}.json"));
+        ok(&run(&["--link", link, "backup", "--family", family, "--out", s(&saved)]), "backup");
+        for args in change {
+            let mut full = vec!["--link", link];
+            full.extend_from_slice(args);
+            ok(&run(&full), &format!("{args:?}"));
+        }
+        let r = run(&["--link", link, "--json", "diff", s(&saved)]);
+        ok(&r, "diff");
+        let n: usize =
+            r.json()["devices"].as_array().unwrap().iter().map(|d| d["differences"].as_array().unwrap().len()).sum();
+        assert_eq!(n, 2, "{family}: {}", r.stdout);
+        let r = run(&["--link", link, "--json", "restore", s(&saved)]);
+        ok(&r, "restore");
+        assert_eq!(r.json()["summary"]["written"], 2, "{family}: {}", r.stdout);
+        let r = run(&["--link", link, "--json", "diff", s(&saved)]);
+        assert_eq!(r.json()["differs"], false, "{family}: {}", r.stdout);
+    }
+}

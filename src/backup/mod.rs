@@ -9,6 +9,7 @@
 //! module only decides which settings a backup holds, the order in which a
 //! restore writes them, and how a read-back value is reported.
 
+pub mod cdios;
 mod diff;
 pub mod pac;
 pub mod powercube;

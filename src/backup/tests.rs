@@ -219,3 +219,51 @@ fn pac_file_checks() {
     let names: Vec<String> = pac::check_file(&ctrl).into_iter().map(|p| p.name).collect();
     assert_eq!(names, ["language", "number-of-axes"]);
 }
+
+fn cdios_module(settings: &[(&str, serde_json::Value)]) -> Device {
+    let mut dev = Device::new(Family::Cdios, "sim");
+    dev.node = Some(1);
+    dev.module = Some(0);
+    for (name, v) in settings {
+        dev.settings.insert((*name).into(), Setting::new(v.clone(), "", true));
+    }
+    dev
+}
+
+#[test]
+fn cdios_file_checks_use_the_tables_ranges() {
+    let dev = cdios_module(&[
+        ("speeds.maximum_speed", 8000.into()),
+        ("speeds.minimum_speed", 0.into()),
+        ("events.mask1", 256.into()),
+        ("events.position_on_change", 2.into()),
+        ("outputs.digital", 1.5.into()),
+        ("speeds.nope", 1.into()),
+        ("outputs.digital2", 1.into()),
+    ]);
+    let names: Vec<String> = cdios::check_file(&dev).into_iter().map(|p| p.name).collect();
+    assert_eq!(
+        names,
+        [
+            "events.mask1",
+            "events.position_on_change",
+            "outputs.digital",
+            "outputs.digital2",
+            "speeds.minimum_speed",
+            "speeds.nope"
+        ]
+    );
+}
+
+#[test]
+fn cdios_live_checks_only_look_at_changed_selectors() {
+    let live = cdios_module(&[
+        ("speeds.minimum_speed", 50.into()),
+        ("speeds.maximum_speed", 8000.into()),
+        ("speeds.slope", 10.into()),
+    ]);
+    assert!(cdios::check_live(&live, &live).is_empty());
+    let mut file = live.clone();
+    file.settings.get_mut("speeds.slope").unwrap().value = 20.into();
+    assert!(cdios::check_live(&file, &live).is_empty(), "a valid change");
+}

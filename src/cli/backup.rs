@@ -2,7 +2,7 @@
 
 use std::path::PathBuf;
 
-use axisctl::family::{Family, POWERCUBE_MODULE};
+use axisctl::family::{Family, CDIOS_NODE, POWERCUBE_MODULE};
 use clap::{Args, Subcommand};
 
 use super::ids;
@@ -16,6 +16,9 @@ pub struct Selection {
     /// PowerCube modules: a list (3,5 or 1-8) or all (every module that answers; the default)
     #[arg(short, long, value_name = "ID[,ID...]|all", value_parser = ids::devices(POWERCUBE_MODULE))]
     pub module: Option<ids::Devices>,
+    /// Cdios node id (CANopen), 1 to 127
+    #[arg(long, value_name = "N", default_value_t = 1, value_parser = ids::id(CDIOS_NODE))]
+    pub node: u8,
     /// Every device on the link (the default; says so in a script)
     #[arg(long, conflicts_with = "module")]
     pub all: bool,

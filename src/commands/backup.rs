@@ -6,10 +6,12 @@ use std::collections::BTreeSet;
 use std::path::Path;
 
 use axisctl::backup::{self, Address, Device, Difference, Document, Problem, ValueResult};
+use axisctl::device::cdios::{Node, Slot};
 use axisctl::device::pac::Controller;
 use axisctl::device::powercube::{Cubes, Error as CubeError};
 use axisctl::family::Family;
 use axisctl::link::LinkSpec;
+use axisctl::proto::cdios::{ModuleId as CdiosModule, NodeId};
 use axisctl::proto::powercube::ModuleId;
 use axisctl::session::ErrorKind;
 use serde_json::{json, Value};
@@ -57,11 +59,13 @@ struct Live<'a> {
     ctx: &'a Ctx,
     cubes: Option<Cubes>,
     pac: Option<Controller>,
+    /// Cdios nodes by id, with the controller's identify answer.
+    nodes: Vec<(Node, Vec<Slot>)>,
 }
 
 impl<'a> Live<'a> {
     fn new(ctx: &'a Ctx) -> Self {
-        Self { ctx, cubes: None, pac: None }
+        Self { ctx, cubes: None, pac: None, nodes: Vec::new() }
     }
 
     fn cubes(&mut self) -> anyhow::Result<&mut Cubes> {
@@ -69,6 +73,17 @@ impl<'a> Live<'a> {
             self.cubes = Some(Cubes::new(self.ctx.powercube()?));
         }
         Ok(self.cubes.as_mut().expect("opened above"))
+    }
+
+    /// The node and its slots, opened and identified once.
+    fn node(&mut self, id: u8) -> anyhow::Result<&mut (Node, Vec<Slot>)> {
+        if !self.nodes.iter().any(|(n, _)| n.id().get() == id) {
+            let node_id = NodeId::new(id).ok_or_else(|| usage(format!("node {id}: a Cdios node id is 1 to 127")))?;
+            let mut node = Node::new(self.ctx.cdios()?, node_id, self.ctx.retry);
+            let slots = node.identify()?;
+            self.nodes.push((node, slots));
+        }
+        Ok(self.nodes.iter_mut().find(|(n, _)| n.id().get() == id).expect("opened above"))
     }
 
     fn pac(&mut self) -> anyhow::Result<&mut Controller> {
@@ -103,7 +118,20 @@ impl<'a> Live<'a> {
                 let axes = (1..=n).map(|a| Address { axis: Some(a), ..addr(None) });
                 Ok(std::iter::once(addr(None)).chain(axes).collect())
             }
-            Family::Cdios => Ok(Vec::new()),
+            Family::Cdios => {
+                target(Address { family, module: None, axis: None, node: Some(select.node) });
+                let (node, _) = match self.node(select.node) {
+                    Ok(n) => n,
+                    // A CAN bus without the node: no Cdios device, unless asked for.
+                    Err(_) if !named => return Ok(Vec::new()),
+                    Err(e) => return Err(e),
+                };
+                let found = node.scan()?;
+                Ok(found
+                    .iter()
+                    .map(|m| Address { family, module: Some(m.get()), axis: None, node: Some(select.node) })
+                    .collect())
+            }
         }
     }
 
@@ -117,7 +145,13 @@ impl<'a> Live<'a> {
                 None => backup::pac::capture_controller(self.pac()?, &link)?,
                 Some(a) => backup::pac::capture_axis(self.pac()?, a, &link)?,
             }),
-            f => Err(usage(format!("backup of the {f} is not supported yet"))),
+            Family::Cdios => {
+                let m = cdios_module(at)?;
+                let (node, slots) = self.node(at.node.unwrap_or(1))?;
+                let slot = slots.iter().find(|s| s.module == m.get()).copied();
+                let (ty, version) = slot.map_or((0, 0), |s| (s.ty, s.version));
+                Ok(backup::cdios::capture(node, m, ty, version, &link)?)
+            }
         }
     }
 
@@ -126,7 +160,7 @@ impl<'a> Live<'a> {
         Ok(match file.family {
             Family::PowerCube => backup::powercube::check_live(file, live),
             Family::Pac => backup::pac::check_live(self.pac()?, file, live)?,
-            Family::Cdios => Vec::new(),
+            Family::Cdios => backup::cdios::check_live(file, live),
         })
     }
 
@@ -139,8 +173,20 @@ impl<'a> Live<'a> {
                 Ok(backup::powercube::restore(self.cubes()?, m, file, live, skip)?)
             }
             Family::Pac => Ok(backup::pac::restore(self.pac()?, file, live, skip)?),
-            f => Err(usage(format!("restore of the {f} is not supported yet"))),
+            Family::Cdios => {
+                let m = cdios_module(at)?;
+                let (node, _) = self.node(at.node.unwrap_or(1))?;
+                Ok(backup::cdios::restore(node, m, file, live, skip)?)
+            }
         }
+    }
+
+    /// The Cdios EEPROM store (05h) of one module.
+    fn store(&mut self, at: Address) -> anyhow::Result<()> {
+        target(at);
+        let m = cdios_module(at)?;
+        let (node, _) = self.node(at.node.unwrap_or(1))?;
+        Ok(backup::cdios::store(node, m)?)
     }
 }
 
@@ -148,9 +194,7 @@ fn check_file(dev: &Device) -> Vec<Problem> {
     match dev.family {
         Family::PowerCube => backup::powercube::check_file(dev),
         Family::Pac => backup::pac::check_file(dev),
-        f => {
-            vec![Problem { device: dev.address(), name: "-".into(), message: format!("the {f} is not supported yet") }]
-        }
+        Family::Cdios => backup::cdios::check_file(dev),
     }
 }
 
@@ -159,8 +203,12 @@ fn identity_keys(f: Family) -> &'static [&'static str] {
     match f {
         Family::PowerCube => &backup::powercube::IDENTITY,
         Family::Pac => &backup::pac::IDENTITY,
-        Family::Cdios => &[],
+        Family::Cdios => &backup::cdios::IDENTITY,
     }
+}
+
+fn cdios_module(at: Address) -> anyhow::Result<CdiosModule> {
+    at.module.and_then(CdiosModule::new).ok_or_else(|| usage(format!("{at}: no Cdios module id 0 to 15")))
 }
 
 fn module(at: Address) -> anyhow::Result<ModuleId> {
@@ -190,11 +238,17 @@ fn envelope(at: Address, link: &str) -> serde_json::Map<String, Value> {
 }
 
 fn save(ctx: &Ctx, select: &Selection, out: Option<&Path>) -> anyhow::Result<()> {
-    let families = families(ctx, &select.family)?;
+    // -m names PowerCube modules: alone, it selects them only.
+    let named = if select.family.is_empty() && select.module.is_some() {
+        vec![Family::PowerCube]
+    } else {
+        select.family.clone()
+    };
+    let families = families(ctx, &named)?;
     if select.module.is_some() && !families.contains(&Family::PowerCube) {
         return Err(usage("-m names PowerCube modules, but the backup reads no PowerCube"));
     }
-    let named = !select.family.is_empty();
+    let named = !named.is_empty();
     let mut live = Live::new(ctx);
     let mut doc = Document {
         schema: backup::SCHEMA.into(),
@@ -335,6 +389,12 @@ fn targets(doc: &Document, to: Option<u8>) -> anyhow::Result<Vec<(Device, Addres
             }
             at.module = Some(to);
         }
+        Family::Cdios => {
+            if CdiosModule::new(to).is_none() {
+                return Err(usage(format!("--to {to}: a Cdios module id is 0 to 15")));
+            }
+            at.module = Some(to);
+        }
         f => return Err(usage(format!("--to is for PowerCube modules and Cdios modules, not the {f}"))),
     }
     Ok(vec![(one.clone(), at)])
@@ -414,7 +474,24 @@ fn restore(ctx: &Ctx, path: &Path, opts: Options) -> anyhow::Result<()> {
         }
         output::forget_target();
     }
-    report(ctx, path, &opts, &devices, &diffs, differs, &problems, &results)?;
+    let failed_any = results.iter().flat_map(|(_, rs)| rs).any(|r| r.outcome == backup::Outcome::Failed);
+    // The EEPROM store is its own step, after every write went through.
+    let mut stored: Vec<(Address, bool)> = Vec::new();
+    let mut store_error = None;
+    if opts.store && !opts.dry_run && !failed_any {
+        for (wanted, _) in devices.iter().filter(|(d, _)| d.family == Family::Cdios) {
+            let r = live.store(wanted.address());
+            stored.push((wanted.address(), r.is_ok()));
+            if let Err(e) = r {
+                store_error.get_or_insert(e);
+            }
+        }
+        output::forget_target();
+    }
+    report(ctx, path, &opts, &devices, &diffs, differs, &problems, &results, &stored)?;
+    if let Some(e) = store_error {
+        return Err(e.context("the EEPROM store (05h) failed"));
+    }
     let failed: Vec<(Address, &ValueResult)> = results
         .iter()
         .flat_map(|(at, rs)| rs.iter().map(move |r| (*at, r)))
@@ -444,6 +521,7 @@ fn report(
     differs: bool,
     problems: &[Problem],
     results: &[(Address, Vec<ValueResult>)],
+    stored: &[(Address, bool)],
 ) -> anyhow::Result<()> {
     let all = results.iter().flat_map(|(_, rs)| rs.iter());
     let summary = backup::summary(all);
@@ -455,6 +533,9 @@ fn report(
             .map(|((wanted, _), mut d)| {
                 let rs = results.iter().find(|(at, _)| *at == wanted.address()).map_or(&[][..], |(_, r)| &r[..]);
                 d["results"] = serde_json::to_value(rs).unwrap_or_default();
+                if let Some((_, ok)) = stored.iter().find(|(at, _)| *at == wanted.address()) {
+                    d["stored"] = (*ok).into();
+                }
                 d
             })
             .collect();
@@ -474,7 +555,7 @@ fn report(
         return Ok(());
     }
     if opts.dry_run {
-        say!("dry run: nothing was written");
+        say!("dry run: nothing was written{}", if opts.store { " or stored" } else { "" });
         return Ok(());
     }
     for (at, rs) in results {
@@ -493,5 +574,10 @@ fn report(
     }
     let counts: Vec<String> = summary.iter().map(|(o, n)| format!("{n} {}", o.name())).collect();
     say!("restore: {}", counts.join(", "));
+    for (at, ok) in stored {
+        if *ok {
+            say!("{at}: configuration stored in EEPROM (05h)");
+        }
+    }
     Ok(())
 }
