@@ -564,6 +564,11 @@ fn the_whole_simulated_bench_in_one_file() {
         .collect();
     assert_eq!(families, ["powercube", "powercube", "powercube", "pac", "pac", "pac", "pac", "cdios", "cdios"]);
     valid("backup_document", &read_json(&all));
+    // Without --out the document is the output, a document of the contract too.
+    let r = run(&["--link", "sim", "--json", "backup"]);
+    ok(&r, "backup to stdout");
+    valid("backup_document", &r.json());
+    valid("document", &r.json());
     let r = run(&["--link", "sim", "--json", "restore", s(&all)]);
     ok(&r, "restore");
     assert_eq!(r.json()["summary"]["written"], 0);

@@ -267,3 +267,21 @@ fn cdios_live_checks_only_look_at_changed_selectors() {
     file.settings.get_mut("speeds.slope").unwrap().value = 20.into();
     assert!(cdios::check_live(&file, &live).is_empty(), "a valid change");
 }
+
+#[test]
+fn a_value_the_module_does_not_keep_is_reported_clamped() {
+    let mut r = rig();
+    let live = powercube::capture(&mut r.cubes, m17(), "sim").unwrap();
+    // The type bits are hardware: a Config word without LINEAR is written
+    // as flags (LINEAR untouched), and the module keeps its own word.
+    let word = live.settings["Config"].value.as_u64().unwrap() as u32;
+    let linear = crate::proto::powercube::flags::config::LINEAR;
+    assert_ne!(word & linear, 0);
+    let mut file = live.clone();
+    set(&mut file, "Config", u64::from(word & !linear).into());
+    let res = powercube::restore(&mut r.cubes, m17(), &file, &live, &BTreeSet::new()).unwrap();
+    let config = res.iter().find(|v| v.name == "Config").unwrap();
+    assert_eq!(config.outcome, Outcome::Clamped, "{config:?}");
+    assert_eq!(config.after, serde_json::Value::from(word));
+    assert_eq!(summary(&res)[3], (Outcome::Clamped, 1));
+}
