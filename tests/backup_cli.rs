@@ -610,3 +610,30 @@ fn cdios_and_pac_round_trip_on_served_simulators() {
         assert_eq!(r.json()["differs"], false, "{family}: {}", r.stdout);
     }
 }
+
+#[test]
+fn a_moving_module_stops_the_restore_before_any_write() {
+    let sim = Sim::start(&[], 3);
+    let link = sim.link("powercube");
+    let dir = tmp();
+    let saved = path(&dir, "m3-5.json");
+    ok(&run(&["--link", link, "backup", "-m", "3,5", "--out", s(&saved)]), "backup");
+    let mut doc = read_json(&saved);
+    for d in doc["devices"].as_array_mut().unwrap() {
+        d["settings"]["ActC0"]["value"] = 41.into();
+    }
+    write_json(&saved, &doc);
+    // Module 5 moves; module 3, first in the file, gets no write either.
+    ok(&run(&["--link", link, "move-vel", "-m", "5", "0.05"]), "move-vel");
+    let log = path(&dir, "moving.log");
+    let r = run(&["--link", link, "--log", s(&log), "restore", s(&saved)]);
+    assert_eq!(r.code, 2, "{}", r.stderr);
+    assert!(r.stderr.contains("module 5 is moving") && r.stderr.contains("nothing was written"), "{}", r.stderr);
+    assert_eq!(cube_writes(&log), Vec::<String>::new());
+    ok(&run(&["--link", link, "halt", "-m", "5"]), "halt");
+    let r = run(&["--link", link, "--json", "restore", s(&saved)]);
+    ok(&r, "restore at rest");
+    for m in [3, 5] {
+        assert_eq!(outcomes(&r.json(), "powercube", "module", m), [("ActC0".into(), "written".into())]);
+    }
+}

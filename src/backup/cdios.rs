@@ -151,6 +151,18 @@ fn wanted(file: &Device, name: &str) -> Option<i64> {
     file.settings.get(name).filter(|s| s.restore).and_then(|s| integer(&s.value))
 }
 
+/// A restore writes only to a module whose motor does not run.
+pub fn ensure_at_rest(node: &mut Node, m: ModuleId) -> Result<(), Error> {
+    let st = node.status(m)?;
+    if let Some(f) = st.flags.iter().find(|f| RUNNING.contains(f)) {
+        debug_assert!(STATUS_FLAGS.iter().any(|s| s.name == *f));
+        return Err(Error::Refused(format!(
+            "module {m} reports {f}; a restore writes only to a module at rest (stop it first); nothing was written"
+        )));
+    }
+    Ok(())
+}
+
 /// Writes the file's settings that differ from the module's, in the order
 /// of the module doc, each read back; `skip` names the invalid ones.
 pub fn restore(
@@ -160,13 +172,7 @@ pub fn restore(
     live: &Device,
     skip: &BTreeSet<String>,
 ) -> Result<Vec<ValueResult>, Error> {
-    let st = node.status(m)?;
-    if let Some(f) = st.flags.iter().find(|f| RUNNING.contains(f)) {
-        debug_assert!(STATUS_FLAGS.iter().any(|s| s.name == *f));
-        return Err(Error::Refused(format!(
-            "module {m} reports {f}; a restore writes only to a module at rest (stop it first); nothing was written"
-        )));
-    }
+    ensure_at_rest(node, m)?;
     let mut out = Vec::new();
     let result = |name: &str| {
         let s = &file.settings[name];

@@ -273,6 +273,16 @@ pub fn order(file: &Device, live: &Device) -> Vec<&'static str> {
     out
 }
 
+/// A restore writes only to a module at rest (CubeState without MOTION).
+pub fn ensure_at_rest(cubes: &mut Cubes, m: ModuleId) -> Result<(), Error> {
+    if cubes.state(m)? & state::MOTION != 0 {
+        return Err(Error::Refused(format!(
+            "module {m} is moving; a restore writes limits only to a module at rest (halt it first); nothing was written"
+        )));
+    }
+    Ok(())
+}
+
 /// Writes the file's settings that differ from the live module, in
 /// [`order`], each read back. `skip` names the settings found invalid
 /// (`--skip-invalid`). Refused as a whole, before any write, while the
@@ -284,12 +294,7 @@ pub fn restore(
     live: &Device,
     skip: &BTreeSet<String>,
 ) -> Result<Vec<ValueResult>, Error> {
-    let cube_state = cubes.state(m)?;
-    if cube_state & state::MOTION != 0 {
-        return Err(Error::Refused(format!(
-            "module {m} is moving; a restore writes limits only to a module at rest (halt it first); nothing was written"
-        )));
-    }
+    ensure_at_rest(cubes, m)?;
     let mut out = Vec::new();
     for name in order(file, live) {
         let Some(s) = file.settings.get(name).filter(|s| s.restore) else { continue };

@@ -181,6 +181,24 @@ impl<'a> Live<'a> {
         }
     }
 
+    /// Refuses a device that moves (or a PA-CONTROL out of home position):
+    /// asked of every device before the first write.
+    fn ensure_at_rest(&mut self, at: Address) -> anyhow::Result<()> {
+        target(at);
+        match at.family {
+            Family::PowerCube => {
+                let m = module(at)?;
+                Ok(backup::powercube::ensure_at_rest(self.cubes()?, m)?)
+            }
+            Family::Pac => Ok(backup::pac::ensure_home(self.pac()?)?),
+            Family::Cdios => {
+                let m = cdios_module(at)?;
+                let (node, _) = self.node(at.node.unwrap_or(1))?;
+                Ok(backup::cdios::ensure_at_rest(node, m)?)
+            }
+        }
+    }
+
     /// The Cdios EEPROM store (05h) of one module.
     fn store(&mut self, at: Address) -> anyhow::Result<()> {
         target(at);
@@ -467,6 +485,9 @@ fn restore(ctx: &Ctx, path: &Path, opts: Options) -> anyhow::Result<()> {
     }
     let mut results: Vec<(Address, Vec<ValueResult>)> = Vec::new();
     if !opts.dry_run {
+        for (wanted, _) in &devices {
+            live.ensure_at_rest(wanted.address())?;
+        }
         for (wanted, now) in &devices {
             let skip: BTreeSet<String> =
                 problems.iter().filter(|p| p.device == wanted.address()).map(|p| p.name.clone()).collect();
