@@ -637,3 +637,49 @@ fn a_moving_module_stops_the_restore_before_any_write() {
         assert_eq!(outcomes(&r.json(), "powercube", "module", m), [("ActC0".into(), "written".into())]);
     }
 }
+
+/// PowerCube answers (ids 0x0A0..=0x0BF) in a candump `--log` before the
+/// first SetExtended request.
+fn answers_before_first_write(log: &Path) -> usize {
+    let text = std::fs::read_to_string(log).unwrap();
+    let frames: Vec<(u32, String)> = text
+        .lines()
+        .filter_map(|l| {
+            l.split_whitespace()
+                .last()?
+                .split_once('#')
+                .map(|(i, d)| (u32::from_str_radix(i, 16).unwrap(), d.to_string()))
+        })
+        .collect();
+    let first = frames.iter().position(|(id, d)| (0x0E0..=0x0FF).contains(id) && d.starts_with("08")).unwrap();
+    frames[..first].iter().filter(|(id, _)| (0x0A0..=0x0BF).contains(id)).count()
+}
+
+#[test]
+fn a_write_without_its_answer_is_failed_the_others_go_on_and_the_exit_code_is_the_failures() {
+    let dir = tmp();
+    let file = path(&dir, "m3.json");
+    // The same restore on a healthy bench says which answer the first write gets.
+    let healthy = Sim::start(&[], 3);
+    ok(&run(&["--link", healthy.link("powercube"), "backup", "-m", "3", "--out", s(&file)]), "backup");
+    let mut doc = read_json(&file);
+    doc["devices"][0]["settings"]["ActC0"]["value"] = 44.into();
+    doc["devices"][0]["settings"]["ActDamp"]["value"] = 5.into();
+    write_json(&file, &doc);
+    let log = path(&dir, "healthy.log");
+    ok(&run(&["--link", healthy.link("powercube"), "--log", s(&log), "restore", s(&file)]), "healthy restore");
+    let skip = answers_before_first_write(&log);
+    // Now that answer is lost.
+    let faulty = Sim::start(&["--fault", &format!("drop=1,skip={skip},count=1")], 3);
+    let r = run(&["--link", faulty.link("powercube"), "--json", "restore", s(&file)]);
+    assert_eq!(r.code, 4, "the first failure's class: {}", r.stderr);
+    valid("restore_report", &r.json());
+    assert_eq!(
+        outcomes(&r.json(), "powercube", "module", 3),
+        [("ActC0".into(), "failed".into()), ("ActDamp".into(), "written".into())],
+        "a write is never sent twice; the next value still goes"
+    );
+    assert_eq!(r.json()["summary"]["failed"], 1);
+    let err: Value = serde_json::from_str(&r.stderr).unwrap();
+    assert!(err["error"]["message"].as_str().unwrap().contains("ActC0"), "{}", r.stderr);
+}
