@@ -683,3 +683,23 @@ fn a_write_without_its_answer_is_failed_the_others_go_on_and_the_exit_code_is_th
     let err: Value = serde_json::from_str(&r.stderr).unwrap();
     assert!(err["error"]["message"].as_str().unwrap().contains("ActC0"), "{}", r.stderr);
 }
+
+#[test]
+fn a_backup_piped_into_diff_on_stdin() {
+    use std::io::Write;
+    use std::process::Stdio;
+    let saved = run(&["--link", "sim", "backup", "-m", "17"]);
+    ok(&saved, "backup");
+    let mut child = common::bin()
+        .args(["--link", "sim", "--json", "diff", "-"])
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .spawn()
+        .unwrap();
+    child.stdin.take().unwrap().write_all(saved.stdout.as_bytes()).unwrap();
+    let out = child.wait_with_output().unwrap();
+    assert_eq!(out.status.code(), Some(0));
+    let v: Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(v["left"], "-");
+    assert_eq!(v["differs"], false, "{v}");
+}
