@@ -11,12 +11,14 @@
 //!   session per family; [`session::bus`] shares one CAN link between families.
 //! - [`sim`]: clock-driven simulators of the devices.
 //! - [`device`]: every operation on a device, written once per family, with its safety rules.
+//! - [`backup`]: backup, diff and restore of a bench: the document, the diff engine, per family the checks and the write order.
 //! - [`open`]: from a `--link` and a family to a ready link or session, `sim` and `--log` included.
 //! - [`monitor`]: passive decoding of any frame on a CAN bus.
 //! - [`tui`]: the dashboard, adapters over [`device`].
 //! - [`plot`]: charts of sampled values as SVG (recordings, dashboard snapshots); pure.
 //! - `cli` and `commands` (binary side): the command line as typed, and thin subcommands.
 
+pub mod backup;
 pub mod clock;
 pub mod device;
 pub mod family;

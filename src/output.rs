@@ -238,6 +238,23 @@ pub fn current_target() -> Option<serde_json::Map<String, serde_json::Value>> {
     TARGET.lock().ok().and_then(|t| t.clone())
 }
 
+/// The document a command had to show although it failed (a restore that
+/// wrote some values and failed others): under `--json` it goes into the
+/// error object as `report`, since stdout stays empty on a failure.
+static REPORT: std::sync::Mutex<Option<serde_json::Value>> = std::sync::Mutex::new(None);
+
+/// Keeps `doc` for the error object of the failure that follows.
+pub fn report_with_error(doc: serde_json::Value) {
+    if let Ok(mut r) = REPORT.lock() {
+        *r = Some(doc);
+    }
+}
+
+/// The document [`report_with_error`] kept, taken.
+pub fn take_error_report() -> Option<serde_json::Value> {
+    REPORT.lock().ok().and_then(|mut r| r.take())
+}
+
 static LINK: std::sync::Mutex<Option<String>> = std::sync::Mutex::new(None);
 
 /// Records the link as given (`--link` or `AXISCTL_LINK`) for the error

@@ -18,6 +18,7 @@ const LAYERS: &[(&str, &[&str])] = &[
     ("sim", &["proto", "link", "clock", "family"]),
     ("open", &["proto", "link", "clock", "family", "session", "sim"]),
     ("device", &["proto", "link", "session", "clock", "family"]),
+    ("backup", &["device", "proto", "family", "session"]),
     ("monitor", &["proto", "family"]),
     ("tui", &["device", "session", "proto", "link", "clock", "family", "monitor", "plot"]),
     ("plot", &[]),

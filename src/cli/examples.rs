@@ -141,6 +141,24 @@ pub const EXAMPLES: &[(&str, &[&str])] = &[
     ("man", &["man | man -l -", "man --dir ~/.local/share/man/man1"]),
     ("params", &["params", "params powercube", "--json params pac"]),
     ("flags", &["flags", "flags config", "flags brake", "flags cdios-status"]),
+    (
+        "backup",
+        &[
+            "--link sim backup --out bench.json",
+            "--link socketcan:can0 backup -m 3,5 --out arm.json",
+            "--link serial:/dev/ttyUSB0 backup --family pac --out pac.json",
+        ],
+    ),
+    ("diff", &["--link sim diff bench.json", "--json diff before.json after.json"]),
+    (
+        "restore",
+        &[
+            "--link sim restore bench.json --dry-run",
+            "--link sim restore bench.json --skip-invalid",
+            "--link socketcan:can0 restore module17.json --to 12",
+            "--link sim restore cdios.json --store",
+        ],
+    ),
 ];
 
 /// The help text of one subcommand's examples, or `None` when it has none.

@@ -1,6 +1,7 @@
 //! The command line, as typed: clap derive only, no meaning. `commands`
 //! resolves it.
 
+pub mod backup;
 pub mod cdios;
 pub mod dashboard;
 pub mod examples;
@@ -85,6 +86,8 @@ pub enum Command {
     Dashboard(dashboard::DashboardArgs),
     #[command(flatten)]
     Pac(pac::PacCommand),
+    #[command(flatten)]
+    Backup(backup::BackupCommand),
     /// List parameter and configuration names offline: PowerCube parameters, PA-CONTROL system and axis parameters, Cdios config fields
     Params {
         /// Only this family: powercube, pac or cdios

@@ -24,6 +24,9 @@ pub fn failure(kind: &str, exit_code: u8, message: String, refusal: Option<&Refu
     if let Some(r) = refusal {
         error.insert("device".into(), device(r));
     }
+    if let Some(report) = output::take_error_report() {
+        error.insert("report".into(), report);
+    }
     json!({ "error": error })
 }
 

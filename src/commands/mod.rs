@@ -1,6 +1,7 @@
 //! The subcommands. Each resolves what the user typed, validates it before
 //! anything is sent, talks to the device through a session and prints.
 
+mod backup;
 mod cdios;
 mod dashboard;
 mod decode;
@@ -101,6 +102,12 @@ fn device_kind(cause: &(dyn std::error::Error + 'static)) -> Option<ErrorKind> {
     }
     if let Some(e) = cause.downcast_ref::<device::cdios::Error>() {
         return Some(e.kind());
+    }
+    if let Some(e) = cause.downcast_ref::<axisctl::backup::ParseError>() {
+        return Some(e.kind());
+    }
+    if let Some(e) = cause.downcast_ref::<axisctl::backup::Failed>() {
+        return Some(e.kind);
     }
     cause.downcast_ref::<PacError>().map(PacError::kind)
 }
@@ -281,6 +288,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Cdios(c) => cdios::run(&ctx, c),
         Command::Dashboard(args) => dashboard::run(&ctx, &args),
         Command::Pac(cmd) => pac::run(&ctx, cmd),
+        Command::Backup(cmd) => backup::run(&ctx, cmd),
         Command::PowerCube(c) => powercube::run(&ctx, c),
         Command::Params { family } => names::params(&ctx, family),
         Command::Flags { word } => names::flags(&ctx, word.as_deref()),

@@ -1,0 +1,294 @@
+//! Cdios 6168: per module of a node, its type and version (the
+//! controller's identify) and its settings: the servo configuration
+//! (`speeds.maximum_speed`, `traject0.speed2`, ... as `cdios-config` names
+//! them, raw values in the manual's units), the event mask and timers
+//! (`events.mask1`..`mask4`, `events.position_interval`, ...) and the
+//! digital outputs (`outputs.digital`).
+//!
+//! Order: the servo configuration first, one selector at a time in the
+//! table's order (speeds before the trajects whose speeds lie within them),
+//! each written whole through the device layer after its range checks;
+//! then the event setup; the outputs last, since they act on whatever is
+//! wired to them. Nothing is written while the motor runs. The EEPROM store
+//! (05h) is never part of a restore: [`store`] is its own step.
+
+use std::collections::{BTreeMap, BTreeSet};
+
+use crate::device::cdios::config::{self as servo, Assignments};
+use crate::device::cdios::{field_value, Error, EventChange, Node};
+use crate::family::Family;
+use crate::proto::cdios::table::STATUS_FLAGS;
+use crate::proto::cdios::{ModuleId, ServoConfig, ServoPart};
+
+use super::{same_value, Device, Problem, Setting, ValueResult};
+
+/// The identity a restore compares: the module's type.
+pub const IDENTITY: [&str; 1] = ["type"];
+
+const MASKS: [&str; 4] = ["mask1", "mask2", "mask3", "mask4"];
+const TIMERS: [&str; 4] = ["position_interval", "position_on_change", "speed_interval", "speed_on_change"];
+const OUTPUTS: &str = "outputs.digital";
+
+/// The flags of status byte 1 that say the motor runs.
+const RUNNING: [&str; 3] = ["RUNNING_FORWARD", "RUNNING_REVERSE", "RUNNING_TO_END_SWITCH"];
+
+fn event_names() -> impl Iterator<Item = String> {
+    MASKS.iter().chain(&TIMERS).map(|k| format!("events.{k}"))
+}
+
+/// Reads one module: identity from the controller's slot, then its servo
+/// configuration, event setup and outputs.
+pub fn capture(node: &mut Node, m: ModuleId, ty: i64, version: i64, link: &str) -> Result<Device, Error> {
+    let mut dev = Device::new(Family::Cdios, link);
+    dev.node = Some(node.id().get());
+    dev.module = Some(m.get());
+    dev.identity.insert("type".into(), ty.into());
+    dev.identity.insert("version".into(), version.into());
+    let groups: Vec<String> = servo::GROUPS.iter().map(|g| g.to_string()).collect();
+    for (part, reply) in node.read_config(m, &groups)? {
+        for f in servo::set_row(part).value_fields() {
+            let name = format!("{}.{}", servo::group_of(part), servo::key_of(part, f));
+            let v = reply.get(f.key).unwrap_or(0);
+            dev.settings.insert(name, Setting::new(v.into(), f.unit, true));
+        }
+    }
+    let ev = node.events(m, &EventChange::default())?;
+    let t = ev.timers;
+    let values: [i64; 8] = [
+        ev.masks[0].into(),
+        ev.masks[1].into(),
+        ev.masks[2].into(),
+        ev.masks[3].into(),
+        t.position_interval.into(),
+        t.position_on_change.into(),
+        t.speed_interval.into(),
+        t.speed_on_change.into(),
+    ];
+    for (name, v) in event_names().zip(values) {
+        dev.settings.insert(name, Setting::new(v.into(), "", true));
+    }
+    let out = node.outputs(m, None, false)?;
+    dev.settings.insert(OUTPUTS.into(), Setting::new(out.into(), "", true));
+    Ok(dev)
+}
+
+/// The servo configuration field of a setting name.
+fn servo_field(name: &str) -> Option<(ServoPart, &'static crate::proto::cdios::table::Field)> {
+    servo::fields().into_iter().find(|(.., full)| full == name).map(|(p, f, _)| (p, f))
+}
+
+/// The table row and field that range-check an event or output setting.
+fn io_field(name: &str) -> Option<(&'static str, &'static str)> {
+    if name == OUTPUTS {
+        return Some(("set_digital_outputs", "outputs"));
+    }
+    let key = name.strip_prefix("events.")?;
+    MASKS.iter().chain(&TIMERS).find(|k| **k == key).map(|k| ("set_event_mask", *k))
+}
+
+fn integer(v: &serde_json::Value) -> Option<i64> {
+    v.as_i64().or_else(|| v.as_f64().filter(|x| x.fract() == 0.0).map(|x| x as i64))
+}
+
+/// The checks that need only the file: a known name and an integer within
+/// the manual's range (the table's, through the device layer).
+pub fn check_file(dev: &Device) -> Vec<Problem> {
+    let mut out = Vec::new();
+    for (name, s) in dev.restorable() {
+        let problem = match (integer(&s.value), servo_field(name), io_field(name)) {
+            (None, ..) => Some(format!("{} is not an integer", s.value)),
+            (Some(v), Some((_, f)), _) => f.check(v).err().map(|e| e.to_string()),
+            (Some(v), None, Some((row, key))) => {
+                if matches!(key, "position_on_change" | "speed_on_change") && !(0..=1).contains(&v) {
+                    Some(format!("{v} is not 0 or 1"))
+                } else {
+                    field_value::<u8>(row, key, v).err().map(|e| e.to_string())
+                }
+            }
+            (Some(_), None, None) => Some(format!("unknown setting {name:?}")),
+        };
+        out.extend(problem.map(|message| Problem { device: dev.address(), name: name.clone(), message }));
+    }
+    out
+}
+
+/// The servo changes of the file, by selector: the fields whose value
+/// differs from the module's.
+fn servo_changes(file: &Device, live: &Device, skip: &BTreeSet<String>) -> BTreeMap<u8, (ServoPart, Assignments)> {
+    let mut out: BTreeMap<u8, (ServoPart, Assignments)> = BTreeMap::new();
+    for (part, f, name) in servo::fields() {
+        let Some(v) = file.settings.get(&name).filter(|s| s.restore).and_then(|s| integer(&s.value)) else {
+            continue;
+        };
+        if skip.contains(&name) || live.settings.get(&name).is_some_and(|l| same_value(&l.value, &v.into())) {
+            continue;
+        }
+        out.entry(part.selector()).or_insert((part, Vec::new())).1.push((f.key, v));
+    }
+    out
+}
+
+/// The checks against the module: each changed selector, merged over the
+/// module's values, must make a configuration the module takes.
+pub fn check_live(file: &Device, live: &Device) -> Vec<Problem> {
+    let mut out = Vec::new();
+    for (part, new) in servo_changes(file, live, &BTreeSet::new()).into_values() {
+        let group = servo::group_of(part);
+        let live_of = |k: &str| {
+            let f = servo::set_row(part).value_fields().find(|f| f.key == k)?;
+            live.settings.get(&format!("{group}.{}", servo::key_of(part, f))).and_then(|s| integer(&s.value))
+        };
+        if let Err(e) = ServoConfig::from_values(part, |k| {
+            new.iter().find(|(nk, _)| *nk == k).map(|(_, v)| *v).or_else(|| live_of(k))
+        }) {
+            out.push(Problem { device: file.address(), name: group, message: e.to_string() });
+        }
+    }
+    out
+}
+
+fn wanted(file: &Device, name: &str) -> Option<i64> {
+    file.settings.get(name).filter(|s| s.restore).and_then(|s| integer(&s.value))
+}
+
+/// A restore writes only to a module whose motor does not run.
+pub fn ensure_at_rest(node: &mut Node, m: ModuleId) -> Result<(), Error> {
+    let st = node.status(m)?;
+    if let Some(f) = st.flags.iter().find(|f| RUNNING.contains(f)) {
+        debug_assert!(STATUS_FLAGS.iter().any(|s| s.name == *f));
+        return Err(Error::Refused(format!(
+            "module {m} reports {f}; a restore writes only to a module at rest (stop it first); nothing was written"
+        )));
+    }
+    Ok(())
+}
+
+/// Writes the file's settings that differ from the module's, in the order
+/// of the module doc, each read back; `skip` names the invalid ones.
+pub fn restore(
+    node: &mut Node,
+    m: ModuleId,
+    file: &Device,
+    live: &Device,
+    skip: &BTreeSet<String>,
+) -> Result<Vec<ValueResult>, Error> {
+    ensure_at_rest(node, m)?;
+    let mut out = Vec::new();
+    let result = |name: &str| {
+        let s = &file.settings[name];
+        let before = live.settings.get(name).map_or(serde_json::Value::Null, |l| l.value.clone());
+        ValueResult::new(name, &s.unit, &s.value, &before)
+    };
+    // Servo configuration, one selector at a time.
+    let changes = servo_changes(file, live, skip);
+    // Every field gets its result here: unchanged unless written below.
+    for (.., name) in servo::fields() {
+        if wanted(file, &name).is_none() {
+            continue;
+        }
+        let r = result(&name);
+        out.push(if skip.contains(&name) { r.skipped("invalid (see the problems); not written") } else { r });
+    }
+    for (selector, (part, assignments)) in &changes {
+        let one: BTreeMap<u8, (ServoPart, Assignments)> = [(*selector, (*part, assignments.clone()))].into();
+        let group = servo::group_of(*part);
+        let written = node.write_config(m, &one).and_then(|_| node.read_config(m, std::slice::from_ref(&group)));
+        for (key, _) in assignments {
+            let f = servo::set_row(*part).value_fields().find(|f| f.key == *key).expect("a field of the part");
+            let name = format!("{group}.{}", servo::key_of(*part, f));
+            let Some(slot) = out.iter_mut().find(|r| r.name == name) else { continue };
+            let r = slot.clone();
+            *slot = match &written {
+                Ok(replies) => {
+                    let held = replies.iter().find(|(p, _)| p == part).and_then(|(_, rep)| rep.get(key));
+                    r.read_back(held.map_or(serde_json::Value::Null, Into::into))
+                }
+                Err(e) => r.failed(e, e.kind()),
+            };
+        }
+    }
+    // The event setup, written whole when any of it changes.
+    let ev_names: Vec<String> = event_names().collect();
+    let ev_changed: Vec<&String> = ev_names
+        .iter()
+        .filter(|n| !skip.contains(*n))
+        .filter(|n| {
+            wanted(file, n).is_some_and(|v| live.settings.get(*n).is_none_or(|l| !same_value(&l.value, &v.into())))
+        })
+        .collect();
+    let ev_results = if ev_changed.is_empty() {
+        None
+    } else {
+        let val = |k: &str| -> Option<i64> {
+            let n = format!("events.{k}");
+            if skip.contains(&n) {
+                None
+            } else {
+                wanted(file, &n)
+            }
+        };
+        let masks = if MASKS.iter().any(|k| val(k).is_some()) {
+            let old = |i: usize| live.settings.get(&ev_names[i]).and_then(|s| integer(&s.value)).unwrap_or(0);
+            Some([0, 1, 2, 3].map(|i| val(MASKS[i]).unwrap_or(old(i)) as u8))
+        } else {
+            None
+        };
+        let change = EventChange {
+            masks,
+            position_interval: val("position_interval").map(|v| v as u8),
+            position_on_change: val("position_on_change").map(|v| v != 0),
+            speed_interval: val("speed_interval").map(|v| v as u8),
+            speed_on_change: val("speed_on_change").map(|v| v != 0),
+        };
+        Some(node.events(m, &change))
+    };
+    for (i, name) in ev_names.iter().enumerate() {
+        if wanted(file, name).is_none() {
+            continue;
+        }
+        let r = result(name);
+        out.push(if skip.contains(name) {
+            r.skipped("invalid (see the problems); not written")
+        } else if !ev_changed.contains(&name) {
+            r
+        } else {
+            match ev_results.as_ref().expect("written when changed") {
+                Ok(ev) => {
+                    let t = ev.timers;
+                    let held: [i64; 8] = [
+                        ev.masks[0].into(),
+                        ev.masks[1].into(),
+                        ev.masks[2].into(),
+                        ev.masks[3].into(),
+                        t.position_interval.into(),
+                        t.position_on_change.into(),
+                        t.speed_interval.into(),
+                        t.speed_on_change.into(),
+                    ];
+                    r.read_back(held[i].into())
+                }
+                Err(e) => r.failed(e, e.kind()),
+            }
+        });
+    }
+    // The outputs last.
+    if let Some(v) = wanted(file, OUTPUTS) {
+        let r = result(OUTPUTS);
+        out.push(if skip.contains(OUTPUTS) {
+            r.skipped("invalid (see the problems); not written")
+        } else if live.settings.get(OUTPUTS).is_some_and(|l| same_value(&l.value, &v.into())) {
+            r
+        } else {
+            match node.outputs(m, Some(v as u8), false) {
+                Ok(held) => r.read_back(held.into()),
+                Err(e) => r.failed(&e, e.kind()),
+            }
+        });
+    }
+    Ok(out)
+}
+
+/// The EEPROM store (05h) of one module: the explicit step after a restore.
+pub fn store(node: &mut Node, m: ModuleId) -> Result<(), Error> {
+    node.store(m, false).map(|_| ())
+}

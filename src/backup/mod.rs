@@ -1,0 +1,328 @@
+//! Backup, diff and restore of a bench: one JSON document
+//! (`axisctl-backup/1`) holding each device's identity and every setting
+//! that can be written back, a diff engine over two such documents (a file
+//! and the live bench read into the same shape, or two files), and per
+//! family the checks and the write order of a restore.
+//!
+//! Every read and write goes through the device layer (`device::powercube`,
+//! ...): its access, type and limit checks decide what may be sent. This
+//! module only decides which settings a backup holds, the order in which a
+//! restore writes them, and how a read-back value is reported.
+
+pub mod cdios;
+mod diff;
+pub mod pac;
+pub mod powercube;
+
+#[cfg(test)]
+mod tests;
+
+use std::collections::BTreeMap;
+
+use serde::{Deserialize, Serialize};
+
+use crate::family::Family;
+use crate::session::ErrorKind;
+
+pub use diff::{diff, same_value, DeviceDiff, Difference};
+
+/// The schema name and version this axisctl writes and reads.
+pub const SCHEMA: &str = "axisctl-backup/1";
+const SCHEMA_PREFIX: &str = "axisctl-backup/";
+const SCHEMA_VERSION: u32 = 1;
+
+/// A backup of a bench: what `axisctl backup` writes.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Document {
+    /// `axisctl-backup/1`: a reader refuses a newer version.
+    pub schema: String,
+    /// The axisctl that wrote it, for the reader's information.
+    #[serde(default)]
+    pub created_by: String,
+    /// The link the devices were read on, as given.
+    #[serde(default)]
+    pub link: String,
+    pub devices: Vec<Device>,
+}
+
+/// One device: the contract's envelope (family, link, address), its
+/// identity and its settings by name.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Device {
+    #[serde(with = "family_name")]
+    pub family: Family,
+    #[serde(default)]
+    pub link: String,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub module: Option<u8>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub axis: Option<u8>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub node: Option<u8>,
+    /// What tells this device from another of its family: serial number,
+    /// firmware version, type. Compared by a restore, never written.
+    #[serde(default)]
+    pub identity: BTreeMap<String, serde_json::Value>,
+    #[serde(default)]
+    pub settings: BTreeMap<String, Setting>,
+}
+
+/// One setting: a value with its unit. `restore` is false for a value kept
+/// for information only (read-only, or a mirror of another setting): a
+/// restore never writes it and a diff does not compare it.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Setting {
+    /// The protocol table's id, where the family numbers its parameters.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub id: Option<u32>,
+    /// The wire type, where the family's table gives one.
+    #[serde(rename = "type", default, skip_serializing_if = "Option::is_none")]
+    pub ty: Option<String>,
+    #[serde(default)]
+    pub unit: String,
+    pub value: serde_json::Value,
+    pub restore: bool,
+}
+
+impl Setting {
+    pub fn new(value: serde_json::Value, unit: &str, restore: bool) -> Self {
+        Self { id: None, ty: None, unit: unit.into(), value, restore }
+    }
+}
+
+mod family_name {
+    use crate::family::Family;
+
+    pub fn serialize<S: serde::Serializer>(f: &Family, s: S) -> Result<S::Ok, S::Error> {
+        s.serialize_str(f.name())
+    }
+
+    pub fn deserialize<'de, D: serde::Deserializer<'de>>(d: D) -> Result<Family, D::Error> {
+        let text = <String as serde::Deserialize>::deserialize(d)?;
+        text.parse().map_err(|_| serde::de::Error::custom(format!("unknown family {text:?}")))
+    }
+}
+
+/// Where a device is, in its family's one form (the envelope's address).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub struct Address {
+    pub family: Family,
+    pub module: Option<u8>,
+    pub axis: Option<u8>,
+    pub node: Option<u8>,
+}
+
+impl std::fmt::Display for Address {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{}", self.family.name())?;
+        if let Some(n) = self.node {
+            write!(f, " node {n}")?;
+        }
+        if let Some(m) = self.module {
+            write!(f, " module {m}")?;
+        }
+        if let Some(a) = self.axis {
+            write!(f, " axis {a}")?;
+        }
+        Ok(())
+    }
+}
+
+impl Device {
+    pub fn new(family: Family, link: &str) -> Self {
+        Self {
+            family,
+            link: link.into(),
+            module: None,
+            axis: None,
+            node: None,
+            identity: BTreeMap::new(),
+            settings: BTreeMap::new(),
+        }
+    }
+
+    pub fn address(&self) -> Address {
+        Address { family: self.family, module: self.module, axis: self.axis, node: self.node }
+    }
+
+    /// The settings a restore writes.
+    pub fn restorable(&self) -> impl Iterator<Item = (&String, &Setting)> {
+        self.settings.iter().filter(|(_, s)| s.restore)
+    }
+}
+
+/// Why a file is no backup this axisctl can read. Nothing was sent.
+#[derive(Debug, thiserror::Error)]
+pub enum ParseError {
+    #[error("{0} is not JSON: {1}")]
+    NotJson(String, String),
+    #[error("{0} is no axisctl backup: {1}")]
+    NotBackup(String, String),
+    #[error("{0} was written by a newer axisctl (schema {1:?}; this one reads {SCHEMA}); nothing was sent")]
+    Newer(String, String),
+}
+
+impl ParseError {
+    pub fn kind(&self) -> ErrorKind {
+        ErrorKind::Usage
+    }
+}
+
+/// Reads a backup document; `name` names it in messages. The schema field
+/// is checked before the rest, so that a newer document is reported as
+/// such rather than as a shape error.
+pub fn parse(name: &str, text: &str) -> Result<Document, ParseError> {
+    let value: serde_json::Value =
+        serde_json::from_str(text).map_err(|e| ParseError::NotJson(name.into(), e.to_string()))?;
+    let schema = value
+        .get("schema")
+        .and_then(serde_json::Value::as_str)
+        .ok_or_else(|| ParseError::NotBackup(name.into(), format!("no \"schema\": {SCHEMA:?} field")))?;
+    let version = schema
+        .strip_prefix(SCHEMA_PREFIX)
+        .and_then(|v| v.parse::<u32>().ok())
+        .ok_or_else(|| ParseError::NotBackup(name.into(), format!("schema {schema:?} is not {SCHEMA:?}")))?;
+    if version > SCHEMA_VERSION {
+        return Err(ParseError::Newer(name.into(), schema.into()));
+    }
+    let doc: Document = serde_json::from_value(value).map_err(|e| ParseError::NotBackup(name.into(), e.to_string()))?;
+    let mut seen = std::collections::BTreeSet::new();
+    if let Some(d) = doc.devices.iter().find(|d| !seen.insert(d.address())) {
+        return Err(ParseError::NotBackup(name.into(), format!("{} is in it twice", d.address())));
+    }
+    Ok(doc)
+}
+
+/// A value of the file that must not be written: listed before anything
+/// is sent.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Problem {
+    #[serde(skip)]
+    pub device: Address,
+    pub name: String,
+    pub message: String,
+}
+
+impl std::fmt::Display for Problem {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{}: {}: {}", self.device, self.name, self.message)
+    }
+}
+
+/// What happened to one value of a restore.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Outcome {
+    /// Written, and read back as written.
+    Written,
+    /// The device holds the file's value already: nothing sent.
+    Unchanged,
+    /// Not written: invalid and `--skip-invalid`.
+    Skipped,
+    /// Written, but the device holds another value (it limited it).
+    Clamped,
+    /// The write or its read-back failed.
+    Failed,
+}
+
+impl Outcome {
+    pub const ALL: [Self; 5] = [Self::Written, Self::Unchanged, Self::Skipped, Self::Clamped, Self::Failed];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Written => "written",
+            Self::Unchanged => "unchanged",
+            Self::Skipped => "skipped",
+            Self::Clamped => "clamped",
+            Self::Failed => "failed",
+        }
+    }
+}
+
+/// One value of a restore: what the file wants, what the device held
+/// before and holds after, and the outcome.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct ValueResult {
+    pub name: String,
+    pub unit: String,
+    pub wanted: serde_json::Value,
+    pub before: serde_json::Value,
+    pub after: serde_json::Value,
+    pub outcome: Outcome,
+    /// Why it was skipped or failed.
+    pub message: Option<String>,
+    /// The exit-code class of a failure.
+    #[serde(skip)]
+    pub kind: Option<ErrorKind>,
+}
+
+impl ValueResult {
+    fn new(name: &str, unit: &str, wanted: &serde_json::Value, before: &serde_json::Value) -> Self {
+        Self {
+            name: name.into(),
+            unit: unit.into(),
+            wanted: wanted.clone(),
+            before: before.clone(),
+            after: before.clone(),
+            outcome: Outcome::Unchanged,
+            message: None,
+            kind: None,
+        }
+    }
+
+    fn skipped(mut self, why: &str) -> Self {
+        self.outcome = Outcome::Skipped;
+        self.message = Some(why.into());
+        self
+    }
+
+    fn failed(mut self, e: &dyn std::fmt::Display, kind: ErrorKind) -> Self {
+        self.outcome = Outcome::Failed;
+        self.message = Some(e.to_string());
+        self.kind = Some(kind);
+        self
+    }
+
+    /// Written and read back as `after`: clamped when the device holds
+    /// another value than the file's.
+    fn read_back(mut self, after: serde_json::Value) -> Self {
+        self.outcome = if same_value(&self.wanted, &after) { Outcome::Written } else { Outcome::Clamped };
+        self.after = after;
+        self
+    }
+}
+
+/// The file's device's identity against the live device's: the keys that
+/// differ (a restore refuses them unless told which device to write to).
+pub fn identity_mismatch(file: &Device, live: &Device, keys: &[&str]) -> Vec<String> {
+    keys.iter()
+        .filter(|k| file.identity.get(**k).is_some_and(|v| live.identity.get(**k).is_none_or(|l| !same_value(v, l))))
+        .map(|k| {
+            format!(
+                "{k} {} in the file, {} on the device",
+                file.identity[*k],
+                live.identity.get(*k).map_or("none".to_string(), ToString::to_string)
+            )
+        })
+        .collect()
+}
+
+/// A restore that could not write every value (or refused to start): the
+/// exit-code class of the first failure, and what failed.
+#[derive(Debug, thiserror::Error)]
+#[error("{message}")]
+pub struct Failed {
+    pub kind: ErrorKind,
+    pub message: String,
+}
+
+/// The counts of a restore's outcomes, in [`Outcome::ALL`] order.
+pub fn summary<'a>(results: impl IntoIterator<Item = &'a ValueResult>) -> [(Outcome, usize); 5] {
+    let mut out = Outcome::ALL.map(|o| (o, 0));
+    for r in results {
+        if let Some(slot) = out.iter_mut().find(|(o, _)| *o == r.outcome) {
+            slot.1 += 1;
+        }
+    }
+    out
+}

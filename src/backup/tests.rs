@@ -1,0 +1,287 @@
+//! The document, the diff engine and the PowerCube restore plan, the last
+//! against the simulated contract bench.
+
+use std::collections::BTreeSet;
+use std::sync::Arc;
+
+use super::*;
+use crate::clock::{Clock, VirtualClock};
+use crate::device::powercube::Cubes;
+use crate::proto::powercube::ModuleId;
+use crate::session::powercube::PowerCube;
+use crate::sim::bench::Bench;
+
+fn cube_doc(settings: &[(&str, serde_json::Value, bool)]) -> Document {
+    let mut dev = Device::new(Family::PowerCube, "sim");
+    dev.module = Some(17);
+    dev.identity.insert("serial".into(), 17.into());
+    for (name, value, restore) in settings {
+        dev.settings.insert((*name).into(), Setting::new(value.clone(), "m/s", *restore));
+    }
+    Document { schema: SCHEMA.into(), created_by: "test".into(), link: "sim".into(), devices: vec![dev] }
+}
+
+#[test]
+fn a_document_reads_back_as_written() {
+    let doc = cube_doc(&[("MaxVel", 0.1.into(), true), ("DefMaxVel", 0.2.into(), false)]);
+    let text = serde_json::to_string_pretty(&doc).unwrap();
+    assert_eq!(parse("f", &text).unwrap(), doc);
+    assert!(text.contains("\"module\": 17") && !text.contains("\"axis\""), "{text}");
+}
+
+#[test]
+fn a_newer_schema_or_another_document_is_refused() {
+    let doc = cube_doc(&[]);
+    let mut v = serde_json::to_value(&doc).unwrap();
+    v["schema"] = "axisctl-backup/2".into();
+    assert!(matches!(parse("f", &v.to_string()), Err(ParseError::Newer(..))));
+    v["schema"] = "something-else/1".into();
+    assert!(matches!(parse("f", &v.to_string()), Err(ParseError::NotBackup(..))));
+    assert!(matches!(parse("f", "{\"schema\": "), Err(ParseError::NotJson(..))));
+    assert!(matches!(parse("f", "{\"devices\": []}"), Err(ParseError::NotBackup(..))));
+    v["schema"] = SCHEMA.into();
+    v["devices"][0]["family"] = "toaster".into();
+    assert!(matches!(parse("f", &v.to_string()), Err(ParseError::NotBackup(..))));
+    let twice = Document { devices: vec![doc.devices[0].clone(), doc.devices[0].clone()], ..doc };
+    let e = parse("f", &serde_json::to_string(&twice).unwrap()).unwrap_err();
+    assert!(e.to_string().contains("twice"), "{e}");
+}
+
+#[test]
+fn the_diff_compares_restored_settings_and_identity_only() {
+    let a = cube_doc(&[("MaxVel", 0.1.into(), true), ("ActPos", 0.5.into(), false), ("MaxAcc", 1.into(), true)]);
+    let mut b = cube_doc(&[("MaxVel", 0.100000001.into(), true), ("ActPos", 0.7.into(), false)]);
+    let d = diff(&a, &b);
+    assert_eq!(d.len(), 1);
+    assert_eq!(
+        d[0].differences,
+        vec![Difference { name: "MaxAcc".into(), unit: "m/s".into(), left: Some(1.into()), right: None }]
+    );
+    b.devices[0].identity.insert("serial".into(), 18.into());
+    b.devices[0].settings.insert("MaxAcc".into(), Setting::new(1.into(), "m/s", true));
+    let d = diff(&a, &b);
+    assert_eq!(d[0].differences[0].name, "identity.serial");
+    assert_eq!(d[0].differences.len(), 1);
+    b.devices[0].module = Some(5);
+    let d = diff(&a, &b);
+    assert_eq!(d.len(), 2, "a device on one side only is one entry each");
+    assert!(d.iter().all(|x| !x.differences.is_empty()));
+    assert!(diff(&a, &a).iter().all(|x| x.differences.is_empty()));
+}
+
+#[test]
+fn values_compare_within_a_floats_precision() {
+    assert!(same_value(&0.1.into(), &0.1f32.to_string().parse::<f64>().unwrap().into()));
+    assert!(!same_value(&0.1.into(), &0.11.into()));
+    assert!(same_value(&5.into(), &5.0.into()));
+    assert!(!same_value(&"3.5.18".into(), &"3.5.19".into()));
+    assert!(same_value(&0.into(), &0.0.into()));
+}
+
+#[test]
+fn the_file_checks_name_type_and_access() {
+    let doc = cube_doc(&[
+        ("MaxVel", 0.1.into(), true),
+        ("ActPos", 0.5.into(), true),
+        ("NoSuchThing", 1.into(), true),
+        ("ActC0", 1.5.into(), true),
+        ("ActDamp", "x".into(), true),
+        ("ActIMaxVel", 100.into(), true),
+        ("maxacc", 1.into(), true),
+        ("Whatever", 1.into(), false),
+    ]);
+    let problems = powercube::check_file(&doc.devices[0]);
+    let names: Vec<&str> = problems.iter().map(|p| p.name.as_str()).collect();
+    assert_eq!(names, ["ActC0", "ActDamp", "ActIMaxVel", "ActPos", "NoSuchThing", "maxacc"], "{problems:?}");
+    assert!(problems[3].message.contains("read-only"), "{}", problems[3]);
+}
+
+struct Rig {
+    cubes: Cubes,
+    _bench: Bench,
+}
+
+fn rig() -> Rig {
+    let clock: Arc<dyn Clock> = Arc::new(VirtualClock::new());
+    let bench = Bench::contract(Arc::clone(&clock));
+    let cubes = Cubes::new(PowerCube::over_can(Box::new(bench.bus.open())).with_clock(clock));
+    Rig { cubes, _bench: bench }
+}
+
+fn m17() -> ModuleId {
+    ModuleId::new(17).unwrap()
+}
+
+fn set(dev: &mut Device, name: &str, value: serde_json::Value) {
+    dev.settings.get_mut(name).unwrap().value = value;
+}
+
+#[test]
+fn capture_restore_round_trip_on_the_simulator() {
+    let mut r = rig();
+    let saved = powercube::capture(&mut r.cubes, m17(), "sim").unwrap();
+    assert_eq!(saved.identity["type"], "linear");
+    assert!(saved.settings["MaxVel"].restore && !saved.settings["DefMaxVel"].restore);
+    assert_eq!(saved.settings["MaxVel"].unit, "m/s");
+    assert!(powercube::check_file(&saved).is_empty());
+    // Change two settings on the module, then restore the saved ones.
+    let mut changed = saved.clone();
+    set(&mut changed, "MaxVel", 0.05.into());
+    set(&mut changed, "ActC0", 7.into());
+    let live = powercube::capture(&mut r.cubes, m17(), "sim").unwrap();
+    assert!(powercube::check_live(&changed, &live).is_empty());
+    let res = powercube::restore(&mut r.cubes, m17(), &changed, &live, &BTreeSet::new()).unwrap();
+    let written: Vec<&str> = res.iter().filter(|v| v.outcome == Outcome::Written).map(|v| v.name.as_str()).collect();
+    assert_eq!(written, ["MaxVel", "ActC0"]);
+    let live = powercube::capture(&mut r.cubes, m17(), "sim").unwrap();
+    let doc = |d: &Device| Document {
+        schema: SCHEMA.into(),
+        created_by: String::new(),
+        link: "sim".into(),
+        devices: vec![d.clone()],
+    };
+    assert_eq!(diff(&doc(&saved), &doc(&live))[0].differences.len(), 2);
+    let res = powercube::restore(&mut r.cubes, m17(), &saved, &live, &BTreeSet::new()).unwrap();
+    assert!(res.iter().all(|v| matches!(v.outcome, Outcome::Written | Outcome::Unchanged)), "{res:?}");
+    let live = powercube::capture(&mut r.cubes, m17(), "sim").unwrap();
+    assert!(diff(&doc(&saved), &doc(&live))[0].differences.is_empty());
+}
+
+#[test]
+fn live_checks_find_values_the_module_would_limit() {
+    let mut r = rig();
+    let live = powercube::capture(&mut r.cubes, m17(), "sim").unwrap();
+    let def_max = live.settings["DefMaxPos"].value.as_f64().unwrap();
+    let mut file = live.clone();
+    set(&mut file, "MaxPos", (def_max + 1.0).into());
+    set(&mut file, "TargetVelInc", 0.into());
+    set(&mut file, "MinPos", (def_max + 0.5).into());
+    let names: Vec<String> = powercube::check_live(&file, &live).into_iter().map(|p| p.name).collect();
+    assert_eq!(names, ["MaxPos", "MinPos", "TargetVelInc"]);
+    // A Config that switches limit switch 1 off takes a protection away.
+    let mut file = live.clone();
+    let word = live.settings["Config"].value.as_u64().unwrap() as u32;
+    set(&mut file, "Config", (word & !crate::proto::powercube::flags::config::SW1_ENABLED).into());
+    let sw1_on = word & crate::proto::powercube::flags::config::SW1_ENABLED != 0;
+    assert_eq!(powercube::check_live(&file, &live).len(), usize::from(sw1_on));
+}
+
+#[test]
+fn a_new_range_above_the_old_one_writes_max_pos_first() {
+    let mut r = rig();
+    let live = powercube::capture(&mut r.cubes, m17(), "sim").unwrap();
+    let old_max = live.settings["MaxPos"].value.as_f64().unwrap();
+    let mut file = live.clone();
+    set(&mut file, "MinPos", (old_max + 0.1).into());
+    let order = powercube::order(&file, &live);
+    assert_eq!(&order[..3], ["Config", "MaxPos", "MinPos"]);
+    assert_eq!(&powercube::order(&live, &live)[..3], ["Config", "MinPos", "MaxPos"]);
+    let tv = order.iter().position(|n| *n == "TargetVelInc").unwrap();
+    assert!(order.iter().position(|n| *n == "MaxVel").unwrap() < tv, "limits before the values within them");
+}
+
+fn pac_axis(settings: &[(&str, f64)]) -> Device {
+    let mut dev = Device::new(Family::Pac, "sim");
+    dev.axis = Some(2);
+    for (name, v) in settings {
+        dev.settings.insert((*name).into(), Setting::new((*v).into(), "AE", true));
+    }
+    dev
+}
+
+#[test]
+fn pac_order_puts_units_before_the_area_and_the_area_before_the_speeds() {
+    let live = pac_axis(&[("traverse-area-min", 0.0), ("traverse-area-max", 100.0)]);
+    let order = pac::order(&live, &live);
+    let at = |n: &str| order.iter().position(|x| *x == n).unwrap();
+    assert!(at("gear-factor") < at("traverse-area-min"));
+    assert!(at("traverse-area-min") < at("traverse-area-max"));
+    assert!(at("traverse-area-max") < at("traverse-speed"));
+    assert!(at("traverse-area-max") < at("acceleration"));
+    let above = pac_axis(&[("traverse-area-min", 200.0), ("traverse-area-max", 300.0)]);
+    let order = pac::order(&above, &live);
+    let at = |n: &str| order.iter().position(|x| *x == n).unwrap();
+    assert!(at("traverse-area-max") < at("traverse-area-min"), "max first when the new area lies above");
+    let mut ctrl = Device::new(Family::Pac, "sim");
+    ctrl.settings.insert("language".into(), Setting::new(1.into(), "", true));
+    assert!(!pac::order(&ctrl, &ctrl).contains(&"number-of-axes"), "the configuration is never written");
+}
+
+#[test]
+fn pac_file_checks() {
+    let dev = pac_axis(&[("traverse-speed", 10.0), ("p-share", 1.0), ("direction-of-rotation", 3.0), ("nope", 1.0)]);
+    let names: Vec<String> = pac::check_file(&dev).into_iter().map(|p| p.name).collect();
+    assert_eq!(names, ["direction-of-rotation", "nope", "p-share"]);
+    let mut ctrl = Device::new(Family::Pac, "sim");
+    ctrl.settings.insert("language".into(), Setting::new(1.5.into(), "", true));
+    ctrl.settings.insert("number-of-axes".into(), Setting::new(2.into(), "", true));
+    ctrl.settings.insert("autostart".into(), Setting::new(0.into(), "", true));
+    let names: Vec<String> = pac::check_file(&ctrl).into_iter().map(|p| p.name).collect();
+    assert_eq!(names, ["language", "number-of-axes"]);
+}
+
+fn cdios_module(settings: &[(&str, serde_json::Value)]) -> Device {
+    let mut dev = Device::new(Family::Cdios, "sim");
+    dev.node = Some(1);
+    dev.module = Some(0);
+    for (name, v) in settings {
+        dev.settings.insert((*name).into(), Setting::new(v.clone(), "", true));
+    }
+    dev
+}
+
+#[test]
+fn cdios_file_checks_use_the_tables_ranges() {
+    let dev = cdios_module(&[
+        ("speeds.maximum_speed", 8000.into()),
+        ("speeds.minimum_speed", 0.into()),
+        ("events.mask1", 256.into()),
+        ("events.position_on_change", 2.into()),
+        ("outputs.digital", 1.5.into()),
+        ("speeds.nope", 1.into()),
+        ("outputs.digital2", 1.into()),
+    ]);
+    let names: Vec<String> = cdios::check_file(&dev).into_iter().map(|p| p.name).collect();
+    assert_eq!(
+        names,
+        [
+            "events.mask1",
+            "events.position_on_change",
+            "outputs.digital",
+            "outputs.digital2",
+            "speeds.minimum_speed",
+            "speeds.nope"
+        ]
+    );
+}
+
+#[test]
+fn cdios_live_checks_only_look_at_changed_selectors() {
+    let live = cdios_module(&[
+        ("speeds.minimum_speed", 50.into()),
+        ("speeds.maximum_speed", 8000.into()),
+        ("speeds.slope", 10.into()),
+    ]);
+    assert!(cdios::check_live(&live, &live).is_empty());
+    let mut file = live.clone();
+    file.settings.get_mut("speeds.slope").unwrap().value = 20.into();
+    assert!(cdios::check_live(&file, &live).is_empty(), "a valid change");
+}
+
+#[test]
+fn a_value_the_module_does_not_keep_is_reported_clamped() {
+    let mut r = rig();
+    let live = powercube::capture(&mut r.cubes, m17(), "sim").unwrap();
+    // The type bits are hardware: a Config word without LINEAR is written
+    // as flags (LINEAR untouched), and the module keeps its own word.
+    let word = live.settings["Config"].value.as_u64().unwrap() as u32;
+    let linear = crate::proto::powercube::flags::config::LINEAR;
+    assert_ne!(word & linear, 0);
+    let mut file = live.clone();
+    set(&mut file, "Config", u64::from(word & !linear).into());
+    let res = powercube::restore(&mut r.cubes, m17(), &file, &live, &BTreeSet::new()).unwrap();
+    let config = res.iter().find(|v| v.name == "Config").unwrap();
+    assert_eq!(config.outcome, Outcome::Clamped, "{config:?}");
+    assert_eq!(config.after, serde_json::Value::from(word));
+    assert_eq!(summary(&res)[3], (Outcome::Clamped, 1));
+}
