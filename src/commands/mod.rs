@@ -1,6 +1,7 @@
 //! The subcommands. Each resolves what the user typed, validates it before
 //! anything is sent, talks to the device through a session and prints.
 
+mod batch;
 mod cdios;
 mod dashboard;
 mod decode;
@@ -11,6 +12,7 @@ mod monitor;
 mod names;
 mod pac;
 mod powercube;
+mod shell;
 mod sim;
 mod takeover;
 mod wait;
@@ -54,6 +56,12 @@ pub struct Interrupted(pub String);
 #[derive(Debug, thiserror::Error)]
 #[error("{0}")]
 pub struct OutputFailed(pub String);
+
+/// A failure already reported (by `batch`, line by line): the process
+/// only exits with this code.
+#[derive(Debug, thiserror::Error)]
+#[error("exit {0}")]
+pub struct Reported(pub u8);
 
 pub fn usage(msg: impl Into<String>) -> anyhow::Error {
     UsageError(msg.into()).into()
@@ -274,7 +282,15 @@ pub fn stopped_by_output(err: anyhow::Error) -> anyhow::Error {
 
 pub fn run(cli: Cli) -> anyhow::Result<()> {
     let ctx = Ctx::resolve(&cli.global)?;
-    match cli.command {
+    dispatch(&ctx, cli.command)
+}
+
+/// Runs one subcommand with the resolved options: a process's one
+/// command, or each line of `batch` and `shell`. The arms borrow `ctx` as
+/// they did when it was `run`'s own value.
+#[allow(clippy::needless_borrow)]
+pub fn dispatch(ctx: &Ctx, command: Command) -> anyhow::Result<()> {
+    match command {
         Command::Decode { kind, value } => decode::run(&ctx, &kind, &value),
         Command::Sim(args) => sim::run(&ctx, &args),
         Command::Monitor(args) => monitor::run(&ctx, &args),
@@ -286,5 +302,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Flags { word } => names::flags(&ctx, word.as_deref()),
         Command::Completions { shell } => manual::completions(shell),
         Command::Man { dir } => manual::man(dir.as_deref()),
+        Command::Batch(args) => batch::run(ctx, &args),
+        Command::Shell(args) => shell::run(ctx, &args),
     }
 }
