@@ -111,7 +111,11 @@ impl<'a> Engine<'a> {
             Err(e) => {
                 let e = crate::cli::suggest::subcommand(e, &self.parser);
                 let doc = error_json::usage(&e, exit::code(ErrorKind::Usage));
-                let message = doc["error"]["message"].as_str().unwrap_or_default().to_string();
+                let mut message = doc["error"]["message"].as_str().unwrap_or_default().to_string();
+                // clap's tips ("a similar subcommand exists") are what fixes a typo.
+                for tip in e.render().to_string().lines().filter_map(|l| l.trim().strip_prefix("tip: ")) {
+                    message.push_str(&format!(" ({tip})"));
+                }
                 let argument = doc["error"]["argument"].as_str().map(str::to_string);
                 return Err(LineError { message, argument });
             }
