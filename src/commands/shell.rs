@@ -26,7 +26,11 @@ use crate::output;
 pub fn run(ctx: &Ctx, args: &ShellArgs) -> anyhow::Result<()> {
     let mut engine = Engine::new(ctx)?;
     let helper = Complete { tree: engine.parser().clone() };
-    let config = Config::builder().auto_add_history(false).max_history_size(10_000)?.build();
+    let config = Config::builder()
+        .auto_add_history(false)
+        .completion_type(rustyline::CompletionType::List)
+        .max_history_size(10_000)?
+        .build();
     let mut ed: Editor<Complete, rustyline::history::DefaultHistory> = Editor::with_config(config)?;
     ed.set_helper(Some(helper));
     let history = args.history.clone().or_else(default_history);
