@@ -12,10 +12,10 @@ struct Tmux {
 
 impl Tmux {
     /// A plain bash with a known prompt, whose state directory is `state`.
-    fn start(state: &std::path::Path) -> Self {
+    fn start(state: &std::path::Path, name: &str) -> Self {
         let found = Command::new("tmux").arg("-V").output().map(|o| o.status.success()).unwrap_or(false);
         assert!(found, "tmux is not installed: the shell test needs it (apt-get install tmux)");
-        let session = format!("axisctl-shell-{}", std::process::id());
+        let session = format!("axisctl-shell-{name}-{}", std::process::id());
         let ok = Command::new("tmux")
             .args(["new-session", "-d", "-s", &session, "-x", "100", "-y", "40"])
             .args(["env", "-i", "PATH=/usr/bin:/bin", "TERM=screen", "PS1=READY$ "])
@@ -73,7 +73,7 @@ const PROMPT: &str = "axisctl sim>";
 #[test]
 fn the_shell_completes_runs_survives_failures_and_keeps_its_history() {
     let state = tempfile::tempdir().unwrap();
-    let t = Tmux::start(state.path());
+    let t = Tmux::start(state.path(), "main");
     t.wait_for("READY$");
     t.keys(&[&format!("{} --link sim shell", env!("CARGO_BIN_EXE_axisctl")), "Enter"]);
     t.prompts(1);
@@ -123,4 +123,43 @@ fn the_shell_completes_runs_survives_failures_and_keeps_its_history() {
     t.keys(&["Up"]);
     t.wait_for(&format!("{PROMPT} get-param -m 17 CubeState"));
     t.keys(&["C-c", "C-d"]);
+}
+
+/// The pid of the program running in the pane's bash.
+fn shell_pid(t: &Tmux) -> i32 {
+    let bash = Command::new("tmux").args(["display-message", "-p", "-t", &t.session, "#{pane_pid}"]).output().unwrap();
+    let bash = String::from_utf8_lossy(&bash.stdout).trim().to_string();
+    let deadline = Instant::now() + Duration::from_secs(10);
+    loop {
+        let out = Command::new("pgrep").args(["-P", &bash, "axisctl"]).output().unwrap();
+        if let Ok(pid) = String::from_utf8_lossy(&out.stdout).trim().parse() {
+            return pid;
+        }
+        assert!(Instant::now() < deadline, "no axisctl under bash {bash}");
+        std::thread::sleep(Duration::from_millis(50));
+    }
+}
+
+// An emergency halt from another terminal sends SIGTERM to the process
+// that holds the link; a shell waiting at its prompt must answer it too:
+// it halts what its lines moved, gives the terminal back and exits.
+#[test]
+fn sigterm_at_the_prompt_halts_what_the_shell_moved_and_ends_it() {
+    let state = tempfile::tempdir().unwrap();
+    let t = Tmux::start(state.path(), "term");
+    t.wait_for("READY$");
+    t.keys(&[&format!("{} --link sim shell", env!("CARGO_BIN_EXE_axisctl")), "Enter"]);
+    t.prompts(1);
+    t.keys(&["move-vel -m 3 0.1", "Enter"]);
+    t.wait_for("acknowledged");
+    t.prompts(2);
+    unsafe { libc::kill(shell_pid(&t), libc::SIGTERM) };
+    let screen = t.wait_for("halted: `halt -m 3`");
+    assert!(screen.contains("stopped by SIGTERM after line 1"), "{screen}");
+    t.wait_until("the return to bash", |s| s.matches("READY$").count() >= 2);
+    t.keys(&["s=$?; stty -a | tr ' ' '\\n' | grep -x -e icanon -e -icanon; echo exit=$s", "Enter"]);
+    let screen = t.wait_for("exit=");
+    assert!(screen.contains("exit=143"), "{screen}");
+    let lines: Vec<&str> = screen.lines().map(str::trim).collect();
+    assert!(lines.contains(&"icanon") && !lines.contains(&"-icanon"), "the terminal is given back:\n{screen}");
 }

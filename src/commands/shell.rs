@@ -9,6 +9,9 @@
 
 use std::borrow::Cow;
 use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+use std::sync::{Mutex, MutexGuard};
+use std::time::Duration;
 
 use axisctl::device::supervisor;
 use rustyline::completion::{Completer, Pair};
@@ -24,8 +27,8 @@ use crate::cli::batch::ShellArgs;
 use crate::output;
 
 pub fn run(ctx: &Ctx, args: &ShellArgs) -> anyhow::Result<()> {
-    let mut engine = Engine::new(ctx)?;
-    let helper = Complete { tree: engine.parser().clone() };
+    let engine = Mutex::new(Engine::new(ctx)?);
+    let helper = Complete { tree: lock(&engine).parser().clone() };
     let config = Config::builder()
         .auto_add_history(false)
         .completion_type(rustyline::CompletionType::List)
@@ -41,22 +44,48 @@ pub fn run(ctx: &Ctx, args: &ShellArgs) -> anyhow::Result<()> {
     }
     let link = if ctx.link_text.is_empty() { "no link" } else { &ctx.link_text };
     let prompt = format!("axisctl {link}> ");
+    let at_prompt = AtomicBool::new(false);
+    let ended = AtomicBool::new(false);
+    let last = AtomicUsize::new(0);
+    let terminal = Terminal::save();
+    std::thread::scope(|scope| {
+        scope.spawn(|| stop_at_the_prompt(&engine, (&at_prompt, &last), &ended, &terminal));
+        let out = session(&engine, &mut ed, &prompt, history.as_deref(), (&at_prompt, &last));
+        ended.store(true, Ordering::SeqCst);
+        out
+    })
+}
+
+/// The read-run loop, until Ctrl-D or `exit`.
+fn session(
+    engine: &Mutex<Engine<'_>>,
+    ed: &mut Editor<Complete, rustyline::history::DefaultHistory>,
+    prompt: &str,
+    history: Option<&Path>,
+    (at_prompt, last): (&AtomicBool, &AtomicUsize),
+) -> anyhow::Result<()> {
     let mut n = 0;
     loop {
-        let text = match ed.readline(&prompt) {
+        at_prompt.store(true, Ordering::SeqCst);
+        let read = ed.readline(prompt);
+        // From here until the next prompt the watcher leaves a signal to the engine.
+        let mut engine = lock(engine);
+        at_prompt.store(false, Ordering::SeqCst);
+        let text = match read {
             Ok(text) => text,
             Err(ReadlineError::Interrupted) => continue,
             Err(ReadlineError::Eof) => break,
             Err(e) => return Err(e.into()),
         };
         n += 1;
+        last.store(n, Ordering::SeqCst);
         let shown = super::batch::shown(&text);
         if shown.is_empty() {
             continue;
         }
         let _ = ed.add_history_entry(text.trim());
-        if let Some(path) = &history {
-            save_history(&mut ed, path);
+        if let Some(path) = history {
+            save_history(ed, path);
         }
         if matches!(shown.as_str(), "exit" | "quit") {
             break;
@@ -78,6 +107,62 @@ pub fn run(ctx: &Ctx, args: &ShellArgs) -> anyhow::Result<()> {
         output::flush();
     }
     Ok(())
+}
+
+fn lock<'m, 'a>(engine: &'m Mutex<Engine<'a>>) -> MutexGuard<'m, Engine<'a>> {
+    engine.lock().unwrap_or_else(|e| e.into_inner())
+}
+
+/// A signal while the shell waits at its prompt (SIGTERM from an emergency
+/// halt in another terminal, which needs the port; SIGHUP from a closed
+/// terminal): the line editor would not return before a key, so this
+/// thread halts what the lines moved, gives the terminal back and ends the
+/// process with the signal's code, releasing the link.
+fn stop_at_the_prompt(
+    engine: &Mutex<Engine<'_>>,
+    (at_prompt, last): (&AtomicBool, &AtomicUsize),
+    ended: &AtomicBool,
+    terminal: &Terminal,
+) {
+    while !ended.load(Ordering::SeqCst) {
+        supervisor::sleep(Duration::from_millis(50));
+        if supervisor::caught().is_none() || !at_prompt.load(Ordering::SeqCst) {
+            continue;
+        }
+        // The prompt may be returning with a line: then the engine has it.
+        let Ok(mut engine) = engine.try_lock() else { continue };
+        if !at_prompt.load(Ordering::SeqCst) {
+            continue;
+        }
+        terminal.restore();
+        output::err_line(format_args!(""));
+        let code = engine.stop_if_requested(last.load(Ordering::SeqCst)).unwrap_or(1);
+        output::flush();
+        std::process::exit(code.into());
+    }
+}
+
+/// The terminal's settings before the line editor's raw mode, to give them
+/// back when the process ends from another thread.
+struct Terminal(Option<libc::termios>);
+
+impl Terminal {
+    fn save() -> Self {
+        // SAFETY: tcgetattr fills the zeroed struct, or fails on a non-terminal.
+        unsafe {
+            let mut t: libc::termios = std::mem::zeroed();
+            Self((libc::tcgetattr(libc::STDIN_FILENO, &mut t) == 0).then_some(t))
+        }
+    }
+
+    fn restore(&self) {
+        if let Some(t) = &self.0 {
+            // SAFETY: settings tcgetattr returned for the same descriptor.
+            unsafe {
+                libc::tcsetattr(libc::STDIN_FILENO, libc::TCSANOW, t);
+            }
+        }
+    }
 }
 
 /// `$XDG_STATE_HOME/axisctl/history`, else `~/.local/state/axisctl/history`.
