@@ -307,3 +307,24 @@ fn a_signal_halts_every_device_the_batch_moved() {
         }
     }
 }
+
+// A batch holds its port for its whole life; `halt` from another terminal
+// takes it over as from any holder: the batch halts what it moved, exits
+// 143 and lets go, and the halt goes out.
+#[test]
+fn an_emergency_halt_from_another_terminal_ends_a_batch_that_holds_the_port() {
+    let sim = Sim::start(&[], 3);
+    let text = "move-vel -m 3 0.1\nmove-ramp -m 5 3 --vel 0.01 --wait\nget-param -m 3 ActPos\n";
+    let (mut child, _) = start_moving(&sim, text, 1);
+    std::thread::sleep(Duration::from_millis(300));
+    let r = common::run(&["--link", sim.link("powercube"), "--json", "halt", "-m", "3"]);
+    assert_eq!(r.code, 0, "{}", r.stderr);
+    assert_eq!(r.json()["holder"]["pid"], child.id(), "{}", r.stdout);
+    let (code, err) = wait_exit(&mut child);
+    assert_eq!(code, 143, "{err}");
+    assert!(err.contains("halted: `halt -m 3`, `halt -m 5`"), "{err}");
+    for m in ["3", "5"] {
+        let s = state(&sim, m);
+        assert!(!s["flags"].as_array().unwrap().iter().any(|f| f == "STATE_MOTION"), "module {m}: {s}");
+    }
+}

@@ -157,8 +157,9 @@ fn sigterm_at_the_prompt_halts_what_the_shell_moved_and_ends_it() {
     let screen = t.wait_for("halted: `halt -m 3`");
     assert!(screen.contains("stopped by SIGTERM after line 1"), "{screen}");
     t.wait_until("the return to bash", |s| s.matches("READY$").count() >= 2);
-    t.keys(&["s=$?; stty -a | tr ' ' '\\n' | grep -x -e icanon -e -icanon; echo exit=$s", "Enter"]);
-    let screen = t.wait_for("exit=");
+    // Typed as DO''NE so that only the output says DONE.
+    t.keys(&["s=$?; stty -a | tr ' ' '\\n' | grep -x -e icanon -e -icanon; echo exit=$s DO''NE", "Enter"]);
+    let screen = t.wait_for("DONE");
     assert!(screen.contains("exit=143"), "{screen}");
     let lines: Vec<&str> = screen.lines().map(str::trim).collect();
     assert!(lines.contains(&"icanon") && !lines.contains(&"-icanon"), "the terminal is given back:\n{screen}");
