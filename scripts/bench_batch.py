@@ -130,9 +130,11 @@ def figures(add, links, n=1000):
         if r.returncode != 0:
             sys.exit(f"axisctl {LINE} failed ({r.returncode}): {r.stderr}")
     one_shot = time.perf_counter() - t0
+    load = os.getloadavg()[0]
     limit = (f"{frames:.0f} frames per line ({per_line:.0f} bits with stuffing and intermission: "
-             f"{per_line:.0f} µs at 1 Mbit/s); each line waits for its answers before the next, so one "
-             "pty turnaround per line is not on the wire")
+             f"{per_line:.0f} µs at 1 Mbit/s); each line waits for its answers before the next, so the "
+             "pty hops and the wake-ups of both processes per line are not on the wire "
+             f"(load average {load:.1f} during the run)")
     add(
         f"batch: {n} x `{LINE}` in one process, CAN 1 Mbit/s via an slcan pty",
         f"{100 * share:.1f} % of the wire limit ({elapsed:.3f} s for {wire:.3f} s of frames, "
