@@ -251,8 +251,13 @@ fn served_simulators_keep_their_state_between_lines() {
 /// Starts a batch on the served PowerCube link and waits until it printed
 /// `acks` acknowledgements (the moves of its first lines are out).
 fn start_moving(sim: &Sim, text: &str, acks: usize) -> (Child, Vec<String>) {
+    start_on(sim.link("powercube"), text, "acknowledged", acks)
+}
+
+/// Starts a batch on `link` and waits until `n` lines of its output say `marker`.
+fn start_on(link: &str, text: &str, marker: &str, n: usize) -> (Child, Vec<String>) {
     let mut child = bin()
-        .args(["--link", sim.link("powercube"), "batch", "-"])
+        .args(["--link", link, "batch", "-"])
         .stdin(Stdio::piped())
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
@@ -261,7 +266,7 @@ fn start_moving(sim: &Sim, text: &str, acks: usize) -> (Child, Vec<String>) {
     child.stdin.take().unwrap().write_all(text.as_bytes()).unwrap();
     let mut out = BufReader::new(child.stdout.take().unwrap()).lines();
     let mut seen = Vec::new();
-    while seen.iter().filter(|l: &&String| l.contains("acknowledged")).count() < acks {
+    while seen.iter().filter(|l: &&String| l.contains(marker)).count() < n {
         seen.push(out.next().expect("batch output").unwrap());
     }
     // The rest is read on, as a terminal would: a closed pipe is a stop of its own.
@@ -327,4 +332,51 @@ fn an_emergency_halt_from_another_terminal_ends_a_batch_that_holds_the_port() {
         let s = state(&sim, m);
         assert!(!s["flags"].as_array().unwrap().iter().any(|f| f == "STATE_MOTION"), "module {m}: {s}");
     }
+}
+
+/// Reads `what` every 200 ms until two reads agree (the device stands; a
+/// stop may decelerate first), for at most 5 s; the value it stands at.
+fn comes_to_rest(link: &str, what: &[&str], pointer: &str) -> Value {
+    let read = || {
+        let r = common::run(&[&["--link", link, "--json"], what].concat());
+        assert_eq!(r.code, 0, "{}", r.stderr);
+        r.json().pointer(pointer).cloned().unwrap_or(Value::Null)
+    };
+    let deadline = Instant::now() + Duration::from_secs(5);
+    let mut last = read();
+    loop {
+        std::thread::sleep(Duration::from_millis(200));
+        let now = read();
+        if now == last {
+            return now;
+        }
+        assert!(Instant::now() < deadline, "{what:?} still changing: {last} then {now}");
+        last = now;
+    }
+}
+
+#[test]
+fn a_signal_halts_the_pac_axes_and_cdios_motors_the_batch_moved() {
+    let sim = Sim::start(&[], 3);
+    // Cdios: a motor started at speed (no end), then a PowerCube wait.
+    let text =
+        "cdios-enable -m 0\ncdios-start -m 0 --option to-speed --speed 1200\nmove-ramp -m 5 3 --vel 0.01 --wait\n";
+    let (mut child, _) = start_on(sim.link("cdios"), text, "confirmed", 2);
+    std::thread::sleep(Duration::from_millis(300));
+    unsafe { libc::kill(child.id() as i32, libc::SIGINT) };
+    let (code, err) = wait_exit(&mut child);
+    assert_eq!(code, 130, "{err}");
+    assert!(err.contains("halted: `cdios-stop --node 1 -m 0 --option fast`, `halt -m 5`"), "{err}");
+    comes_to_rest(sim.link("cdios"), &["cdios-position", "-m", "0"], "/position");
+
+    // PA-CONTROL: axis 2 sent off without a wait; reads follow.
+    let text = format!("pac-online\npac-ref 2 --wait\npac-move 2 900\n{}", "pac-state\n".repeat(20_000));
+    let (mut child, seen) = start_on(sim.link("pac"), &text, "AE", 2);
+    std::thread::sleep(Duration::from_millis(100));
+    unsafe { libc::kill(child.id() as i32, libc::SIGTERM) };
+    let (code, err) = wait_exit(&mut child);
+    assert_eq!(code, 143, "{seen:?} {err}");
+    assert!(err.contains("halted: `pac-stop`, `pac-stop-axis 2`\n"), "{err}");
+    let at = comes_to_rest(sim.link("pac"), &["pac-axis", "2"], "/position/value");
+    assert!(at.as_f64().unwrap() < 900.0, "axis 2 was stopped on its way: {at} ({seen:?} {err})");
 }
