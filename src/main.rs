@@ -53,6 +53,9 @@ fn main() -> ExitCode {
             }
         },
         Err(e) if is_broken_pipe(&e) => ExitCode::SUCCESS,
+        Err(e) if e.is::<commands::Reported>() => {
+            ExitCode::from(e.downcast_ref::<commands::Reported>().map_or(1, |r| r.0))
+        }
         Err(e) => {
             // An interruption that no signal caused came from a failed
             // output or a panic (also one before the motion frame left, so
@@ -70,32 +73,19 @@ fn main() -> ExitCode {
             };
             if json {
                 let refusal = commands::refusal(&e);
-                let doc = commands::error_json::failure(kind.as_str(), code, message(&e), refusal.as_ref());
+                let doc = commands::error_json::failure(
+                    kind.as_str(),
+                    code,
+                    commands::error_json::message(&e),
+                    refusal.as_ref(),
+                );
                 let _ = writeln!(std::io::stderr(), "{doc}");
             } else {
-                let _ = writeln!(std::io::stderr(), "axisctl: {}", message(&e));
+                let _ = writeln!(std::io::stderr(), "axisctl: {}", commands::error_json::message(&e));
             }
             ExitCode::from(code)
         }
     }
-}
-
-/// The error and its causes joined with ": ", leaving out a cause whose text
-/// the message already carries (typed errors quote their source), and the
-/// command line's advice.
-fn message(e: &anyhow::Error) -> String {
-    let mut out = String::new();
-    for cause in e.chain() {
-        let text = cause.to_string();
-        if !out.contains(&text) {
-            if !out.is_empty() {
-                out.push_str(": ");
-            }
-            out.push_str(&text);
-        }
-    }
-    out.push_str(&commands::hint(e).unwrap_or_default());
-    out
 }
 
 /// `--json` on a command line clap could not parse: the error must still

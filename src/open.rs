@@ -10,7 +10,8 @@
 //! client of the bench), so that neither of those imports the other.
 
 use std::path::PathBuf;
-use std::sync::{Arc, OnceLock};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, Mutex, OnceLock};
 use std::time::{Duration, Instant};
 
 use crate::clock::Clock;
@@ -142,18 +143,41 @@ pub struct Opener {
     /// Read when a bench is built, so that a bad setting only matters to `sim`.
     wire: Result<Option<WireSpeed>, String>,
     bench: OnceLock<Bench>,
+    /// Set by [`Self::keep_links_open`]: links stay open for the next session.
+    keep: AtomicBool,
+    kept: Mutex<Kept>,
 }
 
 impl Opener {
     pub fn new(clock: Arc<dyn Clock>) -> Self {
-        Self { clock, log: None, wire: Ok(None), bench: OnceLock::new() }
+        Self {
+            clock,
+            log: None,
+            wire: Ok(None),
+            bench: OnceLock::new(),
+            keep: AtomicBool::new(false),
+            kept: Mutex::new(Kept::default()),
+        }
+    }
+
+    /// From now on every link is opened once and kept for the opener's
+    /// life: each later session on the same link shares it (`batch` and
+    /// `shell` run many commands on one open link, without the adapter's
+    /// handshake and the port lock each time). A one-shot command never
+    /// calls it, so its link closes with its session as before.
+    pub fn keep_links_open(&self) {
+        self.keep.store(true, Ordering::SeqCst);
+    }
+
+    fn keeping(&self) -> bool {
+        self.keep.load(Ordering::SeqCst)
     }
 
     /// An opener with the same clock, log and wire settings, for opening a
     /// lost link again from another thread (the dashboard's workers). Its
     /// `sim` links reach a bench of their own, not this one's.
     pub fn fresh(&self) -> Self {
-        Self { clock: Arc::clone(&self.clock), log: self.log.clone(), wire: self.wire.clone(), bench: OnceLock::new() }
+        Self { log: self.log.clone(), wire: self.wire.clone(), ..Self::new(Arc::clone(&self.clock)) }
     }
 
     /// Appends the traffic of every link opened from now on to `path`.
@@ -209,6 +233,25 @@ impl Opener {
 
     /// A CAN link (for `family`, or for any family with `None`), logged with `--log`.
     pub fn can(&self, spec: &LinkSpec, family: Option<Family>) -> Result<Box<dyn CanLink>, OpenError> {
+        if let LinkSpec::Serial { .. } = spec {
+            return Err(OpenError::NeedsCan { spec: spec.clone(), family });
+        }
+        if !self.keeping() {
+            return self.open_can(spec, family);
+        }
+        let key = spec.to_string();
+        let mut kept = self.kept.lock().unwrap_or_else(|e| e.into_inner());
+        if let Some((_, shared)) = kept.can.iter().find(|(k, _)| *k == key) {
+            let shared = SharedCan(Arc::clone(shared));
+            shared.drop_stale()?;
+            return Ok(Box::new(shared));
+        }
+        let shared = Arc::new(Mutex::new(self.open_can(spec, family)?));
+        kept.can.push((key, Arc::clone(&shared)));
+        Ok(Box::new(SharedCan(shared)))
+    }
+
+    fn open_can(&self, spec: &LinkSpec, family: Option<Family>) -> Result<Box<dyn CanLink>, OpenError> {
         let l: Box<dyn CanLink> = match spec {
             LinkSpec::Sim => Box::new(self.bench()?.bus.open()),
             LinkSpec::Serial { .. } => return Err(OpenError::NeedsCan { spec: spec.clone(), family }),
@@ -223,6 +266,27 @@ impl Opener {
     /// A serial line at the family's default speed and format unless the spec
     /// says otherwise; `sim` is the bench's PA-CONTROL line.
     pub fn serial(&self, spec: &LinkSpec, family: Family) -> Result<SerialLine, OpenError> {
+        if !self.keeping() {
+            return self.open_serial(spec, family);
+        }
+        let mut kept = self.kept.lock().unwrap_or_else(|e| e.into_inner());
+        let key = format!("{spec} {family}");
+        if let Some(k) = kept.serial.iter().find(|k| k.key == key) {
+            let link = SharedBytes(Arc::clone(&k.link));
+            let (baud, format) = (k.baud, k.format);
+            link.drop_stale()?;
+            return Ok(SerialLine { link: Box::new(link), baud, format });
+        }
+        // One port, one open: a family at another speed on the same port
+        // (PowerCube RS232 after PA-CONTROL) closes the other first.
+        kept.serial.retain(|k| !k.key.starts_with(&format!("{spec} ")));
+        let line = self.open_serial(spec, family)?;
+        let link = Arc::new(Mutex::new(line.link));
+        kept.serial.push(KeptSerial { key, link: Arc::clone(&link), baud: line.baud, format: line.format });
+        Ok(SerialLine { link: Box::new(SharedBytes(link)), baud: line.baud, format: line.format })
+    }
+
+    fn open_serial(&self, spec: &LinkSpec, family: Family) -> Result<SerialLine, OpenError> {
         let Some(default) = family.serial_default() else {
             return Err(OpenError::NeedsCan { spec: spec.clone(), family: Some(family) });
         };
@@ -340,6 +404,74 @@ impl Opener {
 
     pub fn cdios_on(&self, link: Box<dyn CanLink>, opts: &SessionOptions) -> Cdios {
         configure!(Cdios::new(link).with_clock(Arc::clone(&self.clock)), opts)
+    }
+}
+
+/// The links an opener keeps open ([`Opener::keep_links_open`]), by link.
+#[derive(Default)]
+struct Kept {
+    can: Vec<(String, KeptCan)>,
+    serial: Vec<KeptSerial>,
+}
+
+type KeptCan = Arc<Mutex<Box<dyn CanLink>>>;
+
+struct KeptSerial {
+    /// The link and the family, whose default speed the line runs at.
+    key: String,
+    link: Arc<Mutex<Box<dyn ByteLink>>>,
+    baud: u32,
+    format: SerialFormat,
+}
+
+fn locked<T: ?Sized>(m: &Mutex<Box<T>>) -> std::sync::MutexGuard<'_, Box<T>> {
+    m.lock().unwrap_or_else(|e| e.into_inner())
+}
+
+/// One session's handle on a kept CAN link.
+struct SharedCan(Arc<Mutex<Box<dyn CanLink>>>);
+
+impl SharedCan {
+    /// Frames that arrived after the previous session ended (a late
+    /// answer, another node's traffic) would be taken for answers to the
+    /// next one's requests: a freshly opened link has none either.
+    fn drop_stale(&self) -> Result<(), LinkError> {
+        let mut l = locked(&self.0);
+        while l.recv(Duration::ZERO)?.is_some() {}
+        Ok(())
+    }
+}
+
+impl CanLink for SharedCan {
+    fn send(&mut self, frame: &crate::proto::CanFrame) -> Result<(), LinkError> {
+        locked(&self.0).send(frame)
+    }
+    fn send_many(&mut self, frames: &[crate::proto::CanFrame]) -> Result<(), LinkError> {
+        locked(&self.0).send_many(frames)
+    }
+    fn recv(&mut self, timeout: Duration) -> Result<Option<crate::proto::CanFrame>, LinkError> {
+        locked(&self.0).recv(timeout)
+    }
+}
+
+/// One session's handle on a kept serial line.
+struct SharedBytes(Arc<Mutex<Box<dyn ByteLink>>>);
+
+impl SharedBytes {
+    fn drop_stale(&self) -> Result<(), LinkError> {
+        locked(&self.0).clear_input()
+    }
+}
+
+impl ByteLink for SharedBytes {
+    fn write_all(&mut self, bytes: &[u8]) -> Result<(), LinkError> {
+        locked(&self.0).write_all(bytes)
+    }
+    fn read(&mut self, buf: &mut [u8], timeout: Duration) -> Result<usize, LinkError> {
+        locked(&self.0).read(buf, timeout)
+    }
+    fn clear_input(&mut self) -> Result<(), LinkError> {
+        locked(&self.0).clear_input()
     }
 }
 

@@ -96,6 +96,11 @@ pub fn flush() {
 /// (a closed pipe after `| head` is normal); it is recorded for the exit code
 /// and for the motion supervisor.
 pub fn json(value: &serde_json::Value) {
+    let wrapped = batch_wrap(value);
+    let value = wrapped.as_ref().unwrap_or(value);
+    if wrapped.as_ref().is_some_and(serde_json::Value::is_null) {
+        return;
+    }
     let mut out = std::io::stdout().lock();
     let written = serde_json::to_writer(&mut out, value).map_err(std::io::Error::from).and_then(|()| writeln!(out));
     if let Err(e) = written {
@@ -319,4 +324,40 @@ pub fn flag_word(word: &axisctl::proto::powercube::flags::FlagWord, raw: u32) ->
         .map(|d| Detail { name: d.name, mask: d.mask.into(), class: d.class.name(), description: d.description })
         .collect();
     state(raw.into(), &set, u64::from(raw & !word.known_mask()))
+}
+
+/// The batch line (`batch`, `shell` with `--json`) whose documents
+/// [`json`] prints now, each wrapped in the line's result object.
+struct BatchLine {
+    line: usize,
+    command: String,
+    printed: bool,
+    /// A halt the batch sends on its way out: reported in its error object.
+    quiet: bool,
+}
+
+static BATCH_LINE: std::sync::Mutex<Option<BatchLine>> = std::sync::Mutex::new(None);
+
+/// From now on every document [`json`] prints is `{"line", "command",
+/// "result"}` (docs/json.md, batch); with `quiet` it is not printed.
+pub fn begin_batch_line(line: usize, command: &str, quiet: bool) {
+    if let Ok(mut b) = BATCH_LINE.lock() {
+        *b = Some(BatchLine { line, command: command.to_string(), printed: false, quiet });
+    }
+}
+
+/// Ends [`begin_batch_line`]: whether the line printed a document.
+pub fn end_batch_line() -> bool {
+    BATCH_LINE.lock().ok().and_then(|mut b| b.take()).is_some_and(|b| b.printed)
+}
+
+/// The wrapped document, `Null` for a quiet line, `None` outside a batch line.
+fn batch_wrap(value: &serde_json::Value) -> Option<serde_json::Value> {
+    let mut guard = BATCH_LINE.lock().ok()?;
+    let b = guard.as_mut()?;
+    b.printed = true;
+    if b.quiet {
+        return Some(serde_json::Value::Null);
+    }
+    Some(serde_json::json!({"line": b.line, "command": b.command, "result": value}))
 }

@@ -104,8 +104,10 @@ fn every_documented_example_matches_real_output() {
 /// Commands whose --json output is no single document: the dashboard is a
 /// terminal UI, `monitor` and `sim` stream JSON Lines (docs/guide.md).
 /// Commands that print no JSON document: the dashboard, streams, and the
-/// shell scripts and man pages generated from the parser.
-const NOT_DOCUMENTS: [&str; 6] = ["dashboard", "help", "monitor", "sim", "completions", "man"];
+/// shell scripts and man pages generated from the parser. `batch` and
+/// `shell` print one `$defs/batch_line` object per line of other commands
+/// (docs/json.md, checked by tests/batch_cli.rs).
+const NOT_DOCUMENTS: [&str; 8] = ["dashboard", "help", "monitor", "sim", "completions", "man", "batch", "shell"];
 
 // Every command's JSON is documented, so every command's output is checked
 // against the schema by the test above.

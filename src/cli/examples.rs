@@ -99,6 +99,15 @@ pub const EXAMPLES: &[(&str, &[&str])] = &[
     ("cdios-events", &["--link sim cdios-events -m 0", "--link sim cdios-events -m 0 --mask GOTO_ACTIVE,ENABLED"]),
     ("cdios-store", &["--link sim cdios-store -m 0"]),
     ("cdios-watch", &["--link sim cdios-watch -m 0 --for 5", "--link sim --json cdios-watch -m 0 --count 10"]),
+    (
+        "batch",
+        &[
+            "--link sim batch commands.txt",
+            "--link sim --json batch -",
+            "--link slcan:/dev/ttyACM0 batch --keep-going commands.txt",
+        ],
+    ),
+    ("shell", &["--link sim shell", "--link socketcan:can0 shell --history /tmp/axisctl-history"]),
     ("dashboard", &["--link sim dashboard", "--link socketcan:can0 dashboard -m 3,5,17 --without pac"]),
     ("pac-online", &["--link sim pac-online"]),
     ("pac-offline", &["--link sim pac-offline"]),

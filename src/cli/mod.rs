@@ -2,6 +2,7 @@
 //! resolves it.
 
 pub mod backup;
+pub mod batch;
 pub mod cdios;
 pub mod dashboard;
 pub mod examples;
@@ -100,6 +101,10 @@ pub enum Command {
         #[arg(value_name = "WORD")]
         word: Option<String>,
     },
+    /// Run commands from FILE or standard input, one per line as after `axisctl`, on one open link
+    Batch(batch::BatchArgs),
+    /// An interactive shell: the same commands, on one open link, with history and completion
+    Shell(batch::ShellArgs),
     /// Print a shell completion script: bash, zsh, fish, elvish or powershell
     #[command(
         after_help = "Examples:\n  axisctl completions bash > ~/.local/share/bash-completion/completions/axisctl\n  \

@@ -89,6 +89,13 @@ pub fn caught() -> Option<i32> {
     }
 }
 
+/// Forgets the signal [`caught`] holds, once what it stopped was halted:
+/// `shell` goes on to its next command, whose supervised waits must not
+/// see an old Ctrl-C. A failed output or a panic stays recorded.
+pub fn forget_signal() {
+    CAUGHT.store(0, Ordering::SeqCst);
+}
+
 /// The exit code a caught signal asks for: 128 + its number (130 for
 /// SIGINT, 143 for SIGTERM, 129 for SIGHUP, 131 for SIGQUIT).
 pub fn exit_code(sig: i32) -> u8 {

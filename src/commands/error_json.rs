@@ -78,3 +78,21 @@ fn device(r: &Refusal) -> Value {
         }
     }
 }
+
+/// The error and its causes joined with ": ", leaving out a cause whose text
+/// the message already carries (typed errors quote their source), and the
+/// command line's advice.
+pub fn message(e: &anyhow::Error) -> String {
+    let mut out = String::new();
+    for cause in e.chain() {
+        let text = cause.to_string();
+        if !out.contains(&text) {
+            if !out.is_empty() {
+                out.push_str(": ");
+            }
+            out.push_str(&text);
+        }
+    }
+    out.push_str(&super::hint(e).unwrap_or_default());
+    out
+}

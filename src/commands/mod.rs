@@ -2,6 +2,7 @@
 //! anything is sent, talks to the device through a session and prints.
 
 mod backup;
+mod batch;
 mod cdios;
 mod dashboard;
 mod decode;
@@ -12,6 +13,7 @@ mod monitor;
 mod names;
 mod pac;
 mod powercube;
+mod shell;
 mod sim;
 mod takeover;
 mod wait;
@@ -55,6 +57,12 @@ pub struct Interrupted(pub String);
 #[derive(Debug, thiserror::Error)]
 #[error("{0}")]
 pub struct OutputFailed(pub String);
+
+/// A failure already reported (by `batch`, line by line): the process
+/// only exits with this code.
+#[derive(Debug, thiserror::Error)]
+#[error("exit {0}")]
+pub struct Reported(pub u8);
 
 pub fn usage(msg: impl Into<String>) -> anyhow::Error {
     UsageError(msg.into()).into()
@@ -281,18 +289,26 @@ pub fn stopped_by_output(err: anyhow::Error) -> anyhow::Error {
 
 pub fn run(cli: Cli) -> anyhow::Result<()> {
     let ctx = Ctx::resolve(&cli.global)?;
-    match cli.command {
-        Command::Decode { kind, value } => decode::run(&ctx, &kind, &value),
-        Command::Sim(args) => sim::run(&ctx, &args),
-        Command::Monitor(args) => monitor::run(&ctx, &args),
-        Command::Cdios(c) => cdios::run(&ctx, c),
-        Command::Dashboard(args) => dashboard::run(&ctx, &args),
-        Command::Pac(cmd) => pac::run(&ctx, cmd),
-        Command::Backup(cmd) => backup::run(&ctx, cmd),
-        Command::PowerCube(c) => powercube::run(&ctx, c),
-        Command::Params { family } => names::params(&ctx, family),
-        Command::Flags { word } => names::flags(&ctx, word.as_deref()),
+    dispatch(&ctx, cli.command)
+}
+
+/// Runs one subcommand with the resolved options: a process's one
+/// command, or each line of `batch` and `shell`.
+pub fn dispatch(ctx: &Ctx, command: Command) -> anyhow::Result<()> {
+    match command {
+        Command::Decode { kind, value } => decode::run(ctx, &kind, &value),
+        Command::Sim(args) => sim::run(ctx, &args),
+        Command::Monitor(args) => monitor::run(ctx, &args),
+        Command::Cdios(c) => cdios::run(ctx, c),
+        Command::Dashboard(args) => dashboard::run(ctx, &args),
+        Command::Pac(cmd) => pac::run(ctx, cmd),
+        Command::Backup(cmd) => backup::run(ctx, cmd),
+        Command::PowerCube(c) => powercube::run(ctx, c),
+        Command::Params { family } => names::params(ctx, family),
+        Command::Flags { word } => names::flags(ctx, word.as_deref()),
         Command::Completions { shell } => manual::completions(shell),
         Command::Man { dir } => manual::man(dir.as_deref()),
+        Command::Batch(args) => batch::run(ctx, &args),
+        Command::Shell(args) => shell::run(ctx, &args),
     }
 }

@@ -22,8 +22,8 @@ use std::panic::{self, AssertUnwindSafe, PanicHookInfo};
 use std::sync::Once;
 
 pub use crate::clock::stop::{
-    arm, caught, exit_code, log_failure, note_log_failure, note_output_failure, note_panic, output_failure,
-    panic_failure, signal_name, sleep, stop_reason, stop_requested, ArmError, StopReason, SIGNALS,
+    arm, caught, exit_code, forget_signal, log_failure, note_log_failure, note_output_failure, note_panic,
+    output_failure, panic_failure, signal_name, sleep, stop_reason, stop_requested, ArmError, StopReason, SIGNALS,
 };
 
 /// Chains a hook in front of the current panic hook (once per process) that

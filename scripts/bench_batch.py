@@ -1,0 +1,202 @@
+#!/usr/bin/env python3
+"""`axisctl batch` against the wire: N get-param lines in one process next to
+N one-shot processes, at 1 Mbit/s CAN (an slcan pty served by
+`axisctl sim --wire-speed`).
+
+The wire limit is what the frames themselves take: every frame the lines
+exchange (counted with --log on a calibration batch) at its length on the
+wire, stuff bits and intermission included, as the simulator meters it.
+The figure is that busy time over the wall time of the whole batch process.
+
+`figures(add, links)` adds the rows to scripts/bench.py's table; run alone
+(`python3 scripts/bench_batch.py [--lines N]`) it serves its own simulator
+and prints them.
+"""
+
+import argparse
+import os
+import re
+import signal
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+TARGET = Path(os.environ.get("CARGO_TARGET_DIR", ROOT / "target"))
+AXISCTL = TARGET / "release" / "axisctl"
+BITRATE = 1_000_000
+LINE = "get-param -m 3 ActPos"
+GOAL = 0.90
+
+
+def wire_bits(can_id, data):
+    """A classic frame's bits on the wire (ISO 11898-1): stuffed SOF..CRC,
+    then the 13 unstuffed bits of delimiters, EOF and intermission. The same
+    count as `CanFrame::wire_bits`, which the simulator's wire speed uses."""
+    bits = []
+
+    def push(v, n):
+        bits.extend((v >> i) & 1 for i in range(n - 1, -1, -1))
+
+    push(0, 1)
+    if can_id > 0x7FF:
+        push(can_id >> 18, 11)
+        push(0b11, 2)
+        push(can_id & 0x3FFFF, 18)
+        push(0, 3)
+    else:
+        push(can_id, 11)
+        push(0, 3)
+    push(len(data), 4)
+    for b in data:
+        push(b, 8)
+    crc = 0
+    for bit in bits:
+        top = (crc >> 14) & 1
+        crc = (crc << 1) & 0x7FFF
+        if top != bit:
+            crc ^= 0x4599
+    push(crc, 15)
+    stuffed, run, last = 0, 0, None
+    for b in bits:
+        if b == last:
+            run += 1
+        else:
+            run, last = 1, b
+        if run == 5:
+            stuffed += 1
+            last, run = 1 - b, 1
+    return len(bits) + stuffed + 13
+
+
+CANDUMP = re.compile(r"^\((\d+\.\d+)\) \S+ ([0-9A-Fa-f]+)#([0-9A-Fa-f]*)$")
+
+
+def logged(path):
+    """(time, wire bits) of every frame in a candump -l log."""
+    out = []
+    for line in Path(path).read_text().splitlines():
+        m = CANDUMP.match(line.strip())
+        if m:
+            out.append((float(m.group(1)), wire_bits(int(m.group(2), 16), bytes.fromhex(m.group(3)))))
+    return out
+
+
+def run_batch(link, n, extra=()):
+    """Wall time of one `axisctl --link LINK batch` process running n lines."""
+    script = "".join(f"{LINE}\n" for _ in range(n))
+    t0 = time.perf_counter()
+    r = subprocess.run(
+        [str(AXISCTL), "--link", link, *extra, "batch", "-"],
+        input=script,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    elapsed = time.perf_counter() - t0
+    if r.returncode != 0:
+        sys.exit(f"axisctl batch failed ({r.returncode}): {r.stderr}")
+    return elapsed
+
+
+def calibrate(link, n):
+    """The frames one line exchanges and the median time from one line's
+    first request to the next's, from the traffic log of an n-line batch."""
+    with tempfile.TemporaryDirectory() as d:
+        log = Path(d) / "traffic.log"
+        run_batch(link, n, ["--log", str(log)])
+        frames = logged(log)
+    per_line = len(frames) // n
+    starts = [frames[i][0] for i in range(0, len(frames), per_line)]
+    period = statistics.median(b - a for a, b in zip(starts, starts[1:]))
+    return sum(b for _, b in frames) / n, per_line, period
+
+
+def figures(add, links, n=1000):
+    """Adds the batch rows: `links` maps family -> link as `axisctl sim
+    --wire-speed` prints them; the PowerCube's slcan link is used."""
+    link = links["powercube"]
+    per_line, frames, period = calibrate(link, n)
+    wire = n * per_line / BITRATE
+    elapsed = min(run_batch(link, n) for _ in range(3))
+    share = wire / elapsed
+    t0 = time.perf_counter()
+    for _ in range(n):
+        r = subprocess.run([str(AXISCTL), "--link", link, *LINE.split()], stdout=subprocess.DEVNULL,
+                           stderr=subprocess.PIPE, text=True)
+        if r.returncode != 0:
+            sys.exit(f"axisctl {LINE} failed ({r.returncode}): {r.stderr}")
+    one_shot = time.perf_counter() - t0
+    load = os.getloadavg()[0]
+    limit = (f"{frames:.0f} frames per line ({per_line:.0f} bits with stuffing and intermission: "
+             f"{per_line:.0f} µs at 1 Mbit/s); each line waits for its answers before the next, so the "
+             "pty hops and the wake-ups of both processes per line are not on the wire "
+             f"(load average {load:.1f} during the run)")
+    add(
+        f"batch: {n} x `{LINE}` in one process, CAN 1 Mbit/s via an slcan pty",
+        f"{100 * share:.1f} % of the wire limit ({elapsed:.3f} s for {wire:.3f} s of frames, "
+        f"{1e3 * elapsed / n:.2f} ms per line; best of 3); the median line alone: "
+        f"{100 * per_line / BITRATE / period:.1f} % ({1e6 * period:.0f} µs from one line's request to the next's)",
+        f"goal >= {100 * GOAL:.0f} % of the wire limit",
+        share >= GOAL,
+        f"printf '{LINE}\\n%.0s' $(seq {n}) | axisctl --link {link} batch -  # against axisctl sim --wire-speed",
+        limit,
+    )
+    add(
+        f"the same {n} lines as {n} one-shot processes",
+        f"{100 * wire / one_shot:.1f} % of the wire limit ({one_shot:.2f} s, {1e3 * one_shot / n:.2f} ms per "
+        f"process); batch is {one_shot / elapsed:.1f} x faster",
+        "reference for the batch row (no goal)",
+        None,
+        f"for i in $(seq {n}); do axisctl --link {link} {LINE}; done",
+        "a process start, the adapter's setup (C, S8, O with replies) and the port lock per command",
+    )
+
+
+class Sim:
+    """`axisctl sim --wire-speed` in the background; links as announced."""
+
+    def __init__(self):
+        import json
+
+        self.proc = subprocess.Popen([str(AXISCTL), "sim", "--wire-speed"], stdout=subprocess.PIPE, text=True)
+        self.links = {}
+        while len(self.links) < 3:
+            line = self.proc.stdout.readline()
+            if not line:
+                sys.exit("axisctl sim ended early")
+            d = json.loads(line)
+            self.links[d["family"]] = d["link"]
+
+    def stop(self):
+        self.proc.send_signal(signal.SIGINT)
+        self.proc.wait(timeout=5)
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--lines", type=int, default=1000)
+    args = ap.parse_args()
+    if not AXISCTL.exists():
+        sys.exit(f"{AXISCTL} is missing: cargo build --release")
+    rows = []
+
+    def add(figure, measured, reference, ok, command, limit):
+        verdict = {True: "pass", False: "FAIL", None: "-"}[ok]
+        rows.append((figure, measured, reference, verdict, command, limit))
+
+    sim = Sim()
+    try:
+        figures(add, sim.links, args.lines)
+    finally:
+        sim.stop()
+    for r in rows:
+        print(" | ".join(r))
+    return 0 if all(r[3] != "FAIL" for r in rows) else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,353 @@
+//! `axisctl batch`: many commands, one process, one open link. Each line is
+//! parsed with the command line's own parser and run through the same
+//! dispatch as a one-shot command; `shell` is the same engine at a
+//! terminal.
+//!
+//! Every line is parsed before the first runs, so a typo on line 40 sends
+//! nothing. The signals belong to the motion supervisor from the start: a
+//! Ctrl-C ends the batch after the line that runs (a supervised wait halts
+//! its device at once), and every device a motion line addressed is halted,
+//! also one still moving from a line without `--wait`.
+
+use std::io::Read;
+
+use anyhow::Context;
+use axisctl::device::supervisor;
+use axisctl::session::ErrorKind;
+use clap::parser::ValueSource;
+use clap::FromArgMatches;
+use serde_json::json;
+
+use super::{error_json, exit, Ctx, Reported};
+use crate::cli::batch::BatchArgs;
+use crate::cli::{Cli, Command};
+use crate::output;
+
+/// Subcommands that take over the terminal, serve until stopped or start
+/// another engine: they make no sense as a line.
+pub const REFUSED: &[&str] = &["sim", "dashboard", "batch", "shell"];
+
+/// Subcommands that start a motion: on the way out of a batch that a signal
+/// ends, each device one of them addressed is halted.
+const MOTION: &[&str] = &[
+    "home",
+    "move-ramp",
+    "move-step",
+    "move-vel",
+    "move-cur",
+    "pac-move",
+    "pac-ref",
+    "pac-online",
+    "pac-auto-start",
+    "pac-raw",
+    "cdios-goto",
+    "cdios-traject",
+    "cdios-start",
+];
+
+/// The global options (the ids of `cli::Global`): given to `batch` or
+/// `shell` they apply to every line; on a line they are refused.
+const GLOBAL: &[(&str, &str)] = &[
+    ("link", "--link"),
+    ("json", "--json"),
+    ("timeout", "--timeout"),
+    ("trace", "--trace"),
+    ("log", "--log"),
+    ("retries", "--retries"),
+    ("pac_check_etx", "--pac-check-etx"),
+];
+
+/// One line, ready to run.
+pub enum Line {
+    Run {
+        name: String,
+        command: Box<Command>,
+    },
+    /// `help`, `--help`: clap's text, printed when the line runs.
+    Text(String),
+}
+
+/// A line that cannot run: bad input, exit 2.
+#[derive(Debug)]
+pub struct LineError {
+    pub message: String,
+    /// The argument clap names, for the error object.
+    pub argument: Option<String>,
+}
+
+/// The engine: the parser, the options of every line and what the lines moved.
+pub struct Engine<'a> {
+    ctx: &'a Ctx,
+    parser: clap::Command,
+    /// The halt of every device a motion line addressed, as a line, in order.
+    halts: Vec<String>,
+    /// The exit code of the first failure.
+    pub first_failure: Option<u8>,
+}
+
+impl<'a> Engine<'a> {
+    /// Keeps the link open from the first line on and takes the signals.
+    pub fn new(ctx: &'a Ctx) -> anyhow::Result<Self> {
+        ctx.opener().keep_links_open();
+        super::arm_interrupt()?;
+        Ok(Self { ctx, parser: crate::cli::command(&exit::summary()), halts: Vec::new(), first_failure: None })
+    }
+
+    pub fn parser(&self) -> &clap::Command {
+        &self.parser
+    }
+
+    /// Parses one line: `None` for a blank line or a comment.
+    pub fn parse(&mut self, text: &str) -> Result<Option<Line>, LineError> {
+        let bad = |message: String| LineError { message, argument: None };
+        let words = shlex::split(text).ok_or_else(|| bad("unbalanced quotes or a trailing backslash".into()))?;
+        if words.is_empty() {
+            return Ok(None);
+        }
+        let argv = std::iter::once("axisctl".to_string()).chain(words);
+        let matches = match self.parser.try_get_matches_from_mut(argv) {
+            Ok(m) => m,
+            Err(e) if !e.use_stderr() => return Ok(Some(Line::Text(e.render().to_string()))),
+            Err(e) => {
+                let e = crate::cli::suggest::subcommand(e, &self.parser);
+                let doc = error_json::usage(&e, exit::code(ErrorKind::Usage));
+                let mut message = doc["error"]["message"].as_str().unwrap_or_default().to_string();
+                // clap's tips ("a similar subcommand exists") are what fixes a typo.
+                for tip in e.render().to_string().lines().filter_map(|l| l.trim().strip_prefix("tip: ")) {
+                    message.push_str(&format!(" ({tip})"));
+                }
+                let argument = doc["error"]["argument"].as_str().map(str::to_string);
+                return Err(LineError { message, argument });
+            }
+        };
+        let name = matches.subcommand_name().unwrap_or_default().to_string();
+        if REFUSED.contains(&name.as_str()) {
+            return Err(bad(format!(
+                "`{name}` cannot run as a line of batch or shell (refused: {})",
+                REFUSED.join(", ")
+            )));
+        }
+        let mut at = Some(&matches);
+        while let Some(m) = at {
+            if let Some((_, flag)) = GLOBAL.iter().find(|(id, _)| m.value_source(id) == Some(ValueSource::CommandLine))
+            {
+                return Err(LineError {
+                    message: format!(
+                        "{flag} on a line: give it to batch or shell itself, before the file (it applies to every line)"
+                    ),
+                    argument: Some((*flag).to_string()),
+                });
+            }
+            at = m.subcommand().map(|(_, sub)| sub);
+        }
+        let cli = Cli::from_arg_matches(&matches).map_err(|e| bad(e.to_string()))?;
+        Ok(Some(Line::Run { name, command: Box::new(cli.command) }))
+    }
+
+    /// Runs one parsed line and reports its result: on stdout (`--json`:
+    /// one object per document), a failure on stderr (`--json`: its error
+    /// object on stdout, in line). `Err` holds the failure's exit code.
+    pub fn run(&mut self, n: usize, text: &str, line: Line) -> Result<(), u8> {
+        let (name, command) = match line {
+            Line::Text(help) => {
+                output::text(format_args!("{help}"));
+                return Ok(());
+            }
+            Line::Run { name, command } => (name, command),
+        };
+        output::forget_target();
+        if self.ctx.json {
+            output::begin_batch_line(n, text, false);
+        }
+        let result = super::dispatch(self.ctx, *command);
+        let printed = output::end_batch_line();
+        if MOTION.contains(&name.as_str()) {
+            self.note_moved(&name);
+        }
+        match result {
+            Ok(()) => {
+                if self.ctx.json && !printed {
+                    output::json(&json!({"line": n, "command": text, "result": null}));
+                }
+                output::flush();
+                Ok(())
+            }
+            Err(e) => Err(self.failed(n, text, e)),
+        }
+    }
+
+    /// Reports a failed line and returns its exit code, the one a one-shot
+    /// run of it would have exited with.
+    pub fn failed(&mut self, n: usize, text: &str, e: anyhow::Error) -> u8 {
+        let e = match (super::classify(&e), supervisor::caught()) {
+            (ErrorKind::Interrupted, None) => super::stopped_by_output(e),
+            _ => e,
+        };
+        let kind = super::classify(&e);
+        let code = match (kind, supervisor::caught()) {
+            (ErrorKind::Interrupted, Some(sig)) => supervisor::exit_code(sig),
+            _ => exit::code(kind),
+        };
+        let message = error_json::message(&e);
+        if self.ctx.json {
+            let doc = error_json::failure(kind.as_str(), code, message, super::refusal(&e).as_ref());
+            output::json(&json!({"line": n, "command": text, "error": doc["error"]}));
+        } else {
+            output::err_line(format_args!("axisctl: line {n} ({text}): {message}"));
+        }
+        output::flush();
+        self.first_failure.get_or_insert(code);
+        code
+    }
+
+    /// A line that did not parse: bad input, reported like a failed line.
+    pub fn refused(&mut self, n: usize, text: &str, e: &LineError) -> u8 {
+        let code = exit::code(ErrorKind::Usage);
+        if self.ctx.json {
+            let mut error = json!({"kind": "usage", "exit_code": code, "message": e.message});
+            if let Some(arg) = &e.argument {
+                error["argument"] = json!(arg);
+            }
+            output::json(&json!({"line": n, "command": text, "error": error}));
+        } else {
+            output::err_line(format_args!("axisctl: line {n} ({text}): {}", e.message));
+        }
+        self.first_failure.get_or_insert(code);
+        code
+    }
+
+    /// Records the halt of the device the motion line addressed; a line
+    /// that addressed several (`--sync`, `--all`) halts its whole family.
+    fn note_moved(&mut self, name: &str) {
+        let target = output::current_target().unwrap_or_default();
+        let id = |key: &str| target.get(key).and_then(serde_json::Value::as_u64);
+        let halt = if name.starts_with("pac-") {
+            match id("axis").filter(|a| *a > 0) {
+                Some(axis) => format!("pac-stop-axis {axis}"),
+                None => "pac-stop".into(),
+            }
+        } else if name.starts_with("cdios-") {
+            match (id("node"), id("module")) {
+                (Some(node), Some(m)) => format!("cdios-stop --node {node} -m {m} --option fast"),
+                _ => return,
+            }
+        } else {
+            match id("module") {
+                Some(m) => format!("halt -m {m}"),
+                None => "halt --all".into(),
+            }
+        };
+        if !self.halts.contains(&halt) {
+            self.halts.push(halt);
+        }
+    }
+
+    /// After a signal (or a failed output): halts every device the lines
+    /// moved, each once, and says so. Returns the exit code the stop asks
+    /// for (128 + the signal), or `None` when nothing asked to stop.
+    pub fn stop_if_requested(&mut self, after: usize) -> Option<u8> {
+        if !supervisor::stop_requested() {
+            return None;
+        }
+        let why = supervisor::stop_reason().map(|r| r.to_string()).unwrap_or_else(|| "a stop".into());
+        let halts = std::mem::take(&mut self.halts);
+        let mut done = Vec::new();
+        for halt in &halts {
+            let outcome = match self.parse(halt) {
+                Ok(Some(Line::Run { command, .. })) => {
+                    output::forget_target();
+                    output::begin_batch_line(after, halt, true);
+                    let r = super::dispatch(self.ctx, *command);
+                    output::end_batch_line();
+                    r.map_err(|e| error_json::message(&e))
+                }
+                _ => Err("not a command".into()),
+            };
+            done.push(match outcome {
+                Ok(()) => format!("`{halt}`"),
+                Err(e) => format!("`{halt}` failed: {e}"),
+            });
+        }
+        let code = supervisor::caught().map_or(exit::code(ErrorKind::Other), supervisor::exit_code);
+        let halted = if done.is_empty() { "no line had moved a device".into() } else { done.join(", ") };
+        let message = format!("stopped by {why} after line {after}; halted: {halted}");
+        output::forget_target();
+        if self.ctx.json {
+            let kind = if supervisor::caught().is_some() { "interrupted" } else { "other" };
+            let doc = error_json::failure(kind, code, message, None);
+            output::json(&json!({"line": after, "command": null, "error": doc["error"]}));
+        } else {
+            output::err_line(format_args!("axisctl: {message}"));
+        }
+        output::flush();
+        self.first_failure.get_or_insert(code);
+        Some(code)
+    }
+}
+
+/// `axisctl batch [FILE|-] [--keep-going]`.
+pub fn run(ctx: &Ctx, args: &BatchArgs) -> anyhow::Result<()> {
+    let text = read_script(args.file.as_deref())?;
+    let mut engine = Engine::new(ctx)?;
+    // Every line is parsed before the first runs: a bad line sends nothing.
+    let mut lines = Vec::new();
+    let mut bad = false;
+    for (i, raw) in text.lines().enumerate() {
+        let shown = shown(raw);
+        match engine.parse(raw) {
+            Ok(Some(line)) => lines.push((i + 1, shown, line)),
+            Ok(None) => {}
+            Err(e) => {
+                engine.refused(i + 1, &shown, &e);
+                bad = true;
+            }
+        }
+    }
+    if bad {
+        if !ctx.json {
+            output::err_line(format_args!("axisctl: nothing was run: fix the lines above"));
+        }
+        return Err(Reported(exit::code(ErrorKind::Usage)).into());
+    }
+    let mut last = 0;
+    for (n, text, line) in lines {
+        if let Some(code) = engine.stop_if_requested(last) {
+            return Err(Reported(code).into());
+        }
+        last = n;
+        let failed = engine.run(n, &text, line).is_err();
+        if let Some(code) = engine.stop_if_requested(n) {
+            return Err(Reported(code).into());
+        }
+        if failed && !args.keep_going {
+            break;
+        }
+    }
+    match engine.first_failure {
+        Some(code) => Err(Reported(code).into()),
+        None => Ok(()),
+    }
+}
+
+/// A line as reported (`"command"`): its words, quoted where they need it,
+/// without the comment; as typed when it does not split.
+pub fn shown(raw: &str) -> String {
+    shlex::split(raw)
+        .and_then(|words| shlex::try_join(words.iter().map(String::as_str)).ok())
+        .unwrap_or_else(|| raw.trim().to_string())
+}
+
+fn read_script(file: Option<&std::path::Path>) -> anyhow::Result<String> {
+    match file {
+        None => read_stdin(),
+        Some(p) if p.as_os_str() == "-" => read_stdin(),
+        Some(p) => std::fs::read_to_string(p)
+            .map_err(|e| super::usage(format!("cannot read {}: {e}; nothing was run", p.display()))),
+    }
+}
+
+fn read_stdin() -> anyhow::Result<String> {
+    let mut text = String::new();
+    std::io::stdin().read_to_string(&mut text).context("reading the commands from standard input")?;
+    Ok(text)
+}

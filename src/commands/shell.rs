@@ -1,0 +1,266 @@
+//! `axisctl shell`: the batch engine at a terminal. Line editing, history
+//! and completion come from rustyline (no system library); completion
+//! walks the same clap tree that parses the lines.
+//!
+//! Ctrl-C at the prompt clears the line (the terminal is in raw mode, so it
+//! is a key, not a signal); during a command it is the signal, and the
+//! engine halts what the lines moved, as in a batch, then prompts again.
+//! Ctrl-D (or `exit`) ends the shell; a failed line does not.
+
+use std::borrow::Cow;
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+use std::sync::{Mutex, MutexGuard};
+use std::time::Duration;
+
+use axisctl::device::supervisor;
+use rustyline::completion::{Completer, Pair};
+use rustyline::error::ReadlineError;
+use rustyline::highlight::Highlighter;
+use rustyline::hint::Hinter;
+use rustyline::validate::Validator;
+use rustyline::{Config, Editor, Helper};
+
+use super::batch::{Engine, REFUSED};
+use super::Ctx;
+use crate::cli::batch::ShellArgs;
+use crate::output;
+
+pub fn run(ctx: &Ctx, args: &ShellArgs) -> anyhow::Result<()> {
+    let engine = Mutex::new(Engine::new(ctx)?);
+    let helper = Complete { tree: lock(&engine).parser().clone() };
+    let config = Config::builder()
+        .auto_add_history(false)
+        .completion_type(rustyline::CompletionType::List)
+        .max_history_size(10_000)?
+        .build();
+    let mut ed: Editor<Complete, rustyline::history::DefaultHistory> = Editor::with_config(config)?;
+    ed.set_helper(Some(helper));
+    let history = args.history.clone().or_else(default_history);
+    if let Some(path) = &history {
+        // A first run has no history yet; an unreadable one is not worth
+        // refusing the shell for.
+        let _ = ed.load_history(path);
+    }
+    let link = if ctx.link_text.is_empty() { "no link" } else { &ctx.link_text };
+    let prompt = format!("axisctl {link}> ");
+    let at_prompt = AtomicBool::new(false);
+    let ended = AtomicBool::new(false);
+    let last = AtomicUsize::new(0);
+    let terminal = Terminal::save();
+    std::thread::scope(|scope| {
+        scope.spawn(|| stop_at_the_prompt(&engine, (&at_prompt, &last), &ended, &terminal));
+        let out = session(&engine, &mut ed, &prompt, history.as_deref(), (&at_prompt, &last));
+        ended.store(true, Ordering::SeqCst);
+        out
+    })
+}
+
+/// The read-run loop, until Ctrl-D or `exit`.
+fn session(
+    engine: &Mutex<Engine<'_>>,
+    ed: &mut Editor<Complete, rustyline::history::DefaultHistory>,
+    prompt: &str,
+    history: Option<&Path>,
+    (at_prompt, last): (&AtomicBool, &AtomicUsize),
+) -> anyhow::Result<()> {
+    let mut n = 0;
+    loop {
+        at_prompt.store(true, Ordering::SeqCst);
+        let read = ed.readline(prompt);
+        // From here until the next prompt the watcher leaves a signal to the engine.
+        let mut engine = lock(engine);
+        at_prompt.store(false, Ordering::SeqCst);
+        let text = match read {
+            Ok(text) => text,
+            Err(ReadlineError::Interrupted) => continue,
+            Err(ReadlineError::Eof) => break,
+            Err(e) => return Err(e.into()),
+        };
+        n += 1;
+        last.store(n, Ordering::SeqCst);
+        let shown = super::batch::shown(&text);
+        if shown.is_empty() {
+            continue;
+        }
+        let _ = ed.add_history_entry(text.trim());
+        if let Some(path) = history {
+            save_history(ed, path);
+        }
+        if matches!(shown.as_str(), "exit" | "quit") {
+            break;
+        }
+        match engine.parse(&text) {
+            Ok(Some(line)) => {
+                let _ = engine.run(n, &shown, line);
+            }
+            Ok(None) => {}
+            Err(e) => {
+                engine.refused(n, &shown, &e);
+            }
+        }
+        if engine.stop_if_requested(n).is_some() {
+            // What the lines moved is halted: the next command starts afresh.
+            supervisor::forget_signal();
+        }
+        engine.first_failure = None;
+        output::flush();
+    }
+    Ok(())
+}
+
+fn lock<'m, 'a>(engine: &'m Mutex<Engine<'a>>) -> MutexGuard<'m, Engine<'a>> {
+    engine.lock().unwrap_or_else(|e| e.into_inner())
+}
+
+/// A signal while the shell waits at its prompt (SIGTERM from an emergency
+/// halt in another terminal, which needs the port; SIGHUP from a closed
+/// terminal): the line editor would not return before a key, so this
+/// thread halts what the lines moved, gives the terminal back and ends the
+/// process with the signal's code, releasing the link.
+fn stop_at_the_prompt(
+    engine: &Mutex<Engine<'_>>,
+    (at_prompt, last): (&AtomicBool, &AtomicUsize),
+    ended: &AtomicBool,
+    terminal: &Terminal,
+) {
+    while !ended.load(Ordering::SeqCst) {
+        supervisor::sleep(Duration::from_millis(50));
+        if supervisor::caught().is_none() || !at_prompt.load(Ordering::SeqCst) {
+            continue;
+        }
+        // The prompt may be returning with a line: then the engine has it.
+        let Ok(mut engine) = engine.try_lock() else { continue };
+        if !at_prompt.load(Ordering::SeqCst) {
+            continue;
+        }
+        terminal.restore();
+        output::err_line(format_args!(""));
+        let code = engine.stop_if_requested(last.load(Ordering::SeqCst)).unwrap_or(1);
+        output::flush();
+        std::process::exit(code.into());
+    }
+}
+
+/// The terminal's settings before the line editor's raw mode, to give them
+/// back when the process ends from another thread.
+struct Terminal(Option<libc::termios>);
+
+impl Terminal {
+    fn save() -> Self {
+        // SAFETY: tcgetattr fills the zeroed struct, or fails on a non-terminal.
+        unsafe {
+            let mut t: libc::termios = std::mem::zeroed();
+            Self((libc::tcgetattr(libc::STDIN_FILENO, &mut t) == 0).then_some(t))
+        }
+    }
+
+    fn restore(&self) {
+        if let Some(t) = &self.0 {
+            // SAFETY: settings tcgetattr returned for the same descriptor.
+            unsafe {
+                libc::tcsetattr(libc::STDIN_FILENO, libc::TCSANOW, t);
+            }
+        }
+    }
+}
+
+/// `$XDG_STATE_HOME/axisctl/history`, else `~/.local/state/axisctl/history`.
+fn default_history() -> Option<PathBuf> {
+    let state = std::env::var_os("XDG_STATE_HOME")
+        .filter(|v| !v.is_empty())
+        .map(PathBuf::from)
+        .or_else(|| std::env::var_os("HOME").filter(|v| !v.is_empty()).map(|h| Path::new(&h).join(".local/state")))?;
+    Some(state.join("axisctl").join("history"))
+}
+
+fn save_history(ed: &mut Editor<Complete, rustyline::history::DefaultHistory>, path: &Path) {
+    if let Some(dir) = path.parent() {
+        let _ = std::fs::create_dir_all(dir);
+    }
+    if let Err(e) = ed.save_history(path) {
+        output::err_line(format_args!("axisctl: cannot save the history to {}: {e}", path.display()));
+    }
+}
+
+/// Completion of subcommands and flags from the parser's tree.
+struct Complete {
+    tree: clap::Command,
+}
+
+impl Complete {
+    /// The candidates for the word that ends at the cursor.
+    fn candidates(&self, before: &str) -> (usize, Vec<Pair>) {
+        let start = before.rfind(char::is_whitespace).map_or(0, |i| i + 1);
+        let word = &before[start..];
+        let done: Vec<&str> = before[..start].split_whitespace().collect();
+        let sub = done.iter().find_map(|w| self.tree.find_subcommand(w));
+        let mut out: Vec<String> = Vec::new();
+        if word.starts_with('-') {
+            let args = sub.into_iter().flat_map(|s| s.get_arguments()).chain(self.tree.get_arguments());
+            for a in args.filter(|a| !a.is_hide_set()) {
+                out.extend(a.get_long().map(|l| format!("--{l}")));
+                out.extend(a.get_short().map(|s| format!("-{s}")));
+            }
+        } else if sub.is_none() {
+            out.extend(
+                self.tree
+                    .get_subcommands()
+                    .filter(|s| !s.is_hide_set() && !REFUSED.contains(&s.get_name()))
+                    .map(|s| s.get_name().to_string()),
+            );
+        } else if let Some(sub) = sub {
+            out.extend(sub.get_subcommands().map(|s| s.get_name().to_string()));
+        }
+        out.sort();
+        out.dedup();
+        let pairs = out
+            .into_iter()
+            .filter(|c| c.starts_with(word))
+            .map(|c| Pair { display: c.clone(), replacement: format!("{c} ") })
+            .collect();
+        (start, pairs)
+    }
+}
+
+impl Completer for Complete {
+    type Candidate = Pair;
+
+    fn complete(&self, line: &str, pos: usize, _: &rustyline::Context<'_>) -> rustyline::Result<(usize, Vec<Pair>)> {
+        Ok(self.candidates(&line[..pos]))
+    }
+}
+
+impl Hinter for Complete {
+    type Hint = String;
+}
+
+impl Highlighter for Complete {
+    fn highlight_prompt<'b, 's: 'b, 'p: 'b>(&'s self, prompt: &'p str, _default: bool) -> Cow<'b, str> {
+        Cow::Borrowed(prompt)
+    }
+}
+
+impl Validator for Complete {}
+
+impl Helper for Complete {}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn complete(before: &str) -> Vec<String> {
+        let c = Complete { tree: crate::cli::command("") };
+        c.candidates(before).1.into_iter().map(|p| p.display).collect()
+    }
+
+    #[test]
+    fn completes_subcommands_and_their_flags_from_the_tree() {
+        assert!(complete("pac-a").contains(&"pac-axis".to_string()), "{:?}", complete("pac-a"));
+        assert!(complete("pac-a").iter().all(|c| c.starts_with("pac-a")));
+        assert!(!complete("").contains(&"dashboard".to_string()), "refused lines are not offered");
+        assert!(complete("get-param --a").contains(&"--all".to_string()));
+        assert!(complete("get-param --").contains(&"--timeout".to_string()), "global options too");
+        assert_eq!(complete("watchdog o"), ["off", "on"]);
+    }
+}
