@@ -12,6 +12,7 @@
 //! - [`sim`]: clock-driven simulators of the devices.
 //! - [`device`]: every operation on a device, written once per family, with its safety rules.
 //! - [`open`]: from a `--link` and a family to a ready link or session, `sim` and `--log` included.
+//! - [`record`]: sampling chosen values with time stamps, pipelined as the dashboard polls.
 //! - [`monitor`]: passive decoding of any frame on a CAN bus.
 //! - [`tui`]: the dashboard, adapters over [`device`].
 //! - [`plot`]: charts of sampled values as SVG (recordings, dashboard snapshots); pure.
@@ -25,6 +26,7 @@ pub mod monitor;
 pub mod open;
 pub mod plot;
 pub mod proto;
+pub mod record;
 pub mod session;
 pub mod sim;
 pub mod tui;

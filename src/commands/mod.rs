@@ -10,7 +10,9 @@ mod manual;
 mod monitor;
 mod names;
 mod pac;
+mod plot;
 mod powercube;
+mod record;
 mod sim;
 mod takeover;
 mod wait;
@@ -284,6 +286,8 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::PowerCube(c) => powercube::run(&ctx, c),
         Command::Params { family } => names::params(&ctx, family),
         Command::Flags { word } => names::flags(&ctx, word.as_deref()),
+        Command::Record(args) => record::run(&ctx, args),
+        Command::Plot(args) => plot::run(&ctx, &args),
         Command::Completions { shell } => manual::completions(shell),
         Command::Man { dir } => manual::man(dir.as_deref()),
     }
