@@ -249,6 +249,26 @@ fn ctrl_c_during_a_recorded_move_halts_it_and_exits_130() {
 }
 
 #[test]
+fn ctrl_c_ends_an_open_ended_recording_without_a_motion_with_exit_0() {
+    let mut child = common::bin()
+        .args(["--link", "sim", "--json", "record", "-m", "17", "ActPos", "--rate", "100"])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut out = BufReader::new(child.stdout.take().unwrap());
+    let mut first = String::new();
+    out.read_line(&mut first).unwrap();
+    unsafe { libc::kill(child.id() as i32, libc::SIGINT) };
+    let mut rest = String::new();
+    std::io::Read::read_to_string(&mut out, &mut rest).unwrap();
+    assert_eq!(wait_bounded(child, 10), 0);
+    // Every line written is whole: the signal ends the recording between samples.
+    let r = Run { code: 0, stdout: first + &rest, stderr: String::new() };
+    assert!(!checked_lines(&r).is_empty());
+}
+
+#[test]
 fn a_closed_stdout_during_a_recorded_move_halts_it() {
     let sim = Sim::start(&[], 3);
     let link = sim.link("powercube");
