@@ -122,7 +122,8 @@ pub fn run(ctx: &Ctx, args: RecordArgs) -> anyhow::Result<()> {
         Selection::Cdios { node, modules, values } => {
             let mut session = ctx.cdios()?;
             session.set_nmt(true);
-            let mut s = CdiosSampler::new(Node::new(session, node, ctx.retry), &modules, &values);
+            let mut s =
+                CdiosSampler::new(Node::new(session, node, ctx.retry), &modules, &values).map_err(device_error)?;
             let start = move |s: &mut CdiosSampler, m: &Motion| start_cdios(s, m, attempts);
             let halt = move |s: &mut CdiosSampler, m: &Motion, always: bool| halt_cdios(s, m, always, attempts);
             go(&mut s, ctx, (period, until), motion, &mut writer, start, halt)

@@ -68,7 +68,11 @@ pub struct CdiosSampler {
 }
 
 impl CdiosSampler {
-    pub fn new(node: Node, modules: &[ModuleId], values: &[CdiosValue]) -> Self {
+    /// Starts the node first (NMT and its settle time, once per session), so
+    /// that the first sample's time stamp is not 100 ms early.
+    pub fn new(mut node: Node, modules: &[ModuleId], values: &[CdiosValue]) -> Result<Self, RecordError> {
+        let id = node.id();
+        node.session().start_node(id).map_err(Error::from)?;
         let mut cmds: Vec<Command> = Vec::new();
         for v in values {
             if !cmds.contains(&v.command()) {
@@ -86,7 +90,7 @@ impl CdiosSampler {
                 })
             })
             .collect();
-        Self { node, modules: modules.to_vec(), values: values.to_vec(), cmds, channels }
+        Ok(Self { node, modules: modules.to_vec(), values: values.to_vec(), cmds, channels })
     }
 
     pub fn node(&mut self) -> &mut Node {
