@@ -95,6 +95,31 @@ fn json_lines_carry_every_module_value_with_its_unit() {
 }
 
 #[test]
+fn a_parameter_the_firmware_lacks_records_null_and_is_never_asked() {
+    // Module 17 of the simulated bench has no ActFTemp (an older firmware);
+    // module 3 has it.
+    let (_dir, log) = temp("lacks.log");
+    let r = run(&[
+        "--link",
+        "sim",
+        "--log",
+        log.to_str().unwrap(),
+        "--json",
+        "record",
+        "-m",
+        "3,17",
+        "ActFTemp",
+        "--count",
+        "2",
+    ]);
+    assert_eq!(r.code, 0, "{}", r.stderr);
+    let lines = checked_lines(&r);
+    assert!(lines[1]["devices"][0]["values"]["ActFTemp"]["value"].is_number(), "{}", lines[1]);
+    assert!(lines[1]["devices"][1]["values"]["ActFTemp"]["value"].is_null(), "{}", lines[1]);
+    assert!(!frames(&log).iter().any(|f| f.starts_with("0F1#0A72")), "ActFTemp asked of module 17");
+}
+
+#[test]
 fn csv_names_each_column_with_its_unit() {
     let r = run(&["--link", "sim", "record", "--format", "csv", "--axis", "2", "position", "speed", "--count", "3"]);
     assert_eq!(r.code, 0, "{}", r.stderr);
