@@ -388,3 +388,77 @@ fn served_powercube_over_slcan_records_json_lines() {
     assert_eq!(r.code, 0, "{}", r.stderr);
     assert_eq!(checked_lines(&r).len(), 20);
 }
+
+/// Starts `record` of one served family with a long motion after `--`,
+/// reads `n` samples, sends SIGINT; returns the exit code and stderr.
+fn interrupt_after(args: &[&str], n: usize) -> (i32, String) {
+    let mut child = common::bin().args(args).stdout(Stdio::piped()).stderr(Stdio::piped()).spawn().unwrap();
+    let mut out = BufReader::new(child.stdout.take().unwrap());
+    for _ in 0..n {
+        let mut line = String::new();
+        assert!(out.read_line(&mut line).unwrap() > 0, "the recording ended early");
+    }
+    unsafe { libc::kill(child.id() as i32, libc::SIGINT) };
+    let err = stderr_of(&mut child);
+    (wait_bounded(child, 15), err)
+}
+
+#[test]
+fn ctrl_c_during_a_recorded_pac_move_stops_the_axis() {
+    let sim = Sim::start(&[], 3);
+    let pac = sim.link("pac");
+    assert_eq!(run(&["--link", pac, "pac-online"]).code, 0);
+    assert_eq!(run(&["--link", pac, "pac-no-ref", "2"]).code, 0);
+    let (code, err) = interrupt_after(
+        &["--link", pac, "--json", "record", "--axis", "2", "position", "--rate", "10", "--", "pac-move", "2", "9000"],
+        4,
+    );
+    assert_eq!(code, 130, "{err}");
+    assert!(err.contains("interrupted: axis 2 stopped"), "{err}");
+    // 0A9A decelerates: the axis comes to a standstill well short of the
+    // target it would take many seconds to reach.
+    let deadline = Instant::now() + Duration::from_secs(5);
+    let axis = loop {
+        let axis = run(&["--link", pac, "--json", "pac-axis", "2"]).json();
+        if axis["axis_status"] != 1 || Instant::now() > deadline {
+            break axis;
+        }
+        std::thread::sleep(Duration::from_millis(100));
+    };
+    assert_ne!(axis["axis_status"], 1, "still moving: {axis}");
+    assert!(axis["position"]["value"].as_f64().unwrap() < 5000.0, "{axis}");
+}
+
+#[test]
+fn ctrl_c_during_a_recorded_cdios_goto_stops_the_motor() {
+    let sim = Sim::start(&[], 3);
+    let cdios = sim.link("cdios");
+    assert_eq!(run(&["--link", cdios, "cdios-enable", "-m", "0"]).code, 0);
+    let (code, err) = interrupt_after(
+        &[
+            "--link",
+            cdios,
+            "--json",
+            "record",
+            "--node",
+            "1",
+            "-m",
+            "0",
+            "position",
+            "--rate",
+            "10",
+            "--",
+            "cdios-goto",
+            "-m",
+            "0",
+            "2000000",
+        ],
+        4,
+    );
+    assert_eq!(code, 130, "{err}");
+    assert!(err.contains("interrupted: module 0 fast stop sent"), "{err}");
+    let pos = |r: Run| r.json()["position"].as_i64().unwrap_or_else(|| panic!("{}", r.stdout));
+    let stopped_at = pos(run(&["--link", cdios, "--json", "cdios-position", "-m", "0"]));
+    std::thread::sleep(Duration::from_millis(300));
+    assert_eq!(pos(run(&["--link", cdios, "--json", "cdios-position", "-m", "0"])), stopped_at, "still running");
+}
