@@ -338,7 +338,7 @@ fn halt_cube(cubes: &mut Cubes, m: &Motion, always: bool, attempts: u32) -> Opti
     }
     Some(match cubes.halt_retrying(module, attempts) {
         Ok(()) => "halted".into(),
-        Err(e) => format!("could not be halted: {e}"),
+        Err(e) => format!("HALT FAILED: {e}"),
     })
 }
 
@@ -355,9 +355,10 @@ fn halt_pac(s: &mut PacSampler, m: &Motion, always: bool) -> Option<String> {
     if !always && ctl.read_i64(0x1910, i64::from(axis)).is_ok_and(|st| st != 1) && ctl.busy().is_none() {
         return None;
     }
-    Some(match ctl.stop_axis(axis) {
-        Ok(text) => format!("stopped ({text})"),
-        Err(e) => format!("could not be stopped: {e}"),
+    // 0A93, polled to standstill: the stop of last resort the waits use.
+    Some(match ctl.halt_axis(axis).result {
+        Ok(at) => format!("stopped at {at}"),
+        Err(e) => format!("STOP FAILED: {e}"),
     })
 }
 
@@ -374,13 +375,13 @@ fn halt_cdios(s: &mut CdiosSampler, m: &Motion, always: bool, attempts: u32) -> 
     if always {
         return Some(match node.stop_retrying(module, attempts) {
             Ok(()) => "fast stop sent".into(),
-            Err(e) => format!("could not be stopped: {e}"),
+            Err(e) => format!("STOP FAILED: {e}"),
         });
     }
     match node.halt_all(&[module]).pop().map(|(_, r)| r) {
         Some(Ok(cdios_dev::Stopped::NotRunning)) | None => None,
         Some(Ok(cdios_dev::Stopped::FastStop { .. })) => Some("fast stop sent (still running at the end)".into()),
-        Some(Err(e)) => Some(format!("could not be stopped: {e}")),
+        Some(Err(e)) => Some(format!("STOP FAILED: {e}")),
     }
 }
 
