@@ -13,6 +13,7 @@
 //! - [`device`]: every operation on a device, written once per family, with its safety rules.
 //! - [`backup`]: backup, diff and restore of a bench: the document, the diff engine, per family the checks and the write order.
 //! - [`open`]: from a `--link` and a family to a ready link or session, `sim` and `--log` included.
+//! - [`record`]: sampling chosen values with time stamps, pipelined as the dashboard polls.
 //! - [`monitor`]: passive decoding of any frame on a CAN bus.
 //! - [`tui`]: the dashboard, adapters over [`device`].
 //! - [`plot`]: charts of sampled values as SVG (recordings, dashboard snapshots); pure.
@@ -27,6 +28,7 @@ pub mod monitor;
 pub mod open;
 pub mod plot;
 pub mod proto;
+pub mod record;
 pub mod session;
 pub mod sim;
 pub mod tui;

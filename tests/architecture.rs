@@ -22,6 +22,7 @@ const LAYERS: &[(&str, &[&str])] = &[
     ("monitor", &["proto", "family"]),
     ("tui", &["device", "session", "proto", "link", "clock", "family", "monitor", "plot"]),
     ("plot", &[]),
+    ("record", &["device", "session", "proto", "link", "clock", "family"]),
 ];
 
 /// Top-level modules of the binary crate (declared in main.rs): not layers

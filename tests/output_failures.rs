@@ -44,6 +44,8 @@ const COMMANDS: &[&[&str]] = &[
     &["cdios-watch", "-m", "0", "--for", "0.3"],
     // the bus monitor
     &["monitor", "--from-log", "BUS_LOG", "--stats"],
+    // a recording drawn (it writes the SVG, then says so on stdout)
+    &["plot", "docs/examples/step.csv", "--svg", "PLOT_SVG"],
     // the interface itself
     &["completions", "bash"],
     &["man"],
@@ -66,7 +68,14 @@ fn bus_log() -> &'static str {
 
 fn axisctl(json: bool, args: &[&str]) -> Command {
     let mut c = common::bin();
-    let args: Vec<&str> = args.iter().map(|a| if *a == "BUS_LOG" { bus_log() } else { a }).collect();
+    let args: Vec<&str> = args
+        .iter()
+        .map(|a| match *a {
+            "BUS_LOG" => bus_log(),
+            "PLOT_SVG" => concat!(env!("CARGO_TARGET_TMPDIR"), "/output-failures-plot.svg"),
+            a => a,
+        })
+        .collect();
     c.args(["--link", "sim"]);
     if json {
         c.arg("--json");

@@ -168,6 +168,17 @@ pub const EXAMPLES: &[(&str, &[&str])] = &[
             "--link sim restore cdios.json --store",
         ],
     ),
+    (
+        "record",
+        &[
+            "--link sim record -m 17 ActPos ActVel Cur --count 20",
+            "--link sim --json record -m 17 ActPos ActVel Cur --for 3s -- move-ramp -m 17 0.1 > step.jsonl",
+            "--link sim record --format csv -m 3,5 ActPos --rate 100 --for 10s > run.csv",
+            "--link sim record --axis 2 position speed --for 5s -- pac-move 2 150",
+            "--link sim record --node 1 -m 0 position speed --count 50 -- cdios-goto -m 0 5000",
+        ],
+    ),
+    ("plot", &["plot step.jsonl --svg step.svg", "plot run.csv --svg run.svg --title run --width 1600"]),
 ];
 
 /// The help text of one subcommand's examples, or `None` when it has none.

@@ -10,6 +10,7 @@ pub mod ids;
 pub mod monitor;
 pub mod pac;
 pub mod powercube;
+pub mod record;
 pub mod sim;
 pub mod suggest;
 pub mod wait;
@@ -105,6 +106,10 @@ pub enum Command {
     Batch(batch::BatchArgs),
     /// An interactive shell: the same commands, on one open link, with history and completion
     Shell(batch::ShellArgs),
+    /// Record chosen values with a time stamp per sample (JSON Lines, CSV), optionally while a motion runs
+    Record(record::RecordArgs),
+    /// Draw a recording of `record` as an SVG chart with units
+    Plot(record::PlotArgs),
     /// Print a shell completion script: bash, zsh, fish, elvish or powershell
     #[command(
         after_help = "Examples:\n  axisctl completions bash > ~/.local/share/bash-completion/completions/axisctl\n  \

@@ -12,7 +12,9 @@ mod manual;
 mod monitor;
 mod names;
 mod pac;
+mod plot;
 mod powercube;
+mod record;
 mod shell;
 mod sim;
 mod takeover;
@@ -306,6 +308,8 @@ pub fn dispatch(ctx: &Ctx, command: Command) -> anyhow::Result<()> {
         Command::PowerCube(c) => powercube::run(ctx, c),
         Command::Params { family } => names::params(ctx, family),
         Command::Flags { word } => names::flags(ctx, word.as_deref()),
+        Command::Record(args) => record::run(ctx, args),
+        Command::Plot(args) => plot::run(ctx, &args),
         Command::Completions { shell } => manual::completions(shell),
         Command::Man { dir } => manual::man(dir.as_deref()),
         Command::Batch(args) => batch::run(ctx, &args),

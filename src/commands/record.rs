@@ -1,0 +1,500 @@
+//! `record`: sample chosen values of one family's devices and stream them
+//! (JSON Lines, CSV or text), optionally while a motion given after `--`
+//! runs on the same open link. That motion is supervised from before its
+//! first byte: a signal, a failed output write, an error or the end of the
+//! recording while it still moves halts it.
+
+use std::time::Duration;
+
+use axisctl::device::cdios::{self as cdios_dev, Node};
+use axisctl::device::pac::Controller;
+use axisctl::device::powercube::{self as cube_dev, Cubes, Move};
+use axisctl::device::supervisor;
+use axisctl::family::{Family, CDIOS_MODULE, PAC_AXIS, POWERCUBE_MODULE};
+use axisctl::proto::cdios::{GotoMode, ModuleId as CdiosModule, NodeId};
+use axisctl::proto::powercube::flags::state;
+use axisctl::proto::powercube::table::ids;
+use axisctl::proto::powercube::ModuleId;
+use axisctl::record::{
+    self, Address, CdiosSampler, CdiosValue, Channel, CubeSampler, End, PacSampler, PacValue, RecordError, Sample,
+    Sampler, Until,
+};
+use clap::Parser;
+use serde_json::{json, Map, Value};
+
+use super::{usage, Ctx, Interrupted, OutputFailed};
+use crate::cli::ids::parse_list;
+use crate::cli::record::{Format, RecordArgs};
+use crate::cli::{cdios::CdiosCommand, pac::PacCommand, Cli, Command, PowerCubeCommand};
+use crate::output::{self, say};
+
+/// What is recorded: one family's devices and values, checked before the
+/// link opens.
+enum Selection {
+    PowerCube { modules: Vec<ModuleId>, params: Vec<&'static axisctl::proto::powercube::table::ParamDef> },
+    Pac { axes: Vec<u8>, values: Vec<PacValue> },
+    Cdios { node: NodeId, modules: Vec<CdiosModule>, values: Vec<CdiosValue> },
+}
+
+/// A motion of `record ... -- MOTION`, checked as far as can be without
+/// the link.
+#[derive(Debug, Clone, Copy)]
+enum Motion {
+    Cube { module: ModuleId, mv: Move, ticks: bool, relative: bool, force: bool },
+    Pac { axis: u8, pos: f64, relative: bool, force: bool },
+    Cdios { module: CdiosModule, mode: GotoMode, position: i64 },
+}
+
+impl Motion {
+    fn family(&self) -> Family {
+        match self {
+            Self::Cube { .. } => Family::PowerCube,
+            Self::Pac { .. } => Family::Pac,
+            Self::Cdios { .. } => Family::Cdios,
+        }
+    }
+
+    fn device(&self) -> String {
+        match self {
+            Self::Cube { module, .. } => format!("module {module}"),
+            Self::Pac { axis, .. } => format!("axis {axis}"),
+            Self::Cdios { module, .. } => format!("module {module}"),
+        }
+    }
+}
+
+const MOTIONS: &str = "move-ramp, move-step, move-vel, move-cur (PowerCube), pac-move (PA-CONTROL), cdios-goto (Cdios)";
+
+pub fn run(ctx: &Ctx, args: RecordArgs) -> anyhow::Result<()> {
+    let sel = selection(&args)?;
+    let motion = (!args.motion.is_empty()).then(|| motion(&args.motion)).transpose()?;
+    if let Some(m) = &motion {
+        let fam = match &sel {
+            Selection::PowerCube { .. } => Family::PowerCube,
+            Selection::Pac { .. } => Family::Pac,
+            Selection::Cdios { .. } => Family::Cdios,
+        };
+        if m.family() != fam {
+            return Err(usage(format!(
+                "the motion after -- is a {} command but the recording is of {} devices: record the device \
+                 that moves; nothing was sent",
+                m.family().display_name(),
+                fam.display_name()
+            )));
+        }
+    }
+    let period = match args.rate {
+        Some(hz) if !(hz.is_finite() && hz > 0.0 && hz <= 100_000.0) => {
+            return Err(usage(format!("--rate {hz} is out of range: more than 0 and at most 100000 Hz")))
+        }
+        Some(hz) => Some(Duration::from_secs_f64(1.0 / hz)),
+        None => None,
+    };
+    let until = match (args.count, args.duration) {
+        (Some(_), Some(_)) => return Err(usage("--count and --for both end the recording: give one")),
+        (Some(0), None) => return Err(usage("--count 0 records nothing: give at least 1")),
+        (Some(n), None) => Until::Count(n),
+        (None, Some(d)) => Until::Elapsed(d),
+        (None, None) => Until::Stopped,
+    };
+    let format = args.format.unwrap_or(if ctx.json { Format::Jsonl } else { Format::Text });
+    if ctx.json && format != Format::Jsonl {
+        return Err(usage("--json writes JSON Lines: leave out --format, or give --format csv without --json"));
+    }
+    // From here on a signal ends the recording between two samples (and
+    // halts a motion it started) instead of killing the process mid-line.
+    super::arm_interrupt()?;
+    let attempts = 1 + ctx.retry.read_retries;
+    let mut writer = Writer::new(ctx, format);
+    match sel {
+        Selection::PowerCube { modules, params } => {
+            let mut s = CubeSampler::new(Cubes::new(ctx.powercube()?), &modules, &params).map_err(device_error)?;
+            let start = |s: &mut CubeSampler, m: &Motion| start_cube(s, m, attempts);
+            let halt = |s: &mut CubeSampler, m: &Motion, always: bool| halt_cube(s.cubes(), m, always, attempts);
+            go(&mut s, ctx, (period, until), motion, &mut writer, start, halt)
+        }
+        Selection::Pac { axes, values } => {
+            let mut ctl = Controller::new(ctx.pac()?);
+            ctl.set_axes(axes.clone());
+            let mut s = PacSampler::new(ctl, &axes, &values);
+            go(&mut s, ctx, (period, until), motion, &mut writer, start_pac, halt_pac)
+        }
+        Selection::Cdios { node, modules, values } => {
+            let mut session = ctx.cdios()?;
+            session.set_nmt(true);
+            let mut s =
+                CdiosSampler::new(Node::new(session, node, ctx.retry), &modules, &values).map_err(device_error)?;
+            let start = move |s: &mut CdiosSampler, m: &Motion| start_cdios(s, m, attempts);
+            let halt = move |s: &mut CdiosSampler, m: &Motion, always: bool| halt_cdios(s, m, always, attempts);
+            go(&mut s, ctx, (period, until), motion, &mut writer, start, halt)
+        }
+    }
+}
+
+/// The devices and values, every name checked before anything is sent.
+fn selection(args: &RecordArgs) -> anyhow::Result<Selection> {
+    let list = |text: &str, range| parse_list(text, range, false).map_err(usage);
+    match (&args.module, &args.axis, args.node) {
+        (_, Some(_), Some(_)) => {
+            Err(usage("--axis (PA-CONTROL) and --node (Cdios) record different families: give one"))
+        }
+        (Some(_), Some(_), None) => Err(usage(
+            "-m (PowerCube modules) and --axis (PA-CONTROL axes) are different families: record them in two commands",
+        )),
+        (None, Some(axes), None) => {
+            let axes = list(axes, PAC_AXIS)?.0;
+            let values = names(&args.values, PacValue::parse, PacValue::ALL.map(PacValue::name).as_slice())?;
+            Ok(Selection::Pac { axes, values })
+        }
+        (modules, None, Some(node)) => {
+            let node = NodeId::new(node).ok_or_else(|| usage(format!("node id {node} is out of range 1..127")))?;
+            let modules = modules.as_deref().ok_or_else(|| usage("--node needs the 6168 modules: -m 0 or -m 0,1"))?;
+            let modules = list(modules, CDIOS_MODULE)?.to(CdiosModule::new);
+            let values = names(&args.values, CdiosValue::parse, CdiosValue::ALL.map(CdiosValue::name).as_slice())?;
+            Ok(Selection::Cdios { node, modules, values })
+        }
+        (Some(modules), None, None) => {
+            let modules = list(modules, POWERCUBE_MODULE)?.to(ModuleId::new);
+            args.values.iter().try_for_each(|n| super::names::check_powercube_param(n))?;
+            let params = cube_dev::readable_params(&args.values, false)?;
+            Ok(Selection::PowerCube { modules, params })
+        }
+        (None, None, None) => Err(usage(
+            "nothing to record: give PowerCube modules (-m 17 ActPos), PA-CONTROL axes (--axis 2 position) or a \
+             Cdios node and modules (--node 1 -m 0 position speed)",
+        )),
+    }
+}
+
+fn names<T>(given: &[String], parse: fn(&str) -> Option<T>, known: &[&str]) -> anyhow::Result<Vec<T>> {
+    given
+        .iter()
+        .map(|n| parse(n).ok_or_else(|| usage(format!("no value {n:?} to record here; known: {}", known.join(", ")))))
+        .collect()
+}
+
+/// The command after `--`, parsed by the real parser and limited to the
+/// motions the recording can supervise.
+fn motion(words: &[String]) -> anyhow::Result<Motion> {
+    let cli = Cli::try_parse_from(std::iter::once("axisctl".to_string()).chain(words.iter().cloned()))
+        .map_err(|e| usage(format!("the motion after --: {}", e.kind_text(words))))?;
+    let one = |m: u8| ModuleId::new(m).expect("the parser checked the range");
+    let m = match cli.command {
+        Command::PowerCube(PowerCubeCommand::MoveRamp {
+            modules, pos, vel, acc, ticks, relative, force, sync, ..
+        }) => match (&modules.0[..], &pos[..], sync) {
+            ([m], [p], false) => {
+                Motion::Cube { module: one(*m), mv: Move::Ramp { pos: *p, vel, acc }, ticks, relative, force }
+            }
+            _ => return Err(usage("record -- move-ramp moves one module to one position (no --sync)")),
+        },
+        Command::PowerCube(PowerCubeCommand::MoveStep { module, pos, time, ticks, relative, force }) => {
+            Motion::Cube { module: one(module.module), mv: Move::Step { pos, time_ms: time }, ticks, relative, force }
+        }
+        Command::PowerCube(PowerCubeCommand::MoveVel { module, vel, ticks, force }) => {
+            Motion::Cube { module: one(module.module), mv: Move::Vel(vel), ticks, relative: false, force }
+        }
+        Command::PowerCube(PowerCubeCommand::MoveCur { module, amps, force }) => {
+            Motion::Cube { module: one(module.module), mv: Move::Cur(amps), ticks: false, relative: false, force }
+        }
+        Command::Pac(PacCommand::PacMove { axis, pos, relative, force, .. }) => {
+            Motion::Pac { axis: axis.axis, pos, relative, force }
+        }
+        Command::Cdios(CdiosCommand::Goto {
+            target, position, relative, setpoint_relative, latched, speed, ..
+        }) => {
+            if latched || speed.is_some() {
+                return Err(usage("record -- cdios-goto takes no --latched or --speed (set the speed first)"));
+            }
+            if target.node.node != NodeId::new(target.node.node).map_or(0, |n| n.get()) {
+                return Err(usage("node id out of range"));
+            }
+            let mode = match (relative, setpoint_relative) {
+                (true, _) => GotoMode::Relative,
+                (false, true) => GotoMode::SetpointRelative,
+                _ => GotoMode::Absolute,
+            };
+            let module = CdiosModule::new(target.module).expect("the parser checked the range");
+            cdios_dev::check(&cdios_dev::goto_commands(mode, position, None)?, module)?;
+            Motion::Cdios { module, mode, position }
+        }
+        _ => return Err(usage(format!("record -- takes one motion command: {MOTIONS}"))),
+    };
+    if let Motion::Cube { mv, ticks, .. } = m {
+        mv.check(ticks)?;
+    }
+    Ok(m)
+}
+
+trait KindText {
+    fn kind_text(&self, words: &[String]) -> String;
+}
+
+impl KindText for clap::Error {
+    /// clap's message without its usage block, which names `axisctl` alone.
+    fn kind_text(&self, words: &[String]) -> String {
+        let text = self.to_string();
+        let first = text.lines().next().unwrap_or_default().trim_start_matches("error: ").to_string();
+        format!("`{}`: {first}", words.join(" "))
+    }
+}
+
+/// Samples, starts the motion after the first sample, and halts it on
+/// every way out.
+fn go<S: Sampler>(
+    s: &mut S,
+    ctx: &Ctx,
+    (period, until): (Option<Duration>, Until),
+    motion: Option<Motion>,
+    writer: &mut Writer,
+    start: impl Fn(&mut S, &Motion) -> Result<String, RecordError>,
+    halt: impl Fn(&mut S, &Motion, bool) -> Option<String>,
+) -> anyhow::Result<()> {
+    writer.header(s.channels());
+    let (mut tried, mut started) = (false, false);
+    let clock = ctx.clock.clone();
+    let ended = supervisor::guard(
+        s,
+        |s| {
+            let mut sink = |sample: &Sample, s: &mut S| -> Result<(), RecordError> {
+                writer.sample(sample);
+                if let (Some(m), false) = (&motion, tried) {
+                    // Started once the first sample shows where it started
+                    // from. A start that fails was handled by the device
+                    // layer (a motion that may have gone out is halted there).
+                    tried = true;
+                    let text = start(s, m)?;
+                    started = true;
+                    output::err_line(format_args!("{} at t = {:.4} s: {text}", m.device(), sample.t));
+                }
+                Ok(())
+            };
+            record::record(s, clock.as_ref(), period, until, &|| supervisor::stop_requested(), &mut sink)
+        },
+        |s| {
+            if let Some(m) = &motion {
+                halt(s, m, true);
+            }
+        },
+    );
+    output::flush();
+    let Some(m) = motion.filter(|_| started) else {
+        // Without a motion Ctrl-C is how an open-ended recording ends.
+        return ended.map(|_| ()).map_err(device_error);
+    };
+    let why = supervisor::stop_reason();
+    // The recording is over: a motion still running is no longer watched.
+    let always = !matches!(ended, Ok(End::Done));
+    let halted = halt(s, &m, always);
+    let said = halted.as_deref().map(|h| format!(": {} {h}", m.device())).unwrap_or_default();
+    if let Some(h) = &halted {
+        output::err_line(format_args!("{} {h}", m.device()));
+    }
+    match (ended, why) {
+        (Err(e), _) => Err(device_error(e).context(format!("recording failed{said}"))),
+        (Ok(End::Stopped), Some(why @ (supervisor::StopReason::Output(_) | supervisor::StopReason::Panic(_)))) => {
+            Err(OutputFailed(format!("{why}, so the motion was stopped{said}")).into())
+        }
+        (Ok(End::Stopped), _) => Err(Interrupted(said).into()),
+        (Ok(End::Done), _) => Ok(()),
+    }
+}
+
+/// The device layer's own error, so that its exit-code class and refusal
+/// are found in the chain (a transparent wrapper would hide its type).
+fn device_error(e: RecordError) -> anyhow::Error {
+    match e {
+        RecordError::PowerCube(e) => (*e).into(),
+        RecordError::Pac(e) => (*e).into(),
+        RecordError::Cdios(e) => (*e).into(),
+    }
+}
+
+fn start_cube(s: &mut CubeSampler, m: &Motion, attempts: u32) -> Result<String, RecordError> {
+    let Motion::Cube { module, mut mv, ticks, relative, force } = *m else { unreachable!("a PowerCube motion") };
+    let cubes = s.cubes();
+    if relative {
+        let id = if ticks { ids::ACT_I_POS } else { ids::ACT_POS };
+        let here = cubes.read_now(module, &[id])?[0];
+        mv = match mv {
+            Move::Ramp { pos, vel, acc } => Move::Ramp { pos: here + pos, vel, acc },
+            Move::Step { pos, time_ms } => Move::Step { pos: here + pos, time_ms },
+            other => other,
+        };
+    }
+    let moved = cubes.move_supervised(module, mv, ticks, force, attempts)?;
+    Ok(format!("{} acknowledged", moved.described))
+}
+
+/// Halts the module when the recording ended abnormally (`always`) or it
+/// still moves; says what was done.
+fn halt_cube(cubes: &mut Cubes, m: &Motion, always: bool, attempts: u32) -> Option<String> {
+    let Motion::Cube { module, .. } = *m else { return None };
+    if !always {
+        match cubes.get_u32(module, ids::CUBE_STATE) {
+            Ok(word) if word & state::MOTION == 0 => return None,
+            _ => {}
+        }
+    }
+    Some(match cubes.halt_retrying(module, attempts) {
+        Ok(()) => "halted".into(),
+        Err(e) => format!("HALT FAILED: {e}"),
+    })
+}
+
+fn start_pac(s: &mut PacSampler, m: &Motion) -> Result<String, RecordError> {
+    let Motion::Pac { axis, pos, relative, force } = *m else { unreachable!("a PA-CONTROL motion") };
+    let started = s.controller().start_move_supervised(axis, pos, relative, !force)?;
+    Ok(format!("moving to {}", started.target))
+}
+
+fn halt_pac(s: &mut PacSampler, m: &Motion, always: bool) -> Option<String> {
+    let Motion::Pac { axis, .. } = *m else { return None };
+    let ctl = s.controller();
+    // 1910 axis status 1: moving.
+    if !always && ctl.read_i64(0x1910, i64::from(axis)).is_ok_and(|st| st != 1) && ctl.busy().is_none() {
+        return None;
+    }
+    // 0A93, polled to standstill: the stop of last resort the waits use.
+    Some(match ctl.halt_axis(axis).result {
+        Ok(at) => format!("stopped at {at}"),
+        Err(e) => format!("STOP FAILED: {e}"),
+    })
+}
+
+fn start_cdios(s: &mut CdiosSampler, m: &Motion, attempts: u32) -> Result<String, RecordError> {
+    let Motion::Cdios { module, mode, position } = *m else { unreachable!("a Cdios motion") };
+    let cmds = cdios_dev::goto_commands(mode, position, None)?;
+    let confirmed = s.node().send_supervised(module, &cmds, attempts)?;
+    Ok(format!("goto {} {position} {}", cdios_dev::mode_name(mode), if confirmed { "confirmed" } else { "sent" }))
+}
+
+fn halt_cdios(s: &mut CdiosSampler, m: &Motion, always: bool, attempts: u32) -> Option<String> {
+    let Motion::Cdios { module, .. } = *m else { return None };
+    let node = s.node();
+    if always {
+        return Some(match node.stop_retrying(module, attempts) {
+            Ok(()) => "fast stop sent".into(),
+            Err(e) => format!("STOP FAILED: {e}"),
+        });
+    }
+    match node.halt_all(&[module]).pop().map(|(_, r)| r) {
+        Some(Ok(cdios_dev::Stopped::NotRunning)) | None => None,
+        Some(Ok(cdios_dev::Stopped::FastStop { .. })) => Some("fast stop sent (still running at the end)".into()),
+        Some(Err(e)) => Some(format!("STOP FAILED: {e}")),
+    }
+}
+
+/// A device's envelope and the channels (index, name) it holds.
+type DeviceColumns = (Map<String, Value>, Vec<(usize, String)>);
+
+/// Writes the samples in the chosen format.
+struct Writer {
+    format: Format,
+    link: String,
+    devices: Vec<DeviceColumns>,
+    units: Vec<String>,
+    /// Text columns: each as wide as its header.
+    widths: Vec<usize>,
+}
+
+impl Writer {
+    fn new(ctx: &Ctx, format: Format) -> Self {
+        Self { format, link: ctx.link_text.clone(), devices: Vec::new(), units: Vec::new(), widths: Vec::new() }
+    }
+
+    fn header(&mut self, channels: &[Channel]) {
+        self.units = channels.iter().map(|c| c.unit.clone()).collect();
+        for (i, c) in channels.iter().enumerate() {
+            let pos = self.devices.iter().position(|(env, _)| env.get("_addr") == Some(&json!(c.address.label())));
+            let at = match pos {
+                Some(p) => p,
+                None => {
+                    let mut env = Map::new();
+                    env.insert("family".into(), json!(c.address.family().name()));
+                    env.insert("link".into(), json!(self.link));
+                    match c.address {
+                        Address::Module(m) => env.insert("module".into(), json!(m)),
+                        Address::Axis(a) => env.insert("axis".into(), json!(a)),
+                        Address::CdiosModule { node, module } => {
+                            env.insert("node".into(), json!(node));
+                            env.insert("module".into(), json!(module))
+                        }
+                    };
+                    env.insert("_addr".into(), json!(c.address.label()));
+                    self.devices.push((env, Vec::new()));
+                    self.devices.len() - 1
+                }
+            };
+            self.devices[at].1.push((i, c.name.clone()));
+        }
+        for (env, _) in &mut self.devices {
+            env.remove("_addr");
+        }
+        let columns: Vec<String> = channels.iter().map(column).collect();
+        match self.format {
+            Format::Jsonl => {}
+            Format::Csv => say!("t [s],{}", columns.join(",")),
+            Format::Text => {
+                self.widths = columns.iter().map(|c| c.len().max(12) + 2).collect();
+                let head: String = columns.iter().zip(&self.widths).map(|(c, w)| format!("{c:>w$}")).collect();
+                say!("{:>10}{head}", "t [s]")
+            }
+        }
+    }
+
+    fn sample(&mut self, s: &Sample) {
+        match self.format {
+            Format::Jsonl => {
+                let devices: Vec<Value> = self
+                    .devices
+                    .iter()
+                    .map(|(env, chans)| {
+                        let mut d = env.clone();
+                        let values: Map<String, Value> = chans
+                            .iter()
+                            .map(|(i, name)| (name.clone(), output::with_unit(number(s.values[*i]), &self.units[*i])))
+                            .collect();
+                        d.insert("values".into(), Value::Object(values));
+                        Value::Object(d)
+                    })
+                    .collect();
+                output::json(&json!({"command": "record", "t": round_t(s.t), "seq": s.seq, "devices": devices}));
+            }
+            Format::Csv => {
+                let vals: Vec<String> =
+                    s.values.iter().map(|v| if v.is_finite() { v.to_string() } else { String::new() }).collect();
+                say!("{},{}", round_t(s.t), vals.join(","));
+            }
+            Format::Text => {
+                let vals: String = s.values.iter().zip(&self.widths).map(|(v, w)| format!("{v:>w$}")).collect();
+                say!("{:>10.4}{vals}", s.t);
+            }
+        }
+    }
+}
+
+/// Microseconds are as fine as a monotonic stamp of a frame exchange gets.
+fn round_t(t: f64) -> f64 {
+    (t * 1e6).round() / 1e6
+}
+
+/// An integer stays an integer (Cdios counts, status words).
+fn number(v: f64) -> Value {
+    if !v.is_finite() {
+        Value::Null
+    } else if v.fract() == 0.0 && v.abs() < 9.0e15 {
+        json!(v as i64)
+    } else {
+        json!(v)
+    }
+}
+
+/// `module 17 ActPos [m]`: a CSV column and a chart's legend entry.
+pub fn column(c: &Channel) -> String {
+    if c.unit.is_empty() {
+        format!("{} {}", c.address.label(), c.name)
+    } else {
+        format!("{} {} [{}]", c.address.label(), c.name, c.unit)
+    }
+}

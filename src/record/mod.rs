@@ -1,0 +1,171 @@
+//! Sampling chosen values of the devices of one link, as fast as the link
+//! allows or at a set rate, with a monotonic time stamp per sample: the
+//! library side of `axisctl record`.
+//!
+//! One [`Sampler`] per family reads all of its channels in one exchange per
+//! sample, pipelined where the link allows it (a PowerCube burst over every
+//! module and parameter on CAN, the Cdios node's burst per module), the way
+//! the dashboard's worker polls. PA-CONTROL's half-duplex line takes one
+//! request at a time. The sampler owns the device handle, so a motion
+//! started through [`crate::device`] goes out on the same open link.
+
+mod cdios;
+mod pac;
+mod powercube;
+
+use std::time::Duration;
+
+use crate::clock::Clock;
+use crate::family::Family;
+
+pub use cdios::{CdiosSampler, CdiosValue};
+pub use pac::{PacSampler, PacValue};
+pub use powercube::CubeSampler;
+
+/// Which device a channel belongs to, in the envelope's address form.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
+pub enum Address {
+    /// A PowerCube module.
+    Module(u8),
+    /// A PA-CONTROL axis.
+    Axis(u8),
+    /// A Cdios 6168 module on a node.
+    CdiosModule { node: u8, module: u8 },
+}
+
+impl Address {
+    pub fn family(self) -> Family {
+        match self {
+            Self::Module(_) => Family::PowerCube,
+            Self::Axis(_) => Family::Pac,
+            Self::CdiosModule { .. } => Family::Cdios,
+        }
+    }
+
+    /// `module 17`, `axis 2`, `node 1 module 0`: the device part of a CSV
+    /// column and of a chart's legend.
+    pub fn label(self) -> String {
+        match self {
+            Self::Module(m) => format!("module {m}"),
+            Self::Axis(a) => format!("axis {a}"),
+            Self::CdiosModule { node, module } => format!("node {node} module {module}"),
+        }
+    }
+}
+
+/// One recorded value: a device, the value's name and its unit.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Channel {
+    pub address: Address,
+    /// The name as the command line takes it (`ActPos`, `position`).
+    pub name: String,
+    /// The manual's unit, `""` when it gives none.
+    pub unit: String,
+}
+
+/// The device layer's error, boxed: a sample's result stays small.
+#[derive(Debug, thiserror::Error)]
+pub enum RecordError {
+    #[error(transparent)]
+    PowerCube(Box<crate::device::powercube::Error>),
+    #[error(transparent)]
+    Pac(Box<crate::device::pac::Error>),
+    #[error(transparent)]
+    Cdios(Box<crate::device::cdios::Error>),
+}
+
+impl From<crate::device::powercube::Error> for RecordError {
+    fn from(e: crate::device::powercube::Error) -> Self {
+        Self::PowerCube(Box::new(e))
+    }
+}
+
+impl From<crate::device::pac::Error> for RecordError {
+    fn from(e: crate::device::pac::Error) -> Self {
+        Self::Pac(Box::new(e))
+    }
+}
+
+impl From<crate::device::cdios::Error> for RecordError {
+    fn from(e: crate::device::cdios::Error) -> Self {
+        Self::Cdios(Box::new(e))
+    }
+}
+
+/// The devices of one family on one link, read together once per sample.
+pub trait Sampler {
+    /// What each sample holds, in order.
+    fn channels(&self) -> &[Channel];
+    /// One value per channel; NaN for a value the device does not have.
+    fn sample(&mut self) -> Result<Vec<f64>, RecordError>;
+}
+
+/// When a recording ends by itself (it also ends when `stop` says so).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Until {
+    Count(u64),
+    Elapsed(Duration),
+    Stopped,
+}
+
+/// One sample: seconds since the recording started (monotonic), the index
+/// and the values in channel order.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Sample {
+    pub t: f64,
+    pub seq: u64,
+    pub values: Vec<f64>,
+}
+
+/// Why a recording ended.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum End {
+    /// `--count` or `--for` reached.
+    Done,
+    /// `stop` asked for it (a signal, a failed output).
+    Stopped,
+}
+
+/// Samples until `until` or `stop`, and hands each sample to `sink` as
+/// soon as it is read, with the sampler (a motion is started from there, on
+/// the same link, between two samples). The time stamp is taken when the sample's requests
+/// leave. With a `period`, sample n is taken at n x period from the start
+/// (a late one is taken at once, never twice); without, back to back.
+pub fn record<S: Sampler + ?Sized>(
+    sampler: &mut S,
+    clock: &dyn Clock,
+    period: Option<Duration>,
+    until: Until,
+    stop: &dyn Fn() -> bool,
+    sink: &mut dyn FnMut(&Sample, &mut S) -> Result<(), RecordError>,
+) -> Result<End, RecordError> {
+    let start = clock.now();
+    let mut seq = 0u64;
+    loop {
+        if stop() {
+            return Ok(End::Stopped);
+        }
+        match until {
+            Until::Count(n) if seq >= n => return Ok(End::Done),
+            Until::Elapsed(d) if clock.now().duration_since(start) >= d => return Ok(End::Done),
+            _ => {}
+        }
+        if let Some(p) = period {
+            let due = p.mul_f64(seq as f64);
+            let now = clock.now().duration_since(start);
+            if due > now {
+                let wait = due - now;
+                // Woken early by a signal: the loop checks `stop` again.
+                clock.sleep_or_wake(wait);
+                continue;
+            }
+        }
+        let t = clock.now().duration_since(start).as_secs_f64();
+        let values = sampler.sample()?;
+        sink(&Sample { t, seq, values }, sampler)?;
+        seq += 1;
+    }
+}
+
+#[cfg(test)]
+mod tests;

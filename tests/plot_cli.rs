@@ -1,0 +1,101 @@
+//! `axisctl plot` through the real binary: a recording made by `record`
+//! (JSON Lines and CSV) drawn to SVG, which the test opens and reads: one
+//! line per recorded value, axis labels with units, the legend.
+
+mod common;
+
+use common::run;
+
+/// The data lines of the SVG: polylines of the plot module's line width
+/// (axes and ticks are drawn at width 1).
+fn data_lines(svg: &str) -> usize {
+    let width = format!("stroke-width=\"{}\"", axisctl::plot::LINE_WIDTH);
+    svg.split("<polyline").skip(1).filter(|p| p.split('>').next().unwrap_or("").contains(&width)).count()
+}
+
+fn texts(svg: &str) -> Vec<String> {
+    svg.split("<text")
+        .skip(1)
+        .filter_map(|t| Some(t[t.find('>')? + 1..t.find("</text>")?].trim().to_string()))
+        .collect()
+}
+
+fn record_to(path: &std::path::Path, format: &str) {
+    let r = run(&[
+        "--link",
+        "sim",
+        "record",
+        "--format",
+        format,
+        "-m",
+        "17",
+        "ActPos",
+        "ActVel",
+        "Cur",
+        "--rate",
+        "50",
+        "--for",
+        "0.4s",
+        "--",
+        "move-ramp",
+        "-m",
+        "17",
+        "0.01",
+    ]);
+    assert_eq!(r.code, 0, "{}", r.stderr);
+    std::fs::write(path, r.stdout).unwrap();
+}
+
+#[test]
+fn a_recording_becomes_an_svg_with_one_line_per_value_and_units_on_the_axes() {
+    let dir = tempfile::tempdir().unwrap();
+    for format in ["jsonl", "csv"] {
+        let rec = dir.path().join(format!("step.{format}"));
+        let svg_path = dir.path().join(format!("step-{format}.svg"));
+        record_to(&rec, format);
+        let r = run(&["--json", "plot", rec.to_str().unwrap(), "--svg", svg_path.to_str().unwrap()]);
+        assert_eq!(r.code, 0, "{}", r.stderr);
+        let doc = r.json();
+        assert_eq!(doc["series"].as_array().unwrap().len(), 3, "{doc}");
+        let svg = std::fs::read_to_string(&svg_path).unwrap();
+        assert!(svg.starts_with("<svg") && svg.trim_end().ends_with("</svg>"));
+        assert_eq!(data_lines(&svg), 3, "one line per recorded value ({format})");
+        let texts = texts(&svg);
+        for label in
+            ["module 17 ActPos [m]", "module 17 ActVel [m/s]", "module 17 Cur [A]", "t (s)", &format!("step.{format}")]
+        {
+            assert!(texts.iter().any(|t| t == label), "{format}: no {label:?} in {texts:?}");
+        }
+    }
+}
+
+#[test]
+fn every_device_and_value_is_its_own_series() {
+    let dir = tempfile::tempdir().unwrap();
+    let rec = dir.path().join("two.jsonl");
+    let r = run(&["--link", "sim", "--json", "record", "-m", "3,17", "ActPos", "--count", "4"]);
+    assert_eq!(r.code, 0, "{}", r.stderr);
+    std::fs::write(&rec, r.stdout).unwrap();
+    let svg_path = dir.path().join("two.svg");
+    let r = run(&["plot", rec.to_str().unwrap(), "--svg", svg_path.to_str().unwrap(), "--title", "two modules"]);
+    assert_eq!(r.code, 0, "{}", r.stderr);
+    let svg = std::fs::read_to_string(&svg_path).unwrap();
+    assert_eq!(data_lines(&svg), 2);
+    let texts = texts(&svg);
+    // Module 3 is rotary, 17 linear: two units, two panels.
+    assert!(texts.iter().any(|t| t == "module 3 ActPos [rad]") && texts.iter().any(|t| t == "module 17 ActPos [m]"));
+    assert!(texts.iter().any(|t| t == "two modules"));
+}
+
+#[test]
+fn a_file_that_is_no_recording_is_exit_2_and_writes_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    let bad = dir.path().join("bad.jsonl");
+    std::fs::write(&bad, "{\"not\": \"a record line\"}\n").unwrap();
+    let out = dir.path().join("out.svg");
+    for rec in [bad.to_str().unwrap(), "/nonexistent/rec.csv"] {
+        let r = run(&["plot", rec, "--svg", out.to_str().unwrap()]);
+        assert_eq!(r.code, 2, "{}", r.stderr);
+        assert!(!out.exists());
+    }
+}
