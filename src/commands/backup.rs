@@ -291,7 +291,8 @@ fn save(ctx: &Ctx, select: &Selection, out: Option<&Path>) -> anyhow::Result<()>
         output::json(&json!({"command": "backup", "file": path.display().to_string(), "schema": backup::SCHEMA,
                              "devices": devices}));
     } else {
-        say!("{} devices saved to {}", doc.devices.len(), path.display());
+        let n = doc.devices.len();
+        say!("{n} device{} saved to {}", plural(n), path.display());
         for d in &doc.devices {
             say!("  {}: {} settings", d.address(), d.restorable().count());
         }
@@ -343,7 +344,7 @@ fn show(v: &Option<Value>) -> String {
 fn print_diff(ctx: &Ctx, diffs: &[backup::DeviceDiff], left: &str, right: &str) {
     let n: usize = diffs.iter().map(|d| d.differences.len()).sum();
     if n == 0 {
-        say!("no differences ({} devices)", diffs.len());
+        say!("no differences ({} device{})", diffs.len(), plural(diffs.len()));
         return;
     }
     let mut rows = vec![vec!["DEVICE".into(), "SETTING".into(), "UNIT".into(), left.to_string(), right.to_string()]];
