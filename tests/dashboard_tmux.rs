@@ -3,70 +3,16 @@
 //! the shell's terminal checked to be back to normal. Needs tmux (.ci/run
 //! installs it); without it the test fails and says so.
 
+mod common;
+
 use std::process::Command;
 use std::time::{Duration, Instant};
 
-struct Tmux {
-    session: String,
-}
-
-impl Tmux {
-    fn start(w: u16, h: u16) -> Self {
-        let found = Command::new("tmux").arg("-V").output().map(|o| o.status.success()).unwrap_or(false);
-        assert!(found, "tmux is not installed: the dashboard smoke test needs it (apt-get install tmux)");
-        // Tests run in parallel: each needs a session of its own.
-        static NEXT: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
-        let n = NEXT.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-        let session = format!("axisctl-smoke-{}-{n}-{w}x{h}", std::process::id());
-        // A plain shell with a known prompt, so that its return is visible.
-        let ok = Command::new("tmux")
-            .args(["new-session", "-d", "-s", &session, "-x", &w.to_string(), "-y", &h.to_string()])
-            .args(["env", "-i", "PATH=/usr/bin:/bin", "TERM=screen", "PS1=READY$ ", "bash", "--norc", "--noprofile"])
-            .status()
-            .expect("run tmux")
-            .success();
-        assert!(ok, "tmux new-session failed");
-        Self { session }
-    }
-
-    fn keys(&self, keys: &[&str]) {
-        let ok = Command::new("tmux").args(["send-keys", "-t", &self.session]).args(keys).status().unwrap().success();
-        assert!(ok, "tmux send-keys {keys:?}");
-    }
-
-    fn capture(&self) -> String {
-        let out = Command::new("tmux").args(["capture-pane", "-p", "-t", &self.session]).output().unwrap();
-        String::from_utf8_lossy(&out.stdout).into()
-    }
-
-    fn display(&self, format: &str) -> String {
-        let out = Command::new("tmux").args(["display-message", "-p", "-t", &self.session, format]).output().unwrap();
-        String::from_utf8_lossy(&out.stdout).trim().into()
-    }
-
-    /// Waits until the pane shows `text`; the pane on failure.
-    fn wait_for(&self, text: &str) -> String {
-        let deadline = Instant::now() + Duration::from_secs(15);
-        loop {
-            let screen = self.capture();
-            if screen.contains(text) {
-                return screen;
-            }
-            assert!(Instant::now() < deadline, "{text:?} never appeared; the pane shows:\n{screen}");
-            std::thread::sleep(Duration::from_millis(50));
-        }
-    }
-}
-
-impl Drop for Tmux {
-    fn drop(&mut self) {
-        let _ = Command::new("tmux").args(["kill-session", "-t", &self.session]).status();
-    }
-}
+use common::tmux::Tmux;
 
 fn smoke(w: u16, h: u16) {
     let snapshots = tempfile::tempdir().unwrap();
-    let t = Tmux::start(w, h);
+    let t = Tmux::start("dashboard", w, h, &[]);
     t.wait_for("READY$");
     let dir = snapshots.path().display();
     t.keys(&[&format!("{} --link sim dashboard --snapshot-dir {dir}", env!("CARGO_BIN_EXE_axisctl")), "Enter"]);
@@ -144,7 +90,7 @@ fn smoke(w: u16, h: u16) {
 /// restores it before the message is printed).
 #[test]
 fn a_panic_restores_the_terminal() {
-    let t = Tmux::start(80, 24);
+    let t = Tmux::start("dashboard", 80, 24, &[]);
     t.wait_for("READY$");
     t.keys(&[&format!("AXISCTL_TEST_PANIC_KEY=1 {} --link sim dashboard", env!("CARGO_BIN_EXE_axisctl")), "Enter"]);
     t.wait_for("module 17");
@@ -178,7 +124,7 @@ fn dashboard_runs_and_restores_the_terminal_200x50() {
 fn log_records_every_link_of_the_dashboard() {
     let dir = tempfile::tempdir().unwrap();
     let log = dir.path().join("dashboard.log");
-    let t = Tmux::start(80, 24);
+    let t = Tmux::start("dashboard", 80, 24, &[]);
     t.wait_for("READY$");
     t.keys(&[&format!("{} --log {} --link sim dashboard", env!("CARGO_BIN_EXE_axisctl"), log.display()), "Enter"]);
     t.wait_for("module 17");
@@ -206,31 +152,17 @@ fn log_records_every_link_of_the_dashboard() {
     assert!(text.lines().any(|l| l.contains(") rx 01 02 ")), "no PA-CONTROL answer in the log:\n{text}");
 }
 
-/// The dashboard's process: the one child of the pane's shell.
-fn dashboard_pid(t: &Tmux) -> i32 {
-    let shell = t.display("#{pane_pid}");
-    let deadline = Instant::now() + Duration::from_secs(5);
-    loop {
-        let children = std::fs::read_to_string(format!("/proc/{shell}/task/{shell}/children")).unwrap_or_default();
-        if let Some(pid) = children.split_whitespace().next() {
-            return pid.parse().unwrap();
-        }
-        assert!(Instant::now() < deadline, "no dashboard process under the shell {shell}");
-        std::thread::sleep(Duration::from_millis(50));
-    }
-}
-
 /// SIGTERM and SIGHUP (terminal closed, SSH dropped) while an axis the
 /// dashboard started moves: the dashboard says it halted what it moved,
 /// leaves raw mode and the alternate screen, and exits 128 + the signal.
 fn ends_on(signal: i32, name: &str, code: i32) {
-    let t = Tmux::start(80, 24);
+    let t = Tmux::start("dashboard", 80, 24, &[]);
     t.wait_for("READY$");
     t.keys(&[&format!("{} --link sim dashboard", env!("CARGO_BIN_EXE_axisctl")), "Enter"]);
     t.wait_for("module 17");
     t.keys(&["h"]);
     t.wait_for("Home acknowledged");
-    let pid = dashboard_pid(&t);
+    let pid = t.program_pid();
     // SAFETY: kill(2) on the pid of the dashboard this test started.
     assert_eq!(unsafe { libc::kill(pid, signal) }, 0);
     let deadline = Instant::now() + Duration::from_secs(10);

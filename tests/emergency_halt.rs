@@ -15,6 +15,7 @@ use std::sync::mpsc;
 use std::time::{Duration, Instant};
 
 use axisctl::link::lock::{self, Holder};
+use common::tmux::Tmux;
 use common::{Run, Sim};
 
 /// A lock directory for one test.
@@ -344,65 +345,12 @@ fn a_stale_lock_is_ignored_and_replaced() {
 
 // ---- the dashboard in a real terminal ----
 
-struct Tmux {
-    session: String,
-}
-
-impl Tmux {
-    fn start() -> Self {
-        let found = Command::new("tmux").arg("-V").output().map(|o| o.status.success()).unwrap_or(false);
-        assert!(found, "tmux is not installed: the emergency halt test of the dashboard needs it");
-        let session = format!("axisctl-ehalt-{}", std::process::id());
-        let ok = Command::new("tmux")
-            .args(["new-session", "-d", "-s", &session, "-x", "100", "-y", "30"])
-            .args(["env", "-i", "PATH=/usr/bin:/bin", "TERM=screen", "PS1=READY$ ", "bash", "--norc", "--noprofile"])
-            .status()
-            .expect("run tmux")
-            .success();
-        assert!(ok, "tmux new-session failed");
-        Self { session }
-    }
-
-    fn keys(&self, keys: &[&str]) {
-        let ok = Command::new("tmux").args(["send-keys", "-t", &self.session]).args(keys).status().unwrap().success();
-        assert!(ok, "tmux send-keys {keys:?}");
-    }
-
-    fn capture(&self) -> String {
-        let out = Command::new("tmux").args(["capture-pane", "-p", "-t", &self.session]).output().unwrap();
-        String::from_utf8_lossy(&out.stdout).into()
-    }
-
-    fn display(&self, format: &str) -> String {
-        let out = Command::new("tmux").args(["display-message", "-p", "-t", &self.session, format]).output().unwrap();
-        String::from_utf8_lossy(&out.stdout).trim().into()
-    }
-
-    fn wait_for(&self, text: &str) -> String {
-        let deadline = Instant::now() + Duration::from_secs(15);
-        loop {
-            let screen = self.capture();
-            if screen.contains(text) {
-                return screen;
-            }
-            assert!(Instant::now() < deadline, "{text:?} never appeared; the pane shows:\n{screen}");
-            std::thread::sleep(Duration::from_millis(50));
-        }
-    }
-}
-
-impl Drop for Tmux {
-    fn drop(&mut self) {
-        let _ = Command::new("tmux").args(["kill-session", "-t", &self.session]).status();
-    }
-}
-
 #[test]
 fn halt_all_from_a_second_terminal_ends_the_dashboard_and_halts_the_module_it_moved() {
     let locks = Locks::new();
     let s = Sim::start(&["--powercube", "pty-slcan"], 1);
     let link = s.link("powercube");
-    let t = Tmux::start();
+    let t = Tmux::start("ehalt", 100, 30, &[]);
     t.wait_for("READY$");
     t.keys(&[
         &format!(

@@ -3,68 +3,20 @@
 //! Ctrl-C at the prompt and during a motion, Ctrl-D, and the history kept
 //! across two shells. Needs tmux, like tests/dashboard_tmux.rs.
 
-use std::process::Command;
-use std::time::{Duration, Instant};
+mod common;
 
-struct Tmux {
-    session: String,
+use std::time::Duration;
+
+use common::tmux::Tmux;
+
+/// Waits for the `n`th prompt of the shell.
+fn prompts(t: &Tmux, n: usize) -> String {
+    t.wait_until(&format!("prompt {n}"), |s| s.matches(PROMPT).count() >= n)
 }
 
-impl Tmux {
-    /// A plain bash with a known prompt, whose state directory is `state`.
-    fn start(state: &std::path::Path, name: &str) -> Self {
-        let found = Command::new("tmux").arg("-V").output().map(|o| o.status.success()).unwrap_or(false);
-        assert!(found, "tmux is not installed: the shell test needs it (apt-get install tmux)");
-        let session = format!("axisctl-shell-{name}-{}", std::process::id());
-        let ok = Command::new("tmux")
-            .args(["new-session", "-d", "-s", &session, "-x", "100", "-y", "40"])
-            .args(["env", "-i", "PATH=/usr/bin:/bin", "TERM=screen", "PS1=READY$ "])
-            .arg(format!("XDG_STATE_HOME={}", state.display()))
-            .args(["bash", "--norc", "--noprofile"])
-            .status()
-            .expect("run tmux")
-            .success();
-        assert!(ok, "tmux new-session failed");
-        Self { session }
-    }
-
-    fn keys(&self, keys: &[&str]) {
-        let ok = Command::new("tmux").args(["send-keys", "-t", &self.session]).args(keys).status().unwrap().success();
-        assert!(ok, "tmux send-keys {keys:?}");
-    }
-
-    fn capture(&self) -> String {
-        let out = Command::new("tmux").args(["capture-pane", "-p", "-t", &self.session]).output().unwrap();
-        String::from_utf8_lossy(&out.stdout).into()
-    }
-
-    /// Waits until `test` holds for the pane; the pane on failure.
-    fn wait_until(&self, what: &str, test: impl Fn(&str) -> bool) -> String {
-        let deadline = Instant::now() + Duration::from_secs(15);
-        loop {
-            let screen = self.capture();
-            if test(&screen) {
-                return screen;
-            }
-            assert!(Instant::now() < deadline, "{what} never happened; the pane shows:\n{screen}");
-            std::thread::sleep(Duration::from_millis(50));
-        }
-    }
-
-    fn wait_for(&self, text: &str) -> String {
-        self.wait_until(&format!("{text:?}"), |s| s.contains(text))
-    }
-
-    /// Waits for the `n`th prompt of the shell.
-    fn prompts(&self, n: usize) -> String {
-        self.wait_until(&format!("prompt {n}"), |s| s.matches(PROMPT).count() >= n)
-    }
-}
-
-impl Drop for Tmux {
-    fn drop(&mut self) {
-        let _ = Command::new("tmux").args(["kill-session", "-t", &self.session]).status();
-    }
+/// A terminal whose shells keep their history under `state`.
+fn terminal(state: &std::path::Path, name: &str) -> Tmux {
+    Tmux::start(&format!("shell-{name}"), 100, 40, &[format!("XDG_STATE_HOME={}", state.display())])
 }
 
 /// As capture-pane shows it, without the trailing space.
@@ -73,10 +25,10 @@ const PROMPT: &str = "axisctl sim>";
 #[test]
 fn the_shell_completes_runs_survives_failures_and_keeps_its_history() {
     let state = tempfile::tempdir().unwrap();
-    let t = Tmux::start(state.path(), "main");
+    let t = terminal(state.path(), "main");
     t.wait_for("READY$");
     t.keys(&[&format!("{} --link sim shell", env!("CARGO_BIN_EXE_axisctl")), "Enter"]);
-    t.prompts(1);
+    prompts(&t, 1);
     // Completion from the clap tree: two tabs list what `pac-a` may become.
     t.keys(&["pac-a", "Tab", "Tab"]);
     let screen = t.wait_for("pac-axis-power");
@@ -87,24 +39,24 @@ fn the_shell_completes_runs_survives_failures_and_keeps_its_history() {
     t.keys(&["xe", "Tab", "Enter"]);
     let screen = t.wait_for("300.0 AE");
     assert!(screen.contains("pac-axes"), "completed to pac-axes:\n{screen}");
-    t.prompts(3);
+    prompts(&t, 3);
     // Ctrl-C at the prompt clears the line; nothing runs.
     t.keys(&["get-config -m 17", "C-c"]);
-    t.prompts(4);
+    prompts(&t, 4);
     // A failure is said, and the shell goes on.
     t.keys(&["state -m 9", "Enter"]);
     t.wait_for("no answer from module 9");
-    t.prompts(5);
+    prompts(&t, 5);
     // Ctrl-C during a motion halts it; the shell goes on.
     t.keys(&["home -m 17 --wait", "Enter"]);
     std::thread::sleep(Duration::from_millis(400));
     t.keys(&["C-c"]);
     let screen = t.wait_for("halted: `halt -m 17`");
     assert!(screen.contains("stopped by SIGINT"), "{screen}");
-    t.prompts(6);
+    prompts(&t, 6);
     t.keys(&["get-param -m 17 CubeState", "Enter"]);
     t.wait_for("CubeState  0x27");
-    t.prompts(7);
+    prompts(&t, 7);
     assert!(!t.capture().contains("Config 0x"), "the cleared line never ran:\n{}", t.capture());
     // Ctrl-D ends the shell with 0.
     t.keys(&["C-d"]);
@@ -119,25 +71,10 @@ fn the_shell_completes_runs_survives_failures_and_keeps_its_history() {
     // A new shell starts from that history: Up brings the last line back.
     t.keys(&["clear", "Enter"]);
     t.keys(&[&format!("{} --link sim shell", env!("CARGO_BIN_EXE_axisctl")), "Enter"]);
-    t.prompts(1);
+    prompts(&t, 1);
     t.keys(&["Up"]);
     t.wait_for(&format!("{PROMPT} get-param -m 17 CubeState"));
     t.keys(&["C-c", "C-d"]);
-}
-
-/// The pid of the program running in the pane's bash.
-fn shell_pid(t: &Tmux) -> i32 {
-    let bash = Command::new("tmux").args(["display-message", "-p", "-t", &t.session, "#{pane_pid}"]).output().unwrap();
-    let bash = String::from_utf8_lossy(&bash.stdout).trim().to_string();
-    let deadline = Instant::now() + Duration::from_secs(10);
-    loop {
-        let out = Command::new("pgrep").args(["-P", &bash, "axisctl"]).output().unwrap();
-        if let Ok(pid) = String::from_utf8_lossy(&out.stdout).trim().parse() {
-            return pid;
-        }
-        assert!(Instant::now() < deadline, "no axisctl under bash {bash}");
-        std::thread::sleep(Duration::from_millis(50));
-    }
 }
 
 // An emergency halt from another terminal sends SIGTERM to the process
@@ -146,14 +83,14 @@ fn shell_pid(t: &Tmux) -> i32 {
 #[test]
 fn sigterm_at_the_prompt_halts_what_the_shell_moved_and_ends_it() {
     let state = tempfile::tempdir().unwrap();
-    let t = Tmux::start(state.path(), "term");
+    let t = terminal(state.path(), "term");
     t.wait_for("READY$");
     t.keys(&[&format!("{} --link sim shell", env!("CARGO_BIN_EXE_axisctl")), "Enter"]);
-    t.prompts(1);
+    prompts(&t, 1);
     t.keys(&["move-vel -m 3 0.1", "Enter"]);
     t.wait_for("acknowledged");
-    t.prompts(2);
-    unsafe { libc::kill(shell_pid(&t), libc::SIGTERM) };
+    prompts(&t, 2);
+    unsafe { libc::kill(t.program_pid(), libc::SIGTERM) };
     let screen = t.wait_for("halted: `halt -m 3`");
     assert!(screen.contains("stopped by SIGTERM after line 1"), "{screen}");
     t.wait_until("the return to bash", |s| s.matches("READY$").count() >= 2);

@@ -1,6 +1,8 @@
 //! Shared helpers for the CLI tests: run the real binary, serve the bench.
 #![allow(dead_code)]
 
+pub mod tmux;
+
 use std::io::{BufRead, BufReader};
 use std::process::{Child, Command, Output, Stdio};
 
