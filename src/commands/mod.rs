@@ -12,6 +12,7 @@ mod names;
 mod pac;
 mod powercube;
 mod sim;
+mod sim_tap;
 mod takeover;
 mod wait;
 
