@@ -318,6 +318,13 @@ def cdios_status_figure(slcan_link, n):
     sample_load()
 
 
+def with_format(link, fmt):
+    """`link` with an explicit serial format, unless it has one."""
+    if "format=" in link:
+        return link
+    return f"{link}{'&' if '?' in link else '?'}format={fmt}"
+
+
 def cargo_bench_poll(*args, env=None):
     out = subprocess.run(
         ["cargo", "bench", "--quiet", "--bench", "poll", "--", *map(str, args)],
@@ -560,7 +567,9 @@ def run_all(args):
                 (
                     "rs232_poll_pac",
                     "PA-CONTROL over RS232 9600 baud 7N1 (pty)",
-                    full.links["pac"],
+                    # The harness reads a link without a format as 8N1 (PowerCube); sim leaves the
+                    # PA-CONTROL's default 7N1 out of the link it announces.
+                    with_format(full.links["pac"], "7N1"),
                     [],
                     "half duplex: ~17-char command + ~19-char acknowledge at 9 bits ≈ 34 ms per read",
                 ),
