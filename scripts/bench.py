@@ -158,7 +158,7 @@ def codec_figures():
     facts.update(
         codec_min=fmt_s(min(codec.values())),
         codec_max=fmt_s(max(codec.values())),
-        codec_slowest=slowest[0].lower() + slowest[1:],
+        codec_slowest=slowest,
         shortest_frame=fmt_s(can_req),
     )
     session = []
