@@ -22,11 +22,15 @@ fn main() {
     println!("cargo:rerun-if-changed=build.rs");
     // A new commit moves HEAD or the branch it points to: both are watched
     // (in a worktree HEAD lives in its own git dir, branches in the common one).
+    // Only files that exist: cargo takes a missing one as changed, and would
+    // build again at every invocation (a repository without packed-refs).
     if let (Some(dir), Some(common)) = (git(&["rev-parse", "--git-dir"]), git(&["rev-parse", "--git-common-dir"])) {
-        println!("cargo:rerun-if-changed={}", PathBuf::from(&dir).join("HEAD").display());
+        let mut watched = vec![PathBuf::from(&dir).join("HEAD"), PathBuf::from(&common).join("packed-refs")];
         if let Some(branch) = git(&["symbolic-ref", "-q", "HEAD"]) {
-            println!("cargo:rerun-if-changed={}", PathBuf::from(&common).join(branch).display());
+            watched.push(PathBuf::from(&common).join(branch));
         }
-        println!("cargo:rerun-if-changed={}", PathBuf::from(&common).join("packed-refs").display());
+        for path in watched.iter().filter(|p| p.exists()) {
+            println!("cargo:rerun-if-changed={}", path.display());
+        }
     }
 }

@@ -186,6 +186,11 @@ impl Opener {
         self
     }
 
+    /// Where `--log` appends the traffic, if anywhere.
+    pub fn log_path(&self) -> Option<&std::path::Path> {
+        self.log.as_deref()
+    }
+
     /// Runs the `sim` bench at wire speed ([`WireSpeed::from_env`]).
     pub fn with_wire_speed(mut self, wire: Result<Option<WireSpeed>, String>) -> Self {
         self.wire = wire;

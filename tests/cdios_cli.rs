@@ -184,18 +184,67 @@ fn sent_frames(link: &str, args: &[&str]) -> (i32, Vec<String>) {
     (r.code, frames)
 }
 
+/// The logged frames of one command: the host's (0x000, 0x201) and the
+/// node's answers (0x181), in order.
+fn logged_frames(link: &str, args: &[&str]) -> (Run, Vec<String>) {
+    let dir = tempfile::tempdir().unwrap();
+    let log = dir.path().join("can.log");
+    let mut full = vec!["--link", link, "--log", log.to_str().unwrap()];
+    full.extend_from_slice(args);
+    let r = run(&full);
+    let text = std::fs::read_to_string(&log).unwrap_or_default();
+    let frames = text.lines().filter_map(|l| l.split_whitespace().last()).map(str::to_string).collect();
+    (r, frames)
+}
+
+/// A node that does not answer (pre-operational, as after power-up: the
+/// simulated node ignores commands until NMT start) is started and given its
+/// settle time; the motion goes out only after the node has answered. A
+/// running node gets no NMT start: one read asks it, then the command.
+#[test]
+fn a_motion_goes_only_to_a_node_that_answered_and_a_running_node_gets_no_nmt() {
+    let sim = cdios_sim();
+    let link = sim.link("cdios");
+    let (r, frames) = logged_frames(link, &["--trace", "cdios-enable", "-m", "0"]);
+    ok(&r, "enable");
+    let probe = "201#2600000000000000";
+    let at = |f: &str| frames.iter().position(|x| x == f);
+    let enable = at("201#2400000005000000").expect("enable sent");
+    let nmt = at("000#0101").expect("NMT start sent");
+    assert_eq!(frames[..nmt], [probe], "first the probe, unanswered: {frames:?}");
+    let answer = frames.iter().position(|f| f.starts_with("181#26")).expect("the probe answered");
+    assert!(nmt < answer && answer < enable, "NMT, the answer, then the motion: {frames:?}");
+    assert_eq!(frames[nmt + 1], probe, "{frames:?}");
+    assert!(r.stderr.contains("NMT start node 1"), "{}", r.stderr);
+    // Running now: no NMT, one read, then the command.
+    let (r, frames) = logged_frames(link, &["cdios-disable", "-m", "0"]);
+    ok(&r, "disable");
+    assert!(!frames.iter().any(|f| f.starts_with("000#")), "{frames:?}");
+    assert_eq!(frames.iter().filter(|f| f.starts_with("201#")).collect::<Vec<_>>(), [probe, "201#2500000500000000"]);
+    assert!(frames[1].starts_with("181#26"), "the probe's answer before the command: {frames:?}");
+}
+
 #[test]
 fn every_command_sends_the_manual_bytes() {
     let sim = cdios_sim();
     let link = sim.link("cdios");
     let nmt = "000#0101";
-    // (args, accepted exit codes, expected sent frames; a trailing ".." means "then more")
+    // The status read of module 0 that asks the node first; the read of the
+    // identify (selector 0) when the controller is addressed.
+    let probe = "201#2600000000000000";
+    let id0 = "201#01FF000000000000";
+    // (args, accepted exit codes, expected sent frames; a trailing ".." means "then more").
+    // The simulated node starts pre-operational: the first command's probe goes
+    // unanswered, so NMT start, then the probe again; from then on the node
+    // runs and every command is its probe (or its own status read) and its bytes.
     let cases: &[(&[&str], &[i32], &[&str])] = &[
         (
             &["cdios-identify"],
             &[0],
             &[
+                id0,
                 nmt,
+                id0,
                 "201#01FF000000000000",
                 "201#01FF010000000000",
                 "201#01FF020000000000",
@@ -206,24 +255,24 @@ fn every_command_sends_the_manual_bytes() {
                 "201#01FF070000000000",
             ],
         ),
-        (&["cdios-status", "-m", "0"], &[0], &[nmt, "201#2600000000000000", "201#2600020000000000"]),
-        (&["cdios-position", "-m", "0", "--source", "setpoint"], &[0], &[nmt, "201#2100020000000000"]),
+        (&["cdios-status", "-m", "0"], &[0], &["201#2600000000000000", "201#2600020000000000"]),
+        (&["cdios-position", "-m", "0", "--source", "setpoint"], &[0], &[probe, "201#2100020000000000"]),
         (
             &["cdios-position", "-m", "0", "--all"],
             &[0],
-            &[nmt, "201#2100000000000000", "201#2100010000000000", "201#2100020000000000"],
+            &[probe, "201#2100000000000000", "201#2100010000000000", "201#2100020000000000"],
         ),
         // 22h, -1200 = FFFFFB50 little-endian.
-        (&["cdios-set-position", "-m", "0", "-1200"], &[0], &[nmt, "201#22000050FBFFFF00"]),
+        (&["cdios-set-position", "-m", "0", "-1200"], &[0], &[probe, "201#22000050FBFFFF00"]),
         // 24h option 5.
-        (&["cdios-enable", "-m", "0"], &[0], &[nmt, "201#2400000005000000"]),
+        (&["cdios-enable", "-m", "0"], &[0], &[probe, "201#2400000005000000"]),
         // The configured speeds are read (20h selector 80h) to check --speed against them, then
         // 23h selector 8 (speed 500 = 01F4), then selector 0 (1000 = 03E8), then the wait's reads.
         (
             &["cdios-goto", "-m", "0", "1000", "--speed", "500", "--wait"],
             &[0],
             &[
-                nmt,
+                probe,
                 "201#2000800000000000",
                 "201#230008F401000000",
                 "201#230000E803000000",
@@ -235,38 +284,38 @@ fn every_command_sends_the_manual_bytes() {
         (
             &["cdios-goto", "-m", "0", "1000", "--speed", "500", "--force", "--wait"],
             &[0],
-            &[nmt, "201#230008F401000000", "201#230000E803000000", "201#2100020000000000", ".."],
+            &[probe, "201#230008F401000000", "201#230000E803000000", "201#2100020000000000", ".."],
         ),
         // Selector 2: relative to the current position, -200 = FFFFFF38.
-        (&["cdios-goto", "-m", "0", "-200", "--relative"], &[0], &[nmt, "201#23000238FFFFFF00"]),
-        (&["cdios-stop", "-m", "0", "--option", "fast"], &[0, 5], &[nmt, "201#2500000200000000"]),
+        (&["cdios-goto", "-m", "0", "-200", "--relative"], &[0], &[probe, "201#23000238FFFFFF00"]),
+        (&["cdios-stop", "-m", "0", "--option", "fast"], &[0, 5], &[probe, "201#2500000200000000"]),
         // Selector 5: setpoint relative, latched (moves on SYNC only).
-        (&["cdios-goto", "-m", "0", "300", "--setpoint-relative", "--latched"], &[0], &[nmt, "201#2300052C01000000"]),
-        (&["cdios-traject", "-m", "0", "1"], &[0, 5], &[nmt, "201#2300060100000000"]),
+        (&["cdios-goto", "-m", "0", "300", "--setpoint-relative", "--latched"], &[0], &[probe, "201#2300052C01000000"]),
+        (&["cdios-traject", "-m", "0", "1"], &[0, 5], &[probe, "201#2300060100000000"]),
         // 24h reverse, option 3, MotorSpeed 1000.
         (
             &["cdios-start", "-m", "0", "--option", "to-speed", "--speed", "1000", "--direction", "reverse"],
             &[0, 5],
-            &[nmt, "201#2400000103E80300"],
+            &[probe, "201#2400000103E80300"],
         ),
-        (&["cdios-stop", "-m", "0"], &[0, 5], &[nmt, "201#2500000100000000"]),
-        (&["cdios-disable", "-m", "0"], &[0], &[nmt, "201#2500000500000000"]),
+        (&["cdios-stop", "-m", "0"], &[0, 5], &[probe, "201#2500000100000000"]),
+        (&["cdios-disable", "-m", "0"], &[0], &[probe, "201#2500000500000000"]),
         // 20h selector 0 is written whole: minimum 50 (0032), maximum 8000 (1F40), slope 20.
         (
             &["cdios-config", "-m", "0", "slope=20"],
             &[0],
-            &[nmt, "201#2000800000000000", "201#2000003200401F14", "201#2000800000000000"],
+            &[probe, "201#2000800000000000", "201#2000003200401F14", "201#2000800000000000"],
         ),
         (
             &["cdios-outputs", "-m", "0", "--set", "0b0101", "--latched"],
             &[0],
-            &[nmt, "201#1000010500000000", "201#1000800000000000"],
+            &[probe, "201#1000010500000000", "201#1000800000000000"],
         ),
         // 16h selector 10h: output 2 direct, -2500 mV = F63C.
         (
             &["cdios-analog", "-m", "0", "--output", "2", "--set", "-2500"],
             &[0],
-            &[nmt, "201#1600103CF6000000", "201#1600900000000000"],
+            &[probe, "201#1600103CF6000000", "201#1600900000000000"],
         ),
         // 27h: mask 1 bit 7; timers: position interval 6, on change (bit 3).
         (
@@ -282,10 +331,10 @@ fn every_command_sends_the_manual_bytes() {
                 "true",
             ],
             &[0],
-            &[nmt, "201#2700800000000000", "201#270000800000000E", "201#2700800000000000"],
+            &[probe, "201#2700800000000000", "201#270000800000000E", "201#2700800000000000"],
         ),
-        (&["cdios-store", "-m", "0", "--defaults"], &[0], &[nmt, "201#0500014344530000"]),
-        (&["cdios-watch", "-m", "0", "--count", "1"], &[0], &[nmt, "201#2600000000000000", "201#2100000000000000"]),
+        (&["cdios-store", "-m", "0", "--defaults"], &[0], &[probe, "201#0500014344530000"]),
+        (&["cdios-watch", "-m", "0", "--count", "1"], &[0], &[probe, "201#2600000000000000", "201#2100000000000000"]),
         (&["cdios-status", "-m", "0", "--no-nmt"], &[0], &["201#2600000000000000", "201#2600020000000000"]),
     ];
     for (args, codes, want) in cases {

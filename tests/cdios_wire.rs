@@ -69,14 +69,27 @@ fn confirm(line: &str) -> Option<String> {
     line.strip_prefix("t2018").map(|d| format!("t1818{}000000000000", &d[..4]))
 }
 
+/// A node that answers nothing before its NMT start (pre-operational).
+fn after_nmt(started: &mut bool, line: &str) -> Option<String> {
+    *started |= line == "t00020101";
+    if *started {
+        confirm(line)
+    } else {
+        None
+    }
+}
+
 #[test]
 fn goto_sends_nmt_then_the_contract_frame() {
     let (mut r, path) = Responder::new();
     let child = spawn(&["--link", &format!("slcan:{path}"), "--json", "cdios-goto", "-m", "1", "--node", "1", "5000"]);
-    let (code, out, err) = r.serve(child, confirm);
+    let mut started = false;
+    let (code, out, err) = r.serve(child, |l| after_nmt(&mut started, l));
     assert_eq!(code, 0, "{err}");
-    // NMT start node 1 (`000#0101`), then 23h selector 0, module 1, 5000 = 0x1388 little-endian.
-    assert_eq!(r.frames(), ["t00020101", "t20182301008813000000"]);
+    // The status read of module 1 goes unanswered, so NMT start node 1 (`000#0101`), the read
+    // again (answered), then 23h selector 0, module 1, 5000 = 0x1388 little-endian.
+    let probe = "t20182601000000000000";
+    assert_eq!(r.frames(), [probe, "t00020101", probe, "t20182301008813000000"]);
     let doc: serde_json::Value = serde_json::from_str(&out).unwrap();
     assert_eq!(
         (doc["node"].as_u64(), doc["module"].as_u64(), doc["requested"].as_i64()),
@@ -103,14 +116,23 @@ fn no_nmt_and_node_id_move_the_can_ids() {
 fn an_error_reply_is_exit_5_with_the_bits_decoded_and_motion_is_not_repeated() {
     let (mut r, path) = Responder::new();
     let child = spawn(&["--link", &format!("slcan:{path}"), "--json", "cdios-goto", "-m", "1", "-200"]);
-    // Manual 23h error A3h: error status bit 7 "Motor is not enabled".
-    let (code, out, err) = r.serve(child, |l| l.starts_with("t201").then(|| "t1818A301000080000000".to_string()));
+    // The node runs: it answers the status read that asks it first. Then the
+    // manual's 23h error A3h: error status bit 7 "Motor is not enabled".
+    let (code, out, err) = r.serve(child, |l| {
+        l.starts_with("t201").then(|| {
+            if l.starts_with("t201826") {
+                confirm(l).unwrap()
+            } else {
+                "t1818A301000080000000".to_string()
+            }
+        })
+    });
     assert_eq!(code, 5, "{out} {err}");
     assert!(out.is_empty());
     let doc: serde_json::Value = serde_json::from_str(err.trim()).unwrap();
     assert_eq!(doc["error"]["kind"], "device");
     assert!(doc["error"]["message"].as_str().unwrap().contains("MOTOR_NOT_ENABLED"), "{err}");
-    assert_eq!(r.frames(), ["t00020101", "t201823010038FFFFFF00"]);
+    assert_eq!(r.frames(), ["t20182601000000000000", "t201823010038FFFFFF00"], "no NMT start, the goto once");
 }
 
 #[test]

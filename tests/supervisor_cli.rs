@@ -194,7 +194,9 @@ fn pac_lost_move_acknowledge_under_wait_stops_the_axis_and_says_so() {
 /// took the goto, so it must be stopped and the message must say so.
 #[test]
 fn cdios_lost_goto_answer_under_wait_stops_the_motor_and_says_so() {
-    let s = Sim::start(&["--cdios", "pty-slcan", "--fault", "drop=1,skip=1,count=1"], 1);
+    // Answers: the enable's status read and the enable, the goto's status read, then the
+    // goto's answer is lost.
+    let s = Sim::start(&["--cdios", "pty-slcan", "--fault", "drop=1,skip=3,count=1"], 1);
     let link = s.link("cdios");
     let on = run_bounded(&["--link", link, "cdios-enable", "-m", "0"]);
     assert_eq!(on.code, 0, "{}", on.stderr);
@@ -390,10 +392,13 @@ fn pac_a_signal_during_the_checks_before_the_move_sends_no_move() {
 }
 
 /// The same on Cdios: the signal comes during the 100 ms the node is given
-/// to settle after its NMT start, before the goto; no goto goes out.
+/// to settle after its NMT start, before the goto; no goto goes out. The
+/// node runs (the enable started it), so the goto's status read would get no
+/// NMT start: its answer is lost (`drop`, after the enable's two answers),
+/// and a node that does not answer is started again.
 #[test]
 fn cdios_a_signal_while_the_node_starts_sends_no_goto() {
-    let s = Sim::start(&["--cdios", "pty-slcan"], 1);
+    let s = Sim::start(&["--cdios", "pty-slcan", "--fault", "drop=1,skip=2,count=1"], 1);
     let link = s.link("cdios");
     let on = run_bounded(&["--link", link, "cdios-enable", "-m", "0"]);
     assert_eq!(on.code, 0, "{}", on.stderr);

@@ -684,6 +684,7 @@ fn watch(
     }
     let (node, m) = (node_id(&t.node), module_id(&t));
     let mut node_ops = open(ctx, &t.node)?;
+    node_ops.ready(m)?;
     let s = node_ops.session();
     super::arm_interrupt()?;
     let clock = Arc::clone(s.clock());

@@ -329,7 +329,15 @@ mod tests {
         let server = {
             let (cubes, stop) = (axisctl::sim::bench::PowerCubeRs232(Arc::clone(&bench.powercube)), Arc::clone(&stop));
             std::thread::spawn(move || {
-                axisctl::sim::serve::serial(Box::new(master), cubes, clock, &stop, None, Default::default())
+                axisctl::sim::serve::serial(
+                    Box::new(master),
+                    cubes,
+                    clock,
+                    &stop,
+                    None,
+                    Default::default(),
+                    Default::default(),
+                )
             })
         };
         let dir = tempfile::tempdir().unwrap();

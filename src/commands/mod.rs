@@ -17,6 +17,7 @@ mod powercube;
 mod record;
 mod shell;
 mod sim;
+mod sim_tap;
 mod takeover;
 mod wait;
 

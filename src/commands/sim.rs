@@ -12,6 +12,7 @@ use axisctl::sim::bench::{Bench, BenchConfig, PowerCubeRs232};
 use axisctl::sim::fault::{ByteFaults, ByteProtocol, FaultSpec, Injector, Trip};
 use axisctl::sim::serve;
 
+use super::sim_tap::{self, Protocol};
 use super::{usage, Ctx};
 use crate::cli::SimArgs;
 
@@ -142,40 +143,58 @@ pub fn run(ctx: &Ctx, args: &SimArgs) -> anyhow::Result<()> {
         ctrlc::set_handler(move || stop.store(true, Ordering::SeqCst))
             .context("installing the SIGINT/SIGTERM handler")?;
     }
+    // One log line per frame or chunk, each link under a name of its own.
+    let mut names = std::collections::HashMap::<&str, usize>::new();
+    let mut log = |kind: &'static str| -> anyhow::Result<Option<link::log::TrafficLog>> {
+        let Some(path) = ctx.opener().log_path() else { return Ok(None) };
+        let n = names.entry(kind).or_default();
+        let iface = format!("{kind}{n}");
+        *n += 1;
+        Ok(Some(link::log::TrafficLog::append(path, &iface)?))
+    };
+    let tap = |link: &str, protocol, log| sim_tap::tap(link, protocol, ctx.trace, log);
     let mut threads = Vec::new();
     for (w, families) in served {
         let announce_all = |link: &str| families.iter().for_each(|f| announce(*f, link));
         match w {
             Where::PtySerial => {
                 let (master, path) = link::pty::open_pair()?;
-                announce_all(&serial_uri(&path, args.baud, Family::PowerCube));
+                let uri = serial_uri(&path, args.baud, Family::PowerCube);
+                announce_all(&uri);
+                let tap = tap(&uri, Protocol::PowerCube, log("serial")?);
                 let (pc, clock, stop) = (Arc::clone(&bench.powercube), Arc::clone(&ctx.clock), Arc::clone(&stop));
                 let (pace, noise) = (pace(serial_format(Family::PowerCube)), noise(ByteProtocol::PowerCube, 1));
                 threads.push(std::thread::spawn(move || {
-                    serve::serial(Box::new(master), PowerCubeRs232(pc), clock, &stop, pace, noise)
+                    serve::serial(Box::new(master), PowerCubeRs232(pc), clock, &stop, pace, noise, tap)
                 }));
             }
             Where::PtySlcan => {
                 let (master, path) = link::pty::open_pair()?;
-                announce_all(&format!("slcan:{path}"));
+                let uri = format!("slcan:{path}");
+                announce_all(&uri);
+                let tap = tap(&uri, Protocol::Can, log("slcan")?);
                 let (client, stop) = (bench.bus.open(), Arc::clone(&stop));
-                threads.push(std::thread::spawn(move || serve::slcan(Box::new(master), client, &stop)));
+                threads.push(std::thread::spawn(move || serve::slcan(Box::new(master), client, &stop, tap)));
             }
             Where::SocketCan(iface) => {
                 let spec = LinkSpec::SocketCan { iface: iface.clone() };
                 let ext = ctx.opener().can(&spec, None).with_context(|| format!("opening {spec}"))?;
                 announce_all(&spec.to_string());
+                // The interface's link logs its frames itself (`--log`).
+                let tap = tap(&spec.to_string(), Protocol::Can, None);
                 let (client, stop) = (bench.bus.open(), Arc::clone(&stop));
-                threads.push(std::thread::spawn(move || serve::bridge(ext, client, &stop)));
+                threads.push(std::thread::spawn(move || serve::bridge(ext, client, &stop, tap)));
             }
         }
     }
     if let Some(Where::PtySerial) = pac_where {
         let (master, path) = link::pty::open_pair()?;
-        announce(Family::Pac, &serial_uri(&path, args.baud, Family::Pac));
+        let uri = serial_uri(&path, args.baud, Family::Pac);
+        announce(Family::Pac, &uri);
+        let tap = tap(&uri, Protocol::Pac, log("serial")?);
         let (pac, clock, stop) = (Arc::clone(&bench.pac), Arc::clone(&ctx.clock), Arc::clone(&stop));
         let (pace, noise) = (pace(serial_format(Family::Pac)), noise(ByteProtocol::Pac, 2));
-        threads.push(std::thread::spawn(move || serve::serial(Box::new(master), pac, clock, &stop, pace, noise)));
+        threads.push(std::thread::spawn(move || serve::serial(Box::new(master), pac, clock, &stop, pace, noise, tap)));
     }
     // The links could not be printed (a full disk): nobody can learn them,
     // so serving on would only hang. A reader that took the lines it wanted

@@ -145,6 +145,14 @@ pub struct Slot {
     pub version: i64,
 }
 
+/// A probe's outcome: any answer, a refusal too, says the node runs.
+fn answered(r: Result<Option<StatusReport>, SessionError>) -> Result<Option<StatusReport>, Error> {
+    match r {
+        Err(SessionError::Device { .. } | SessionError::Malformed { .. }) => Ok(None),
+        other => Ok(other?),
+    }
+}
+
 /// The 6168 modules of one node.
 pub struct Node {
     s: Cdios,
@@ -176,6 +184,7 @@ impl Node {
     /// switched off).
     pub fn send(&mut self, m: ModuleId, cmds: &[Command]) -> Result<bool, Error> {
         check(cmds, m)?;
+        self.ready(m)?;
         let mut confirmed = true;
         for c in cmds {
             confirmed &= self.s.transact(self.node, Address::Module(m), c)?.is_some();
@@ -188,9 +197,11 @@ impl Node {
     /// stopped (up to `stop_attempts` times) before the error is returned.
     /// An error reply from the node needs no stop.
     pub fn send_supervised(&mut self, m: ModuleId, cmds: &[Command], stop_attempts: u32) -> Result<bool, Error> {
-        // The node's start (NMT and its settle time) comes first: a signal
-        // during it means the motion is not sent at all.
-        self.s.start_node(self.node)?;
+        // The node has answered (after its NMT start and settle time, if it
+        // needed one) before the last look: a signal until then means the
+        // motion is not sent at all.
+        check(cmds, m)?;
+        self.ready(m)?;
         if supervisor::stop_requested() {
             return Err(Error::InterruptedBefore { node: self.node, module: m });
         }
@@ -204,21 +215,69 @@ impl Node {
         }
     }
 
+    /// Makes sure the node runs before its first command, without the
+    /// 100 ms of an NMT start each time: a status read of `m` asks it first,
+    /// once, without retries. Only when nothing answers does the node get
+    /// the NMT start and its settle time, then the read again, which must be
+    /// answered (with the read retries). So a running node costs one read,
+    /// and no command, motion above all, goes to a node that has not
+    /// answered. Nothing is asked when the node answered before or the
+    /// caller said it runs (`--no-nmt`).
+    pub fn ready(&mut self, m: ModuleId) -> Result<(), Error> {
+        self.wake(Address::Module(m)).map(drop)
+    }
+
+    /// [`Self::ready`] with a read of `address`; `Some`: the status of the
+    /// module asked, read just now.
+    fn wake(&mut self, address: Address) -> Result<Option<StatusReport>, Error> {
+        if !self.s.needs_start(self.node) {
+            return Ok(None);
+        }
+        // The probe must go out without the session's own NMT start.
+        self.s.mark_running(self.node);
+        self.s.set_retry(RetryPolicy { read_retries: 0 });
+        let first = self.probe(address);
+        self.s.set_retry(self.retry);
+        match first {
+            Err(SessionError::Timeout { .. }) => {}
+            other => return answered(other),
+        }
+        self.s.send_start(self.node)?;
+        let second = answered(self.probe(address));
+        if second.is_err() {
+            self.s.forget_running(self.node);
+        }
+        second
+    }
+
+    fn probe(&mut self, address: Address) -> Result<Option<StatusReport>, SessionError> {
+        match address {
+            Address::Module(m) => self.s.read_status(self.node, m).map(Some),
+            Address::Controller => self.s.read(self.node, address, &Command::Identify { selector: 0 }).map(|_| None),
+        }
+    }
+
     pub fn status(&mut self, m: ModuleId) -> Result<StatusReport, Error> {
+        if let Some(r) = self.wake(Address::Module(m))? {
+            return Ok(r);
+        }
         Ok(self.s.read_status(self.node, m)?)
     }
 
     /// Motor speed and RPM error.
     pub fn speed(&mut self, m: ModuleId) -> Result<(i64, i64), Error> {
+        self.ready(m)?;
         Ok(self.s.read_speed(self.node, m)?)
     }
 
     pub fn position(&mut self, m: ModuleId, source: PositionSource) -> Result<i32, Error> {
+        self.ready(m)?;
         Ok(self.s.read_position(self.node, m, source)?)
     }
 
     /// The controller's module slots (eight identify reads of two slots).
     pub fn identify(&mut self) -> Result<Vec<Slot>, Error> {
+        self.wake(Address::Controller)?;
         let mut out = Vec::new();
         for selector in 0..=7u8 {
             let r = self.s.read(self.node, Address::Controller, &Command::Identify { selector })?;
@@ -237,6 +296,7 @@ impl Node {
 
     /// One burst per poll: status, speed, position, setpoint.
     pub fn poll(&mut self, m: ModuleId) -> Result<Reading, Error> {
+        self.ready(m)?;
         let replies = self.s.read_many(
             self.node,
             Address::Module(m),
@@ -262,6 +322,7 @@ impl Node {
     /// (or is refused by the controller), so each is read once, without
     /// retries; a link failure ends the scan.
     pub fn scan(&mut self) -> Result<Vec<ModuleId>, Error> {
+        self.wake(Address::Controller)?;
         self.s.set_retry(RetryPolicy { read_retries: 0 });
         let mut found = Vec::new();
         let mut failed = None;

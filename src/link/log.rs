@@ -98,6 +98,18 @@ impl TrafficLog {
         self.line(format_bytes_line(secs, micros, dir, bytes))
     }
 
+    /// [`Self::bytes`] with the interface before the direction, for a log of
+    /// several serial lines (`axisctl sim --log`): `(secs.micros) serial1 tx 02 06`.
+    pub fn bytes_on_iface(&self, dir: Direction, bytes: &[u8]) -> Result<(), LinkError> {
+        if bytes.is_empty() {
+            return Ok(());
+        }
+        let (secs, micros) = now();
+        let line = format_bytes_line(secs, micros, dir, bytes);
+        let (time, rest) = line.split_once(' ').unwrap_or((&line, ""));
+        self.line(format!("{time} {} {rest}", self.iface))
+    }
+
     fn line(&self, mut line: String) -> Result<(), LinkError> {
         line.push('\n');
         // A panic elsewhere while holding the lock leaves the file usable.

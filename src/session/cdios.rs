@@ -161,13 +161,36 @@ impl Cdios {
 
     /// Sends NMT start to `node` and waits the settle time, once per node.
     pub fn start_node(&mut self, node: NodeId) -> Result<(), SessionError> {
-        if !self.nmt || self.started.contains(&node) {
+        if !self.needs_start(node) {
             return Ok(());
         }
+        self.send_start(node)
+    }
+
+    /// Whether the next command to `node` would go after an NMT start.
+    pub fn needs_start(&self, node: NodeId) -> bool {
+        self.nmt && !self.started.contains(&node)
+    }
+
+    /// `node` answered, so it runs: no NMT start goes to it.
+    pub fn mark_running(&mut self, node: NodeId) {
+        if !self.started.contains(&node) {
+            self.started.push(node);
+        }
+    }
+
+    /// `node` did not answer after all: the next command starts it again.
+    pub fn forget_running(&mut self, node: NodeId) {
+        self.started.retain(|n| *n != node);
+    }
+
+    /// NMT start to `node` and its settle time, whatever was sent before
+    /// (a node that stopped answering may have been stopped or reset).
+    pub fn send_start(&mut self, node: NodeId) -> Result<(), SessionError> {
         let frame = transport::nmt_start(node);
         self.core.trace(|| TraceEvent::Sent(format!("{frame:<22} NMT start node {node}")));
         self.link.send(&frame)?;
-        self.started.push(node);
+        self.mark_running(node);
         // The node takes no commands before it has settled; events it sends
         // meanwhile are kept.
         self.listen(Duration::from_millis(transport::START_DELAY_MS))

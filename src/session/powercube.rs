@@ -64,6 +64,12 @@ impl PowerCube {
     /// the request's wire time plus this, not the whole timeout).
     pub fn set_answer_start_timeout(&mut self, t: Option<Duration>) {
         self.answer_start = t;
+        // Said in the trace: the scan's figures (scripts/bench.py) are computed with it.
+        if let Some(t) = t {
+            let (ms, timeout) = (t.as_secs_f64() * 1e3, self.core.timeout.as_secs_f64() * 1e3);
+            self.core
+                .trace(|| TraceEvent::Note(format!("answer-start window {ms:.3} ms (answer timeout {timeout:.3} ms)")));
+        }
     }
 
     pub fn is_can(&self) -> bool {

@@ -12,6 +12,7 @@ use crate::clock::Clock;
 use crate::link::mem::{ByteDevice, MemCanLink};
 use crate::link::{ByteLink, CanLink, LinkError, SerialFormat};
 use crate::proto::slcan::{AckStyle, Adapter};
+use crate::proto::CanFrame;
 
 /// How long a serving loop blocks before it looks at the bus again.
 const TICK: Duration = Duration::from_millis(1);
@@ -28,6 +29,49 @@ impl Pace {
     }
 }
 
+/// Which way traffic went on a served link, named as its client sees it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Way {
+    /// Sent by the client: a request.
+    FromClient,
+    /// Sent to the client: an answer, an event, an adapter's reply.
+    ToClient,
+}
+
+/// What went over a served link.
+#[derive(Debug, Clone, Copy)]
+pub enum Traffic<'a> {
+    Can(&'a CanFrame),
+    /// Serial bytes as one chunk: all a read brought, or a whole answer
+    /// (before its character times on a paced line).
+    Bytes(&'a [u8]),
+}
+
+/// Hears the traffic of one served link (`axisctl sim --trace` / `--log`);
+/// the default hears nothing.
+#[derive(Default)]
+pub struct Tap(Option<Box<Listener>>);
+
+type Listener = dyn FnMut(Way, Traffic<'_>) + Send;
+
+impl Tap {
+    pub fn new(f: impl FnMut(Way, Traffic<'_>) + Send + 'static) -> Self {
+        Self(Some(Box::new(f)))
+    }
+
+    fn hear(&mut self, way: Way, t: Traffic<'_>) {
+        if let Some(f) = self.0.as_mut() {
+            f(way, t);
+        }
+    }
+
+    fn bytes(&mut self, way: Way, b: &[u8]) {
+        if !b.is_empty() {
+            self.hear(way, Traffic::Bytes(b));
+        }
+    }
+}
+
 /// A device at the far end of a serial line: bytes in, answer bytes out.
 pub type ByteHandler<'a> = dyn FnMut(Instant, &[u8], &mut Vec<u8>) + 'a;
 
@@ -40,6 +84,7 @@ pub fn bytes(
     clock: &dyn Clock,
     stop: &AtomicBool,
     pace: Option<Pace>,
+    tap: &mut Tap,
 ) -> Result<(), LinkError> {
     let mut buf = [0u8; 256];
     let mut out = Vec::new();
@@ -47,6 +92,7 @@ pub fn bytes(
     let mut tx_free = clock.now();
     while !stop.load(Ordering::Relaxed) {
         let n = link.read(&mut buf, Duration::from_millis(20))?;
+        tap.bytes(Way::FromClient, &buf[..n]);
         // Called on a quiet line too: time passes for whoever inspects the device.
         let mut at = clock.now();
         if let Some(p) = pace.filter(|_| n > 0) {
@@ -55,6 +101,7 @@ pub fn bytes(
             sleep_until(clock, at);
         }
         device(at, &buf[..n], &mut out);
+        tap.bytes(Way::ToClient, &out);
         match pace {
             None => link.write_all(&out)?,
             Some(p) => {
@@ -123,16 +170,22 @@ pub fn serial(
     stop: &AtomicBool,
     pace: Option<Pace>,
     mut noise: Noise,
+    mut tap: Tap,
 ) -> Result<(), LinkError> {
     let mut device = |now, bytes: &[u8], out: &mut Vec<u8>| {
         dev.on_bytes(now, bytes, out);
         noise.apply(now, out);
     };
-    self::bytes(link, &mut device, clock.as_ref(), stop, pace)
+    self::bytes(link, &mut device, clock.as_ref(), stop, pace, &mut tap)
 }
 
 /// An slcan adapter on a byte link, with `client` as its view of the bus.
-pub fn slcan(mut link: Box<dyn ByteLink>, mut client: MemCanLink, stop: &AtomicBool) -> Result<(), LinkError> {
+pub fn slcan(
+    mut link: Box<dyn ByteLink>,
+    mut client: MemCanLink,
+    stop: &AtomicBool,
+    mut tap: Tap,
+) -> Result<(), LinkError> {
     let mut adapter = Adapter::new(AckStyle::default());
     let mut buf = [0u8; 512];
     let mut out = Vec::new();
@@ -141,9 +194,11 @@ pub fn slcan(mut link: Box<dyn ByteLink>, mut client: MemCanLink, stop: &AtomicB
         let n = link.read(&mut buf, client.until_next_due(TICK))?;
         adapter.handle_host_bytes(&buf[..n]);
         while let Some(frame) = adapter.poll_transmit() {
+            tap.hear(Way::FromClient, Traffic::Can(&frame));
             client.send(&frame)?;
         }
         while let Some(frame) = client.recv(Duration::ZERO)? {
+            tap.hear(Way::ToClient, Traffic::Can(&frame));
             adapter.bus_frame(&frame);
         }
         // One write for all lines: the host wakes once per burst, not once per line.
@@ -159,12 +214,19 @@ pub fn slcan(mut link: Box<dyn ByteLink>, mut client: MemCanLink, stop: &AtomicB
 }
 
 /// Bridges a real CAN interface and the simulated bus.
-pub fn bridge(mut ext: Box<dyn CanLink>, mut client: MemCanLink, stop: &AtomicBool) -> Result<(), LinkError> {
+pub fn bridge(
+    mut ext: Box<dyn CanLink>,
+    mut client: MemCanLink,
+    stop: &AtomicBool,
+    mut tap: Tap,
+) -> Result<(), LinkError> {
     while !stop.load(Ordering::Relaxed) {
         if let Some(frame) = ext.recv(client.until_next_due(TICK))? {
+            tap.hear(Way::FromClient, Traffic::Can(&frame));
             client.send(&frame)?;
         }
         while let Some(frame) = client.recv(Duration::ZERO)? {
+            tap.hear(Way::ToClient, Traffic::Can(&frame));
             ext.send(&frame)?;
         }
     }
@@ -207,7 +269,9 @@ mod tests {
         let stop = Arc::new(AtomicBool::new(false));
         let server = {
             let (c, clock, stop) = (Arc::clone(&controller), Arc::clone(&clock), Arc::clone(&stop));
-            std::thread::spawn(move || serial(Box::new(master), c, clock, &stop, None, Noise::default()))
+            std::thread::spawn(move || {
+                serial(Box::new(master), c, clock, &stop, None, Noise::default(), Tap::default())
+            })
         };
         let mut client = SerialLink::open(&path, 9600, SerialFormat::F7N1).unwrap();
         client.write_all(&hex("01 02 30 36 30 33 3B 30 3B 30 3B 30 03 31 34 04")).unwrap();

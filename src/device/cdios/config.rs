@@ -121,6 +121,7 @@ impl Request {
 impl Node {
     /// Reads the parts of the named groups, in table order.
     pub fn read_config(&mut self, m: ModuleId, groups: &[String]) -> Result<Vec<(ServoPart, DecodedReply)>, Error> {
+        self.ready(m)?;
         let mut out = Vec::new();
         for part in ServoPart::all().into_iter().filter(|p| groups.contains(&group_of(*p))) {
             out.push((part, self.s.read(self.node, Address::Module(m), &Command::ReadServoConfig(part))?));
@@ -135,6 +136,7 @@ impl Node {
         m: ModuleId,
         changes: &BTreeMap<u8, (ServoPart, Assignments)>,
     ) -> Result<Vec<String>, Error> {
+        self.ready(m)?;
         let mut writes = Vec::new();
         for (part, new) in changes.values() {
             let r = self.s.read(self.node, Address::Module(m), &Command::ReadServoConfig(*part))?;

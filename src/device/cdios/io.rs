@@ -151,6 +151,7 @@ impl Node {
         if let Some(o) = set {
             self.send(m, &[Command::SetDigitalOutputs { latched, outputs: o }])?;
         }
+        self.ready(m)?;
         let r = self.s.read(self.node, Address::Module(m), &Command::GetDigitalOutputs)?;
         Ok(r.get("state").unwrap_or(0) as u8)
     }
@@ -165,6 +166,7 @@ impl Node {
         if let Some(c) = set {
             self.send(m, &[c])?;
         }
+        self.ready(m)?;
         let mut list = Vec::new();
         for &o in outs {
             let r = self.s.read(self.node, Address::Module(m), &Command::ReadAnalogOutput { output: o })?;
@@ -174,6 +176,7 @@ impl Node {
     }
 
     fn read_events(&mut self, m: ModuleId) -> Result<EventSetup, Error> {
+        self.ready(m)?;
         let r = self.s.read(self.node, Address::Module(m), &Command::ReadEventMask)?;
         let g = |k: &str| r.get(k).unwrap_or(0);
         Ok(EventSetup {

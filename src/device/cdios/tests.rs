@@ -30,6 +30,12 @@ fn id(m: u8) -> ModuleId {
 }
 
 impl Rig {
+    /// NMT start straight to the simulated node: it runs before the test.
+    fn start_sim_node(&self) {
+        let start = crate::proto::cdios::transport::nmt_start(NodeId::new(1).unwrap());
+        lock(&self.bench.cdios).handle_can(self.clock.now(), &start, &mut Vec::new());
+    }
+
     fn motor(&self, m: u8) -> (bool, f64) {
         let mut node = lock(&self.bench.cdios);
         node.poll(self.clock.now(), &mut Vec::new());
@@ -182,11 +188,10 @@ fn a_supervised_motion_that_loses_its_answer_is_fast_stopped_and_a_refused_one_i
     r.node.send(id(1), &enable_commands(false)).unwrap();
     let shared: Arc<dyn Clock> = Arc::new(r.clock.clone());
     let link = crate::device::tests::Recording { inner: Box::new(r.bench.bus.open()), sent: Arc::clone(&r.sent) };
-    let mut blind = Node::new(
-        Cdios::new(Box::new(LosesAnswers(link))).with_clock(shared),
-        NodeId::new(1).unwrap(),
-        RetryPolicy::default(),
-    );
+    // The node answered before (this link loses answers from now on).
+    let mut s = Cdios::new(Box::new(LosesAnswers(link))).with_clock(shared);
+    s.mark_running(NodeId::new(1).unwrap());
+    let mut blind = Node::new(s, NodeId::new(1).unwrap(), RetryPolicy::default());
     let e = blind.send_supervised(id(1), &goto, 2).unwrap_err();
     assert!(matches!(e, Error::LostTrack { stop_failed: Some(_), .. }), "{e:?}");
     r.clock.advance(Duration::from_millis(500));
@@ -313,8 +318,72 @@ fn a_refused_fast_stop_is_no_failure_only_when_the_status_says_not_running() {
     let r = rig();
     let shared: Arc<dyn Clock> = Arc::new(r.clock.clone());
     let inner = crate::device::tests::Recording { inner: Box::new(r.bench.bus.open()), sent: Arc::clone(&r.sent) };
-    let s = Cdios::new(Box::new(KeepsAnswers { inner, keep: 1 })).with_clock(shared);
+    r.start_sim_node();
+    let mut s = Cdios::new(Box::new(KeepsAnswers { inner, keep: 1 })).with_clock(shared);
+    s.mark_running(NodeId::new(1).unwrap());
     let mut node = Node::new(s, NodeId::new(1).unwrap(), RetryPolicy::default());
     let report = node.halt_all(&[id(0)]);
     assert!(matches!(&report[0].1, Err(Error::Session(SessionError::Device { .. }))), "{report:?}");
+}
+
+fn sent_frames(r: &Rig) -> Vec<String> {
+    lock(&r.sent).iter().map(|f| f.to_string()).collect()
+}
+
+// A node that does not answer (pre-operational: the simulated node ignores
+// commands until started) is asked once, started with NMT, given its 100 ms,
+// asked again, and only then sent the command.
+#[test]
+fn a_silent_node_is_started_then_asked_again_before_the_command() {
+    let mut r = rig();
+    let t0 = r.clock.now();
+    r.node.send(id(0), &enable_commands(false)).unwrap();
+    assert_eq!(
+        sent_frames(&r),
+        ["201#2600000000000000", "000#0101", "201#2600000000000000", "201#2400000005000000"],
+        "probe, NMT start, probe, enable"
+    );
+    assert!(r.clock.now() - t0 >= Duration::from_millis(200), "the probe's timeout, then the settle time");
+    // Known to run: the next command goes at once.
+    lock(&r.sent).clear();
+    r.node.status(id(0)).unwrap();
+    assert_eq!(sent_frames(&r), ["201#2600000000000000"]);
+}
+
+// A running node answers the first read: no NMT start, and a status read
+// is that very read.
+#[test]
+fn a_running_node_gets_no_nmt_start() {
+    let mut r = rig();
+    r.start_sim_node();
+    let t0 = r.clock.now();
+    r.node.status(id(0)).unwrap();
+    r.node.speed(id(0)).unwrap();
+    r.node.send(id(1), &enable_commands(false)).unwrap();
+    assert_eq!(sent_frames(&r), ["201#2600000000000000", "201#2600020000000000", "201#2401000005000000"]);
+    assert!(r.clock.now() - t0 < Duration::from_millis(100), "no timeout, no settle time");
+    // The controller is asked the same way before an identify.
+    let mut r = rig();
+    r.node.identify().unwrap();
+    assert_eq!(sent_frames(&r)[..3], ["201#01FF000000000000", "000#0101", "201#01FF000000000000"]);
+}
+
+// A node that never answers gets no motion at all, supervised or not.
+#[test]
+fn a_node_that_never_answers_is_sent_no_motion() {
+    let r = rig();
+    let shared: Arc<dyn Clock> = Arc::new(r.clock.clone());
+    let link = crate::device::tests::Recording { inner: Box::new(r.bench.bus.open()), sent: Arc::clone(&r.sent) };
+    let mut blind = Node::new(
+        Cdios::new(Box::new(LosesAnswers(link))).with_clock(shared),
+        NodeId::new(1).unwrap(),
+        RetryPolicy::default(),
+    );
+    let goto = goto_commands(GotoMode::Absolute, 1_000_000, None).unwrap();
+    let e = blind.send_supervised(id(0), &goto, 2).unwrap_err();
+    assert!(matches!(e, Error::Session(SessionError::Timeout { .. })), "{e:?}");
+    let e = blind.send(id(0), &goto).unwrap_err();
+    assert!(matches!(e, Error::Session(SessionError::Timeout { .. })), "{e:?}");
+    let gotos = lock(&r.sent).iter().filter(|f| f.data().first() == Some(&0x23)).count();
+    assert_eq!(gotos, 0, "{:?}", sent_frames(&r));
 }

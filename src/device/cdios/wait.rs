@@ -57,6 +57,7 @@ impl Node {
     /// The configured 'Positioning Error' (20h selector 83h): how near a
     /// goto's target counts as there.
     pub fn positioning_error(&mut self, m: ModuleId) -> Result<i64, Error> {
+        self.ready(m)?;
         let r = self.s.read(self.node, Address::Module(m), &Command::ReadServoConfig(ServoPart::Control))?;
         Ok(r.get("positioning_error").unwrap_or(0))
     }
