@@ -220,7 +220,15 @@ fn every_help_example_under_json_follows_the_schema() {
             let mut args = vec!["--link", "sim"];
             args.extend(words.iter().map(String::as_str).filter(|w| *w != "--json"));
             args.insert(2, "--json");
-            let r = common::run(&args);
+            // Examples write files (`backup --out bench.json`): never into the checkout.
+            let cwd = concat!(env!("CARGO_TARGET_TMPDIR"), "/json-docs-cwd");
+            std::fs::create_dir_all(cwd).unwrap();
+            let out = common::bin().current_dir(cwd).args(&args).output().unwrap();
+            let r = common::Run {
+                code: out.status.code().unwrap_or(-1),
+                stdout: String::from_utf8_lossy(&out.stdout).into(),
+                stderr: String::from_utf8_lossy(&out.stderr).into(),
+            };
             if r.code == 0 {
                 let docs: Vec<(Value, &jsonschema::Validator)> = match serde_json::from_str::<Value>(&r.stdout) {
                     Ok(v) => vec![(v, &document)],

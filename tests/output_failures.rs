@@ -45,7 +45,7 @@ const COMMANDS: &[&[&str]] = &[
     // the bus monitor
     &["monitor", "--from-log", "BUS_LOG", "--stats"],
     // a recording drawn (it writes the SVG, then says so on stdout)
-    &["plot", "docs/examples/step.csv", "--svg", "PLOT_SVG"],
+    &["plot", "STEP_CSV", "--svg", "PLOT_SVG"],
     // the interface itself
     &["completions", "bash"],
     &["man"],
@@ -73,9 +73,14 @@ fn axisctl(json: bool, args: &[&str]) -> Command {
         .map(|a| match *a {
             "BUS_LOG" => bus_log(),
             "PLOT_SVG" => concat!(env!("CARGO_TARGET_TMPDIR"), "/output-failures-plot.svg"),
+            "STEP_CSV" => concat!(env!("CARGO_MANIFEST_DIR"), "/docs/examples/step.csv"),
             a => a,
         })
         .collect();
+    // Examples write files (`backup --out bench.json`): never into the checkout.
+    let cwd = concat!(env!("CARGO_TARGET_TMPDIR"), "/output-failures-cwd");
+    std::fs::create_dir_all(cwd).unwrap();
+    c.current_dir(cwd);
     c.args(["--link", "sim"]);
     if json {
         c.arg("--json");

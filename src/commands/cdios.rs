@@ -13,7 +13,6 @@ use axisctl::proto::cdios::{
     decode_status, Command, Direction, ErrorReply, GotoMode, ModuleId, NodeId, PositionSource, StartOption,
     StatusReport, StopOption, Timers,
 };
-use axisctl::proto::Refusal;
 use axisctl::session::cdios::{Cdios, Event};
 use serde_json::{json, Value};
 
@@ -317,7 +316,7 @@ fn stop(ctx: &Ctx, t: ModuleTarget, cmds: &[Command]) -> anyhow::Result<()> {
         Ok(confirmed) => (confirmed, false),
         // The holder has just stopped the motor itself, and the node refuses
         // to stop a motor that is not running: the state asked for.
-        Err(e) if takeover.is_some() && only_motor_not_running(&e) => (true, true),
+        Err(e) if takeover.is_some() && device::refused_as_not_running(&e) => (true, true),
         Err(e) => return Err(super::takeover::failed(e, takeover.as_ref())),
     };
     let mut extra = json!({});
@@ -339,11 +338,6 @@ fn stop(ctx: &Ctx, t: ModuleTarget, cmds: &[Command]) -> anyhow::Result<()> {
 }
 
 /// A refusal that says nothing but "the motor is not running".
-fn only_motor_not_running(e: &device::Error) -> bool {
-    matches!(e.refusal(), Some(Refusal::Cdios(r))
-        if r.general == 0 && r.unknown_bits.is_empty() && r.errors.iter().map(|b| b.name).eq(["MOTOR_NOT_RUNNING"]))
-}
-
 fn set_position(ctx: &Ctx, t: ModuleTarget, position: i64) -> anyhow::Result<()> {
     let position = device::field_value::<i32>("set_position", "position", position)?;
     let (node, m) = (node_id(&t.node), module_id(&t));

@@ -118,6 +118,14 @@ pub fn stop_command(option: StopOption, latched: bool) -> Command {
 /// The fast stop that halts a motor.
 pub const FAST_STOP: Command = Command::Stop { sync: false, option: StopOption::FastStop };
 
+/// Whether `e` is a module's refusal of a stop because its motor is not
+/// running, and for no other reason: the state the stop asked for. (The
+/// manual's error reply names MOTOR_NOT_RUNNING alone, general code 0.)
+pub fn refused_as_not_running(e: &Error) -> bool {
+    matches!(e.refusal(), Some(crate::proto::Refusal::Cdios(r))
+        if r.general == 0 && r.unknown_bits.is_empty() && r.errors.iter().map(|b| b.name).eq(["MOTOR_NOT_RUNNING"]))
+}
+
 /// How a module took a halt-all.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Stopped {

@@ -104,6 +104,13 @@ fn halt_all_stops_every_running_motor() {
     for (m, res) in r.node.halt_all(&[id(0), id(1)]) {
         assert!(res.is_ok(), "module {m}: {res:?}");
     }
+    // The stop itself is refused, for that reason alone; another refusal
+    // (a goto to a disabled motor) is no stopped motor.
+    let stop = r.node.send(id(0), &[FAST_STOP]).unwrap_err();
+    assert!(refused_as_not_running(&stop), "{stop:?}");
+    r.node.send(id(1), &[stop_command(StopOption::Disable, false)]).unwrap();
+    let goto = r.node.send(id(1), &goto_commands(GotoMode::Absolute, 10, None).unwrap()).unwrap_err();
+    assert!(goto.refusal().is_some() && !refused_as_not_running(&goto), "{goto:?}");
 }
 
 #[test]
