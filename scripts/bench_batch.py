@@ -24,52 +24,14 @@ import tempfile
 import time
 from pathlib import Path
 
+from canwire import wire_bits
+
 ROOT = Path(__file__).resolve().parent.parent
 TARGET = Path(os.environ.get("CARGO_TARGET_DIR", ROOT / "target"))
 AXISCTL = TARGET / "release" / "axisctl"
 BITRATE = 1_000_000
 LINE = "get-param -m 3 ActPos"
 GOAL = 0.90
-
-
-def wire_bits(can_id, data):
-    """A classic frame's bits on the wire (ISO 11898-1): stuffed SOF..CRC,
-    then the 13 unstuffed bits of delimiters, EOF and intermission. The same
-    count as `CanFrame::wire_bits`, which the simulator's wire speed uses."""
-    bits = []
-
-    def push(v, n):
-        bits.extend((v >> i) & 1 for i in range(n - 1, -1, -1))
-
-    push(0, 1)
-    if can_id > 0x7FF:
-        push(can_id >> 18, 11)
-        push(0b11, 2)
-        push(can_id & 0x3FFFF, 18)
-        push(0, 3)
-    else:
-        push(can_id, 11)
-        push(0, 3)
-    push(len(data), 4)
-    for b in data:
-        push(b, 8)
-    crc = 0
-    for bit in bits:
-        top = (crc >> 14) & 1
-        crc = (crc << 1) & 0x7FFF
-        if top != bit:
-            crc ^= 0x4599
-    push(crc, 15)
-    stuffed, run, last = 0, 0, None
-    for b in bits:
-        if b == last:
-            run += 1
-        else:
-            run, last = 1, b
-        if run == 5:
-            stuffed += 1
-            last, run = 1 - b, 1
-    return len(bits) + stuffed + 13
 
 
 CANDUMP = re.compile(r"^\((\d+\.\d+)\) \S+ ([0-9A-Fa-f]+)#([0-9A-Fa-f]*)$")

@@ -25,43 +25,13 @@ import sys
 import tempfile
 from pathlib import Path
 
+from canwire import wire_bits
+
 ROOT = Path(__file__).resolve().parent.parent
 TARGET = Path(os.environ.get("CARGO_TARGET_DIR", ROOT / "target"))
 AXISCTL = TARGET / "release" / "axisctl"
 GOAL = 0.9
-TRAILER_BITS = 13  # CRC delimiter, ACK slot and delimiter, EOF, intermission: never stuffed
 SECONDS = 3.0
-
-
-def can_bits(can_id, data):
-    """Bits of a classic base frame on the wire, stuff bits included, as
-    `CanFrame::wire_bits` counts them (and the simulator at wire speed
-    delays them): SOF, id, RTR/IDE/r0, DLC, data and CRC-15 stuffed, then
-    the unstuffed trailer (CRC delimiter, ACK, EOF, intermission)."""
-    bits = [0]
-    push = lambda v, n: bits.extend((v >> i) & 1 for i in range(n - 1, -1, -1))  # noqa: E731
-    push(can_id, 11)
-    push(0, 3)
-    push(len(data), 4)
-    for b in data:
-        push(b, 8)
-    crc = 0
-    for bit in bits:
-        top = (crc >> 14) & 1
-        crc = (crc << 1) & 0x7FFF
-        if top != bit:
-            crc ^= 0x4599
-    push(crc, 15)
-    stuffed, run, last = 0, 0, None
-    for b in bits:
-        if b == last:
-            run += 1
-        else:
-            run, last = 1, b
-        if run == 5:
-            stuffed += 1
-            last, run = 1 - b, 1
-    return len(bits) + stuffed + TRAILER_BITS
 
 
 def serial_bits_per_char(link):
@@ -95,7 +65,7 @@ def wire_seconds(log, link):
         parts = line.split()
         if len(parts) >= 3 and "#" in parts[2]:
             can_id, data = parts[2].split("#", 1)
-            bits += can_bits(int(can_id, 16), bytes.fromhex(data))
+            bits += wire_bits(int(can_id, 16), bytes.fromhex(data))
     return bits / bitrate(link)
 
 
