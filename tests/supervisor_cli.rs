@@ -25,6 +25,14 @@ fn cube_stands(link: &str) -> bool {
     raw & 0x800 == 0 && raw & 0x4 != 0
 }
 
+/// Each of `modules` stands, halted: HALTED set and no MOTION.
+fn assert_halted(link: &str, modules: &[&str]) {
+    for m in modules {
+        let raw = module_state(link, m);
+        assert!(raw & 0x800 == 0 && raw & 0x4 != 0, "module {m} halted and standing: {raw:#x}");
+    }
+}
+
 const RAMP: [&str; 8] = ["move-ramp", "-m", "3", "2.0", "--vel", "0.2", "--force", "--wait"];
 
 fn ramp_args<'a>(link: &'a str, extra: &[&'a str]) -> Vec<&'a str> {
@@ -248,10 +256,7 @@ fn a_lost_home_acknowledge_of_home_all_under_wait_halts_the_modules_homed_so_far
     let homes: Vec<&str> = r.stderr.lines().filter(|l| l.starts_with("-> ") && l.contains("Home")).collect();
     assert_eq!(homes.len(), 2, "one acknowledged Home each to modules 3 and 5, none to 17: {homes:?}");
     assert!(homes[0].contains("0E3#") && homes[1].contains("0E5#"), "{homes:?}");
-    for m in ["3", "5"] {
-        let raw = module_state(link, m);
-        assert!(raw & 0x800 == 0 && raw & 0x4 != 0, "module {m} halted and standing: {raw:#x}");
-    }
+    assert_halted(link, &["3", "5"]);
 }
 
 /// `home --all --wait` when module 3's presence answer is lost: a Home
@@ -292,10 +297,7 @@ fn a_lost_acknowledge_of_a_sync_load_under_wait_halts_the_loaded_modules() {
         r.stderr
     );
     assert!(!r.stderr.contains("-> 100#"), "no start broadcast: {}", r.stderr);
-    for m in ["3", "5"] {
-        let raw = module_state(link, m);
-        assert!(raw & 0x800 == 0 && raw & 0x4 != 0, "module {m} halted and standing: {raw:#x}");
-    }
+    assert_halted(link, &["3", "5"]);
 }
 
 /// SIGINT while `home --all --wait` waits for module 3: every module of
@@ -308,10 +310,7 @@ fn sigint_during_home_all_wait_halts_every_module_of_the_home() {
     let r = signal_when(&args, "Home to module 17", Duration::from_millis(300), libc::SIGINT);
     assert_eq!((r.code, r.killed_by), (130, None), "{}", r.stderr);
     assert!(r.stderr.contains("interrupted: module 3 halted; modules 5, 17 halted too"), "{}", r.stderr);
-    for m in ["3", "5", "17"] {
-        let raw = module_state(link, m);
-        assert!(raw & 0x800 == 0 && raw & 0x4 != 0, "module {m} halted and standing: {raw:#x}");
-    }
+    assert_halted(link, &["3", "5", "17"]);
 }
 
 /// SIGINT while `home --all --wait` is still sending its Homes (module 5's
@@ -326,10 +325,7 @@ fn sigint_while_home_all_sends_its_homes_sends_no_more_and_halts_those_sent() {
     assert_eq!((r.code, r.killed_by), (130, None), "{}", r.stderr);
     assert!(r.stderr.contains("interrupted before Home to module 17: modules 3, 5 halted"), "{}", r.stderr);
     assert!(!r.stderr.contains("Home to module 17\n"), "no Home to module 17: {}", r.stderr);
-    for m in ["3", "5"] {
-        let raw = module_state(link, m);
-        assert!(raw & 0x800 == 0 && raw & 0x4 != 0, "module {m} halted and standing: {raw:#x}");
-    }
+    assert_halted(link, &["3", "5"]);
 }
 
 /// SIGINT while `move-ramp --sync --wait` loads the targets (module 5's
@@ -349,10 +345,7 @@ fn sigint_during_a_sync_load_sends_no_start_and_halts_the_loaded_modules() {
     assert_eq!((r.code, r.killed_by), (130, None), "{}", r.stderr);
     assert!(r.stderr.contains("interrupted before the StartMotion broadcast: modules 3, 5 halted"), "{}", r.stderr);
     assert!(!r.stderr.contains("-> 100#"), "no start broadcast: {}", r.stderr);
-    for m in ["3", "5"] {
-        let raw = module_state(link, m);
-        assert!(raw & 0x800 == 0 && raw & 0x4 != 0, "module {m} halted and standing: {raw:#x}");
-    }
+    assert_halted(link, &["3", "5"]);
 }
 
 /// A signal while the checks before a motion still read the module (here
