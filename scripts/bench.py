@@ -19,16 +19,14 @@ import os
 import platform
 import re
 import shlex
-import signal
 import statistics
 import subprocess
 import sys
 import time
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parent.parent
-TARGET = Path(os.environ.get("CARGO_TARGET_DIR", ROOT / "target"))
-AXISCTL = TARGET / "release" / "axisctl"
+from benchlib import AXISCTL, ROOT, TARGET, Sim
+
 TEMPLATE = ROOT / "docs" / "performance.md.in"
 
 # References that are not ours to measure, with where they come from.
@@ -106,25 +104,6 @@ def criterion(name):
     if CRITERION_SINCE is None or est.stat().st_mtime < CRITERION_SINCE:
         raise Missing(f"criterion estimate {est} is older than this run (pass --criterion-since, as bench.sh does)")
     return json.loads(est.read_text())["median"]["point_estimate"] * 1e-9
-
-
-class Sim:
-    """`axisctl sim ARGS` in the background; links as announced."""
-
-    def __init__(self, *args):
-        self.proc = subprocess.Popen([AXISCTL, "sim", *args], stdout=subprocess.PIPE, text=True)
-        self.links = {}
-        expect = 3 if not any(a.startswith("--powercube") or a.startswith("--pac") for a in args) else 1
-        while len(self.links) < expect:
-            line = self.proc.stdout.readline()
-            if not line:
-                sys.exit("axisctl sim ended early")
-            d = json.loads(line)
-            self.links[d["family"]] = d["link"]
-
-    def stop(self):
-        self.proc.send_signal(signal.SIGINT)
-        self.proc.wait(timeout=5)
 
 
 def codec_figures():

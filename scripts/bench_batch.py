@@ -16,7 +16,6 @@ and prints them.
 import argparse
 import os
 import re
-import signal
 import statistics
 import subprocess
 import sys
@@ -24,11 +23,8 @@ import tempfile
 import time
 from pathlib import Path
 
-from canwire import wire_bits
+from benchlib import AXISCTL, Sim, wire_bits
 
-ROOT = Path(__file__).resolve().parent.parent
-TARGET = Path(os.environ.get("CARGO_TARGET_DIR", ROOT / "target"))
-AXISCTL = TARGET / "release" / "axisctl"
 BITRATE = 1_000_000
 LINE = "get-param -m 3 ActPos"
 GOAL = 0.90
@@ -118,26 +114,6 @@ def figures(add, links, n=1000):
     )
 
 
-class Sim:
-    """`axisctl sim --wire-speed` in the background; links as announced."""
-
-    def __init__(self):
-        import json
-
-        self.proc = subprocess.Popen([str(AXISCTL), "sim", "--wire-speed"], stdout=subprocess.PIPE, text=True)
-        self.links = {}
-        while len(self.links) < 3:
-            line = self.proc.stdout.readline()
-            if not line:
-                sys.exit("axisctl sim ended early")
-            d = json.loads(line)
-            self.links[d["family"]] = d["link"]
-
-    def stop(self):
-        self.proc.send_signal(signal.SIGINT)
-        self.proc.wait(timeout=5)
-
-
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--lines", type=int, default=1000)
@@ -150,7 +126,7 @@ def main():
         verdict = {True: "pass", False: "FAIL", None: "-"}[ok]
         rows.append((figure, measured, reference, verdict, command, limit))
 
-    sim = Sim()
+    sim = Sim("--wire-speed")
     try:
         figures(add, sim.links, args.lines)
     finally:

@@ -19,17 +19,13 @@ its own simulator and prints the rows.
 import json
 import os
 import re
-import signal
 import subprocess
 import sys
 import tempfile
 from pathlib import Path
 
-from canwire import wire_bits
+from benchlib import AXISCTL, Sim, wire_bits
 
-ROOT = Path(__file__).resolve().parent.parent
-TARGET = Path(os.environ.get("CARGO_TARGET_DIR", ROOT / "target"))
-AXISCTL = TARGET / "release" / "axisctl"
 GOAL = 0.9
 SECONDS = 3.0
 
@@ -138,24 +134,6 @@ def figures(add, links):
     )
 
 
-class Sim:
-    """`axisctl sim --wire-speed` in the background; links as announced."""
-
-    def __init__(self):
-        self.proc = subprocess.Popen([str(AXISCTL), "sim", "--wire-speed"], stdout=subprocess.PIPE, text=True)
-        self.links = {}
-        while len(self.links) < 3:
-            line = self.proc.stdout.readline()
-            if not line:
-                sys.exit("axisctl sim ended early")
-            d = json.loads(line)
-            self.links[d["family"]] = d["link"]
-
-    def stop(self):
-        self.proc.send_signal(signal.SIGINT)
-        self.proc.wait(timeout=5)
-
-
 def main():
     if not AXISCTL.exists():
         sys.exit(f"{AXISCTL} missing: cargo build --release first")
@@ -164,7 +142,7 @@ def main():
     def add(figure, measured, reference, ok, command, limit):
         rows.append((figure, measured, reference, {True: "pass", False: "FAIL", None: "pending"}[ok], command, limit))
 
-    sim = Sim()
+    sim = Sim("--wire-speed")
     try:
         figures(add, sim.links)
     finally:
