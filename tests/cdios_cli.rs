@@ -169,19 +169,8 @@ fn powercube_and_cdios_share_one_slcan_pty() {
 
 /// Sent frames (NMT and commands to node 1) of one command, from its `--log`.
 fn sent_frames(link: &str, args: &[&str]) -> (i32, Vec<String>) {
-    let dir = tempfile::tempdir().unwrap();
-    let log = dir.path().join("can.log");
-    let mut full = vec!["--link", link, "--log", log.to_str().unwrap()];
-    full.extend_from_slice(args);
-    let r = run(&full);
-    let text = std::fs::read_to_string(&log).unwrap_or_default();
-    let frames = text
-        .lines()
-        .filter_map(|l| l.split_whitespace().last())
-        .filter(|f| f.starts_with("000#") || f.starts_with("201#"))
-        .map(str::to_string)
-        .collect();
-    (r.code, frames)
+    let (r, frames) = logged_frames(link, args);
+    (r.code, frames.into_iter().filter(|f| f.starts_with("000#") || f.starts_with("201#")).collect())
 }
 
 /// The logged frames of one command: the host's (0x000, 0x201) and the
