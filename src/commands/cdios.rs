@@ -182,8 +182,10 @@ fn status(ctx: &Ctx, t: ModulesTarget) -> anyhow::Result<()> {
         let r = s.status(m)?;
         let (speed, rpm_error) = s.speed(m)?;
         if ctx.json {
-            let (speed, rpm_error) =
-                (output::with_unit(json!(speed), "rpm"), output::with_unit(json!(rpm_error), "rpm"));
+            let (speed, rpm_error) = (
+                output::with_unit(json!(speed), table::SPEED_UNIT),
+                output::with_unit(json!(rpm_error), table::SPEED_UNIT),
+            );
             return Ok(doc(
                 ctx,
                 node,
@@ -395,7 +397,7 @@ fn goto(
     let confirmed = if wait.wait { s.send_supervised(m, &cmds, 1 + ctx.retry.read_retries) } else { s.send(m, &cmds) }?;
     let mut extra = json!({"mode": device::mode_name(mode), "requested": position});
     if let Some(v) = speed {
-        extra["speed"] = output::with_unit(json!(v), "rpm");
+        extra["speed"] = output::with_unit(json!(v), table::SPEED_UNIT);
     }
     if !wait.wait {
         report_sent(ctx, node, m, "cdios-goto", confirmed, extra);

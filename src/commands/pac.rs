@@ -18,7 +18,7 @@ use std::time::Duration;
 use axisctl::device::pac::{self as device, Controller, Element, Register};
 use axisctl::family::Family;
 use axisctl::open::Takeover;
-use axisctl::proto::pac::table::{self, CommandDef, ExtAxisStatus};
+use axisctl::proto::pac::table::{self, CommandDef, ExtAxisStatus, POSITION_UNIT, SPEED_UNIT};
 use axisctl::proto::pac::{Ack, CheckRule, Command, Par2};
 use axisctl::session::pac::Progress;
 use serde_json::json;
@@ -340,7 +340,7 @@ fn move_axis(
         let (position, status) = (p.position, p.status);
         reporter.report(
             axis,
-            json!({"position": crate::output::with_unit(json!(position), "AE"), "axis_status": status,
+            json!({"position": crate::output::with_unit(json!(position), POSITION_UNIT), "axis_status": status,
                    "elapsed_ms": p.elapsed.as_millis() as u64}),
             format!("axis {axis} -> {target}: position {position:.3}  {}", table::axis_status_text(status)),
         );
@@ -442,10 +442,6 @@ fn axis_json(ctx: &Ctx, d: &mut Controller, axis: u8) -> anyhow::Result<serde_js
               "traverse_max": output::with_unit(json!(max), POSITION_UNIT)}),
     ))
 }
-
-/// The manual's user units (AE) of positions and speeds.
-const POSITION_UNIT: &str = "AE";
-const SPEED_UNIT: &str = "AE/s";
 
 /// The extended axis status (1921, manual 5.2.4.28) in the one `state`
 /// shape. Its bytes are fields, not bits: the mask of a flag is the byte

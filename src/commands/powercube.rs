@@ -249,11 +249,12 @@ fn info(ctx: &Ctx, cubes: &mut Cubes, m: ModuleId) -> anyhow::Result<serde_json:
     let config_word = num(2) as u32;
     let cube = num(16) as u32;
     let version = num(1) as u16;
+    let linear = device::is_linear(config_word);
     let kind = kind_of(config_word);
     if ctx.json {
         let mut params = serde_json::Map::new();
         for (d, v) in defs.iter().zip(&vals) {
-            params.insert(d.name.into(), param_json(d, kind, serde_json::to_value(v)?));
+            params.insert(d.name.into(), param_json(d, linear, serde_json::to_value(v)?));
         }
         return Ok(doc(
             ctx,
@@ -269,7 +270,7 @@ fn info(ctx: &Ctx, cubes: &mut Cubes, m: ModuleId) -> anyhow::Result<serde_json:
     let mut t = vec![["PARAMETER", "VALUE", "UNIT"].map(String::from).to_vec()];
     for (d, v) in defs.iter().zip(&vals).skip(3).take(13) {
         match v {
-            Some(v) => t.push(vec![d.name.into(), v.to_string(), unit_for(d, kind)]),
+            Some(v) => t.push(vec![d.name.into(), v.to_string(), d.unit_for(linear).into()]),
             None => t.push(vec![d.name.into(), format!("- (firmware {})", version_text(version)), String::new()]),
         }
     }
@@ -279,16 +280,8 @@ fn info(ctx: &Ctx, cubes: &mut Cubes, m: ModuleId) -> anyhow::Result<serde_json:
 }
 
 /// A parameter in the one value shape, as `info` and `get-param` give it.
-fn param_json(d: &ParamDef, kind: &str, value: serde_json::Value) -> serde_json::Value {
-    json!({"id": d.id, "type": d.ty.name(), "unit": unit_for(d, kind), "value": value})
-}
-
-/// The table's "rad|m" units, resolved for the module's kind.
-fn unit_for(d: &ParamDef, kind: &str) -> String {
-    match d.unit.split_once('|') {
-        Some((rot, lin)) => (if kind == "linear" { lin } else { rot }).into(),
-        None => d.unit.into(),
-    }
+fn param_json(d: &ParamDef, linear: bool, value: serde_json::Value) -> serde_json::Value {
+    json!({"id": d.id, "type": d.ty.name(), "unit": d.unit_for(linear), "value": value})
 }
 
 fn show_state(ctx: &Ctx, cubes: &mut Cubes, m: ModuleId) -> anyhow::Result<serde_json::Value> {
@@ -631,11 +624,11 @@ fn get_param(
     let mut with_config = defs.to_vec();
     with_config.push(param(ids::CONFIG));
     let mut vals = cubes.get_params(m, &with_config, all)?;
-    let kind = vals.pop().map_or("rotary", |(_, c)| kind_of(f64_of(&c) as u32));
+    let linear = vals.pop().is_some_and(|(_, c)| device::is_linear(f64_of(&c) as u32));
     if ctx.json {
         let mut params = serde_json::Map::new();
         for (d, v) in &vals {
-            params.insert(d.name.into(), param_json(d, kind, serde_json::to_value(v)?));
+            params.insert(d.name.into(), param_json(d, linear, serde_json::to_value(v)?));
         }
         return Ok(doc(ctx, m, json!({ "params": params })));
     }
@@ -644,7 +637,13 @@ fn get_param(
     }
     let mut rows = vec![["PARAMETER", "ID", "TYPE", "VALUE", "UNIT"].map(String::from).to_vec()];
     for (d, v) in &vals {
-        rows.push(vec![d.name.into(), format!("{:#04x}", d.id), d.ty.name().into(), v.to_string(), unit_for(d, kind)]);
+        rows.push(vec![
+            d.name.into(),
+            format!("{:#04x}", d.id),
+            d.ty.name().into(),
+            v.to_string(),
+            d.unit_for(linear).into(),
+        ]);
     }
     output::table(&rows, ctx.style);
     Ok(serde_json::Value::Null)

@@ -8,6 +8,9 @@ use std::time::{Duration, Instant};
 
 use super::source::Snapshot;
 use super::worker::MAX_RATE;
+use crate::proto::cdios::table as cdios;
+use crate::proto::pac::table as pac;
+use crate::proto::powercube::table::{self, ids};
 
 /// How far back the chart looks.
 pub const WINDOW: Duration = Duration::from_secs(30);
@@ -41,15 +44,18 @@ pub struct Units {
 pub fn motion(snap: &Snapshot) -> Option<(Units, [f64; 2], Option<f64>)> {
     match snap {
         Snapshot::Cube(c) => {
-            let (pos, vel) = if c.linear { ("m", "m/s") } else { ("rad", "rad/s") };
+            let unit = |id| table::param(id).map_or("", |d| d.unit_for(c.linear));
+            let (pos, vel) = (unit(ids::ACT_POS), unit(ids::ACT_VEL));
             Some((Units { pos, vel, cur: Some("A"), decimals: 4 }, [c.pos, c.vel], Some(c.cur)))
         }
         // The manual's user units (AE), as `pac-state` reports them.
-        Snapshot::PacAxis(a) => {
-            Some((Units { pos: "AE", vel: "AE/s", cur: None, decimals: 3 }, [a.position, a.speed], None))
-        }
+        Snapshot::PacAxis(a) => Some((
+            Units { pos: pac::POSITION_UNIT, vel: pac::SPEED_UNIT, cur: None, decimals: 3 },
+            [a.position, a.speed],
+            None,
+        )),
         Snapshot::Cdios(c) => Some((
-            Units { pos: "counts", vel: "rpm", cur: None, decimals: 0 },
+            Units { pos: "counts", vel: cdios::SPEED_UNIT, cur: None, decimals: 0 },
             [c.position as f64, c.speed as f64],
             None,
         )),

@@ -259,6 +259,10 @@ const ROW: CommandDef = CommandDef {
     description: "",
 };
 
+/// The unit of motor speeds and RPM errors (26h); positions are motor
+/// counts, which the manual gives no unit.
+pub const SPEED_UNIT: &str = "rpm";
+
 // ---- Command codes ----
 
 pub const IDENTIFY: u8 = 0x01;

@@ -345,6 +345,10 @@ const fn waiting(def: CommandDef, completion: Completion) -> CommandDef {
 /// The highest axis number the protocol can address.
 pub const MAX_AXES: u8 = 16;
 
+/// The manual's user units (AE) of an axis position, and of its speed.
+pub const POSITION_UNIT: &str = "AE";
+pub const SPEED_UNIT: &str = "AE/s";
+
 const HOME: Modes = Modes::HOME;
 const ALL: Modes = Modes::ALL;
 const AUTO: Modes = Modes::AUTOMATIC;

@@ -239,6 +239,23 @@ pub struct ParamDef {
     pub description: &'static str,
 }
 
+impl ParamDef {
+    /// The unit for a module of this kind: the table's "rad|m" reads "rad"
+    /// on a rotary module and "m" on a linear one.
+    pub fn unit_for(&self, linear: bool) -> &'static str {
+        match self.unit.split_once('|') {
+            Some((rotary, lin)) => {
+                if linear {
+                    lin
+                } else {
+                    rotary
+                }
+            }
+            None => self.unit,
+        }
+    }
+}
+
 use Access as Acc;
 use ParamClass as Cls;
 use ParamType as Ty;
@@ -620,6 +637,14 @@ pub mod ids {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_unit_follows_the_module_kind_where_the_table_gives_two() {
+        let unit = |id, linear| PARAMS.iter().find(|p| p.id == id).unwrap().unit_for(linear);
+        assert_eq!((unit(ids::ACT_POS, false), unit(ids::ACT_POS, true)), ("rad", "m"));
+        assert_eq!((unit(ids::ACT_VEL, false), unit(ids::ACT_VEL, true)), ("rad/s", "m/s"));
+        assert_eq!((unit(ids::CUR, false), unit(ids::CUR, true)), ("A", "A"));
+    }
 
     #[test]
     fn measurements_come_with_firmware_4_6_01() {
