@@ -57,20 +57,7 @@ fn main() -> ExitCode {
             ExitCode::from(e.downcast_ref::<commands::Reported>().map_or(1, |r| r.0))
         }
         Err(e) => {
-            // An interruption that no signal caused came from a failed
-            // output or a panic (also one before the motion frame left, so
-            // nothing was sent): said and exited as such, 1, not 130.
-            let e = match (commands::classify(&e), supervisor::caught()) {
-                (ErrorKind::Interrupted, None) => commands::stopped_by_output(e),
-                _ => e,
-            };
-            let kind = commands::classify(&e);
-            // A supervised motion that a signal ended exits like the signal
-            // would have (130 SIGINT, 143 SIGTERM, 129 SIGHUP, 131 SIGQUIT).
-            let code = match (kind, supervisor::caught()) {
-                (ErrorKind::Interrupted, Some(sig)) => supervisor::exit_code(sig),
-                _ => commands::exit::code(kind),
-            };
+            let (e, kind, code) = commands::exit::classify_failure(e);
             if json {
                 let refusal = commands::refusal(&e);
                 let doc = commands::error_json::failure(

@@ -179,15 +179,7 @@ impl<'a> Engine<'a> {
     /// Reports a failed line and returns its exit code, the one a one-shot
     /// run of it would have exited with.
     pub fn failed(&mut self, n: usize, text: &str, e: anyhow::Error) -> u8 {
-        let e = match (super::classify(&e), supervisor::caught()) {
-            (ErrorKind::Interrupted, None) => super::stopped_by_output(e),
-            _ => e,
-        };
-        let kind = super::classify(&e);
-        let code = match (kind, supervisor::caught()) {
-            (ErrorKind::Interrupted, Some(sig)) => supervisor::exit_code(sig),
-            _ => exit::code(kind),
-        };
+        let (e, kind, code) = exit::classify_failure(e);
         let message = error_json::message(&e);
         if self.ctx.json {
             let doc = error_json::failure(kind.as_str(), code, message, super::refusal(&e).as_ref());

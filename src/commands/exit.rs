@@ -1,6 +1,7 @@
 //! The exit codes of `cli-contract.md`, declared once: `main` exits with
 //! them and `--help` lists them from here.
 
+use axisctl::device::supervisor;
 use axisctl::session::ErrorKind;
 
 /// Each failure class, its exit code and how `--help` says it.
@@ -18,6 +19,26 @@ pub const SUCCESS: u8 = 0;
 
 pub fn code(kind: ErrorKind) -> u8 {
     CODES.iter().find(|(k, _, _)| *k == kind).map_or(1, |(_, c, _)| *c)
+}
+
+/// Classifies a failure once for `main` and for each `batch` line: the
+/// error to report (possibly reworded), its kind and its exit code.
+pub fn classify_failure(e: anyhow::Error) -> (anyhow::Error, ErrorKind, u8) {
+    // An interruption that no signal caused came from a failed output or a
+    // panic (also one before the motion frame left, so nothing was sent):
+    // said and exited as such, 1, not 130.
+    let e = match (super::classify(&e), supervisor::caught()) {
+        (ErrorKind::Interrupted, None) => super::stopped_by_output(e),
+        _ => e,
+    };
+    let kind = super::classify(&e);
+    // A supervised motion that a signal ended exits like the signal would
+    // have (130 SIGINT, 143 SIGTERM, 129 SIGHUP, 131 SIGQUIT).
+    let code = match (kind, supervisor::caught()) {
+        (ErrorKind::Interrupted, Some(sig)) => supervisor::exit_code(sig),
+        _ => code(kind),
+    };
+    (e, kind, code)
 }
 
 /// `Exit codes: 0 ok, 1 other failure, ...` for `--help`.

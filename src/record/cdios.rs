@@ -31,7 +31,7 @@ impl CdiosValue {
     }
 
     pub fn parse(text: &str) -> Option<Self> {
-        Self::ALL.into_iter().find(|v| v.name().eq_ignore_ascii_case(text))
+        super::by_name(&Self::ALL, Self::name, text)
     }
 
     fn unit(self) -> &'static str {

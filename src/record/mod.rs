@@ -53,6 +53,12 @@ impl Address {
     }
 }
 
+/// The value among `all` that `text` names, case aside: the one parse of
+/// each family's value names.
+fn by_name<T: Copy>(all: &[T], name: fn(T) -> &'static str, text: &str) -> Option<T> {
+    all.iter().copied().find(|v| name(*v).eq_ignore_ascii_case(text))
+}
+
 /// One recorded value: a device, the value's name and its unit.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Channel {

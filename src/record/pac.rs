@@ -27,7 +27,7 @@ impl PacValue {
     }
 
     pub fn parse(text: &str) -> Option<Self> {
-        Self::ALL.into_iter().find(|v| v.name().eq_ignore_ascii_case(text))
+        super::by_name(&Self::ALL, Self::name, text)
     }
 
     fn unit(self) -> &'static str {
