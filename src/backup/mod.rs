@@ -292,6 +292,33 @@ impl ValueResult {
     }
 }
 
+/// What a restore does with one setting before any write: nothing for a
+/// setting kept for information, a finished result for one skipped as
+/// invalid or already holding the file's value, else the setting to write
+/// with its result so far. Every family decides it the same way.
+pub(crate) enum Step<'a> {
+    Done(ValueResult),
+    Write(&'a Setting, ValueResult),
+}
+
+pub(crate) fn step<'a>(
+    file: &'a Device,
+    live: &Device,
+    name: &str,
+    skip: &std::collections::BTreeSet<String>,
+) -> Option<Step<'a>> {
+    let s = file.settings.get(name).filter(|s| s.restore)?;
+    let before = live.settings.get(name).map_or(serde_json::Value::Null, |l| l.value.clone());
+    let r = ValueResult::new(name, &s.unit, &s.value, &before);
+    Some(if skip.contains(name) {
+        Step::Done(r.skipped("invalid (see the problems); not written"))
+    } else if same_value(&s.value, &before) {
+        Step::Done(r)
+    } else {
+        Step::Write(s, r)
+    })
+}
+
 /// The file's device's identity against the live device's: the keys that
 /// differ (a restore refuses them unless told which device to write to).
 pub fn identity_mismatch(file: &Device, live: &Device, keys: &[&str]) -> Vec<String> {
