@@ -319,6 +319,25 @@ pub(crate) fn step<'a>(
     })
 }
 
+/// What the file alone shows wrong with a device's settings, by its
+/// family's rules; a restore refuses them before the link opens.
+pub fn check_file(dev: &Device) -> Vec<Problem> {
+    match dev.family {
+        Family::PowerCube => powercube::check_file(dev),
+        Family::Pac => pac::check_file(dev),
+        Family::Cdios => cdios::check_file(dev),
+    }
+}
+
+/// The identity keys a restore compares.
+pub fn identity_keys(f: Family) -> &'static [&'static str] {
+    match f {
+        Family::PowerCube => &powercube::IDENTITY,
+        Family::Pac => &pac::IDENTITY,
+        Family::Cdios => &cdios::IDENTITY,
+    }
+}
+
 /// The file's device's identity against the live device's: the keys that
 /// differ (a restore refuses them unless told which device to write to).
 pub fn identity_mismatch(file: &Device, live: &Device, keys: &[&str]) -> Vec<String> {
