@@ -178,11 +178,7 @@ pub fn restore(
 ) -> Result<Vec<ValueResult>, Error> {
     ensure_at_rest(node, m)?;
     let mut out = Vec::new();
-    let result = |name: &str| {
-        let s = &file.settings[name];
-        let before = live.settings.get(name).map_or(serde_json::Value::Null, |l| l.value.clone());
-        ValueResult::new(name, &s.unit, &s.value, &before)
-    };
+    let result = |name: &str| ValueResult::against(name, &file.settings[name], live);
     // Servo configuration, one selector at a time.
     let changes = servo_changes(file, live, skip);
     // Every field gets its result here: unchanged unless written below.

@@ -270,6 +270,12 @@ impl ValueResult {
         }
     }
 
+    /// The file's setting against the live device's value, before any write.
+    fn against(name: &str, s: &Setting, live: &Device) -> Self {
+        let before = live.settings.get(name).map_or(serde_json::Value::Null, |l| l.value.clone());
+        Self::new(name, &s.unit, &s.value, &before)
+    }
+
     fn skipped(mut self, why: &str) -> Self {
         self.outcome = Outcome::Skipped;
         self.message = Some(why.into());
@@ -308,11 +314,10 @@ pub(crate) fn step<'a>(
     skip: &std::collections::BTreeSet<String>,
 ) -> Option<Step<'a>> {
     let s = file.settings.get(name).filter(|s| s.restore)?;
-    let before = live.settings.get(name).map_or(serde_json::Value::Null, |l| l.value.clone());
-    let r = ValueResult::new(name, &s.unit, &s.value, &before);
+    let r = ValueResult::against(name, s, live);
     Some(if skip.contains(name) {
         Step::Done(r.skipped("invalid (see the problems); not written"))
-    } else if same_value(&s.value, &before) {
+    } else if same_value(&s.value, &r.before) {
         Step::Done(r)
     } else {
         Step::Write(s, r)
