@@ -15,7 +15,7 @@
 use std::collections::{BTreeMap, BTreeSet};
 
 use crate::device::cdios::config::{self as servo, Assignments};
-use crate::device::cdios::{field_value, Error, EventChange, Node};
+use crate::device::cdios::{field_value, Error, EventChange, EventSetup, Node};
 use crate::family::Family;
 use crate::proto::cdios::table::STATUS_FLAGS;
 use crate::proto::cdios::{ModuleId, ServoConfig, ServoPart};
@@ -36,6 +36,21 @@ fn event_names() -> impl Iterator<Item = String> {
     MASKS.iter().chain(&TIMERS).map(|k| format!("events.{k}"))
 }
 
+/// An event setup's values in the order of [`event_names`].
+fn event_values(ev: &EventSetup) -> [i64; 8] {
+    let t = ev.timers;
+    [
+        ev.masks[0].into(),
+        ev.masks[1].into(),
+        ev.masks[2].into(),
+        ev.masks[3].into(),
+        t.position_interval.into(),
+        t.position_on_change.into(),
+        t.speed_interval.into(),
+        t.speed_on_change.into(),
+    ]
+}
+
 /// Reads one module: identity from the controller's slot, then its servo
 /// configuration, event setup and outputs.
 pub fn capture(node: &mut Node, m: ModuleId, ty: i64, version: i64, link: &str) -> Result<Device, Error> {
@@ -53,18 +68,7 @@ pub fn capture(node: &mut Node, m: ModuleId, ty: i64, version: i64, link: &str) 
         }
     }
     let ev = node.events(m, &EventChange::default())?;
-    let t = ev.timers;
-    let values: [i64; 8] = [
-        ev.masks[0].into(),
-        ev.masks[1].into(),
-        ev.masks[2].into(),
-        ev.masks[3].into(),
-        t.position_interval.into(),
-        t.position_on_change.into(),
-        t.speed_interval.into(),
-        t.speed_on_change.into(),
-    ];
-    for (name, v) in event_names().zip(values) {
+    for (name, v) in event_names().zip(event_values(&ev)) {
         dev.settings.insert(name, Setting::new(v.into(), "", true));
     }
     let out = node.outputs(m, None, false)?;
@@ -174,11 +178,7 @@ pub fn restore(
 ) -> Result<Vec<ValueResult>, Error> {
     ensure_at_rest(node, m)?;
     let mut out = Vec::new();
-    let result = |name: &str| {
-        let s = &file.settings[name];
-        let before = live.settings.get(name).map_or(serde_json::Value::Null, |l| l.value.clone());
-        ValueResult::new(name, &s.unit, &s.value, &before)
-    };
+    let result = |name: &str| ValueResult::against(name, &file.settings[name], live);
     // Servo configuration, one selector at a time.
     let changes = servo_changes(file, live, skip);
     // Every field gets its result here: unchanged unless written below.
@@ -253,20 +253,7 @@ pub fn restore(
             r
         } else {
             match ev_results.as_ref().expect("written when changed") {
-                Ok(ev) => {
-                    let t = ev.timers;
-                    let held: [i64; 8] = [
-                        ev.masks[0].into(),
-                        ev.masks[1].into(),
-                        ev.masks[2].into(),
-                        ev.masks[3].into(),
-                        t.position_interval.into(),
-                        t.position_on_change.into(),
-                        t.speed_interval.into(),
-                        t.speed_on_change.into(),
-                    ];
-                    r.read_back(held[i].into())
-                }
+                Ok(ev) => r.read_back(event_values(ev)[i].into()),
                 Err(e) => r.failed(e, e.kind()),
             }
         });

@@ -270,6 +270,12 @@ impl ValueResult {
         }
     }
 
+    /// The file's setting against the live device's value, before any write.
+    fn against(name: &str, s: &Setting, live: &Device) -> Self {
+        let before = live.settings.get(name).map_or(serde_json::Value::Null, |l| l.value.clone());
+        Self::new(name, &s.unit, &s.value, &before)
+    }
+
     fn skipped(mut self, why: &str) -> Self {
         self.outcome = Outcome::Skipped;
         self.message = Some(why.into());
@@ -289,6 +295,51 @@ impl ValueResult {
         self.outcome = if same_value(&self.wanted, &after) { Outcome::Written } else { Outcome::Clamped };
         self.after = after;
         self
+    }
+}
+
+/// What a restore does with one setting before any write: nothing for a
+/// setting kept for information, a finished result for one skipped as
+/// invalid or already holding the file's value, else the setting to write
+/// with its result so far. Every family decides it the same way.
+pub(crate) enum Step<'a> {
+    Done(ValueResult),
+    Write(&'a Setting, ValueResult),
+}
+
+pub(crate) fn step<'a>(
+    file: &'a Device,
+    live: &Device,
+    name: &str,
+    skip: &std::collections::BTreeSet<String>,
+) -> Option<Step<'a>> {
+    let s = file.settings.get(name).filter(|s| s.restore)?;
+    let r = ValueResult::against(name, s, live);
+    Some(if skip.contains(name) {
+        Step::Done(r.skipped("invalid (see the problems); not written"))
+    } else if same_value(&s.value, &r.before) {
+        Step::Done(r)
+    } else {
+        Step::Write(s, r)
+    })
+}
+
+/// What the file alone shows wrong with a device's settings, by its
+/// family's rules; a restore refuses them before the link opens.
+pub fn check_file(dev: &Device) -> Vec<Problem> {
+    match dev.family {
+        Family::PowerCube => powercube::check_file(dev),
+        Family::Pac => pac::check_file(dev),
+        Family::Cdios => cdios::check_file(dev),
+    }
+}
+
+/// The identity keys a restore compares.
+pub fn identity_keys(f: Family) -> &'static [&'static str] {
+    match f {
+        Family::PowerCube => &powercube::IDENTITY,
+        Family::Pac => &pac::IDENTITY,
+        Family::Cdios => &cdios::IDENTITY,
     }
 }
 

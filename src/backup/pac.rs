@@ -22,7 +22,7 @@ use crate::device::pac::{Controller, Error};
 use crate::family::Family;
 use crate::proto::pac::table::{self, AxisParamDef, SystemParamDef};
 
-use super::{same_value, Device, Problem, Setting, ValueResult};
+use super::{same_value, step, Device, Problem, Setting, Step, ValueResult};
 
 /// The identity a restore compares: the number of axes.
 pub const IDENTITY: [&str; 1] = ["axes"];
@@ -212,17 +212,14 @@ pub fn restore(
     ensure_home(c)?;
     let mut out = Vec::new();
     for name in order(file, live) {
-        let Some(s) = file.settings.get(name).filter(|s| s.restore) else { continue };
-        let before = live.settings.get(name).map_or(serde_json::Value::Null, |l| l.value.clone());
-        let r = ValueResult::new(name, &s.unit, &s.value, &before);
-        if skip.contains(name) {
-            out.push(r.skipped("invalid (see the problems); not written"));
-            continue;
-        }
-        if same_value(&s.value, &before) {
-            out.push(r);
-            continue;
-        }
+        let (s, r) = match step(file, live, name, skip) {
+            None => continue,
+            Some(Step::Done(r)) => {
+                out.push(r);
+                continue;
+            }
+            Some(Step::Write(s, r)) => (s, r),
+        };
         let (Some((par1, _, _)), Some(v)) = (codes(file, name), s.value.as_f64()) else {
             out.push(r.skipped("not a parameter of this device"));
             continue;

@@ -26,7 +26,7 @@ use crate::proto::powercube::frame::Value;
 use crate::proto::powercube::table::{self, ParamDef};
 use crate::proto::powercube::ModuleId;
 
-use super::{same_value, Device, Outcome, Problem, Setting, ValueResult};
+use super::{step, Device, Outcome, Problem, Setting, Step, ValueResult};
 
 /// The identity a restore compares: a file of another module is refused.
 pub const IDENTITY: [&str; 2] = ["serial", "type"];
@@ -297,18 +297,14 @@ pub fn restore(
     ensure_at_rest(cubes, m)?;
     let mut out = Vec::new();
     for name in order(file, live) {
-        let Some(s) = file.settings.get(name).filter(|s| s.restore) else { continue };
-        let before = live.settings.get(name).map_or(serde_json::Value::Null, |l| l.value.clone());
-        let r = ValueResult::new(name, &s.unit, &s.value, &before);
-        if skip.contains(name) {
-            out.push(r.skipped("invalid (see the problems); not written"));
-            continue;
+        match step(file, live, name, skip) {
+            None => {}
+            Some(Step::Done(r)) => out.push(r),
+            Some(Step::Write(s, r)) => {
+                let before = r.before.clone();
+                out.push(write(cubes, m, name, &s.value, &before, r));
+            }
         }
-        if same_value(&s.value, &before) {
-            out.push(r);
-            continue;
-        }
-        out.push(write(cubes, m, name, &s.value, &before, r));
     }
     Ok(out)
 }

@@ -112,6 +112,11 @@ fn m17() -> ModuleId {
     ModuleId::new(17).unwrap()
 }
 
+/// Module 17 as a fresh simulated bench holds it.
+fn cube_on_the_simulator() -> Device {
+    powercube::capture(&mut rig().cubes, m17(), "sim").unwrap()
+}
+
 fn set(dev: &mut Device, name: &str, value: serde_json::Value) {
     dev.settings.get_mut(name).unwrap().value = value;
 }
@@ -149,8 +154,7 @@ fn capture_restore_round_trip_on_the_simulator() {
 
 #[test]
 fn live_checks_find_values_the_module_would_limit() {
-    let mut r = rig();
-    let live = powercube::capture(&mut r.cubes, m17(), "sim").unwrap();
+    let live = cube_on_the_simulator();
     let def_max = live.settings["DefMaxPos"].value.as_f64().unwrap();
     let mut file = live.clone();
     set(&mut file, "MaxPos", (def_max + 1.0).into());
@@ -168,8 +172,7 @@ fn live_checks_find_values_the_module_would_limit() {
 
 #[test]
 fn a_new_range_above_the_old_one_writes_max_pos_first() {
-    let mut r = rig();
-    let live = powercube::capture(&mut r.cubes, m17(), "sim").unwrap();
+    let live = cube_on_the_simulator();
     let old_max = live.settings["MaxPos"].value.as_f64().unwrap();
     let mut file = live.clone();
     set(&mut file, "MinPos", (old_max + 0.1).into());

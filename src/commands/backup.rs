@@ -208,23 +208,6 @@ impl<'a> Live<'a> {
     }
 }
 
-fn check_file(dev: &Device) -> Vec<Problem> {
-    match dev.family {
-        Family::PowerCube => backup::powercube::check_file(dev),
-        Family::Pac => backup::pac::check_file(dev),
-        Family::Cdios => backup::cdios::check_file(dev),
-    }
-}
-
-/// The identity keys a restore compares.
-fn identity_keys(f: Family) -> &'static [&'static str] {
-    match f {
-        Family::PowerCube => &backup::powercube::IDENTITY,
-        Family::Pac => &backup::pac::IDENTITY,
-        Family::Cdios => &backup::cdios::IDENTITY,
-    }
-}
-
 fn cdios_module(at: Address) -> anyhow::Result<CdiosModule> {
     at.module.and_then(CdiosModule::new).ok_or_else(|| usage(format!("{at}: no Cdios module id 0 to 15")))
 }
@@ -439,7 +422,7 @@ fn restore(ctx: &Ctx, path: &Path, opts: Options) -> anyhow::Result<()> {
     if opts.store && !pairs.iter().any(|(d, _)| d.family == Family::Cdios) {
         return Err(usage("--store stores a Cdios configuration, but the file holds no Cdios device"));
     }
-    let mut problems: Vec<Problem> = pairs.iter().flat_map(|(d, _)| check_file(d)).collect();
+    let mut problems: Vec<Problem> = pairs.iter().flat_map(|(d, _)| backup::check_file(d)).collect();
     // What the file alone shows is refused before the link opens.
     if !problems.is_empty() && !opts.skip_invalid {
         return Err(invalid(path, &problems, "nothing was sent"));
@@ -450,7 +433,7 @@ fn restore(ctx: &Ctx, path: &Path, opts: Options) -> anyhow::Result<()> {
     for (file_dev, at) in pairs {
         let now = live.capture(at)?;
         if opts.to.is_none() {
-            let keys = backup::identity_mismatch(&file_dev, &now, identity_keys(at.family));
+            let keys = backup::identity_mismatch(&file_dev, &now, backup::identity_keys(at.family));
             if !keys.is_empty() {
                 mismatches.push(format!("\n  {at}: {}", keys.join(", ")));
             }
