@@ -9,7 +9,7 @@ use axisctl::backup::{self, Address, Device, Difference, Document, Problem, Valu
 use axisctl::device::cdios::{Node, Slot};
 use axisctl::device::pac::Controller;
 use axisctl::device::powercube::{Cubes, Error as CubeError};
-use axisctl::family::Family;
+use axisctl::family::{Family, CDIOS_MODULE, POWERCUBE_MODULE};
 use axisctl::link::LinkSpec;
 use axisctl::proto::cdios::{ModuleId as CdiosModule, NodeId};
 use axisctl::proto::powercube::ModuleId;
@@ -104,7 +104,8 @@ impl<'a> Live<'a> {
                     Some(Devices::All) | None => {
                         let found: Vec<u8> = self.cubes()?.present()?.iter().map(|m| m.get()).collect();
                         if found.is_empty() && named {
-                            return Err(CubeError::NoneAnswered { ids: "1-31".into() }.into());
+                            let ids = format!("{}-{}", POWERCUBE_MODULE.min, POWERCUBE_MODULE.max);
+                            return Err(CubeError::NoneAnswered { ids }.into());
                         }
                         found
                     }
@@ -387,13 +388,13 @@ fn targets(doc: &Document, to: Option<u8>) -> anyhow::Result<Vec<(Device, Addres
     match at.family {
         Family::PowerCube => {
             if ModuleId::new(to).is_none() {
-                return Err(usage(format!("--to {to}: a PowerCube module id is 1 to 31")));
+                return Err(usage(format!("--to {to}: a PowerCube address is a {POWERCUBE_MODULE}")));
             }
             at.module = Some(to);
         }
         Family::Cdios => {
             if CdiosModule::new(to).is_none() {
-                return Err(usage(format!("--to {to}: a Cdios module id is 0 to 15")));
+                return Err(usage(format!("--to {to}: a Cdios address is a {CDIOS_MODULE}")));
             }
             at.module = Some(to);
         }
