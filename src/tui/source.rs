@@ -29,7 +29,7 @@ impl DeviceKey {
         }
     }
 
-    /// `module 17`, `axis 2`, `node 1 module 0`: how events name it.
+    /// `PowerCube 17`, `PA axis 2`, `Cdios 1/0`: how events and panes name it.
     pub fn label(self) -> String {
         match self {
             Self::Cube(m) => format!("PowerCube {m}"),
