@@ -94,19 +94,6 @@ fn info_defs() -> impl Iterator<Item = &'static ParamDef> {
     INFO.into_iter().map(def)
 }
 
-fn unit(d: &ParamDef, linear: bool) -> &'static str {
-    match d.unit.split_once('|') {
-        Some((rot, lin)) => {
-            if linear {
-                lin
-            } else {
-                rot
-            }
-        }
-        None => d.unit,
-    }
-}
-
 /// Reads one module into a backup device: identity, the restored
 /// parameters and the ROM values, in pipelined reads.
 pub fn capture(cubes: &mut Cubes, m: ModuleId, link: &str) -> Result<Device, Error> {
@@ -131,7 +118,7 @@ pub fn capture(cubes: &mut Cubes, m: ModuleId, link: &str) -> Result<Device, Err
             Setting {
                 id: Some(d.id.into()),
                 ty: Some(d.ty.name().into()),
-                unit: unit(d, linear).into(),
+                unit: d.unit_for(linear).into(),
                 value,
                 restore: restore.contains(d.name),
             },

@@ -9,7 +9,7 @@ use axisctl::device::powercube::{
 use axisctl::family::Family;
 use axisctl::proto::powercube::flags::{self, FlagWord};
 use axisctl::proto::powercube::frame::{f32_to_f64, Value};
-use axisctl::proto::powercube::table::{ids, ParamDef};
+use axisctl::proto::powercube::table::{self, ids, ParamDef};
 use axisctl::proto::powercube::ModuleId;
 use axisctl::session::powercube::PowerCube;
 use serde_json::json;
@@ -404,7 +404,7 @@ fn wait_for(ctx: &Ctx, cubes: &mut Cubes, m: ModuleId, wait: WaitArgs, goal: Goa
 fn print_wait_results(ctx: &Ctx, cubes: &mut Cubes, what: &str, results: &[WaitEnd]) -> anyhow::Result<()> {
     let mut list = Vec::new();
     for r in results {
-        let unit = if device::is_linear(cubes.get_u32(r.module, ids::CONFIG)?) { "m" } else { "rad" };
+        let unit = table::position_unit(device::is_linear(cubes.get_u32(r.module, ids::CONFIG)?));
         list.push((r, unit));
     }
     if ctx.json {

@@ -34,10 +34,7 @@ impl CubeSampler {
                 } else {
                     slots.push(None);
                 }
-                let unit = match d.unit.split_once('|') {
-                    Some((rot, lin)) => if linear { lin } else { rot }.to_string(),
-                    None => d.unit.to_string(),
-                };
+                let unit = d.unit_for(linear).to_string();
                 channels.push(Channel { address: Address::Module(m.get()), name: d.name.into(), unit });
             }
         }

@@ -68,7 +68,7 @@ impl CubeSource {
         let linear = self.statics(m)?.linear;
         self.statics.remove(&m.get());
         let pos = self.cubes.ramp(m, target)?;
-        Ok(format!("ramp to {pos:.4} {}", if linear { "m" } else { "rad" }))
+        Ok(format!("ramp to {pos:.4} {}", crate::proto::powercube::table::position_unit(linear)))
     }
 
     fn simple(&mut self, m: ModuleId, cmd: Simple) -> Result<String, SourceError> {

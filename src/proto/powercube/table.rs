@@ -395,6 +395,12 @@ pub fn param(id: u8) -> Option<&'static ParamDef> {
     PARAMS.iter().find(|d| d.id == id)
 }
 
+/// The unit of a position (ActPos) on a module of this kind, for the code
+/// that shows a position or a target without naming a parameter.
+pub fn position_unit(linear: bool) -> &'static str {
+    param(ids::ACT_POS).map_or("", |d| d.unit_for(linear))
+}
+
 /// The parameter named `name` (the manual's name, any case).
 pub fn param_by_name(name: &str) -> Option<&'static ParamDef> {
     PARAMS.iter().find(|d| d.name.eq_ignore_ascii_case(name))
@@ -644,6 +650,7 @@ mod tests {
         assert_eq!((unit(ids::ACT_POS, false), unit(ids::ACT_POS, true)), ("rad", "m"));
         assert_eq!((unit(ids::ACT_VEL, false), unit(ids::ACT_VEL, true)), ("rad/s", "m/s"));
         assert_eq!((unit(ids::CUR, false), unit(ids::CUR, true)), ("A", "A"));
+        assert_eq!((position_unit(false), position_unit(true)), ("rad", "m"));
     }
 
     #[test]

@@ -108,17 +108,12 @@ impl Values<'_> {
     }
 }
 
+/// The unit of a jog step on the selected device (empty where it has none).
 pub fn unit_of(app: &App, d: &DeviceView) -> &'static str {
     let _ = app;
     match &d.snap {
-        Some(Snapshot::Cube(c)) => {
-            if c.linear {
-                " m"
-            } else {
-                " rad"
-            }
-        }
-        Some(Snapshot::Cdios(_)) => " counts",
+        Some(Snapshot::Cube(c)) => crate::proto::powercube::table::position_unit(c.linear),
+        Some(Snapshot::Cdios(_)) => "counts",
         _ => "",
     }
 }
@@ -126,9 +121,12 @@ pub fn unit_of(app: &App, d: &DeviceView) -> &'static str {
 /// The allowed range of a typed target, as the prompt shows it.
 pub fn target_range(d: &DeviceView) -> Option<String> {
     match &d.snap {
-        Some(Snapshot::Cube(c)) => {
-            Some(format!("{} .. {} {}", c.limits.min_pos, c.limits.max_pos, if c.linear { "m" } else { "rad" }))
-        }
+        Some(Snapshot::Cube(c)) => Some(format!(
+            "{} .. {} {}",
+            c.limits.min_pos,
+            c.limits.max_pos,
+            crate::proto::powercube::table::position_unit(c.linear)
+        )),
         Some(Snapshot::PacAxis(a)) => match (a.min_pos, a.max_pos) {
             (Some(lo), Some(hi)) => Some(format!("{lo} .. {hi}")),
             _ => None,
@@ -151,7 +149,7 @@ fn class_style(class: FlagClass) -> (Style, &'static str) {
 }
 
 fn cube(f: &mut Frame, v: &Values, c: &CubeSnap, mut top: Vec<Line<'static>>, area: Rect) {
-    let u = if c.linear { "m" } else { "rad" };
+    let u = crate::proto::powercube::table::position_unit(c.linear);
     let l = &c.limits;
     top.push(v.line(
         "Position",

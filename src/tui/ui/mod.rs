@@ -284,7 +284,7 @@ fn hint_line(app: &App, width: u16) -> Line<'static> {
             let mut word = b.short.to_string();
             if b.action == keys::KeyAction::StepSmaller {
                 if let (Some(step), Some(d)) = (app.jog_step(), app.selected()) {
-                    word = format!("step {}{}", step, detail::unit_of(app, d));
+                    word = format!("step {step} {}", detail::unit_of(app, d)).trim_end().to_string();
                 }
             }
             groups.push((key, word));
