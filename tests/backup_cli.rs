@@ -602,6 +602,94 @@ fn cdios_and_pac_round_trip_on_served_simulators() {
     }
 }
 
+/// The differences of the device at `key` = `id` in a `diff --json`:
+/// name, unit, the file's value and the live one.
+fn differences(report: &Value, key: &str, id: u64) -> Vec<(String, String, Value, Value)> {
+    report["devices"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|d| d[key] == id)
+        .flat_map(|d| {
+            d["differences"].as_array().unwrap().iter().map(|x| {
+                (
+                    x["name"].as_str().unwrap().into(),
+                    x["unit"].as_str().unwrap().into(),
+                    x["left"].clone(),
+                    x["right"].clone(),
+                )
+            })
+        })
+        .collect()
+}
+
+// Manual 16h: both analog outputs are set (selector 00h / 10h) and read back
+// (80h / 90h); #1 only while the motor is not enabled.
+#[test]
+fn cdios_analog_outputs_round_trip_and_output_1_of_an_enabled_motor() {
+    let sim = Sim::start(&[], 3);
+    let link = sim.link("cdios");
+    let dir = tmp();
+    let saved = path(&dir, "cdios.json");
+    let analog = |o: &str, mv: &str| run(&["--link", link, "cdios-analog", "-m", "0", "--output", o, "--set", mv]);
+    ok(&analog("1", "-1500"), "set #1");
+    ok(&run(&["--link", link, "backup", "--family", "cdios", "--out", s(&saved)]), "backup");
+    let mut doc = read_json(&saved);
+    valid("backup_document", &doc);
+    let m0 = device(&mut doc, "cdios", "module", 0);
+    assert_eq!(m0["settings"]["outputs.analog1"], serde_json::json!({"unit": "mV", "value": -1500, "restore": true}));
+    assert_eq!(m0["settings"]["outputs.analog2"], serde_json::json!({"unit": "mV", "value": 0, "restore": true}));
+
+    ok(&analog("1", "2000"), "change #1");
+    ok(&analog("2", "2500"), "change #2");
+    let r = run(&["--link", link, "--json", "diff", s(&saved)]);
+    ok(&r, "diff");
+    assert_eq!(
+        differences(&r.json(), "module", 0),
+        [
+            ("outputs.analog1".into(), "mV".into(), (-1500).into(), 2000.into()),
+            ("outputs.analog2".into(), "mV".into(), 0.into(), 2500.into()),
+        ]
+    );
+    let r = run(&["--link", link, "--json", "--trace", "restore", s(&saved)]);
+    ok(&r, "restore");
+    valid("restore_report", &r.json());
+    assert_eq!(
+        outcomes(&r.json(), "cdios", "module", 0),
+        [("outputs.analog1".into(), "written".into()), ("outputs.analog2".into(), "written".into())]
+    );
+    // -1500 mV = FA24h, little-endian; each write is read back.
+    assert_eq!(cdios_writes(&r.stderr), ["201#16000024FA000000", "201#1600100000000000"]);
+    assert!(r.stderr.contains("-> 201#1600800000000000") && r.stderr.contains("-> 201#1600900000000000"));
+    let r = run(&["--link", link, "--json", "diff", s(&saved)]);
+    assert_eq!(r.json()["differs"], false, "{}", r.stdout);
+
+    // A value outside -10000..10000 mV is refused before the link opens.
+    let mut doc = read_json(&saved);
+    device(&mut doc, "cdios", "module", 0)["settings"]["outputs.analog2"]["value"] = 10001.into();
+    let bad = path(&dir, "bad.json");
+    write_json(&bad, &doc);
+    let r = run(&["--link", link, "--trace", "restore", s(&bad)]);
+    assert_eq!(r.code, 2, "{}", r.stderr);
+    assert!(r.stderr.contains("outputs.analog2") && !r.stderr.contains("-> "), "{}", r.stderr);
+
+    // Enabled, the motor drives #1: a backup keeps it for information only,
+    // and a restore that would change it is refused before any write.
+    ok(&run(&["--link", link, "cdios-enable", "-m", "0"]), "enable");
+    let enabled = path(&dir, "enabled.json");
+    ok(&run(&["--link", link, "backup", "--family", "cdios", "--out", s(&enabled)]), "backup enabled");
+    let mut doc = read_json(&enabled);
+    assert_eq!(device(&mut doc, "cdios", "module", 0)["settings"]["outputs.analog1"]["restore"], false);
+    assert_eq!(device(&mut doc, "cdios", "module", 1)["settings"]["outputs.analog1"]["restore"], true);
+    let r = run(&["--link", link, "--trace", "restore", s(&saved)]);
+    assert_eq!(r.code, 2, "{}", r.stderr);
+    assert!(r.stderr.contains("outputs.analog1: the motor is enabled"), "{}", r.stderr);
+    assert_eq!(cdios_writes(&r.stderr), Vec::<String>::new());
+    let r = run(&["--link", link, "--json", "restore", s(&saved), "--skip-invalid"]);
+    ok(&r, "--skip-invalid");
+    assert_eq!(outcomes(&r.json(), "cdios", "module", 0), [("outputs.analog1".into(), "skipped".into())]);
+}
+
 #[test]
 fn a_moving_module_stops_the_restore_before_any_write() {
     let sim = Sim::start(&[], 3);

@@ -2,25 +2,36 @@
 //! controller's identify) and its settings: the servo configuration
 //! (`speeds.maximum_speed`, `traject0.speed2`, ... as `cdios-config` names
 //! them, raw values in the manual's units), the event mask and timers
-//! (`events.mask1`..`mask4`, `events.position_interval`, ...) and the
-//! digital outputs (`outputs.digital`).
+//! (`events.mask1`..`mask4`, `events.position_interval`, ...), the
+//! digital outputs (`outputs.digital`) and the analog outputs in mV
+//! (`outputs.analog1`, `outputs.analog2`, 16h, read back with selector
+//! 80h / 90h).
+//!
+//! Analog output #1 is the motor regulating voltage while the motor is
+//! enabled (status 3 bit 7), and the module refuses to set it then. Taken
+//! from an enabled module, its value is that moment's regulating voltage,
+//! not a setting: it is kept for information only (`restore: false`), so
+//! that no restore ever puts a stale drive voltage on the amplifier's
+//! input. A file's #1 against a module whose motor is enabled now is a
+//! problem listed before the first write.
 //!
 //! Order: the servo configuration first, one selector at a time in the
 //! table's order (speeds before the trajects whose speeds lie within them),
 //! each written whole through the device layer after its range checks;
-//! then the event setup; the outputs last, since they act on whatever is
-//! wired to them. Nothing is written while the motor runs. The EEPROM store
-//! (05h) is never part of a restore: [`store`] is its own step.
+//! then the event setup; the outputs last (digital, then analog), since
+//! they act on whatever is wired to them. Nothing is written while the
+//! motor runs. The EEPROM store (05h) is never part of a restore:
+//! [`store`] is its own step.
 
 use std::collections::{BTreeMap, BTreeSet};
 
 use crate::device::cdios::config::{self as servo, Assignments};
-use crate::device::cdios::{field_value, Error, EventChange, EventSetup, Node};
+use crate::device::cdios::{analog_request, field_value, Error, EventChange, EventSetup, Node};
 use crate::family::Family;
-use crate::proto::cdios::table::STATUS_FLAGS;
-use crate::proto::cdios::{ModuleId, ServoConfig, ServoPart};
+use crate::proto::cdios::table::{self, STATUS_FLAGS};
+use crate::proto::cdios::{AnalogOutput, ModuleId, ServoConfig, ServoPart};
 
-use super::{same_value, Device, Problem, Setting, ValueResult};
+use super::{same_value, step, Device, Problem, Setting, Step, ValueResult};
 
 /// The identity a restore compares: the module's type.
 pub const IDENTITY: [&str; 1] = ["type"];
@@ -28,6 +39,13 @@ pub const IDENTITY: [&str; 1] = ["type"];
 const MASKS: [&str; 4] = ["mask1", "mask2", "mask3", "mask4"];
 const TIMERS: [&str; 4] = ["position_interval", "position_on_change", "speed_interval", "speed_on_change"];
 const OUTPUTS: &str = "outputs.digital";
+/// The analog outputs' settings, in the order a restore writes them.
+const ANALOG: [(&str, AnalogOutput); 2] =
+    [("outputs.analog1", AnalogOutput::One), ("outputs.analog2", AnalogOutput::Two)];
+/// The 16h row and field an analog output is checked with.
+const ANALOG_FIELD: (&str, &str) = ("set_analog_output", "value");
+/// The status flag (3, bit 7) under which the module drives analog output #1.
+const ENABLED: &str = "ENABLED";
 
 /// The flags of status byte 1 that say the motor runs.
 const RUNNING: [&str; 3] = ["RUNNING_FORWARD", "RUNNING_REVERSE", "RUNNING_TO_END_SWITCH"];
@@ -49,6 +67,11 @@ fn event_values(ev: &EventSetup) -> [i64; 8] {
         t.speed_interval.into(),
         t.speed_on_change.into(),
     ]
+}
+
+/// The unit of the analog outputs, as the table gives it (mV).
+fn analog_unit() -> &'static str {
+    table::command(ANALOG_FIELD.0).and_then(|d| d.field(ANALOG_FIELD.1)).map_or("", |f| f.unit)
 }
 
 /// Reads one module: identity from the controller's slot, then its servo
@@ -73,6 +96,12 @@ pub fn capture(node: &mut Node, m: ModuleId, ty: i64, version: i64, link: &str) 
     }
     let out = node.outputs(m, None, false)?;
     dev.settings.insert(OUTPUTS.into(), Setting::new(out.into(), "", true));
+    let enabled = node.status(m)?.flags.contains(&ENABLED);
+    let outs: Vec<AnalogOutput> = ANALOG.iter().map(|(_, o)| *o).collect();
+    for (r, (name, o)) in node.analog(m, &outs, None)?.into_iter().zip(ANALOG) {
+        let regulating = enabled && o == AnalogOutput::One;
+        dev.settings.insert(name.into(), Setting::new(r.millivolts.into(), analog_unit(), !regulating));
+    }
     Ok(dev)
 }
 
@@ -85,6 +114,9 @@ fn servo_field(name: &str) -> Option<(ServoPart, &'static crate::proto::cdios::t
 fn io_field(name: &str) -> Option<(&'static str, &'static str)> {
     if name == OUTPUTS {
         return Some(("set_digital_outputs", "outputs"));
+    }
+    if ANALOG.iter().any(|(n, _)| *n == name) {
+        return Some(ANALOG_FIELD);
     }
     let key = name.strip_prefix("events.")?;
     MASKS.iter().chain(&TIMERS).find(|k| **k == key).map(|k| ("set_event_mask", *k))
@@ -105,6 +137,8 @@ pub fn check_file(dev: &Device) -> Vec<Problem> {
             (Some(v), None, Some((row, key))) => {
                 if matches!(key, "position_on_change" | "speed_on_change") && !(0..=1).contains(&v) {
                     Some(format!("{v} is not 0 or 1"))
+                } else if (row, key) == ANALOG_FIELD {
+                    field_value::<i16>(row, key, v).err().map(|e| e.to_string())
                 } else {
                     field_value::<u8>(row, key, v).err().map(|e| e.to_string())
                 }
@@ -146,6 +180,22 @@ pub fn check_live(file: &Device, live: &Device) -> Vec<Problem> {
             new.iter().find(|(nk, _)| *nk == k).map(|(_, v)| *v).or_else(|| live_of(k))
         }) {
             out.push(Problem { device: file.address(), name: group, message: e.to_string() });
+        }
+    }
+    // An analog output the module drives itself (#1 of an enabled motor)
+    // cannot be set: the module would refuse it halfway through a restore.
+    for (name, o) in ANALOG {
+        let Some(v) = wanted(file, name) else { continue };
+        if live.settings.get(name).is_some_and(|l| !l.restore && !same_value(&l.value, &v.into())) {
+            out.push(Problem {
+                device: file.address(),
+                name: name.into(),
+                message: format!(
+                    "the motor is enabled, so analog output #{} is its regulating voltage and cannot be set \
+                     (cdios-disable first)",
+                    o.to_u8()
+                ),
+            });
         }
     }
     out
@@ -271,6 +321,21 @@ pub fn restore(
                 Err(e) => r.failed(&e, e.kind()),
             }
         });
+    }
+    for (name, o) in ANALOG {
+        out.extend(step(file, live, name, skip).map(|s| match s {
+            Step::Done(r) => r,
+            Step::Write(s, r) => {
+                let written = integer(&s.value)
+                    .ok_or_else(|| Error::Refused(format!("{} is not an integer", s.value)))
+                    .and_then(|v| analog_request(Some(o.to_u8().into()), Some(v), false))
+                    .and_then(|(outs, set)| node.analog(m, &outs, set));
+                match written {
+                    Ok(held) => r.read_back(held.first().map_or(serde_json::Value::Null, |h| h.millivolts.into())),
+                    Err(e) => r.failed(&e, e.kind()),
+                }
+            }
+        }));
     }
     Ok(out)
 }
