@@ -99,3 +99,68 @@ fn a_file_that_is_no_recording_is_exit_2_and_writes_nothing() {
         assert!(!out.exists());
     }
 }
+
+/// A PNG's size and its RGB pixels (the plot module writes 8-bit RGB).
+fn decode_png(path: &std::path::Path) -> ((u32, u32), Vec<[u8; 3]>) {
+    let decoder = png::Decoder::new(std::fs::File::open(path).unwrap());
+    let mut reader = decoder.read_info().unwrap();
+    let mut buf = vec![0; reader.output_buffer_size()];
+    let info = reader.next_frame(&mut buf).unwrap();
+    assert_eq!((info.color_type, info.bit_depth), (png::ColorType::Rgb, png::BitDepth::Eight));
+    let pixels = buf[..info.buffer_size()].chunks_exact(3).map(|p| [p[0], p[1], p[2]]).collect();
+    ((info.width, info.height), pixels)
+}
+
+#[test]
+fn a_recording_becomes_a_png_of_the_size_asked_with_each_series_in_its_colour() {
+    let dir = tempfile::tempdir().unwrap();
+    let rec = dir.path().join("step.jsonl");
+    record_to(&rec, "jsonl");
+    let (png_path, svg_path) = (dir.path().join("step.png"), dir.path().join("step.svg"));
+    let r = run(&[
+        "--json",
+        "plot",
+        rec.to_str().unwrap(),
+        "--png",
+        png_path.to_str().unwrap(),
+        "--svg",
+        svg_path.to_str().unwrap(),
+        "--width",
+        "800",
+        "--height",
+        "900",
+    ]);
+    assert_eq!(r.code, 0, "{}", r.stderr);
+    assert_eq!(r.json()["png"], png_path.to_str().unwrap());
+    assert_eq!(r.json()["svg"], svg_path.to_str().unwrap(), "both drawn in one run");
+    let (size, pixels) = decode_png(&png_path);
+    assert_eq!(size, (800, 900));
+    assert_eq!(pixels.len(), 800 * 900);
+    // Each series is a line of its own colour, far more pixels than its
+    // legend mark (14x8) alone.
+    for i in 0..3 {
+        let (r, g, b) = axisctl::plot::colour(i);
+        let n = pixels.iter().filter(|p| **p == [r, g, b]).count();
+        assert!(n > 400, "series {i}: {n} pixels of its colour");
+    }
+    // Text is drawn with the embedded font: the title's row above the
+    // panels holds nothing else, and has dark pixels.
+    let white = pixels.iter().filter(|p| **p == [255, 255, 255]).count();
+    let title_ink = pixels[..800 * 20].iter().filter(|p| p.iter().all(|c| *c < 100)).count();
+    assert!(white > pixels.len() / 2 && title_ink > 40, "white {white}, title {title_ink}");
+}
+
+#[test]
+fn a_png_too_large_to_hold_is_exit_2_and_writes_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    let rec = dir.path().join("step.csv");
+    record_to(&rec, "csv");
+    let (png_path, svg_path) = (dir.path().join("big.png"), dir.path().join("big.svg"));
+    let (p, s) = (png_path.to_str().unwrap(), svg_path.to_str().unwrap());
+    let r = run(&["plot", rec.to_str().unwrap(), "--png", p, "--svg", s, "--width", "20000", "--height", "20000"]);
+    assert_eq!(r.code, 2, "{}", r.stderr);
+    assert!(r.stderr.contains("too large"), "{}", r.stderr);
+    assert!(!png_path.exists() && !svg_path.exists(), "no file of the run is written");
+    let r = run(&["plot", rec.to_str().unwrap()]);
+    assert_eq!(r.code, 2, "an output is required: {}", r.stderr);
+}

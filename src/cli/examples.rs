@@ -178,7 +178,14 @@ pub const EXAMPLES: &[(&str, &[&str])] = &[
             "--link sim record --node 1 -m 0 position speed --count 50 -- cdios-goto -m 0 5000",
         ],
     ),
-    ("plot", &["plot step.jsonl --svg step.svg", "plot run.csv --svg run.svg --title run --width 1600"]),
+    (
+        "plot",
+        &[
+            "plot step.jsonl --svg step.svg",
+            "plot step.jsonl --png step.png",
+            "plot run.csv --svg run.svg --png run.png --title run --width 1600",
+        ],
+    ),
 ];
 
 /// The help text of one subcommand's examples, or `None` when it has none.

@@ -50,13 +50,17 @@ pub struct RecordArgs {
 }
 
 #[derive(Debug, Args)]
+#[command(group(clap::ArgGroup::new("output").args(["svg", "png"]).required(true).multiple(true)))]
 pub struct PlotArgs {
     /// A recording of `axisctl record` (JSON Lines or CSV; - for stdin)
     #[arg(value_name = "REC")]
     pub recording: PathBuf,
     /// Write the chart as SVG here
-    #[arg(long, value_name = "FILE", required = true)]
-    pub svg: PathBuf,
+    #[arg(long, value_name = "FILE")]
+    pub svg: Option<PathBuf>,
+    /// Write the chart as PNG here (at most 32 million pixels)
+    #[arg(long, value_name = "FILE")]
+    pub png: Option<PathBuf>,
     /// Chart title (default: the recording's file name)
     #[arg(long)]
     pub title: Option<String>,

@@ -1,5 +1,6 @@
 //! `plot`: a recording of `record` (JSON Lines or CSV) drawn as an SVG
-//! chart by `axisctl::plot`, one line per recorded value, one panel per unit.
+//! and/or PNG chart by `axisctl::plot`, one line per recorded value, one
+//! panel per unit.
 
 use std::io::Read;
 
@@ -29,18 +30,31 @@ pub fn run(ctx: &Ctx, args: &PlotArgs) -> anyhow::Result<()> {
     let chart = Chart { title, x_label: "t (s)".into(), series };
     let panels = plot::panels(&chart).len().max(1) as u32;
     let height = args.height.unwrap_or(60 + 300 * panels);
-    let svg = plot::svg(&chart, args.width, height).map_err(|e| usage(e.to_string()))?;
-    std::fs::write(&args.svg, svg).map_err(|e| anyhow::anyhow!("cannot write {}: {e}", args.svg.display()))?;
+    // Both drawn before either is written: a size the chart cannot take
+    // is a usage error with no file touched.
+    let svg = args.svg.as_ref().map(|p| plot::svg(&chart, args.width, height).map(|t| (p, t.into_bytes())));
+    let png = args.png.as_ref().map(|p| plot::png(&chart, args.width, height).map(|b| (p, b)));
+    let files = [svg, png].into_iter().flatten().collect::<Result<Vec<_>, _>>().map_err(|e| usage(e.to_string()))?;
+    for (path, bytes) in &files {
+        std::fs::write(path, bytes).map_err(|e| anyhow::anyhow!("cannot write {}: {e}", path.display()))?;
+    }
     let samples = chart.series.iter().map(|s| s.points.len()).max().unwrap_or(0);
+    let written: Vec<String> = files.iter().map(|(p, _)| p.display().to_string()).collect();
     if ctx.json {
         let series: Vec<Value> = chart
             .series
             .iter()
             .map(|s| json!({"name": s.name, "unit": s.unit.clone().unwrap_or_default(), "samples": s.points.len()}))
             .collect();
-        output::json(&json!({"command": "plot", "svg": args.svg.display().to_string(), "series": series}));
+        let mut doc = json!({"command": "plot", "series": series});
+        for (key, path) in [("svg", &args.svg), ("png", &args.png)] {
+            if let Some(p) = path {
+                doc[key] = p.display().to_string().into();
+            }
+        }
+        output::json(&doc);
     } else {
-        say!("{}: {} series, {samples} samples, written to {}", name, chart.series.len(), args.svg.display());
+        say!("{}: {} series, {samples} samples, written to {}", name, chart.series.len(), written.join(" and "));
     }
     Ok(())
 }
