@@ -3,12 +3,14 @@
 
 Against `axisctl sim --wire-speed` on pseudo-terminals: PowerCube modules over
 an slcan pty at 1 Mbit/s CAN (every value of every module pipelined in one
-burst per sample) and a PA-CONTROL axis over a serial pty at 9600 baud (one
+burst per sample, the next sample's burst sent before the current one's
+answers are read) and a PA-CONTROL axis over a serial pty at 9600 baud (one
 request at a time: the line is half duplex).
 
 The wire limit of a sample is the wire time of its frames, taken from the
 traffic `--log` writes: the log of `--count 2` less the log of `--count 1`
-is exactly one sample's requests and answers (without the setup reads). The
+is exactly one sample's requests and answers (without the setup reads; the
+burst sent ahead of the end, never read, is in both). The
 measured rate is (samples - 1) / (last t - first t) of a `--for` recording.
 
 `figures(add, links)` adds the rows to scripts/bench.py's table (`links`:
@@ -122,7 +124,9 @@ def figures(add, links):
         "PowerCube modules 3, 5, 17 x ActPos ActVel Cur on CAN 1 Mbit/s via an slcan pty",
         can,
         ["-m", "3,5,17", "ActPos", "ActVel", "Cur"],
-        "9 reads pipelined in one burst = 9 x (2-byte request + 6-byte answer), then one pty turnaround",
+        "9 reads pipelined in one burst = 9 x (2-byte request + 6-byte answer); the next sample's burst goes out "
+        "before this one's answers are read, so the bus carries it during the pty turnaround (what is lost: the "
+        "host falling behind the wire)",
     )
     figure(
         add,

@@ -228,9 +228,20 @@ fn a_move_that_ended_before_the_recording_is_not_halted() {
 /// Starts `record ... -- move-vel` (which never ends by itself) and hands
 /// the child once `n` samples were read from its stdout.
 fn recording_a_move(link: &str, log: &Path, n: usize) -> (Child, BufReader<std::process::ChildStdout>) {
+    recording_a_move_at(link, log, n, &["--rate", "20"])
+}
+
+/// [`recording_a_move`] with `rate` (`--rate N`, or nothing: back to back).
+fn recording_a_move_at(
+    link: &str,
+    log: &Path,
+    n: usize,
+    rate: &[&str],
+) -> (Child, BufReader<std::process::ChildStdout>) {
     let mut child = common::bin()
         .args(["--link", link, "--log", log.to_str().unwrap(), "--json", "record", "-m", "17", "ActPos", "ActVel"])
-        .args(["--rate", "20", "--", "move-vel", "-m", "17", "0.01"])
+        .args(rate)
+        .args(["--", "move-vel", "-m", "17", "0.01"])
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
         .spawn()
@@ -267,6 +278,56 @@ fn ctrl_c_during_a_recorded_move_halts_it_and_exits_130() {
     assert!(err_reader.contains("interrupted: module 17 halted"), "{err_reader}");
     assert!(halted_after_motion(&log), "{:?}", frames(&log));
     assert!(cube_17_stands(link));
+}
+
+// Back to back, a read burst is always in flight when the signal comes:
+// the halt goes out past it and the module stops.
+#[test]
+fn ctrl_c_during_a_back_to_back_recorded_move_halts_it() {
+    let sim = Sim::start(&[], 3);
+    let link = sim.link("powercube");
+    let (_dir, log) = temp("ctrl-c-ahead.log");
+    let (mut child, _out) = recording_a_move_at(link, &log, 50, &[]);
+    unsafe { libc::kill(child.id() as i32, libc::SIGINT) };
+    let err = stderr_of(&mut child);
+    assert_eq!(wait_bounded(child, 10), 130, "{err}");
+    assert!(err.contains("interrupted: module 17 halted"), "{err}");
+    assert!(halted_after_motion(&log), "{:?}", frames(&log));
+    assert!(cube_17_stands(link));
+}
+
+// Back to back, the next sample's burst goes out before the answers of the
+// current one are read: module 17's ActPos request (0x0D1) goes out twice
+// before its first answer (0x0B1) is read. With --rate one sample's answers
+// are read before the next is asked. The in-process bench runs at 2 kbit/s,
+// so an answer takes some 70 ms of wire time to come: the host has sent the
+// next burst long before (an answer already queued would be read, and
+// logged, as the next burst goes out).
+#[test]
+fn back_to_back_the_next_burst_goes_out_before_the_current_answers_are_read() {
+    for (rate, ahead) in [(&[][..], true), (&["--rate", "1000"][..], false)] {
+        let (_dir, log) = temp("ahead.log");
+        let out = common::bin()
+            .env("AXISCTL_SIM_WIRE_SPEED", "bitrate=2000")
+            .args(["--link", "sim", "--timeout", "2000", "--log", log.to_str().unwrap(), "--json", "record"])
+            .args(["-m", "17", "ActPos", "--count", "4"])
+            .args(rate)
+            .output()
+            .unwrap();
+        let r = Run {
+            code: out.status.code().unwrap_or(-1),
+            stdout: String::from_utf8_lossy(&out.stdout).into(),
+            stderr: String::from_utf8_lossy(&out.stderr).into(),
+        };
+        assert_eq!(r.code, 0, "{}", r.stderr);
+        assert_eq!(checked_lines(&r).len(), 4);
+        let seen: Vec<String> =
+            frames(&log).into_iter().filter(|f| f.starts_with("0D1#0A3C") || f.starts_with("0B1#0A3C")).collect();
+        let requests_first = seen.iter().take_while(|f| f.starts_with("0D1")).count();
+        assert_eq!(requests_first, if ahead { 2 } else { 1 }, "{rate:?}: {seen:?}");
+        let answered = seen.iter().filter(|f| f.starts_with("0B1")).count();
+        assert!(answered >= 4, "{rate:?}: {seen:?}");
+    }
 }
 
 #[test]

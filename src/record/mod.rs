@@ -13,7 +13,7 @@ mod cdios;
 mod pac;
 mod powercube;
 
-use std::time::Duration;
+use std::time::{Duration, Instant};
 
 use crate::clock::Clock;
 use crate::family::Family;
@@ -104,6 +104,19 @@ pub trait Sampler {
     fn channels(&self) -> &[Channel];
     /// One value per channel; NaN for a value the device does not have.
     fn sample(&mut self) -> Result<Vec<f64>, RecordError>;
+    /// Samples follow each other back to back from now on (no rate): the
+    /// sampler may send the next sample's requests before the answers of
+    /// the current one are in, so that the link never waits for the host.
+    fn back_to_back(&mut self) {}
+    /// When the devices read the values of the sample [`Self::sample`]
+    /// just returned, if the sampler knows better than "when it was called"
+    /// (requests sent ahead of the call).
+    fn read_at(&self) -> Option<Instant> {
+        None
+    }
+    /// The recording is over: requests sent ahead will not be collected.
+    /// Nothing is waited for (a halt may have to go out next).
+    fn finish(&mut self) {}
 }
 
 /// When a recording ends by itself (it also ends when `stop` says so).
@@ -134,10 +147,30 @@ pub enum End {
 
 /// Samples until `until` or `stop`, and hands each sample to `sink` as
 /// soon as it is read, with the sampler (a motion is started from there, on
-/// the same link, between two samples). The time stamp is taken when the sample's requests
-/// leave. With a `period`, sample n is taken at n x period from the start
-/// (a late one is taken at once, never twice); without, back to back.
+/// the same link, between two samples). With a `period`, sample n is taken
+/// at n x period from the start (a late one is taken at once, never twice)
+/// and stamped when its requests leave. Without, samples follow back to back
+/// and the sampler may keep the next sample's requests in flight while the
+/// current one is read ([`Sampler::back_to_back`]); a sample is then stamped
+/// when the devices answered it ([`Sampler::read_at`]), since its requests
+/// left while the bus still carried the sample before. Stamps never go back.
 pub fn record<S: Sampler + ?Sized>(
+    sampler: &mut S,
+    clock: &dyn Clock,
+    period: Option<Duration>,
+    until: Until,
+    stop: &dyn Fn() -> bool,
+    sink: &mut dyn FnMut(&Sample, &mut S) -> Result<(), RecordError>,
+) -> Result<End, RecordError> {
+    if period.is_none() {
+        sampler.back_to_back();
+    }
+    let ended = samples(sampler, clock, period, until, stop, sink);
+    sampler.finish();
+    ended
+}
+
+fn samples<S: Sampler + ?Sized>(
     sampler: &mut S,
     clock: &dyn Clock,
     period: Option<Duration>,
@@ -147,6 +180,7 @@ pub fn record<S: Sampler + ?Sized>(
 ) -> Result<End, RecordError> {
     let start = clock.now();
     let mut seq = 0u64;
+    let mut last_t = 0.0f64;
     loop {
         if stop() {
             return Ok(End::Stopped);
@@ -166,8 +200,11 @@ pub fn record<S: Sampler + ?Sized>(
                 continue;
             }
         }
-        let t = clock.now().duration_since(start).as_secs_f64();
+        let called = clock.now();
         let values = sampler.sample()?;
+        let at = sampler.read_at().unwrap_or(called);
+        let t = at.saturating_duration_since(start).as_secs_f64().max(last_t);
+        last_t = t;
         sink(&Sample { t, seq, values }, sampler)?;
         seq += 1;
     }

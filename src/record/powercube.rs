@@ -1,11 +1,16 @@
 //! PowerCube modules: every chosen parameter of every chosen module in one
 //! pipelined burst per sample on CAN (one request after the other on RS232).
+//! Back to back on CAN, the next sample's burst goes out before the current
+//! one is collected: the bus carries it while the current answers cross the
+//! link to the host and the host turns around, instead of falling idle.
+
+use std::time::Instant;
 
 use super::{Address, Channel, RecordError, Sampler};
 use crate::device::powercube::{is_linear, Cubes, Error};
 use crate::proto::powercube::table::{self, ids, ParamDef};
 use crate::proto::powercube::{ModuleId, Request};
-use crate::session::powercube::decode_get;
+use crate::session::powercube::{decode_get, Burst};
 
 pub struct CubeSampler {
     cubes: Cubes,
@@ -15,6 +20,12 @@ pub struct CubeSampler {
     /// Per channel, its request; `None` for a parameter the module's
     /// firmware lacks (never asked: the module would not answer it).
     slots: Vec<Option<usize>>,
+    /// Send each burst one sample ahead (CAN, back to back).
+    ahead: bool,
+    /// The next sample's burst, sent and not collected yet.
+    next: Option<Burst>,
+    /// When the modules answered the last sample.
+    read_at: Option<Instant>,
 }
 
 impl CubeSampler {
@@ -38,7 +49,7 @@ impl CubeSampler {
                 channels.push(Channel { address: Address::Module(m.get()), name: d.name.into(), unit });
             }
         }
-        Ok(Self { cubes, reqs, defs, channels, slots })
+        Ok(Self { cubes, reqs, defs, channels, slots, ahead: false, next: None, read_at: None })
     }
 
     /// The device handle, for a motion on the same link.
@@ -53,11 +64,28 @@ impl Sampler for CubeSampler {
     }
 
     /// A read the burst did not answer is retried on its own (the session's
-    /// `--retries`), so one lost frame does not end a recording.
+    /// `--retries`), so one lost frame does not end a recording. Retries go
+    /// out while the next sample's burst is in flight: the session gives
+    /// each answer to the oldest request it answers.
     fn sample(&mut self) -> Result<Vec<f64>, RecordError> {
-        let answers = self.cubes.session().transact_many(&self.reqs).map_err(Error::from)?;
-        let mut read = Vec::with_capacity(answers.len());
-        for (((m, req), d), a) in self.reqs.iter().zip(&self.defs).zip(answers) {
+        let pc = self.cubes.session();
+        let burst = match self.next.take() {
+            Some(b) => b,
+            None => pc.send_burst(&self.reqs).map_err(Error::from)?,
+        };
+        if self.ahead {
+            match pc.send_burst(&self.reqs) {
+                Ok(next) => self.next = Some(next),
+                Err(e) => {
+                    pc.abandon(burst);
+                    return Err(Error::from(e).into());
+                }
+            }
+        }
+        let collected = pc.collect(burst).map_err(Error::from)?;
+        self.read_at = collected.first_answer;
+        let mut read = Vec::with_capacity(collected.answers.len());
+        for (((m, req), d), a) in self.reqs.iter().zip(&self.defs).zip(collected.answers) {
             let resp = match a {
                 Ok(r) => r,
                 Err(e) => self.cubes.session().retry_read(*m, req, e).map_err(Error::from)?,
@@ -66,5 +94,25 @@ impl Sampler for CubeSampler {
             read.push(v.as_f64().unwrap_or(f64::NAN));
         }
         Ok(self.slots.iter().map(|s| s.map_or(f64::NAN, |i| read[i])).collect())
+    }
+
+    /// Only on CAN: on RS232's half-duplex line a burst is one request
+    /// after the other, answered before the next goes out.
+    fn back_to_back(&mut self) {
+        self.ahead = self.cubes.session().is_can();
+    }
+
+    fn read_at(&self) -> Option<Instant> {
+        if self.ahead {
+            self.read_at
+        } else {
+            None
+        }
+    }
+
+    fn finish(&mut self) {
+        if let Some(b) = self.next.take() {
+            self.cubes.session().abandon(b);
+        }
     }
 }

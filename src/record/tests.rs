@@ -73,3 +73,86 @@ fn stop_ends_the_recording_between_samples() {
     .unwrap();
     assert_eq!((end, seen.get()), (End::Stopped, 3));
 }
+
+/// Says what `record` asked of it; its reads are stamped `read_ms` after each call.
+struct Ahead<'a> {
+    clock: &'a VirtualClock,
+    channels: Vec<Channel>,
+    read_ms: Vec<u64>,
+    calls: usize,
+    back_to_back: bool,
+    finished: bool,
+    read_at: Option<std::time::Instant>,
+}
+
+impl Sampler for Ahead<'_> {
+    fn channels(&self) -> &[Channel] {
+        &self.channels
+    }
+    fn sample(&mut self) -> Result<Vec<f64>, RecordError> {
+        let at = self.clock.now();
+        self.read_at = Some(at + Duration::from_millis(self.read_ms[self.calls]));
+        self.clock.advance(Duration::from_millis(10));
+        self.calls += 1;
+        Ok(vec![0.0])
+    }
+    fn back_to_back(&mut self) {
+        self.back_to_back = true;
+    }
+    fn read_at(&self) -> Option<std::time::Instant> {
+        self.read_at
+    }
+    fn finish(&mut self) {
+        self.finished = true;
+    }
+}
+
+fn ahead(clock: &VirtualClock, read_ms: Vec<u64>) -> Ahead<'_> {
+    let channels = vec![Channel { address: Address::Module(3), name: "ActPos".into(), unit: "rad".into() }];
+    Ahead { clock, channels, read_ms, calls: 0, back_to_back: false, finished: false, read_at: None }
+}
+
+// Back to back a sample is stamped when its devices read it, as the
+// sampler says; a stamp that would go back (a burst whose answers all came
+// by retry) is held at the one before.
+#[test]
+fn back_to_back_samples_are_stamped_when_read_and_never_go_back() {
+    let clock = VirtualClock::new();
+    let mut s = ahead(&clock, vec![2, 1, 0, 3]);
+    let mut ms = Vec::new();
+    record(&mut s, &clock, None, Until::Count(4), &|| false, &mut |x, _| {
+        ms.push((x.t * 1000.0).round());
+        Ok(())
+    })
+    .unwrap();
+    assert!(s.back_to_back && s.finished);
+    assert_eq!(ms, [2.0, 11.0, 20.0, 33.0]);
+    // The second read claims 10 ms, before the first one's 15 ms.
+    let clock = VirtualClock::new();
+    let mut s = ahead(&clock, vec![15, 0]);
+    let mut ms = Vec::new();
+    record(&mut s, &clock, None, Until::Count(2), &|| false, &mut |x, _| {
+        ms.push((x.t * 1000.0).round());
+        Ok(())
+    })
+    .unwrap();
+    assert_eq!(ms, [15.0, 15.0]);
+}
+
+// With a rate every sample is read when it is due: nothing is sent ahead,
+// and the stamp is the time of the call. The recording's end is told to the
+// sampler on every way out, an error included.
+#[test]
+fn with_a_rate_nothing_is_sent_ahead_and_every_end_is_told() {
+    let clock = VirtualClock::new();
+    let mut s = ahead(&clock, vec![0; 3]);
+    let period = Some(Duration::from_millis(20));
+    record(&mut s, &clock, period, Until::Count(3), &|| false, &mut |_, _| Ok(())).unwrap();
+    assert!(!s.back_to_back && s.finished);
+    let mut s = ahead(&clock, vec![0; 3]);
+    let failed = record(&mut s, &clock, None, Until::Stopped, &|| false, &mut |_, _| {
+        Err(RecordError::from(crate::device::powercube::Error::Refused("full".into())))
+    });
+    assert!(failed.is_err());
+    assert!(s.finished, "the burst in flight is abandoned after an error too");
+}

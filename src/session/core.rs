@@ -102,18 +102,42 @@ impl Core {
     /// one write), then the answers within one timeout after the send. `on`
     /// sees each received frame and says whether it settled a request; the
     /// burst ends when `pending` are settled or at the deadline.
+    /// [`Self::send_burst`] then [`Self::collect`].
     pub fn burst(
         &mut self,
         link: &mut dyn CanLink,
         frames: &[CanFrame],
-        mut pending: usize,
-        mut on: impl FnMut(&mut Self, CanFrame) -> bool,
+        pending: usize,
+        on: impl FnMut(&mut Self, CanFrame) -> bool,
     ) -> Result<(), LinkError> {
-        link.send_many(frames)?;
+        let deadline = self.send_burst(link, frames)?;
         if pending == 0 {
             return Ok(());
         }
-        let deadline = self.clock.now() + self.timeout;
+        self.collect(link, deadline, pending, on)
+    }
+
+    /// The send half of [`Self::burst`]: every frame in one go; the deadline
+    /// of its answers (one timeout from now). Whatever is sent next goes out
+    /// behind these frames while their answers are still on their way, so
+    /// the bus need not fall idle while the answers cross the link.
+    pub fn send_burst(&mut self, link: &mut dyn CanLink, frames: &[CanFrame]) -> Result<Instant, LinkError> {
+        link.send_many(frames)?;
+        Ok(self.clock.now() + self.timeout)
+    }
+
+    /// The collect half of [`Self::burst`]: receives until `on` has said
+    /// `pending` times that a frame settled a request, or until `deadline`.
+    pub fn collect(
+        &mut self,
+        link: &mut dyn CanLink,
+        deadline: Instant,
+        mut pending: usize,
+        mut on: impl FnMut(&mut Self, CanFrame) -> bool,
+    ) -> Result<(), LinkError> {
+        if pending == 0 {
+            return Ok(());
+        }
         self.recv_until(link, deadline, |core, frame| {
             if on(core, frame) {
                 pending -= 1;

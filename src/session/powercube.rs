@@ -4,10 +4,22 @@
 //! On CAN, requests can be pipelined ([`PowerCube::transact_many`]): every
 //! request is sent first, then the answers are collected within one timeout,
 //! which is what makes a 31-id scan take one timeout instead of 31.
+//!
+//! A burst can also be sent ([`PowerCube::send_burst`]) and collected later
+//! ([`PowerCube::collect`]), with more requests sent in between: the bus then
+//! carries the next burst while the answers of the first one cross the link.
+//! Every burst still waiting for answers is remembered, oldest first, and
+//! each received frame settles the first request of the oldest burst that it
+//! answers: a module answers in the order it was asked, so two reads of the
+//! same parameter in two bursts get their answers in order. A burst nobody
+//! will collect is [abandoned](PowerCube::abandon): it keeps taking its own
+//! answers until its deadline, so that none of them is taken for the answer
+//! to a later request.
 
+use std::collections::VecDeque;
 use std::ops::ControlFlow;
 use std::sync::Arc;
-use std::time::Duration;
+use std::time::{Duration, Instant};
 
 use super::core::{core_setters, with_read_retries, Core};
 use super::{SessionError, TraceEvent};
@@ -39,13 +51,87 @@ pub struct PowerCube {
     answer_start: Option<Duration>,
     /// Request frames of the CAN burst being sent, kept to spare an allocation per exchange.
     frames: Vec<CanFrame>,
+    /// CAN bursts sent whose answers are still awaited, oldest first.
+    in_flight: VecDeque<InFlight>,
+    /// The id the next burst gets.
+    next_burst: u64,
+}
+
+/// A CAN burst sent and not collected yet.
+struct InFlight {
+    id: u64,
+    exchange: CanExchange,
+    /// It takes answers until then; after it, those missing are timeouts.
+    deadline: Instant,
+    /// When its first answer came: its modules read their values about then.
+    first_answer: Option<Instant>,
+    /// Nobody will collect it: it only keeps its late answers from being
+    /// taken for the answers of later requests.
+    abandoned: bool,
+}
+
+/// What a received frame was to the bursts in flight.
+enum Routed {
+    /// It settled a request of the burst with this id.
+    Settled(u64),
+    /// It answered a request of an abandoned burst.
+    Abandoned,
+    /// It answered nothing still awaited.
+    Unmatched,
+}
+
+/// Hands `frame` to the oldest burst still taking answers that has a
+/// request it answers.
+fn route(in_flight: &mut VecDeque<InFlight>, frame: &CanFrame, now: Instant) -> Routed {
+    for b in in_flight.iter_mut().filter(|b| b.exchange.pending() > 0 && now < b.deadline) {
+        if b.exchange.handle(frame).is_some() {
+            b.first_answer.get_or_insert(now);
+            return if b.abandoned { Routed::Abandoned } else { Routed::Settled(b.id) };
+        }
+    }
+    Routed::Unmatched
+}
+
+/// A burst sent with [`PowerCube::send_burst`]: hand it to
+/// [`PowerCube::collect`] for its answers, or to [`PowerCube::abandon`].
+#[derive(Debug)]
+#[must_use = "a burst is collected or abandoned"]
+pub struct Burst {
+    id: u64,
+    sent: Instant,
+    /// RS232: the answers, taken one request after the other at the send.
+    done: Option<Vec<Result<Response, SessionError>>>,
+}
+
+impl Burst {
+    /// When its requests were handed to the link.
+    pub fn sent(&self) -> Instant {
+        self.sent
+    }
+}
+
+/// The answers of a collected burst, in request order.
+#[derive(Debug)]
+pub struct Collected {
+    pub answers: Vec<Result<Response, SessionError>>,
+    /// When the first answer came (on RS232: when the requests went out).
+    /// The modules read their values as the requests reach them, which with
+    /// another burst queued ahead on the bus is later than [`Burst::sent`].
+    pub first_answer: Option<Instant>,
 }
 
 core_setters!(PowerCube, timeout);
 
 impl PowerCube {
     fn with_transport(transport: Transport, timeout: Duration) -> Self {
-        Self { transport, core: Core::new(timeout), answer_start: None, frames: Vec::new() }
+        Self {
+            transport,
+            core: Core::new(timeout),
+            answer_start: None,
+            frames: Vec::new(),
+            in_flight: VecDeque::new(),
+            next_burst: 0,
+        }
     }
 
     pub fn over_can(link: Box<dyn CanLink>) -> Self {
@@ -107,7 +193,7 @@ impl PowerCube {
         match self.transport {
             Transport::Can(_) => {
                 let reqs = [(module, *req)];
-                let [answer] = <[_; 1]>::try_from(self.can_exchange(&reqs)?).expect("one request, one answer");
+                let [answer] = <[_; 1]>::try_from(self.transact_many(&reqs)?).expect("one request, one answer");
                 answer
             }
             Transport::Rs232 { .. } => self.rs232_transact(module, req),
@@ -126,58 +212,124 @@ impl PowerCube {
         &mut self,
         reqs: &[(ModuleId, Request)],
     ) -> Result<Vec<Result<Response, SessionError>>, SessionError> {
-        match self.transport {
-            Transport::Can(_) => self.can_exchange(reqs),
-            Transport::Rs232 { .. } => {
-                let mut out = Vec::with_capacity(reqs.len());
-                for (m, r) in reqs {
-                    match self.rs232_transact(*m, r) {
-                        Err(e @ SessionError::Link(_)) => return Err(e),
-                        other => out.push(other),
-                    }
-                }
-                Ok(out)
-            }
-        }
+        let burst = self.send_burst(reqs)?;
+        Ok(self.collect(burst)?.answers)
     }
 
-    /// The CAN exchange: one answer per request, a timeout for those not answered in time.
-    fn can_exchange(
-        &mut self,
-        reqs: &[(ModuleId, Request)],
-    ) -> Result<Vec<Result<Response, SessionError>>, SessionError> {
-        let Transport::Can(link) = &mut self.transport else { unreachable!("CAN only") };
+    /// The send half of [`Self::transact_many`]: on CAN every request goes
+    /// out in one go and the answers are left for [`Self::collect`]; other
+    /// requests (other bursts, a motion, a halt) may go out meanwhile. On
+    /// RS232 (half-duplex) the requests are answered one after the other
+    /// here, and the collect only hands the answers over.
+    pub fn send_burst(&mut self, reqs: &[(ModuleId, Request)]) -> Result<Burst, SessionError> {
+        let id = self.next_burst;
+        self.next_burst += 1;
+        let Transport::Can(link) = &mut self.transport else {
+            let sent = self.core.now();
+            let mut done = Vec::with_capacity(reqs.len());
+            for (m, r) in reqs {
+                match self.rs232_transact(*m, r) {
+                    Err(e @ SessionError::Link(_)) => return Err(e),
+                    other => done.push(other),
+                }
+            }
+            return Ok(Burst { id, sent, done: Some(done) });
+        };
         let core = &mut self.core;
+        let in_flight = &mut self.in_flight;
+        let now = core.now();
+        in_flight.retain(|b| !(b.abandoned && (b.exchange.pending() == 0 || now >= b.deadline)));
+        // Frames queued before the request cannot answer it, but may answer
+        // a burst still in flight.
         core.drain(&mut **link, |core, frame| {
-            core.trace(|| TraceEvent::Received(format!("{frame:<22} ignored (queued before the request)")));
+            let note = match route(in_flight, &frame, core.now()) {
+                Routed::Settled(_) => "ack (to a burst in flight)",
+                Routed::Abandoned => "ignored (answers an abandoned burst)",
+                Routed::Unmatched => "ignored (queued before the request)",
+            };
+            core.trace(|| TraceEvent::Received(format!("{frame:<22} {note}")));
         })?;
-        let mut exchange = CanExchange::new(reqs);
+        let exchange = CanExchange::new(reqs);
         let mut frames = std::mem::take(&mut self.frames);
         frames.clear();
         frames.extend(exchange.frames());
         for (frame, (m, r)) in frames.iter().zip(reqs) {
             core.trace(|| TraceEvent::Sent(format!("{frame:<22} {r} to module {m}")));
         }
-        let pending = exchange.pending();
-        let sent = core.burst(&mut **link, &frames, pending, |core, frame| {
-            let matched = exchange.handle(&frame).is_some();
-            core.trace(|| {
-                TraceEvent::Received(format!("{frame:<22} {}", if matched { "ack" } else { "ignored (not ours)" }))
-            });
-            matched
-        });
+        let sent = core.now();
+        let deadline = core.send_burst(&mut **link, &frames);
         self.frames = frames;
-        sent?;
-        Ok(exchange
+        self.in_flight.push_back(InFlight { id, exchange, deadline: deadline?, first_answer: None, abandoned: false });
+        Ok(Burst { id, sent, done: None })
+    }
+
+    /// The answers of `burst`, in request order, waiting for those still
+    /// due up to its deadline (one timeout after its send); a timeout for
+    /// each request not answered by then. Frames answering other bursts in
+    /// flight are kept for them.
+    pub fn collect(&mut self, burst: Burst) -> Result<Collected, SessionError> {
+        if let Some(answers) = burst.done {
+            return Ok(Collected { answers, first_answer: Some(burst.sent) });
+        }
+        let at = self.index_of(burst.id);
+        let (deadline, pending) = (self.in_flight[at].deadline, self.in_flight[at].exchange.pending());
+        let Transport::Can(link) = &mut self.transport else { unreachable!("only a CAN burst is collected later") };
+        let in_flight = &mut self.in_flight;
+        let received = self.core.collect(&mut **link, deadline, pending, |core, frame| {
+            let routed = route(in_flight, &frame, core.now());
+            let note = match routed {
+                Routed::Settled(id) if id == burst.id => "ack",
+                Routed::Settled(_) => "ack (to another burst in flight)",
+                Routed::Abandoned => "ignored (answers an abandoned burst)",
+                Routed::Unmatched => "ignored (not ours)",
+            };
+            core.trace(|| TraceEvent::Received(format!("{frame:<22} {note}")));
+            matches!(routed, Routed::Settled(id) if id == burst.id)
+        });
+        let done = self.in_flight.remove(self.index_of(burst.id)).expect("found above");
+        received?;
+        let reqs = done.exchange.requests().to_vec();
+        let answers = done
+            .exchange
             .into_answers()
             .into_iter()
-            .zip(reqs)
+            .zip(&reqs)
             .map(|(a, (m, r))| match a {
                 Some(Ok(resp)) => Ok(resp),
                 Some(Err(source)) => Err(SessionError::Malformed { target: target(*m), source }),
                 None => Err(self.timeout_error(*m, r)),
             })
-            .collect())
+            .collect();
+        Ok(Collected { answers, first_answer: done.first_answer })
+    }
+
+    /// Gives up `burst` without waiting: the answers still due are taken
+    /// (and dropped) as they come, up to its deadline, and never handed to
+    /// a later request. Nothing is waited for, so a halt can go out at once.
+    pub fn abandon(&mut self, burst: Burst) {
+        if burst.done.is_some() {
+            return;
+        }
+        let at = self.index_of(burst.id);
+        let b = &mut self.in_flight[at];
+        b.abandoned = true;
+        let due = b.exchange.pending();
+        if due > 0 {
+            self.core.trace(|| TraceEvent::Note(format!("burst abandoned with {due} answers still due")));
+        }
+    }
+
+    /// CAN bursts sent and not yet collected (abandoned ones that may still
+    /// take an answer included).
+    pub fn bursts_in_flight(&self) -> usize {
+        self.in_flight.len()
+    }
+
+    fn index_of(&self, id: u64) -> usize {
+        self.in_flight
+            .iter()
+            .position(|b| b.id == id)
+            .expect("a burst is collected or abandoned once, on the session that sent it")
     }
 
     fn rs232_transact(&mut self, module: ModuleId, req: &Request) -> Result<Response, SessionError> {
@@ -395,7 +547,8 @@ fn hex(bytes: &[u8]) -> String {
 mod tests {
     use super::*;
     use crate::clock::{Clock, VirtualClock};
-    use crate::proto::powercube::table::{ids, param};
+    use crate::proto::powercube::can;
+    use crate::proto::powercube::table::{ids, param, CommandId};
     use crate::sim::bench::in_process;
 
     // Manual 13 on the simulator: refreshes every 20 ms keep an online
@@ -443,6 +596,121 @@ mod tests {
             s & (state::COMM_ERROR | state::ERROR | state::HALTED),
             state::COMM_ERROR | state::ERROR | state::HALTED
         );
+    }
+
+    /// Modules of any id answering every GetExtended at once, with the
+    /// count of reads so far (1.0, 2.0, ...) as the value; Halt is acknowledged.
+    struct Counting(f32);
+
+    impl crate::link::mem::CanDevice for Counting {
+        fn on_frame(&mut self, _: std::time::Instant, frame: &CanFrame, out: &mut Vec<CanFrame>) {
+            let (base, m, d) = (frame.id() & !0x1F, frame.id() & 0x1F, frame.data());
+            match (base, d) {
+                (can::GET_BASE, [0x0A, param]) => {
+                    self.0 += 1.0;
+                    let v = self.0.to_le_bytes();
+                    out.push(CanFrame::new(can::ACK_BASE + m, &[0x0A, *param, v[0], v[1], v[2], v[3]]).unwrap());
+                }
+                (can::PUT_BASE, [0x02]) => out.push(CanFrame::new(can::ACK_BASE + m, &[0x02]).unwrap()),
+                _ => {}
+            }
+        }
+    }
+
+    /// Every answer reaches the bus `after` its request: late enough that a
+    /// burst's answers are still to come when the next burst goes out.
+    struct Late(Duration);
+
+    impl crate::link::mem::Fault for Late {
+        fn device_frame(&mut self, frame: CanFrame, out: &mut Vec<crate::link::mem::Delivery>) {
+            out.push(crate::link::mem::Delivery { after: self.0, frame });
+        }
+    }
+
+    /// A session on a bus of [`Counting`] modules whose answers come 1 ms
+    /// after the requests (timeout 100 ms), and the bus (to watch the requests).
+    fn counting() -> (PowerCube, crate::link::mem::MemBus) {
+        let clock: Arc<dyn Clock> = Arc::new(VirtualClock::new());
+        let bus = crate::link::mem::MemBus::new(Arc::clone(&clock));
+        bus.attach(Box::new(Counting(0.0)));
+        bus.set_fault(Some(Box::new(Late(Duration::from_millis(1)))));
+        (PowerCube::over_can(Box::new(bus.open())).with_clock(clock), bus)
+    }
+
+    fn act_pos(m: u8) -> (ModuleId, Request) {
+        (ModuleId::new(m).unwrap(), Request::GetExtended { param: ids::ACT_POS })
+    }
+
+    fn values(answers: Vec<Result<Response, SessionError>>) -> Vec<f64> {
+        answers
+            .into_iter()
+            .map(|a| decode_get(ModuleId::new(3).unwrap(), param(ids::ACT_POS).unwrap(), &a.unwrap()))
+            .map(|v| v.unwrap().as_f64().unwrap())
+            .collect()
+    }
+
+    // Two bursts go out before either is answered; each answer settles the
+    // oldest request it answers, whichever burst is collected first, and a
+    // request sent between the two takes its own answer.
+    #[test]
+    fn two_bursts_in_flight_take_their_answers_in_the_order_asked() {
+        let (mut pc, bus) = counting();
+        let mut watch = bus.open();
+        let first = pc.send_burst(&[act_pos(3), act_pos(5)]).unwrap();
+        let second = pc.send_burst(&[act_pos(3)]).unwrap();
+        assert_eq!(pc.bursts_in_flight(), 2);
+        let sent: Vec<String> =
+            std::iter::from_fn(|| watch.recv(Duration::ZERO).unwrap()).map(|f| f.to_string()).collect();
+        assert_eq!(sent, ["0C3#0A3C", "0C5#0A3C", "0C3#0A3C"], "both bursts out, no answer yet");
+        let between = pc.get(ModuleId::new(3).unwrap(), param(ids::ACT_POS).unwrap()).unwrap();
+        assert_eq!(between, Value::Float(4.0), "the fourth read asked");
+        let later = pc.collect(second).unwrap();
+        assert_eq!(values(later.answers), [3.0]);
+        let earlier = pc.collect(first).unwrap();
+        assert_eq!(values(earlier.answers), [1.0, 2.0]);
+        assert!(earlier.first_answer.unwrap() <= later.first_answer.unwrap());
+        assert_eq!(pc.bursts_in_flight(), 0);
+    }
+
+    // A burst given up before its answers came: they are dropped as they
+    // come, not taken for the answer of the next read of the same value.
+    #[test]
+    fn the_answers_of_an_abandoned_burst_are_not_taken_by_the_next_request() {
+        let (mut pc, _bus) = counting();
+        let burst = pc.send_burst(&[act_pos(3), act_pos(3)]).unwrap();
+        pc.abandon(burst);
+        let m = ModuleId::new(3).unwrap();
+        assert_eq!(pc.get(m, param(ids::ACT_POS).unwrap()).unwrap(), Value::Float(3.0));
+        // A halt goes out at once past an abandoned burst and takes its own ack.
+        let burst = pc.send_burst(&[act_pos(3)]).unwrap();
+        pc.abandon(burst);
+        let before = pc.clock().now();
+        assert_eq!(pc.transact(m, &Request::Halt).unwrap(), Response::Simple(CommandId::Halt));
+        assert!(pc.clock().now() - before < Duration::from_millis(2), "waited for the abandoned burst");
+        assert_eq!(pc.get(m, param(ids::ACT_POS).unwrap()).unwrap(), Value::Float(5.0));
+        assert_eq!(pc.bursts_in_flight(), 0, "answered abandoned bursts are forgotten");
+    }
+
+    // A request of a burst that nobody answers times out at the burst's
+    // deadline; the others keep their answers.
+    #[test]
+    fn a_request_no_module_answers_times_out_in_its_burst() {
+        let (mut pc, bus) = counting();
+        bus.set_fault(Some(Box::new(DropModule5)));
+        let burst = pc.send_burst(&[act_pos(3), act_pos(5), act_pos(17)]).unwrap();
+        let got = pc.collect(burst).unwrap().answers;
+        assert!(matches!(got[1], Err(SessionError::Timeout { .. })), "{got:?}");
+        assert!(got[0].is_ok() && got[2].is_ok(), "{got:?}");
+    }
+
+    struct DropModule5;
+
+    impl crate::link::mem::Fault for DropModule5 {
+        fn device_frame(&mut self, frame: CanFrame, out: &mut Vec<crate::link::mem::Delivery>) {
+            if frame.id() != can::ACK_BASE + 5 {
+                out.push(crate::link::mem::Delivery { after: Duration::ZERO, frame });
+            }
+        }
     }
 
     // Seen on a real kernel's vcan under qemu (scripts/qemu-socketcan.sh): a poll's ActPos

@@ -35,19 +35,24 @@ pub fn can_answer(module: ModuleId, req: &Request, frame: &CanFrame) -> Option<R
 /// request goes out first, then each received frame settles at most one of
 /// them (the first one still waiting that it answers).
 #[derive(Debug)]
-pub struct CanExchange<'a> {
-    reqs: &'a [(ModuleId, Request)],
+pub struct CanExchange {
+    reqs: Vec<(ModuleId, Request)>,
     answers: Vec<Option<Result<Response, DecodeError>>>,
     pending: usize,
 }
 
-impl<'a> CanExchange<'a> {
-    pub fn new(reqs: &'a [(ModuleId, Request)]) -> Self {
-        Self { reqs, answers: reqs.iter().map(|_| None).collect(), pending: reqs.len() }
+impl CanExchange {
+    pub fn new(reqs: &[(ModuleId, Request)]) -> Self {
+        Self { reqs: reqs.to_vec(), answers: reqs.iter().map(|_| None).collect(), pending: reqs.len() }
+    }
+
+    /// The requests, in order.
+    pub fn requests(&self) -> &[(ModuleId, Request)] {
+        &self.reqs
     }
 
     /// The request frames, in order.
-    pub fn frames(&self) -> impl Iterator<Item = CanFrame> + 'a {
+    pub fn frames(&self) -> impl Iterator<Item = CanFrame> + '_ {
         self.reqs.iter().map(|(m, r)| pc_can::request_frame(*m, r))
     }
 
