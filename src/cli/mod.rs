@@ -8,6 +8,7 @@ pub mod dashboard;
 pub mod examples;
 pub mod ids;
 pub mod monitor;
+pub mod motion;
 pub mod pac;
 pub mod powercube;
 pub mod record;

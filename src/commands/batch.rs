@@ -12,7 +12,11 @@
 use std::io::Read;
 
 use anyhow::Context;
-use axisctl::device::supervisor;
+use axisctl::device::cdios::Node;
+use axisctl::device::pac::Controller;
+use axisctl::device::powercube::Cubes;
+use axisctl::device::supervisor::{self, MovedDevices, Reach};
+use axisctl::proto::cdios::NodeId;
 use axisctl::session::ErrorKind;
 use clap::parser::ValueSource;
 use clap::FromArgMatches;
@@ -26,24 +30,6 @@ use crate::output;
 /// Subcommands that take over the terminal, serve until stopped or start
 /// another engine: they make no sense as a line.
 pub const REFUSED: &[&str] = &["sim", "dashboard", "batch", "shell"];
-
-/// Subcommands that start a motion: on the way out of a batch that a signal
-/// ends, each device one of them addressed is halted.
-const MOTION: &[&str] = &[
-    "home",
-    "move-ramp",
-    "move-step",
-    "move-vel",
-    "move-cur",
-    "pac-move",
-    "pac-ref",
-    "pac-online",
-    "pac-auto-start",
-    "pac-raw",
-    "cdios-goto",
-    "cdios-traject",
-    "cdios-start",
-];
 
 /// The global options (the ids of `cli::Global`): given to `batch` or
 /// `shell` they apply to every line; on a line they are refused.
@@ -60,7 +46,6 @@ const GLOBAL: &[(&str, &str)] = &[
 /// One line, ready to run.
 pub enum Line {
     Run {
-        name: String,
         command: Box<Command>,
     },
     /// `help`, `--help`: clap's text, printed when the line runs.
@@ -79,8 +64,9 @@ pub struct LineError {
 pub struct Engine<'a> {
     ctx: &'a Ctx,
     parser: clap::Command,
-    /// The halt of every device a motion line addressed, as a line, in order.
-    halts: Vec<String>,
+    /// Every device a motion line addressed, each once, in order: halted
+    /// when a signal ends the run.
+    moved: MovedDevices,
     /// The exit code of the first failure.
     pub first_failure: Option<u8>,
 }
@@ -90,7 +76,7 @@ impl<'a> Engine<'a> {
     pub fn new(ctx: &'a Ctx) -> anyhow::Result<Self> {
         ctx.opener().keep_links_open();
         super::arm_interrupt()?;
-        Ok(Self { ctx, parser: crate::cli::command(&exit::summary()), halts: Vec::new(), first_failure: None })
+        Ok(Self { ctx, parser: crate::cli::command(&exit::summary()), moved: MovedDevices::new(), first_failure: None })
     }
 
     pub fn parser(&self) -> &clap::Command {
@@ -141,28 +127,29 @@ impl<'a> Engine<'a> {
             at = m.subcommand().map(|(_, sub)| sub);
         }
         let cli = Cli::from_arg_matches(&matches).map_err(|e| bad(e.to_string()))?;
-        Ok(Some(Line::Run { name, command: Box::new(cli.command) }))
+        Ok(Some(Line::Run { command: Box::new(cli.command) }))
     }
 
     /// Runs one parsed line and reports its result: on stdout (`--json`:
     /// one object per document), a failure on stderr (`--json`: its error
     /// object on stdout, in line). `Err` holds the failure's exit code.
     pub fn run(&mut self, n: usize, text: &str, line: Line) -> Result<(), u8> {
-        let (name, command) = match line {
+        let command = match line {
             Line::Text(help) => {
                 output::text(format_args!("{help}"));
                 return Ok(());
             }
-            Line::Run { name, command } => (name, command),
+            Line::Run { command } => command,
         };
         output::forget_target();
         if self.ctx.json {
             output::begin_batch_line(n, text, false);
         }
+        let moves = command.starts_motion();
         let result = super::dispatch(self.ctx, *command);
         let printed = output::end_batch_line();
-        if MOTION.contains(&name.as_str()) {
-            self.note_moved(&name);
+        if let Some(target) = moves {
+            self.moved.note(target);
         }
         match result {
             Ok(()) => {
@@ -208,32 +195,6 @@ impl<'a> Engine<'a> {
         code
     }
 
-    /// Records the halt of the device the motion line addressed; a line
-    /// that addressed several (`--sync`, `--all`) halts its whole family.
-    fn note_moved(&mut self, name: &str) {
-        let target = output::current_target().unwrap_or_default();
-        let id = |key: &str| target.get(key).and_then(serde_json::Value::as_u64);
-        let halt = if name.starts_with("pac-") {
-            match id("axis").filter(|a| *a > 0) {
-                Some(axis) => format!("pac-stop-axis {axis}"),
-                None => "pac-stop".into(),
-            }
-        } else if name.starts_with("cdios-") {
-            match (id("node"), id("module")) {
-                (Some(node), Some(m)) => format!("cdios-stop --node {node} -m {m} --option fast"),
-                _ => return,
-            }
-        } else {
-            match id("module") {
-                Some(m) => format!("halt -m {m}"),
-                None => "halt --all".into(),
-            }
-        };
-        if !self.halts.contains(&halt) {
-            self.halts.push(halt);
-        }
-    }
-
     /// After a signal (or a failed output): halts every device the lines
     /// moved, each once, and says so. Returns the exit code the stop asks
     /// for (128 + the signal), or `None` when nothing asked to stop.
@@ -242,24 +203,16 @@ impl<'a> Engine<'a> {
             return None;
         }
         let why = supervisor::stop_reason().map(|r| r.to_string()).unwrap_or_else(|| "a stop".into());
-        let halts = std::mem::take(&mut self.halts);
-        let mut done = Vec::new();
-        for halt in &halts {
-            let outcome = match self.parse(halt) {
-                Ok(Some(Line::Run { command, .. })) => {
-                    output::forget_target();
-                    output::begin_batch_line(after, halt, true);
-                    let r = super::dispatch(self.ctx, *command);
-                    output::end_batch_line();
-                    r.map_err(|e| error_json::message(&e))
-                }
-                _ => Err("not a command".into()),
-            };
-            done.push(match outcome {
-                Ok(()) => format!("`{halt}`"),
-                Err(e) => format!("`{halt}` failed: {e}"),
-            });
-        }
+        let attempts = 1 + self.ctx.retry.read_retries;
+        let done: Vec<String> = self
+            .moved
+            .halt(&mut Reached::new(self.ctx), attempts)
+            .into_iter()
+            .map(|h| match h.result {
+                Ok(_) => format!("`{}`", h.target),
+                Err(e) => format!("`{}` failed: {e}", h.target),
+            })
+            .collect();
         let code = supervisor::caught().map_or(exit::code(ErrorKind::Other), supervisor::exit_code);
         let halted = if done.is_empty() { "no line had moved a device".into() } else { done.join(", ") };
         let message = format!("stopped by {why} after line {after}; halted: {halted}");
@@ -274,6 +227,52 @@ impl<'a> Engine<'a> {
         output::flush();
         self.first_failure.get_or_insert(code);
         Some(code)
+    }
+}
+
+/// The devices of the halts, opened on the link the run keeps open, each
+/// family once.
+struct Reached<'a> {
+    ctx: &'a Ctx,
+    cubes: Option<Cubes>,
+    controller: Option<Controller>,
+    nodes: Vec<Node>,
+}
+
+impl<'a> Reached<'a> {
+    fn new(ctx: &'a Ctx) -> Self {
+        Self { ctx, cubes: None, controller: None, nodes: Vec::new() }
+    }
+}
+
+fn reason(e: anyhow::Error) -> String {
+    error_json::message(&e)
+}
+
+impl Reach for Reached<'_> {
+    fn cubes(&mut self) -> Result<&mut Cubes, String> {
+        if self.cubes.is_none() {
+            self.cubes = Some(Cubes::new(self.ctx.powercube().map_err(reason)?));
+        }
+        Ok(self.cubes.as_mut().expect("opened above"))
+    }
+
+    fn controller(&mut self) -> Result<&mut Controller, String> {
+        if self.controller.is_none() {
+            self.controller = Some(Controller::new(self.ctx.pac().map_err(reason)?));
+        }
+        Ok(self.controller.as_mut().expect("opened above"))
+    }
+
+    fn node(&mut self, node: NodeId) -> Result<&mut Node, String> {
+        let at = match self.nodes.iter().position(|n| n.id() == node) {
+            Some(at) => at,
+            None => {
+                self.nodes.push(Node::new(self.ctx.cdios().map_err(reason)?, node, self.ctx.retry));
+                self.nodes.len() - 1
+            }
+        };
+        Ok(&mut self.nodes[at])
     }
 }
 

@@ -12,12 +12,11 @@ use axisctl::device::powercube::{self as cube_dev, Cubes, Move};
 use axisctl::device::supervisor;
 use axisctl::family::{Family, CDIOS_MODULE, PAC_AXIS, POWERCUBE_MODULE};
 use axisctl::proto::cdios::{GotoMode, ModuleId as CdiosModule, NodeId};
-use axisctl::proto::powercube::flags::state;
 use axisctl::proto::powercube::table::ids;
 use axisctl::proto::powercube::ModuleId;
 use axisctl::record::{
-    self, Address, CdiosSampler, CdiosValue, Channel, CubeSampler, End, PacSampler, PacValue, RecordError, Sample,
-    Sampler, Until,
+    self, Address, CdiosSampler, CdiosValue, Channel, CubeSampler, End, HaltMotion, HaltWhen, PacSampler, PacValue,
+    RecordError, Sample, Until,
 };
 use clap::Parser;
 use serde_json::{json, Map, Value};
@@ -51,6 +50,16 @@ impl Motion {
             Self::Cube { .. } => Family::PowerCube,
             Self::Pac { .. } => Family::Pac,
             Self::Cdios { .. } => Family::Cdios,
+        }
+    }
+
+    /// The device it moves, as the recording addresses it (the Cdios node
+    /// is the recording's own).
+    fn address(&self, node: u8) -> Address {
+        match *self {
+            Self::Cube { module, .. } => Address::Module(module.get()),
+            Self::Pac { axis, .. } => Address::Axis(axis),
+            Self::Cdios { module, .. } => Address::CdiosModule { node, module: module.get() },
         }
     }
 
@@ -110,14 +119,13 @@ pub fn run(ctx: &Ctx, args: RecordArgs) -> anyhow::Result<()> {
         Selection::PowerCube { modules, params } => {
             let mut s = CubeSampler::new(Cubes::new(ctx.powercube()?), &modules, &params).map_err(device_error)?;
             let start = |s: &mut CubeSampler, m: &Motion| start_cube(s, m, attempts);
-            let halt = |s: &mut CubeSampler, m: &Motion, always: bool| halt_cube(s.cubes(), m, always, attempts);
-            go(&mut s, ctx, (period, until), motion, &mut writer, start, halt)
+            go(&mut s, ctx, (period, until), (motion, 0, attempts), &mut writer, start)
         }
         Selection::Pac { axes, values } => {
             let mut ctl = Controller::new(ctx.pac()?);
             ctl.set_axes(axes.clone());
             let mut s = PacSampler::new(ctl, &axes, &values);
-            go(&mut s, ctx, (period, until), motion, &mut writer, start_pac, halt_pac)
+            go(&mut s, ctx, (period, until), (motion, 0, attempts), &mut writer, start_pac)
         }
         Selection::Cdios { node, modules, values } => {
             let mut session = ctx.cdios()?;
@@ -125,8 +133,7 @@ pub fn run(ctx: &Ctx, args: RecordArgs) -> anyhow::Result<()> {
             let mut s =
                 CdiosSampler::new(Node::new(session, node, ctx.retry), &modules, &values).map_err(device_error)?;
             let start = move |s: &mut CdiosSampler, m: &Motion| start_cdios(s, m, attempts);
-            let halt = move |s: &mut CdiosSampler, m: &Motion, always: bool| halt_cdios(s, m, always, attempts);
-            go(&mut s, ctx, (period, until), motion, &mut writer, start, halt)
+            go(&mut s, ctx, (period, until), (motion, node.get(), attempts), &mut writer, start)
         }
     }
 }
@@ -240,15 +247,15 @@ impl KindText for clap::Error {
 }
 
 /// Samples, starts the motion after the first sample, and halts it on
-/// every way out.
-fn go<S: Sampler>(
+/// every way out (when is [`HaltWhen`]'s to say). `node`: the Cdios node
+/// of the recording; `attempts`: how often a lost halt is sent.
+fn go<S: HaltMotion>(
     s: &mut S,
     ctx: &Ctx,
     (period, until): (Option<Duration>, Until),
-    motion: Option<Motion>,
+    (motion, node, attempts): (Option<Motion>, u8, u32),
     writer: &mut Writer,
     start: impl Fn(&mut S, &Motion) -> Result<String, RecordError>,
-    halt: impl Fn(&mut S, &Motion, bool) -> Option<String>,
 ) -> anyhow::Result<()> {
     writer.header(s.channels());
     let (mut tried, mut started) = (false, false);
@@ -273,7 +280,7 @@ fn go<S: Sampler>(
         },
         |s| {
             if let Some(m) = &motion {
-                halt(s, m, true);
+                record::halt_motion(s, m.address(node), HaltWhen::Always, attempts);
             }
         },
     );
@@ -283,9 +290,8 @@ fn go<S: Sampler>(
         return ended.map(|_| ()).map_err(device_error);
     };
     let why = supervisor::stop_reason();
-    // The recording is over: a motion still running is no longer watched.
-    let always = !matches!(ended, Ok(End::Done));
-    let halted = halt(s, &m, always);
+    let halted =
+        record::halt_motion(s, m.address(node), HaltWhen::after(&ended), attempts).map(|r| r.unwrap_or_else(|e| e));
     let said = halted.as_deref().map(|h| format!(": {} {h}", m.device())).unwrap_or_default();
     if let Some(h) = &halted {
         output::err_line(format_args!("{} {h}", m.device()));
@@ -326,40 +332,10 @@ fn start_cube(s: &mut CubeSampler, m: &Motion, attempts: u32) -> Result<String, 
     Ok(format!("{} acknowledged", moved.described))
 }
 
-/// Halts the module when the recording ended abnormally (`always`) or it
-/// still moves; says what was done.
-fn halt_cube(cubes: &mut Cubes, m: &Motion, always: bool, attempts: u32) -> Option<String> {
-    let Motion::Cube { module, .. } = *m else { return None };
-    if !always {
-        match cubes.get_u32(module, ids::CUBE_STATE) {
-            Ok(word) if word & state::MOTION == 0 => return None,
-            _ => {}
-        }
-    }
-    Some(match cubes.halt_retrying(module, attempts) {
-        Ok(()) => "halted".into(),
-        Err(e) => format!("HALT FAILED: {e}"),
-    })
-}
-
 fn start_pac(s: &mut PacSampler, m: &Motion) -> Result<String, RecordError> {
     let Motion::Pac { axis, pos, relative, force } = *m else { unreachable!("a PA-CONTROL motion") };
     let started = s.controller().start_move_supervised(axis, pos, relative, !force)?;
     Ok(format!("moving to {}", started.target))
-}
-
-fn halt_pac(s: &mut PacSampler, m: &Motion, always: bool) -> Option<String> {
-    let Motion::Pac { axis, .. } = *m else { return None };
-    let ctl = s.controller();
-    // 1910 axis status 1: moving.
-    if !always && ctl.read_i64(0x1910, i64::from(axis)).is_ok_and(|st| st != 1) && ctl.busy().is_none() {
-        return None;
-    }
-    // 0A93, polled to standstill: the stop of last resort the waits use.
-    Some(match ctl.halt_axis(axis).result {
-        Ok(at) => format!("stopped at {at}"),
-        Err(e) => format!("STOP FAILED: {e}"),
-    })
 }
 
 fn start_cdios(s: &mut CdiosSampler, m: &Motion, attempts: u32) -> Result<String, RecordError> {
@@ -367,22 +343,6 @@ fn start_cdios(s: &mut CdiosSampler, m: &Motion, attempts: u32) -> Result<String
     let cmds = cdios_dev::goto_commands(mode, position, None)?;
     let confirmed = s.node().send_supervised(module, &cmds, attempts)?;
     Ok(format!("goto {} {position} {}", cdios_dev::mode_name(mode), if confirmed { "confirmed" } else { "sent" }))
-}
-
-fn halt_cdios(s: &mut CdiosSampler, m: &Motion, always: bool, attempts: u32) -> Option<String> {
-    let Motion::Cdios { module, .. } = *m else { return None };
-    let node = s.node();
-    if always {
-        return Some(match node.stop_retrying(module, attempts) {
-            Ok(()) => "fast stop sent".into(),
-            Err(e) => format!("STOP FAILED: {e}"),
-        });
-    }
-    match node.halt_all(&[module]).pop().map(|(_, r)| r) {
-        Some(Ok(cdios_dev::Stopped::NotRunning)) | None => None,
-        Some(Ok(cdios_dev::Stopped::FastStop { .. })) => Some("fast stop sent (still running at the end)".into()),
-        Some(Err(e)) => Some(format!("STOP FAILED: {e}")),
-    }
 }
 
 /// A device's envelope and the channels (index, name) it holds.

@@ -365,6 +365,24 @@ impl Node {
         Err(last.expect("at least one attempt"))
     }
 
+    /// Whether the motor of `m` runs (status 1, bits 0 and 1).
+    pub fn running(&mut self, m: ModuleId) -> Result<bool, Error> {
+        Ok(self.status(m)?.status[0] & RUNNING != 0)
+    }
+
+    /// The stop of a way out of a motion ([`Self::stop_retrying`]):
+    /// `Ok(true)` when it was taken, `Ok(false)` when the module refused it
+    /// because its motor had come to rest by itself, the state asked for.
+    pub fn halt_motor(&mut self, m: ModuleId, attempts: u32) -> Result<bool, Error> {
+        match self.stop_retrying(m, attempts) {
+            Ok(()) => Ok(true),
+            Err(e) => match Error::from(e) {
+                e if refused_as_not_running(&e) => Ok(false),
+                e => Err(e),
+            },
+        }
+    }
+
     /// A fast stop to each module, once. A motor that is not running
     /// refuses a stop: that is no failure.
     pub fn halt_all(&mut self, known: &[ModuleId]) -> Vec<(ModuleId, Result<Stopped, Error>)> {

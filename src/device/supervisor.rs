@@ -21,6 +21,10 @@
 use std::panic::{self, AssertUnwindSafe, PanicHookInfo};
 use std::sync::Once;
 
+mod moved;
+
+pub use moved::{HaltOutcome, MotionTarget, MovedDevices, Reach};
+
 pub use crate::clock::stop::{
     arm, caught, exit_code, forget_signal, log_failure, note_log_failure, note_output_failure, note_panic,
     output_failure, panic_failure, signal_name, sleep, stop_reason, stop_requested, ArmError, StopReason, SIGNALS,

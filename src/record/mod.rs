@@ -10,6 +10,7 @@
 //! started through [`crate::device`] goes out on the same open link.
 
 mod cdios;
+mod halt;
 mod pac;
 mod powercube;
 
@@ -19,6 +20,7 @@ use crate::clock::Clock;
 use crate::family::Family;
 
 pub use cdios::{CdiosSampler, CdiosValue};
+pub use halt::{halt_motion, HaltMotion, HaltWhen};
 pub use pac::{PacSampler, PacValue};
 pub use powercube::CubeSampler;
 

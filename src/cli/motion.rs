@@ -1,0 +1,326 @@
+//! Which commands may start a motion, and which device they send moving:
+//! a `batch` or `shell` that a signal ends halts each such device, also one
+//! a line left moving without `--wait`. Each family's command enum answers
+//! in one exhaustive match (no catch-all arm), so a new command does not
+//! compile until someone says whether it moves; a test walks the parser's
+//! tree and checks every subcommand against the list below.
+
+use axisctl::device::supervisor::MotionTarget;
+use axisctl::proto::cdios::{ModuleId as CdiosModule, NodeId};
+use axisctl::proto::powercube::ModuleId;
+use clap::Parser;
+
+use super::backup::BackupCommand;
+use super::cdios::{CdiosCommand, ModuleTarget};
+use super::pac::PacCommand;
+use super::powercube::{PowerCubeCommand, Target};
+use super::{Cli, Command};
+
+impl Command {
+    /// The device this command may set moving, `None` for a command that
+    /// moves nothing.
+    pub fn starts_motion(&self) -> Option<MotionTarget> {
+        match self {
+            Self::PowerCube(c) => c.starts_motion(),
+            Self::Pac(c) => c.starts_motion(),
+            Self::Cdios(c) => c.starts_motion(),
+            Self::Backup(c) => c.starts_motion(),
+            // A recording halts its own motion on every way out; the run
+            // that holds it halts it once more, which is harmless.
+            Self::Record(args) => {
+                let words = std::iter::once("axisctl".to_string()).chain(args.motion.iter().cloned());
+                match args.motion.is_empty() {
+                    true => None,
+                    false => Cli::try_parse_from(words).ok().and_then(|cli| cli.command.starts_motion()),
+                }
+            }
+            Self::Decode { .. }
+            | Self::Sim(_)
+            | Self::Monitor(_)
+            | Self::Dashboard(_)
+            | Self::Params { .. }
+            | Self::Flags { .. }
+            | Self::Batch(_)
+            | Self::Shell(_)
+            | Self::Plot(_)
+            | Self::Completions { .. }
+            | Self::Man { .. } => None,
+        }
+    }
+}
+
+fn cube(m: u8) -> MotionTarget {
+    MotionTarget::Cube(ModuleId::new(m).expect("the parser checked the range"))
+}
+
+/// One module, or the whole bus for `--all`.
+fn cube_target(t: &Target) -> MotionTarget {
+    t.module.map_or(MotionTarget::CubeBus, cube)
+}
+
+fn cdios(t: &ModuleTarget) -> Option<MotionTarget> {
+    Some(MotionTarget::Cdios {
+        node: NodeId::new(t.node.node).expect("the parser checked the range"),
+        module: CdiosModule::new(t.module).expect("the parser checked the range"),
+    })
+}
+
+impl PowerCubeCommand {
+    pub fn starts_motion(&self) -> Option<MotionTarget> {
+        match self {
+            Self::Home { target, .. } => Some(cube_target(target)),
+            // --sync (several modules, one broadcast start): the whole bus.
+            Self::MoveRamp { modules, sync, .. } => match (&modules.0[..], sync) {
+                ([m], false) => Some(cube(*m)),
+                _ => Some(MotionTarget::CubeBus),
+            },
+            Self::MoveStep { module, .. } | Self::MoveVel { module, .. } | Self::MoveCur { module, .. } => {
+                Some(cube(module.module))
+            }
+            Self::Scan { .. }
+            | Self::Info(_)
+            | Self::State(_)
+            | Self::Reset { .. }
+            | Self::Halt { .. }
+            | Self::GetParam { .. }
+            | Self::SetParam { .. }
+            | Self::GetConfig(_)
+            | Self::SetConfig { .. }
+            | Self::Dio { .. }
+            | Self::Watchdog { .. } => None,
+        }
+    }
+}
+
+impl PacCommand {
+    pub fn starts_motion(&self) -> Option<MotionTarget> {
+        match self {
+            Self::PacMove { axis, .. } | Self::PacRef { axis, .. } => Some(MotionTarget::PacAxis(axis.axis)),
+            // Online mode takes motion commands from the program and the
+            // front panel too; the program moves whatever it names; a raw
+            // code can be any motion.
+            Self::PacOnline | Self::PacAutoStart | Self::PacRaw { .. } => Some(MotionTarget::PacController),
+            Self::PacOffline
+            | Self::PacStop
+            | Self::PacAutoAbort
+            | Self::PacState
+            | Self::PacError
+            | Self::PacResetError
+            | Self::PacNoRef(_)
+            | Self::PacZero(_)
+            | Self::PacSetPos { .. }
+            | Self::PacSpeed { .. }
+            | Self::PacAccel { .. }
+            | Self::PacStopAxis { .. }
+            | Self::PacAxis(_)
+            | Self::PacAxes
+            | Self::PacAxisPower { .. }
+            | Self::PacAxisOn(_)
+            | Self::PacAxisOff(_)
+            | Self::PacMeasure { .. }
+            | Self::PacLimitSwitch { .. }
+            | Self::PacIn { .. }
+            | Self::PacOut { .. }
+            | Self::PacFlag { .. }
+            | Self::PacReg { .. }
+            | Self::PacSysParam { .. }
+            | Self::PacAxisParam { .. } => None,
+        }
+    }
+}
+
+impl CdiosCommand {
+    pub fn starts_motion(&self) -> Option<MotionTarget> {
+        match self {
+            Self::Goto { target, .. } | Self::Traject { target, .. } | Self::Start { target, .. } => cdios(target),
+            Self::Identify { .. }
+            | Self::Status(_)
+            | Self::Position { .. }
+            | Self::SetPosition { .. }
+            | Self::Stop { .. }
+            | Self::Enable { .. }
+            | Self::Disable(_)
+            | Self::Config { .. }
+            | Self::Outputs { .. }
+            | Self::Analog { .. }
+            | Self::Events { .. }
+            | Self::Store { .. }
+            | Self::Watch { .. } => None,
+        }
+    }
+}
+
+impl BackupCommand {
+    /// A restore writes settings, never a motion command.
+    pub fn starts_motion(&self) -> Option<MotionTarget> {
+        match self {
+            Self::Backup { .. } | Self::Diff { .. } | Self::Restore { .. } => None,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use std::collections::BTreeSet;
+
+    use clap::FromArgMatches;
+
+    use super::*;
+
+    /// Every subcommand that may start a motion. A new subcommand must be
+    /// put here or in [`STILL`], and its examples are classified below.
+    const MOVING: &[&str] = &[
+        "home",
+        "move-ramp",
+        "move-step",
+        "move-vel",
+        "move-cur",
+        "pac-move",
+        "pac-ref",
+        "pac-online",
+        "pac-auto-start",
+        "pac-raw",
+        "cdios-goto",
+        "cdios-traject",
+        "cdios-start",
+    ];
+
+    /// Every subcommand that moves nothing (`record` moves what follows
+    /// its `--`, classified on its own).
+    const STILL: &[&str] = &[
+        "scan",
+        "info",
+        "state",
+        "reset",
+        "halt",
+        "get-param",
+        "set-param",
+        "get-config",
+        "set-config",
+        "dio",
+        "watchdog",
+        "decode",
+        "sim",
+        "monitor",
+        "cdios-identify",
+        "cdios-status",
+        "cdios-position",
+        "cdios-set-position",
+        "cdios-stop",
+        "cdios-enable",
+        "cdios-disable",
+        "cdios-config",
+        "cdios-outputs",
+        "cdios-analog",
+        "cdios-events",
+        "cdios-store",
+        "cdios-watch",
+        "dashboard",
+        "pac-offline",
+        "pac-stop",
+        "pac-auto-abort",
+        "pac-state",
+        "pac-error",
+        "pac-reset-error",
+        "pac-no-ref",
+        "pac-zero",
+        "pac-set-pos",
+        "pac-speed",
+        "pac-accel",
+        "pac-stop-axis",
+        "pac-axis",
+        "pac-axes",
+        "pac-axis-power",
+        "pac-axis-on",
+        "pac-axis-off",
+        "pac-measure",
+        "pac-limit-switch",
+        "pac-in",
+        "pac-out",
+        "pac-flag",
+        "pac-reg",
+        "pac-sys-param",
+        "pac-axis-param",
+        "backup",
+        "diff",
+        "restore",
+        "params",
+        "flags",
+        "batch",
+        "shell",
+        "record",
+        "plot",
+        "completions",
+        "man",
+    ];
+
+    fn parse(line: &str) -> Command {
+        let parser = crate::cli::command("");
+        // An example may go on into the shell: `> file`, `| man -l -`.
+        let words = shlex::split(line).expect("an example splits");
+        let words = words.into_iter().take_while(|w| !w.starts_with(['>', '<', '|', '&', ';']));
+        let words = std::iter::once("axisctl".to_string()).chain(words);
+        let matches = parser.try_get_matches_from(words).unwrap_or_else(|e| panic!("{line}: {e}"));
+        Cli::from_arg_matches(&matches).unwrap().command
+    }
+
+    #[test]
+    fn every_subcommand_of_the_parser_is_said_to_move_or_not() {
+        let tree: BTreeSet<String> =
+            crate::cli::command("").get_subcommands().map(|c| c.get_name().to_string()).collect();
+        let listed: BTreeSet<String> = MOVING.iter().chain(STILL).map(|s| s.to_string()).collect();
+        assert_eq!(MOVING.len() + STILL.len(), listed.len(), "a subcommand is listed twice");
+        assert_eq!(tree, listed, "each subcommand goes into MOVING or STILL");
+    }
+
+    /// Every example of every subcommand's help, parsed by the real parser
+    /// and classified: the motion commands name a device, the others none.
+    #[test]
+    fn every_example_is_classified_as_its_subcommand_is_listed() {
+        let mut seen = BTreeSet::new();
+        for (path, lines) in crate::cli::examples::EXAMPLES {
+            let name = path.split(' ').next().unwrap();
+            for line in *lines {
+                let moves = parse(line).starts_motion();
+                let listed = MOVING.contains(&name) || (name == "record" && line.contains(" -- "));
+                assert_eq!(moves.is_some(), listed, "{line}: {moves:?}");
+                seen.insert(name);
+            }
+        }
+        for name in MOVING {
+            assert!(seen.contains(name), "{name} has an example");
+        }
+    }
+
+    #[test]
+    fn each_motion_names_the_device_it_sends_moving() {
+        let cube = |m| MotionTarget::Cube(ModuleId::new(m).unwrap());
+        let cdios = |n, m| MotionTarget::Cdios { node: NodeId::new(n).unwrap(), module: CdiosModule::new(m).unwrap() };
+        for (line, target) in [
+            ("home -m 17", cube(17)),
+            ("home --all --wait", MotionTarget::CubeBus),
+            ("move-ramp -m 3 0.5", cube(3)),
+            ("move-ramp -m 3,5 --sync 0.5 -0.5", MotionTarget::CubeBus),
+            ("move-ramp -m 5 --sync 0.5", MotionTarget::CubeBus),
+            ("move-step -m 5 0.1 --time 100", cube(5)),
+            ("move-vel -m 9 0.1", cube(9)),
+            ("move-cur -m 31 0.5", cube(31)),
+            ("pac-move 2 900", MotionTarget::PacAxis(2)),
+            ("pac-ref 3 --wait", MotionTarget::PacAxis(3)),
+            ("pac-online", MotionTarget::PacController),
+            ("pac-auto-start", MotionTarget::PacController),
+            ("pac-raw 0A94 2 900.0", MotionTarget::PacController),
+            ("cdios-goto -m 1 3000", cdios(1, 1)),
+            ("cdios-goto --node 7 -m 2 3000", cdios(7, 2)),
+            ("cdios-traject --node 3 -m 0 1", cdios(3, 0)),
+            ("cdios-start -m 4 --option to-speed --speed 100", cdios(1, 4)),
+            ("record -m 17 ActPos -- move-ramp -m 17 0.1", cube(17)),
+            ("record --axis 2 position -- pac-move 2 250", MotionTarget::PacAxis(2)),
+        ] {
+            assert_eq!(parse(line).starts_motion(), Some(target), "{line}");
+        }
+        for line in ["record -m 17 ActPos --count 3", "record -m 17 ActPos -- no-such-command"] {
+            assert_eq!(parse(line).starts_motion(), None, "{line}");
+        }
+    }
+}
