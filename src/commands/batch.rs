@@ -1,7 +1,7 @@
 //! `axisctl batch`: many commands, one process, one open link. Each line is
 //! parsed with the command line's own parser and run through the same
 //! dispatch as a one-shot command; `shell` is the same engine at a
-//! terminal.
+//! terminal. Consecutive reads on a CAN link go out pipelined ([`pipeline`]).
 //!
 //! Every line is parsed before the first runs, so a typo on line 40 sends
 //! nothing. The signals belong to the motion supervisor from the start: a
