@@ -1,13 +1,15 @@
 //! `axisctl batch`: many commands, one process, one open link. Each line is
 //! parsed with the command line's own parser and run through the same
 //! dispatch as a one-shot command; `shell` is the same engine at a
-//! terminal.
+//! terminal. Consecutive reads on a CAN link go out pipelined ([`pipeline`]).
 //!
 //! Every line is parsed before the first runs, so a typo on line 40 sends
 //! nothing. The signals belong to the motion supervisor from the start: a
 //! Ctrl-C ends the batch after the line that runs (a supervised wait halts
 //! its device at once), and every device a motion line addressed is halted,
 //! also one still moving from a line without `--wait`.
+
+mod pipeline;
 
 use std::io::Read;
 
@@ -300,13 +302,18 @@ pub fn run(ctx: &Ctx, args: &BatchArgs) -> anyhow::Result<()> {
         }
         return Err(Reported(exit::code(ErrorKind::Usage)).into());
     }
+    let mut pipeline = pipeline::Pipeline::new(ctx, &lines);
     let mut last = 0;
-    for (n, text, line) in lines {
+    for (i, (n, text, line)) in lines.into_iter().enumerate() {
         if let Some(code) = engine.stop_if_requested(last) {
             return Err(Reported(code).into());
         }
         last = n;
-        let failed = engine.run(n, &text, line).is_err();
+        let ran = match pipeline.answered(ctx, i) {
+            Some(answered) => engine.run_answered(n, &text, answered),
+            None => engine.run(n, &text, line),
+        };
+        let failed = ran.is_err();
         if let Some(code) = engine.stop_if_requested(n) {
             return Err(Reported(code).into());
         }

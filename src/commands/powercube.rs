@@ -10,8 +10,9 @@ use axisctl::family::Family;
 use axisctl::proto::powercube::flags::{self, FlagWord};
 use axisctl::proto::powercube::frame::{f32_to_f64, Value};
 use axisctl::proto::powercube::table::{self, ids, ParamDef};
-use axisctl::proto::powercube::ModuleId;
+use axisctl::proto::powercube::{ModuleId, Request, Response};
 use axisctl::session::powercube::PowerCube;
+use axisctl::session::SessionError;
 use serde_json::json;
 
 use super::wait::waiting;
@@ -50,11 +51,8 @@ pub fn run(ctx: &Ctx, cmd: Command) -> anyhow::Result<()> {
         Command::MoveVel { module: m, vel, ticks, force } => move_vel(ctx, module(m.module), vel, ticks, force),
         Command::MoveCur { module: m, amps, force } => move_cur(ctx, module(m.module), amps, force),
         Command::GetParam { module: m, params, all } => {
-            // Every name is resolved before the link opens: a typo sends nothing.
-            params.iter().try_for_each(|n| super::names::check_powercube_param(n))?;
-            let defs = device::readable_params(&params, all)?;
-            let several = !matches!(m.module, Devices::One(_));
-            read_each(ctx, &m.module, |ctx, cubes, id| get_param(ctx, cubes, id, (&defs, all), several))
+            let read = ParamRead::new(&m.module, &params, all)?;
+            read_each(ctx, &m.module, |ctx, cubes, id| read.one(ctx, cubes, id))
         }
         Command::SetParam { module: m, param, value, force } => set_param(ctx, module(m.module), &param, &value, force),
         Command::GetConfig(m) => get_config(ctx, module(m.module)),
@@ -101,7 +99,7 @@ fn cubes(ctx: &Ctx) -> anyhow::Result<Cubes> {
 fn read_each(
     ctx: &Ctx,
     devices: &Devices,
-    mut read: impl FnMut(&Ctx, &mut Cubes, ModuleId) -> anyhow::Result<serde_json::Value>,
+    read: impl FnMut(&Ctx, &mut Cubes, ModuleId) -> anyhow::Result<serde_json::Value>,
 ) -> anyhow::Result<()> {
     let mut cubes = cubes(ctx)?;
     let ids: Vec<ModuleId> = match devices {
@@ -115,11 +113,23 @@ fn read_each(
             present
         }
     };
+    read_ids(ctx, &mut cubes, devices, ids, read)
+}
+
+/// [`read_each`] once the modules are known: each one's read in turn, then
+/// the JSON document in the shape `devices` asks for.
+fn read_ids(
+    ctx: &Ctx,
+    cubes: &mut Cubes,
+    devices: &Devices,
+    ids: Vec<ModuleId>,
+    mut read: impl FnMut(&Ctx, &mut Cubes, ModuleId) -> anyhow::Result<serde_json::Value>,
+) -> anyhow::Result<()> {
     let mut docs = Vec::new();
     for m in ids {
         // The error object names the module being read.
         module(m.get());
-        docs.push(read(ctx, &mut cubes, m)?);
+        docs.push(read(ctx, cubes, m)?);
     }
     if ctx.json {
         match devices {
@@ -613,40 +623,114 @@ fn move_cur(ctx: &Ctx, m: ModuleId, amps: f64, force: bool) -> anyhow::Result<()
     Ok(())
 }
 
-fn get_param(
-    ctx: &Ctx,
-    cubes: &mut Cubes,
-    m: ModuleId,
-    (defs, all): (&[&'static ParamDef], bool),
+/// What a `get-param` line reads of each module, and how it shows it.
+struct ParamRead {
+    /// The parameters asked for, then Config: it rides along so that
+    /// "rad|m" units resolve for the module's kind.
+    defs: Vec<&'static ParamDef>,
+    all: bool,
+    /// A list or `all`: each module's table under its name.
     several: bool,
-) -> anyhow::Result<serde_json::Value> {
-    // Config rides along so that "rad|m" units resolve for the module's kind.
-    let mut with_config = defs.to_vec();
-    with_config.push(param(ids::CONFIG));
-    let mut vals = cubes.get_params(m, &with_config, all)?;
-    let linear = vals.pop().is_some_and(|(_, c)| device::is_linear(f64_of(&c) as u32));
-    if ctx.json {
-        let mut params = serde_json::Map::new();
-        for (d, v) in &vals {
-            params.insert(d.name.into(), param_json(d, linear, serde_json::to_value(v)?));
+}
+
+impl ParamRead {
+    /// Every name is resolved before the link opens: a typo sends nothing.
+    fn new(devices: &Devices, params: &[String], all: bool) -> anyhow::Result<Self> {
+        params.iter().try_for_each(|n| super::names::check_powercube_param(n))?;
+        let mut defs = device::readable_params(params, all)?;
+        defs.push(param(ids::CONFIG));
+        Ok(Self { defs, all, several: !matches!(devices, Devices::One(_)) })
+    }
+
+    /// Reads one module and shows it.
+    fn one(&self, ctx: &Ctx, cubes: &mut Cubes, m: ModuleId) -> anyhow::Result<serde_json::Value> {
+        let vals = cubes.get_params(m, &self.defs, self.all)?;
+        self.show(ctx, m, vals)
+    }
+
+    /// Prints the human table and returns the JSON object, from the values
+    /// of `defs` (Config last).
+    fn show(
+        &self,
+        ctx: &Ctx,
+        m: ModuleId,
+        mut vals: Vec<(&'static ParamDef, Value)>,
+    ) -> anyhow::Result<serde_json::Value> {
+        let linear = vals.pop().is_some_and(|(_, c)| device::is_linear(f64_of(&c) as u32));
+        if ctx.json {
+            let mut params = serde_json::Map::new();
+            for (d, v) in &vals {
+                params.insert(d.name.into(), param_json(d, linear, serde_json::to_value(v)?));
+            }
+            return Ok(doc(ctx, m, json!({ "params": params })));
         }
-        return Ok(doc(ctx, m, json!({ "params": params })));
+        if self.several {
+            say!("module {m}:");
+        }
+        let mut rows = vec![["PARAMETER", "ID", "TYPE", "VALUE", "UNIT"].map(String::from).to_vec()];
+        for (d, v) in &vals {
+            rows.push(vec![
+                d.name.into(),
+                format!("{:#04x}", d.id),
+                d.ty.name().into(),
+                v.to_string(),
+                d.unit_for(linear).into(),
+            ]);
+        }
+        output::table(&rows, ctx.style);
+        Ok(serde_json::Value::Null)
     }
-    if several {
-        say!("module {m}:");
+}
+
+/// A `get-param` line whose requests are known before anything is sent:
+/// named modules (not `all`, which asks who is present first) and named
+/// parameters every firmware has (not `--all` nor a measurement of newer
+/// firmware, which read the module's version first). `batch` sends the
+/// requests of consecutive such lines in one burst and hands each line its
+/// answers; the line then shows them as its one-shot run would.
+pub struct PipelinedRead {
+    devices: Devices,
+    modules: Vec<ModuleId>,
+    read: ParamRead,
+}
+
+impl PipelinedRead {
+    /// `None` for a command that is not such a read, or that a one-shot run
+    /// refuses (it runs on its own and says why).
+    pub fn plan(cmd: &Command) -> Option<Self> {
+        let Command::GetParam { module: m, params, all: false } = cmd else { return None };
+        let modules: Vec<ModuleId> = match &m.module {
+            Devices::One(id) => vec![ModuleId::new(*id)?],
+            Devices::List(list) => list.0.iter().map(|id| ModuleId::new(*id)).collect::<Option<_>>()?,
+            Devices::All => return None,
+        };
+        let read = ParamRead::new(&m.module, params, false).ok()?;
+        Cubes::param_requests(*modules.first()?, &read.defs)?;
+        Some(Self { devices: m.module.clone(), modules, read })
     }
-    let mut rows = vec![["PARAMETER", "ID", "TYPE", "VALUE", "UNIT"].map(String::from).to_vec()];
-    for (d, v) in &vals {
-        rows.push(vec![
-            d.name.into(),
-            format!("{:#04x}", d.id),
-            d.ty.name().into(),
-            v.to_string(),
-            d.unit_for(linear).into(),
-        ]);
+
+    /// The requests, module by module, in the order the one-shot run sends them.
+    pub fn requests(&self) -> Vec<(ModuleId, Request)> {
+        let reqs = self.modules.iter().map(|m| Cubes::param_requests(*m, &self.read.defs));
+        reqs.flatten().flatten().collect()
     }
-    output::table(&rows, ctx.style);
-    Ok(serde_json::Value::Null)
+
+    /// The line's output from the answers to [`Self::requests`], in order;
+    /// a read the burst did not answer gets the session's retries on its
+    /// own, and the line fails as its one-shot run would.
+    pub fn finish(
+        &self,
+        ctx: &Ctx,
+        cubes: &mut Cubes,
+        answers: Vec<Result<Response, SessionError>>,
+    ) -> anyhow::Result<()> {
+        let mut answers = answers.into_iter();
+        let per_module = self.read.defs.len();
+        read_ids(ctx, cubes, &self.devices, self.modules.clone(), |ctx, cubes, m| {
+            let vals = cubes.params_answered(m, &self.read.defs, answers.by_ref().take(per_module))?;
+            self.read.show(ctx, m, vals)
+        })
+    }
 }
 
 fn set_param(ctx: &Ctx, m: ModuleId, name: &str, text: &str, force: bool) -> anyhow::Result<()> {

@@ -22,7 +22,7 @@ use crate::proto::powercube::flags::{self, config};
 use crate::proto::powercube::frame::{parse_int, Value};
 use crate::proto::powercube::limits::{self, Limits};
 use crate::proto::powercube::table::{self, ids, ParamDef};
-use crate::proto::powercube::{ModuleId, Request};
+use crate::proto::powercube::{ModuleId, Request, Response};
 use crate::session::powercube::{decode_get, PowerCube};
 use crate::session::SessionError;
 
@@ -282,6 +282,10 @@ impl Cubes {
         defs: &[&'static ParamDef],
         all: bool,
     ) -> Result<Vec<(&'static ParamDef, Value)>, Error> {
+        if let (false, Some(reqs)) = (all, Self::param_requests(m, defs)) {
+            let answers = self.pc.transact_many(&reqs)?;
+            return self.params_answered(m, defs, answers);
+        }
         let got = self.get_present(m, defs)?;
         if !all {
             if let Some((d, _)) = defs.iter().zip(&got).find(|(_, v)| v.is_none()) {
@@ -302,12 +306,49 @@ impl Cubes {
         &mut self.pc
     }
 
+    /// The requests of [`Self::get_params`] for the named `defs`, when they
+    /// are known before anything is sent: `None` when one of the parameters
+    /// needs a newer firmware, whose version is read (and decided on) first.
+    /// A caller may send them in a larger burst of its own (`batch`
+    /// pipelines consecutive reads) and hand the answers to
+    /// [`Self::params_answered`]: the frames are those `get_params` sends.
+    pub fn param_requests(m: ModuleId, defs: &[&'static ParamDef]) -> Option<Vec<(ModuleId, Request)>> {
+        defs.iter().all(|d| table::firmware_has(0, d.id)).then(|| Self::get_requests(m, defs))
+    }
+
+    /// [`Self::get_params`] (named parameters) from the answers to
+    /// [`Self::param_requests`], in request order: a read the burst did not
+    /// answer is retried on its own (the burst counts as its first attempt).
+    pub fn params_answered(
+        &mut self,
+        m: ModuleId,
+        defs: &[&'static ParamDef],
+        answers: impl IntoIterator<Item = Result<Response, SessionError>>,
+    ) -> Result<Vec<(&'static ParamDef, Value)>, Error> {
+        Ok(defs.iter().copied().zip(self.get_answered(m, defs, answers)?).collect())
+    }
+
+    fn get_requests(m: ModuleId, defs: &[&'static ParamDef]) -> Vec<(ModuleId, Request)> {
+        defs.iter().map(|d| (m, Request::GetExtended { param: d.id })).collect()
+    }
+
     /// Reads several parameters of one module, pipelined on CAN. A read the
     /// burst did not answer is retried one by one (the burst counts as its
     /// first attempt).
     pub fn get_many(&mut self, m: ModuleId, defs: &[&'static ParamDef]) -> Result<Vec<Value>, Error> {
-        let reqs: Vec<_> = defs.iter().map(|d| (m, Request::GetExtended { param: d.id })).collect();
-        let answers = self.pc.transact_many(&reqs)?;
+        let answers = self.pc.transact_many(&Self::get_requests(m, defs))?;
+        self.get_answered(m, defs, answers)
+    }
+
+    /// The values of `defs` from the answers to their GetExtended requests,
+    /// in order; a missing or bad answer is retried on its own, and the
+    /// first read that still fails ends the lot.
+    fn get_answered(
+        &mut self,
+        m: ModuleId,
+        defs: &[&'static ParamDef],
+        answers: impl IntoIterator<Item = Result<Response, SessionError>>,
+    ) -> Result<Vec<Value>, Error> {
         defs.iter()
             .zip(answers)
             .map(|(d, a)| {

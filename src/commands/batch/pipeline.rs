@@ -1,0 +1,230 @@
+//! Consecutive read lines of a batch on a CAN link, pipelined: the
+//! requests of a group of lines leave in one burst and the answers come
+//! back while the later requests are still on the wire, instead of each
+//! line waiting for its answers before the next line's requests go out.
+//!
+//! A group is consecutive PowerCube `get-param` lines whose requests are
+//! known before anything is sent ([`PipelinedRead`]), at least two of them
+//! and at most [`MAX_BURST`] requests. Each line sends exactly the frames
+//! its one-shot run sends and is shown by the one-shot's own code from its
+//! answers, in line order; a read the burst did not answer gets the
+//! session's retries on its own. Lines after a failing one were read
+//! already, but print nothing and count as not run unless `--keep-going`.
+//! Every other line, and every line on RS232, runs on its own as before.
+
+use std::ops::Range;
+
+use axisctl::device::powercube::Cubes;
+use axisctl::family::Family;
+use axisctl::open::Opener;
+use axisctl::proto::powercube::Response;
+use axisctl::session::SessionError;
+use serde_json::json;
+
+use super::{Engine, Line};
+use crate::cli::Command;
+use crate::commands::powercube::PipelinedRead;
+use crate::commands::Ctx;
+use crate::output;
+
+/// Requests in one burst at most: a real adapter's transmit queue is short
+/// (the scan pipelines 31), and a request that waits in it longer than the
+/// timeout would be counted as unanswered.
+pub const MAX_BURST: usize = 32;
+
+/// Which lines go out together, and the answers of the group whose burst
+/// is out.
+pub struct Pipeline {
+    /// Per line, its requests when it can be pipelined.
+    plans: Vec<Option<PipelinedRead>>,
+    groups: Vec<Range<usize>>,
+    sent: Option<Sent>,
+}
+
+/// A group whose burst went out: its session (the retries use it) and each
+/// line's answers, taken when the line is shown.
+struct Sent {
+    lines: Range<usize>,
+    cubes: Cubes,
+    answers: Vec<Option<Vec<Result<Response, SessionError>>>>,
+}
+
+/// A line's answers, ready to be shown.
+pub struct Answered<'p> {
+    read: &'p PipelinedRead,
+    cubes: &'p mut Cubes,
+    answers: Vec<Result<Response, SessionError>>,
+}
+
+impl Pipeline {
+    /// Plans the groups of `lines` (the batch's lines, in order); none
+    /// unless the link is CAN for the PowerCube family.
+    pub fn new(ctx: &Ctx, lines: &[(usize, String, Line)]) -> Self {
+        let can = ctx.link.as_ref().is_some_and(|spec| Opener::is_can(spec, Family::PowerCube));
+        let plans: Vec<Option<PipelinedRead>> =
+            lines.iter().map(|(_, _, line)| if can { plan(line) } else { None }).collect();
+        let sizes: Vec<Option<usize>> = plans.iter().map(|p| p.as_ref().map(|p| p.requests().len())).collect();
+        Self { groups: groups(&sizes, MAX_BURST), plans, sent: None }
+    }
+
+    /// The answers of line `i` (an index into the lines), when it belongs
+    /// to a group; the group's burst goes out at its first line. `None` also
+    /// when the session could not be opened or the burst failed as a whole
+    /// (the link): its lines then run on their own and say what failed.
+    pub fn answered(&mut self, ctx: &Ctx, i: usize) -> Option<Answered<'_>> {
+        let group = self.groups.iter().find(|g| g.contains(&i))?.clone();
+        if group.start == i {
+            self.sent = send(ctx, &self.plans, group.clone());
+        }
+        let sent = self.sent.as_mut().filter(|s| s.lines == group)?;
+        let answers = sent.answers[i - group.start].take()?;
+        Some(Answered { read: self.plans[i].as_ref()?, cubes: &mut sent.cubes, answers })
+    }
+}
+
+impl Answered<'_> {
+    /// Shows the line from its answers, as its one-shot run would.
+    fn finish(self, ctx: &Ctx) -> anyhow::Result<()> {
+        self.read.finish(ctx, self.cubes, self.answers)
+    }
+}
+
+fn plan(line: &Line) -> Option<PipelinedRead> {
+    match line {
+        Line::Run { command, .. } => match &**command {
+            Command::PowerCube(c) => PipelinedRead::plan(c),
+            _ => None,
+        },
+        Line::Text(_) => None,
+    }
+}
+
+/// Sends the requests of every line of `group` in one burst.
+fn send(ctx: &Ctx, plans: &[Option<PipelinedRead>], group: Range<usize>) -> Option<Sent> {
+    let mut cubes = Cubes::new(ctx.powercube().ok()?);
+    let reqs: Vec<_> = plans[group.clone()].iter().map(|p| p.as_ref().map(PipelinedRead::requests)).collect();
+    let all: Vec<_> = reqs.iter().flatten().flatten().copied().collect();
+    let mut answers = cubes.session().transact_many(&all).ok()?.into_iter();
+    let answers = reqs.iter().map(|r| Some(answers.by_ref().take(r.as_ref()?.len()).collect())).collect();
+    Some(Sent { lines: group, cubes, answers })
+}
+
+/// The groups among lines that can be pipelined (`Some(requests)`) or not
+/// (`None`): runs of consecutive pipelinable lines, each cut where its
+/// requests would exceed `cap`; a run of one line is no group (it runs on
+/// its own), nor is a line of more than `cap` requests.
+fn groups(sizes: &[Option<usize>], cap: usize) -> Vec<Range<usize>> {
+    fn close(open: Option<(usize, usize)>, end: usize, out: &mut Vec<Range<usize>>) {
+        if let Some((start, _)) = open.filter(|(start, _)| end - start >= 2) {
+            out.push(start..end);
+        }
+    }
+    let mut out = Vec::new();
+    // The group being filled: its first line and its requests so far.
+    let mut open: Option<(usize, usize)> = None;
+    for (i, size) in sizes.iter().enumerate() {
+        open = match (*size, open) {
+            (Some(n), Some((start, total))) if total + n <= cap => Some((start, total + n)),
+            (Some(n), _) if n <= cap => {
+                close(open, i, &mut out);
+                Some((i, n))
+            }
+            _ => {
+                close(open, i, &mut out);
+                None
+            }
+        };
+    }
+    close(open, sizes.len(), &mut out);
+    out
+}
+
+impl Engine<'_> {
+    /// Reports a line whose requests went out in its group's burst, as
+    /// [`Engine::run`] reports a line.
+    pub fn run_answered(&mut self, n: usize, text: &str, answered: Answered<'_>) -> Result<(), u8> {
+        output::forget_target();
+        if self.ctx.json {
+            output::begin_batch_line(n, text, false);
+        }
+        let result = answered.finish(self.ctx);
+        let printed = output::end_batch_line();
+        match result {
+            Ok(()) => {
+                if self.ctx.json && !printed {
+                    output::json(&json!({"line": n, "command": text, "result": null}));
+                }
+                output::flush();
+                Ok(())
+            }
+            Err(e) => Err(self.failed(n, text, e)),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const R: Option<usize> = None;
+
+    /// The groups as (first line, end).
+    fn g(sizes: &[Option<usize>], cap: usize) -> Vec<(usize, usize)> {
+        groups(sizes, cap).into_iter().map(|r| (r.start, r.end)).collect()
+    }
+
+    #[test]
+    fn consecutive_reads_form_one_group_and_another_line_ends_it() {
+        assert_eq!(g(&[Some(2), Some(2), Some(2)], 32), [(0, 3)]);
+        assert_eq!(g(&[Some(2), Some(2), R, Some(2), Some(4)], 32), [(0, 2), (3, 5)]);
+        assert_eq!(g(&[R, Some(2), Some(2), R], 32), [(1, 3)]);
+    }
+
+    #[test]
+    fn a_lone_read_is_no_group() {
+        assert_eq!(g(&[Some(2), R, Some(2)], 32), []);
+        assert_eq!(g(&[Some(2)], 32), []);
+        assert_eq!(g(&[], 32), []);
+    }
+
+    #[test]
+    fn a_group_holds_at_most_the_cap_of_requests() {
+        // 17 lines of 2 requests: 16 fill a burst of 32, the 17th is alone.
+        assert_eq!(g(&[Some(2); 17], 32), [(0, 16)]);
+        assert_eq!(g(&[Some(2); 34], 32), [(0, 16), (16, 32), (32, 34)]);
+        assert_eq!(g(&[Some(30), Some(2), Some(2), Some(31)], 32), [(0, 2)]);
+        assert_eq!(g(&[Some(3); 3], 8), [(0, 2)]);
+    }
+
+    #[test]
+    fn a_line_of_more_requests_than_the_cap_runs_on_its_own() {
+        assert_eq!(g(&[Some(2), Some(33), Some(2), Some(2)], 32), [(2, 4)]);
+        assert_eq!(g(&[Some(33), Some(33)], 32), []);
+    }
+
+    /// The requests of a line that can be pipelined; `None` for one that
+    /// runs on its own.
+    fn requests(line: &str) -> Option<usize> {
+        use clap::Parser;
+        let cli = crate::cli::Cli::try_parse_from(std::iter::once("axisctl").chain(line.split_whitespace())).unwrap();
+        plan(&Line::Run { command: Box::new(cli.command) }).map(|p| p.requests().len())
+    }
+
+    #[test]
+    fn get_param_of_named_modules_and_parameters_is_pipelined_with_its_config_read() {
+        assert_eq!(requests("get-param -m 3 ActPos"), Some(2));
+        assert_eq!(requests("get-param -m 17 ActPos ActVel Config"), Some(4));
+        assert_eq!(requests("get-param -m 3,5,17 ActPos"), Some(6));
+    }
+
+    #[test]
+    fn reads_that_ask_the_module_first_and_every_other_line_run_on_their_own() {
+        assert_eq!(requests("get-param -m all ActPos"), None, "asks who is present first");
+        assert_eq!(requests("get-param -m 3 --all"), None, "reads the firmware version first");
+        assert_eq!(requests("get-param -m 3 ActFTemp"), None, "reads the firmware version first");
+        assert_eq!(requests("get-param -m 3 NoSuchParam"), None, "refused alone, with its message");
+        assert_eq!(requests("state -m 3"), None);
+        assert_eq!(requests("move-vel -m 3 0.1"), None);
+        assert_eq!(requests("pac-state"), None);
+    }
+}
