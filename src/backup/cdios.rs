@@ -96,6 +96,8 @@ pub fn capture(node: &mut Node, m: ModuleId, ty: i64, version: i64, link: &str) 
     }
     let out = node.outputs(m, None, false)?;
     dev.settings.insert(OUTPUTS.into(), Setting::new(out.into(), "", true));
+    // Like every probe of a node, this status read clears status 3 bit 0
+    // (POSITION_ZEROED); no other read tells whether the motor is enabled.
     let enabled = node.status(m)?.flags.contains(&ENABLED);
     let outs: Vec<AnalogOutput> = ANALOG.iter().map(|(_, o)| *o).collect();
     for (r, (name, o)) in node.analog(m, &outs, None)?.into_iter().zip(ANALOG) {

@@ -426,8 +426,8 @@ impl Module {
             self.wd_online && self.config & config::WATCHDOG_ENABLE != 0 && self.faults & state::COMM_ERROR == 0;
         offer(wd_armed.then_some(self.wd_refresh + WATCHDOG_PERIOD_S), Event::Watchdog);
         if self.soft_limits_active() && !matches!(self.activity, Activity::Idle | Activity::Homing) {
-            let eps = 1e-7 * (1.0 + self.lim.max_pos.abs().max(self.lim.min_pos.abs()));
-            offer(self.traj.first_exit(self.lim.min_pos - eps, self.lim.max_pos + eps, self.t), Event::SoftLimit);
+            let (min, max) = self.soft_bounds();
+            offer(self.traj.first_exit(min, max, self.t), Event::SoftLimit);
         }
         offer(self.traj.end_time(), Event::ProfileEnd);
         best
@@ -436,8 +436,34 @@ impl Module {
     fn apply(&mut self, ev: Event) {
         match ev {
             Event::Watchdog => self.trip(state::COMM_ERROR),
-            Event::SoftLimit => self.trip(state::BEYOND_SOFT),
+            Event::SoftLimit => {
+                self.trip(state::BEYOND_SOFT);
+                self.hold_on_crossed_bound();
+            }
             Event::ProfileEnd => self.profile_end(),
+        }
+    }
+
+    /// Where the soft limits trip: MinPos and MaxPos widened by a rounding
+    /// margin, so a module stopped exactly on one does not trip.
+    fn soft_bounds(&self) -> (f64, f64) {
+        let eps = 1e-7 * (1.0 + self.lim.max_pos.abs().max(self.lim.min_pos.abs()));
+        (self.lim.min_pos - eps, self.lim.max_pos + eps)
+    }
+
+    /// A module stopped by crossing a soft limit holds on the bound itself.
+    /// The crossing instant is found from the instant the search started, so
+    /// the position there carries a rounding error that depends on how often
+    /// the module was polled; one side or the other of the bound decides
+    /// whether the next outward move trips at once or an instant later.
+    fn hold_on_crossed_bound(&mut self) {
+        let (min, max) = self.soft_bounds();
+        if let Traj::Hold { pos } = &mut self.traj {
+            for bound in [min, max] {
+                if (*pos - bound).abs() <= 1e-12 * (1.0 + bound.abs()) {
+                    *pos = bound;
+                }
+            }
         }
     }
 
