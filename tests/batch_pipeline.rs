@@ -32,16 +32,19 @@ fn one_shot(global: &[&str], line: &str) -> Run {
 }
 
 /// Reads of several modules, rotary and linear (17), one or more
-/// parameters, one module or a list; the `state` line and the measurement
-/// (its firmware version is read first) run on their own in between.
-const LINES: [&str; 7] = [
+/// parameters, one module or a list, and states; the measurement (its
+/// firmware version is read first) and `info` run on their own in between.
+const LINES: [&str; 10] = [
     "get-param -m 3 ActPos",
     "get-param -m 17 ActPos ActVel",
-    "get-param -m 3,5,17 ActPos Config",
-    "get-param -m 5 MaxPos MinPos",
     "state -m 5",
+    "get-param -m 3,5,17 ActPos Config",
+    "state -m 17,3",
+    "get-param -m 5 MaxPos MinPos",
     "get-param -m 5 ActFTemp",
     "get-param -m 17,3 MaxVel",
+    "info -m 3",
+    "state -m 3",
 ];
 
 fn script(lines: &[&str]) -> String {
@@ -76,7 +79,8 @@ fn assert_same_as_one_shots(link: &str) {
         assert_eq!(g, &want, "line {}", i + 1);
     }
     assert_eq!(got[1]["result"]["params"]["ActPos"]["unit"], "m");
-    assert_eq!(got[2]["result"]["devices"][0]["params"]["ActPos"]["unit"], "rad");
+    assert_eq!(got[3]["result"]["devices"][0]["params"]["ActPos"]["unit"], "rad");
+    assert_eq!(got[4]["result"]["devices"][1]["module"], 17, "in id order");
 }
 
 #[test]
@@ -109,14 +113,14 @@ fn sent(frames: &[String]) -> Vec<String> {
 #[test]
 fn a_group_s_requests_leave_before_its_first_answer_and_each_line_sends_its_one_shot_frames() {
     let dir = tempfile::tempdir().unwrap();
-    let lines = ["get-param -m 3 ActPos", "get-param -m 17 ActPos ActVel", "get-param -m 3 ActPos"];
+    let lines = ["get-param -m 3 ActPos", "get-param -m 17 ActPos ActVel", "state -m 5", "get-param -m 3 ActPos"];
     let log = dir.path().join("batch.log");
     let r = batch_stdin(&["--link", "sim", "--log", log.to_str().unwrap(), "batch", "-"], &script(&lines));
     assert_eq!(r.code, 0, "{}", r.stderr);
     let got = frames(&log);
     let first_answer = got.iter().position(|f| is_answer(f)).expect("answers");
-    // One line alone sends 2 or 3 requests, then waits for their answers.
-    assert_eq!(first_answer, 7, "every request of the group leaves before the first answer: {got:?}");
+    // One line alone sends 1 to 3 requests, then waits for their answers.
+    assert_eq!(first_answer, 8, "every request of the group leaves before the first answer: {got:?}");
 
     let mut alone = Vec::new();
     for (i, line) in lines.iter().enumerate() {
