@@ -4,13 +4,19 @@
 //! line waiting for its answers before the next line's requests go out.
 //!
 //! A group is consecutive PowerCube `get-param` and `state` lines whose
-//! requests are known before anything is sent ([`PipelinedRead`]), at least two of them
-//! and at most [`MAX_BURST`] requests. Each line sends exactly the frames
-//! its one-shot run sends and is shown by the one-shot's own code from its
-//! answers, in line order; a read the burst did not answer gets the
-//! session's retries on its own. Lines after a failing one were read
-//! already, but print nothing and count as not run unless `--keep-going`.
-//! Every other line, and every line on RS232, runs on its own as before.
+//! requests are known before anything is sent ([`PipelinedRead`]), at
+//! least two of them and at most [`MAX_BURST`] requests. Each line sends
+//! exactly the frames its one-shot run sends and is shown by the one-shot's
+//! own code from its answers, in line order; a read the burst did not
+//! answer gets the session's retries on its own. Lines after a failing one
+//! were read already, but print nothing and count as not run unless
+//! `--keep-going`. Every other line, and every line on RS232, runs on its
+//! own as before.
+//!
+//! The next group's burst leaves once the lines of this one are shown: to
+//! send it while this one's answers are still coming, the answers of two
+//! bursts would share the bus, and a late answer of the first (or a retry,
+//! which drains what is queued) could be taken for one of the second.
 
 use std::ops::Range;
 
