@@ -111,7 +111,8 @@ def figures(add, links, n=1000):
              f"{per_line:.0f} µs at 1 Mbit/s); consecutive get-param and state lines are pipelined, their requests "
              f"in bursts of up to 32 ({burst_lines:.0f} lines here), so the bus idles once per burst, not "
              "once per line: while the burst's first request crosses the pty, and from its last answer "
-             "until the lines are shown and the next burst is out "
+             "until the lines are shown and the next burst is out; the rest of the gap to the median burst "
+             "is the process start and the parse of every line before the first runs "
              f"(load average {load:.1f} during the run)")
     add(
         f"batch: {n} x `{LINE}` in one process, CAN 1 Mbit/s via an slcan pty",
