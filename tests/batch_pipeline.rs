@@ -216,3 +216,42 @@ fn lines_on_rs232_run_one_at_a_time() {
     let alone: String = lines.iter().map(|l| one_shot(&["--link", link], l).stdout).collect();
     assert_eq!(r.stdout, alone);
 }
+
+#[test]
+fn a_signal_stops_pipelined_reads_after_the_line_that_was_shown() {
+    // At wire speed 20000 lines take seconds: the signal comes while bursts go out.
+    let sim = Sim::start(&["--powercube", "pty-slcan", "--wire-speed"], 1);
+    let mut child = bin()
+        .args(["--link", sim.link("powercube"), "batch", "-"])
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut stdin = child.stdin.take().unwrap();
+    stdin.write_all(script(&["get-param -m 3 ActPos"; 20_000]).as_bytes()).unwrap();
+    drop(stdin);
+    let mut out = std::io::BufReader::new(child.stdout.take().unwrap());
+    let mut shown = 0;
+    let mut line = String::new();
+    while shown < 40 {
+        line.clear();
+        assert!(std::io::BufRead::read_line(&mut out, &mut line).unwrap() > 0, "the batch ended early");
+        shown += usize::from(line.starts_with("ActPos"));
+    }
+    unsafe { libc::kill(child.id() as i32, libc::SIGINT) };
+    let mut rest = String::new();
+    std::io::Read::read_to_string(&mut out, &mut rest).unwrap();
+    shown += rest.lines().filter(|l| l.starts_with("ActPos")).count();
+    let ended = common::wait_bounded(child, 20, &["batch"]);
+    assert_eq!(ended.code, 130, "{}", ended.stderr);
+    let after: usize = ended
+        .stderr
+        .split("after line ")
+        .nth(1)
+        .and_then(|s| s.split(';').next())
+        .and_then(|n| n.parse().ok())
+        .unwrap_or_else(|| panic!("{}", ended.stderr));
+    assert_eq!(shown, after, "every line up to the stop was shown, none after it: {}", ended.stderr);
+    assert!(after < 20_000, "{}", ended.stderr);
+}
