@@ -7,7 +7,7 @@ The wire limit is what the frames themselves take: every frame the lines
 exchange (counted with --log on a calibration batch) at its length on the
 wire, stuff bits and intermission included, as the simulator meters it.
 The figure is that busy time over the wall time of the whole batch process.
-Consecutive get-param lines go out pipelined, in bursts of up to 32
+Consecutive get-param (and state) lines go out pipelined, in bursts of up to 32
 requests; the log tells the bursts apart (a request after an answer starts
 one).
 
@@ -108,10 +108,11 @@ def figures(add, links, n=1000):
     one_shot = time.perf_counter() - t0
     load = os.getloadavg()[0]
     limit = (f"{frames:.0f} frames per line ({per_line:.0f} bits with stuffing and intermission: "
-             f"{per_line:.0f} µs at 1 Mbit/s); consecutive get-param lines are pipelined, their requests "
+             f"{per_line:.0f} µs at 1 Mbit/s); consecutive get-param and state lines are pipelined, their requests "
              f"in bursts of up to 32 ({burst_lines:.0f} lines here), so the bus idles once per burst, not "
              "once per line: while the burst's first request crosses the pty, and from its last answer "
-             "until the lines are shown and the next burst is out "
+             "until the lines are shown and the next burst is out; the rest of the gap to the median burst "
+             "is the process start and the parse of every line before the first runs "
              f"(load average {load:.1f} during the run)")
     add(
         f"batch: {n} x `{LINE}` in one process, CAN 1 Mbit/s via an slcan pty",

@@ -32,16 +32,19 @@ fn one_shot(global: &[&str], line: &str) -> Run {
 }
 
 /// Reads of several modules, rotary and linear (17), one or more
-/// parameters, one module or a list; the `state` line and the measurement
-/// (its firmware version is read first) run on their own in between.
-const LINES: [&str; 7] = [
+/// parameters, one module or a list, and states; the measurement (its
+/// firmware version is read first) and `info` run on their own in between.
+const LINES: [&str; 10] = [
     "get-param -m 3 ActPos",
     "get-param -m 17 ActPos ActVel",
-    "get-param -m 3,5,17 ActPos Config",
-    "get-param -m 5 MaxPos MinPos",
     "state -m 5",
+    "get-param -m 3,5,17 ActPos Config",
+    "state -m 17,3",
+    "get-param -m 5 MaxPos MinPos",
     "get-param -m 5 ActFTemp",
     "get-param -m 17,3 MaxVel",
+    "info -m 3",
+    "state -m 3",
 ];
 
 fn script(lines: &[&str]) -> String {
@@ -76,7 +79,8 @@ fn assert_same_as_one_shots(link: &str) {
         assert_eq!(g, &want, "line {}", i + 1);
     }
     assert_eq!(got[1]["result"]["params"]["ActPos"]["unit"], "m");
-    assert_eq!(got[2]["result"]["devices"][0]["params"]["ActPos"]["unit"], "rad");
+    assert_eq!(got[3]["result"]["devices"][0]["params"]["ActPos"]["unit"], "rad");
+    assert_eq!(got[4]["result"]["devices"][1]["module"], 17, "in id order");
 }
 
 #[test]
@@ -109,14 +113,14 @@ fn sent(frames: &[String]) -> Vec<String> {
 #[test]
 fn a_group_s_requests_leave_before_its_first_answer_and_each_line_sends_its_one_shot_frames() {
     let dir = tempfile::tempdir().unwrap();
-    let lines = ["get-param -m 3 ActPos", "get-param -m 17 ActPos ActVel", "get-param -m 3 ActPos"];
+    let lines = ["get-param -m 3 ActPos", "get-param -m 17 ActPos ActVel", "state -m 5", "get-param -m 3 ActPos"];
     let log = dir.path().join("batch.log");
     let r = batch_stdin(&["--link", "sim", "--log", log.to_str().unwrap(), "batch", "-"], &script(&lines));
     assert_eq!(r.code, 0, "{}", r.stderr);
     let got = frames(&log);
     let first_answer = got.iter().position(|f| is_answer(f)).expect("answers");
-    // One line alone sends 2 or 3 requests, then waits for their answers.
-    assert_eq!(first_answer, 7, "every request of the group leaves before the first answer: {got:?}");
+    // One line alone sends 1 to 3 requests, then waits for their answers.
+    assert_eq!(first_answer, 8, "every request of the group leaves before the first answer: {got:?}");
 
     let mut alone = Vec::new();
     for (i, line) in lines.iter().enumerate() {
@@ -211,4 +215,43 @@ fn lines_on_rs232_run_one_at_a_time() {
     assert_eq!(r.code, 0, "{}", r.stderr);
     let alone: String = lines.iter().map(|l| one_shot(&["--link", link], l).stdout).collect();
     assert_eq!(r.stdout, alone);
+}
+
+#[test]
+fn a_signal_stops_pipelined_reads_after_the_line_that_was_shown() {
+    // At wire speed 20000 lines take seconds: the signal comes while bursts go out.
+    let sim = Sim::start(&["--powercube", "pty-slcan", "--wire-speed"], 1);
+    let mut child = bin()
+        .args(["--link", sim.link("powercube"), "batch", "-"])
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut stdin = child.stdin.take().unwrap();
+    stdin.write_all(script(&["get-param -m 3 ActPos"; 20_000]).as_bytes()).unwrap();
+    drop(stdin);
+    let mut out = std::io::BufReader::new(child.stdout.take().unwrap());
+    let mut shown = 0;
+    let mut line = String::new();
+    while shown < 40 {
+        line.clear();
+        assert!(std::io::BufRead::read_line(&mut out, &mut line).unwrap() > 0, "the batch ended early");
+        shown += usize::from(line.starts_with("ActPos"));
+    }
+    unsafe { libc::kill(child.id() as i32, libc::SIGINT) };
+    let mut rest = String::new();
+    std::io::Read::read_to_string(&mut out, &mut rest).unwrap();
+    shown += rest.lines().filter(|l| l.starts_with("ActPos")).count();
+    let ended = common::wait_bounded(child, 20, &["batch"]);
+    assert_eq!(ended.code, 130, "{}", ended.stderr);
+    let after: usize = ended
+        .stderr
+        .split("after line ")
+        .nth(1)
+        .and_then(|s| s.split(';').next())
+        .and_then(|n| n.parse().ok())
+        .unwrap_or_else(|| panic!("{}", ended.stderr));
+    assert_eq!(shown, after, "every line up to the stop was shown, none after it: {}", ended.stderr);
+    assert!(after < 20_000, "{}", ended.stderr);
 }

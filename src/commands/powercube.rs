@@ -296,6 +296,11 @@ fn param_json(d: &ParamDef, linear: bool, value: serde_json::Value) -> serde_jso
 
 fn show_state(ctx: &Ctx, cubes: &mut Cubes, m: ModuleId) -> anyhow::Result<serde_json::Value> {
     let cube = cubes.state(m)?;
+    state_shown(ctx, m, cube)
+}
+
+/// Prints `state`'s human form and returns its JSON object.
+fn state_shown(ctx: &Ctx, m: ModuleId, cube: u32) -> anyhow::Result<serde_json::Value> {
     if ctx.json {
         let short = flags::short_state_from_cube_state(cube);
         return Ok(doc(ctx, m, json!({"state": word_json(&flags::CUBE_STATE, cube), "short_state": short})));
@@ -682,36 +687,46 @@ impl ParamRead {
     }
 }
 
-/// A `get-param` line whose requests are known before anything is sent:
-/// named modules (not `all`, which asks who is present first) and named
-/// parameters every firmware has (not `--all` nor a measurement of newer
-/// firmware, which read the module's version first). `batch` sends the
-/// requests of consecutive such lines in one burst and hands each line its
-/// answers; the line then shows them as its one-shot run would.
+/// A read line whose requests are known before anything is sent, of named
+/// modules (not `all`, which asks who is present first): `state`, and
+/// `get-param` of named parameters every firmware has (not `--all` nor a
+/// measurement of newer firmware, which read the module's version first).
+/// `batch` sends the requests of consecutive such lines in one burst and
+/// hands each line its answers; the line then shows them as its one-shot
+/// run would.
 pub struct PipelinedRead {
     devices: Devices,
     modules: Vec<ModuleId>,
-    read: ParamRead,
+    /// What each module is asked, in order.
+    defs: Vec<&'static ParamDef>,
+    /// `None`: `state`.
+    params: Option<ParamRead>,
 }
 
 impl PipelinedRead {
     /// `None` for a command that is not such a read, or that a one-shot run
     /// refuses (it runs on its own and says why).
     pub fn plan(cmd: &Command) -> Option<Self> {
-        let Command::GetParam { module: m, params, all: false } = cmd else { return None };
-        let modules: Vec<ModuleId> = match &m.module {
+        let (devices, params) = match cmd {
+            Command::GetParam { module: m, params, all: false } => {
+                (&m.module, Some(ParamRead::new(&m.module, params, false).ok()?))
+            }
+            Command::State(m) => (&m.module, None),
+            _ => return None,
+        };
+        let modules: Vec<ModuleId> = match devices {
             Devices::One(id) => vec![ModuleId::new(*id)?],
             Devices::List(list) => list.0.iter().map(|id| ModuleId::new(*id)).collect::<Option<_>>()?,
             Devices::All => return None,
         };
-        let read = ParamRead::new(&m.module, params, false).ok()?;
-        Cubes::param_requests(*modules.first()?, &read.defs)?;
-        Some(Self { devices: m.module.clone(), modules, read })
+        let defs = params.as_ref().map_or_else(|| vec![param(ids::CUBE_STATE)], |p| p.defs.clone());
+        Cubes::param_requests(*modules.first()?, &defs)?;
+        Some(Self { devices: devices.clone(), modules, defs, params })
     }
 
     /// The requests, module by module, in the order the one-shot run sends them.
     pub fn requests(&self) -> Vec<(ModuleId, Request)> {
-        let reqs = self.modules.iter().map(|m| Cubes::param_requests(*m, &self.read.defs));
+        let reqs = self.modules.iter().map(|m| Cubes::param_requests(*m, &self.defs));
         reqs.flatten().flatten().collect()
     }
 
@@ -725,10 +740,19 @@ impl PipelinedRead {
         answers: Vec<Result<Response, SessionError>>,
     ) -> anyhow::Result<()> {
         let mut answers = answers.into_iter();
-        let per_module = self.read.defs.len();
         read_ids(ctx, cubes, &self.devices, self.modules.clone(), |ctx, cubes, m| {
-            let vals = cubes.params_answered(m, &self.read.defs, answers.by_ref().take(per_module))?;
-            self.read.show(ctx, m, vals)
+            let mut mine = answers.by_ref().take(self.defs.len());
+            match &self.params {
+                Some(read) => {
+                    let vals = cubes.params_answered(m, &self.defs, mine)?;
+                    read.show(ctx, m, vals)
+                }
+                None => {
+                    let answer = mine.next().expect("one request, one answer");
+                    let cube = cubes.state_answered(m, answer)?;
+                    state_shown(ctx, m, cube)
+                }
+            }
         })
     }
 }

@@ -226,6 +226,14 @@ pub fn dio_outputs(text: &str) -> Result<u8, Error> {
         .ok_or_else(|| Error::Refused(format!("--out {text:?} must be a 4-bit mask 0 to 15 (e.g. 0b0101)")))
 }
 
+/// A 32-bit word read as parameter `id`.
+fn u32_of(id: u8, value: Value) -> Result<u32, Error> {
+    match value {
+        Value::UInt32(v) => Ok(v),
+        other => Err(Error::UnexpectedType { param: param(id).name, got: format!("{other:?}") }),
+    }
+}
+
 /// Whether a Config word describes a linear module.
 pub fn is_linear(config_word: u32) -> bool {
     config_word & config::LINEAR != 0
@@ -379,15 +387,21 @@ impl Cubes {
     }
 
     pub fn get_u32(&mut self, m: ModuleId, id: u8) -> Result<u32, Error> {
-        match self.pc.get(m, param(id))? {
-            Value::UInt32(v) => Ok(v),
-            other => Err(Error::UnexpectedType { param: param(id).name, got: format!("{other:?}") }),
-        }
+        u32_of(id, self.pc.get(m, param(id))?)
     }
 
     /// CubeState.
     pub fn state(&mut self, m: ModuleId) -> Result<u32, Error> {
         self.get_u32(m, ids::CUBE_STATE)
+    }
+
+    /// [`Self::state`] from the answer to its request (the one of
+    /// [`Self::param_requests`] for CubeState), sent in a burst: retried on
+    /// its own when the burst did not answer it.
+    pub fn state_answered(&mut self, m: ModuleId, answer: Result<Response, SessionError>) -> Result<u32, Error> {
+        let values = self.get_answered(m, &[param(ids::CUBE_STATE)], [answer])?;
+        let [value] = <[Value; 1]>::try_from(values).expect("one read, one value");
+        u32_of(ids::CUBE_STATE, value)
     }
 
     /// Motion is refused while the module reports an error or is halted: it

@@ -3,14 +3,20 @@
 //! back while the later requests are still on the wire, instead of each
 //! line waiting for its answers before the next line's requests go out.
 //!
-//! A group is consecutive PowerCube `get-param` lines whose requests are
-//! known before anything is sent ([`PipelinedRead`]), at least two of them
-//! and at most [`MAX_BURST`] requests. Each line sends exactly the frames
-//! its one-shot run sends and is shown by the one-shot's own code from its
-//! answers, in line order; a read the burst did not answer gets the
-//! session's retries on its own. Lines after a failing one were read
-//! already, but print nothing and count as not run unless `--keep-going`.
-//! Every other line, and every line on RS232, runs on its own as before.
+//! A group is consecutive PowerCube `get-param` and `state` lines whose
+//! requests are known before anything is sent ([`PipelinedRead`]), at
+//! least two of them and at most [`MAX_BURST`] requests. Each line sends
+//! exactly the frames its one-shot run sends and is shown by the one-shot's
+//! own code from its answers, in line order; a read the burst did not
+//! answer gets the session's retries on its own. Lines after a failing one
+//! were read already, but print nothing and count as not run unless
+//! `--keep-going`. Every other line, and every line on RS232, runs on its
+//! own as before.
+//!
+//! The next group's burst leaves once the lines of this one are shown: to
+//! send it while this one's answers are still coming, the answers of two
+//! bursts would share the bus, and a late answer of the first (or a retry,
+//! which drains what is queued) could be taken for one of the second.
 
 use std::ops::Range;
 
@@ -218,12 +224,20 @@ mod tests {
     }
 
     #[test]
+    fn state_of_named_modules_is_pipelined() {
+        assert_eq!(requests("state -m 3"), Some(1));
+        assert_eq!(requests("state -m 3,5"), Some(2));
+        assert_eq!(requests("state -m all"), None, "asks who is present first");
+    }
+
+    #[test]
     fn reads_that_ask_the_module_first_and_every_other_line_run_on_their_own() {
         assert_eq!(requests("get-param -m all ActPos"), None, "asks who is present first");
         assert_eq!(requests("get-param -m 3 --all"), None, "reads the firmware version first");
         assert_eq!(requests("get-param -m 3 ActFTemp"), None, "reads the firmware version first");
         assert_eq!(requests("get-param -m 3 NoSuchParam"), None, "refused alone, with its message");
-        assert_eq!(requests("state -m 3"), None);
+        assert_eq!(requests("info -m 3"), None);
+        assert_eq!(requests("get-config -m 3"), None);
         assert_eq!(requests("move-vel -m 3 0.1"), None);
         assert_eq!(requests("pac-state"), None);
     }
