@@ -519,8 +519,9 @@ def run_all(args):
                     "PowerCube modules 3, 5, 17 on CAN 1 Mbit/s via an slcan pty",
                     can,
                     ["powercube"],
-                    "per module: 7 reads pipelined = 7 x (2-byte request + 6-byte answer) ≈ 1.2 ms of frames, "
-                    "then one turnaround (see the pty round trip) before the next module",
+                    "per module: 7 reads pipelined = 7 x (2-byte request + 6-byte answer) ≈ 1.2 ms of frames; "
+                    "the next module's burst goes out before this one's answers are read, so a round pays one "
+                    "turnaround (see the pty round trip) at its start instead of one per module",
                 ),
                 (
                     "can_poll_cdios",
@@ -534,7 +535,8 @@ def run_all(args):
                     "full CAN link (PowerCube + Cdios) at 1 Mbit/s via an slcan pty",
                     can,
                     [],
-                    "as the two rows above, interleaved",
+                    "as the two rows above, interleaved; a PowerCube module's burst also goes out while the "
+                    "device before it (PowerCube or Cdios) is read",
                 ),
                 (
                     "rs232_poll_pc",

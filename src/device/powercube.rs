@@ -239,6 +239,22 @@ pub fn is_linear(config_word: u32) -> bool {
     config_word & config::LINEAR != 0
 }
 
+/// A read sent by [`Cubes::send_read`] whose answers are still to be collected.
+#[derive(Debug)]
+#[must_use = "a read sent is collected or abandoned"]
+pub struct SentRead {
+    module: ModuleId,
+    has: Vec<bool>,
+    asked: Vec<u8>,
+    burst: crate::session::powercube::Burst,
+}
+
+impl SentRead {
+    pub fn module(&self) -> ModuleId {
+        self.module
+    }
+}
+
 /// The PowerCube modules reached through one session.
 pub struct Cubes {
     pc: PowerCube,
@@ -373,10 +389,25 @@ impl Cubes {
     /// poll is repeated anyway, and a late one is worse than a missed one.
     /// A parameter the module's firmware lacks reads NaN without being asked.
     pub fn read_now(&mut self, m: ModuleId, params: &[u8]) -> Result<Vec<f64>, Error> {
+        let read = self.send_read(m, params)?;
+        self.collect_read(read)
+    }
+
+    /// The send half of [`Self::read_now`]: the burst goes out and its
+    /// answers are left for [`Self::collect_read`], so that other requests
+    /// (the next module's read, an action) can go out meanwhile.
+    pub fn send_read(&mut self, m: ModuleId, params: &[u8]) -> Result<SentRead, Error> {
         let has = self.has_params(m, params)?;
         let asked: Vec<u8> = params.iter().zip(&has).filter(|(_, h)| **h).map(|(p, _)| *p).collect();
         let reqs: Vec<_> = asked.iter().map(|p| (m, Request::GetExtended { param: *p })).collect();
-        let answers = self.pc.transact_many(&reqs)?;
+        let burst = self.pc.send_burst(&reqs)?;
+        Ok(SentRead { module: m, has, asked, burst })
+    }
+
+    /// The values of a read sent with [`Self::send_read`], as [`Self::read_now`] gives them.
+    pub fn collect_read(&mut self, read: SentRead) -> Result<Vec<f64>, Error> {
+        let SentRead { module: m, has, asked, burst } = read;
+        let answers = self.pc.collect(burst)?.answers;
         let mut got = asked
             .iter()
             .zip(answers)
@@ -384,6 +415,11 @@ impl Cubes {
         has.iter()
             .map(|h| if *h { got.next().expect("one answer per asked parameter") } else { Ok(f64::NAN) })
             .collect()
+    }
+
+    /// Gives up a read sent with [`Self::send_read`] without waiting for it.
+    pub fn abandon_read(&mut self, read: SentRead) {
+        self.pc.abandon(read.burst);
     }
 
     pub fn get_u32(&mut self, m: ModuleId, id: u8) -> Result<u32, Error> {

@@ -1,11 +1,14 @@
 //! The PowerCube device source: modules by id, read in one pipelined burst
-//! per poll on CAN (one request after the other on RS232). Every action is
-//! a [`crate::device::powercube`] operation; this file only words it.
+//! per poll on CAN (one request after the other on RS232). On CAN the
+//! worker has a module's burst sent ahead ([`DeviceSource::poll_ahead`])
+//! while the device before it is read, so the bus is not idle while the
+//! answers cross the link and the host turns around. Every action is a
+//! [`crate::device::powercube`] operation; this file only words it.
 
 use std::collections::BTreeMap;
 
 use super::source::{Action, CubeSnap, DeviceKey, DeviceSource, HaltReport, Snapshot, SourceError};
-use crate::device::powercube::{self as device, Cubes, Simple, Target};
+use crate::device::powercube::{self as device, Cubes, SentRead, Simple, Target};
 use crate::family::Family;
 use crate::proto::powercube::limits::Limits;
 use crate::proto::powercube::ModuleId;
@@ -24,7 +27,13 @@ pub struct CubeSource {
     wanted: Option<Vec<ModuleId>>,
     known: Vec<ModuleId>,
     statics: BTreeMap<u8, Static>,
+    /// Reads sent ahead of their polls, oldest first.
+    ahead: Vec<SentRead>,
 }
+
+/// Reads sent ahead at most: the next module's, and the one after it when
+/// the worker sends the current one ahead too.
+const AHEAD: usize = 2;
 
 /// A device error as the dashboard shows it: refusals say that nothing was
 /// sent and which key helps.
@@ -42,7 +51,7 @@ impl From<device::Error> for SourceError {
 
 impl CubeSource {
     pub fn new(pc: PowerCube, modules: Option<Vec<ModuleId>>) -> Self {
-        Self { cubes: Cubes::new(pc), wanted: modules, known: Vec::new(), statics: BTreeMap::new() }
+        Self { cubes: Cubes::new(pc), wanted: modules, known: Vec::new(), statics: BTreeMap::new(), ahead: Vec::new() }
     }
 
     fn module(dev: DeviceKey) -> Result<ModuleId, SourceError> {
@@ -83,6 +92,10 @@ impl DeviceSource for CubeSource {
     }
 
     fn discover(&mut self) -> Result<Vec<DeviceKey>, SourceError> {
+        // A read sent ahead for the old list is not waited for.
+        for read in std::mem::take(&mut self.ahead) {
+            self.cubes.abandon_read(read);
+        }
         self.known = match &self.wanted {
             Some(list) => list.clone(),
             None => self.cubes.present()?,
@@ -93,7 +106,13 @@ impl DeviceSource for CubeSource {
     fn poll(&mut self, dev: DeviceKey) -> Result<Snapshot, SourceError> {
         let m = Self::module(dev)?;
         let s = self.statics(m)?;
-        let v = self.cubes.read_now(m, &device::LIVE)?;
+        let v = match self.ahead.iter().position(|r| r.module() == m) {
+            Some(i) => {
+                let read = self.ahead.remove(i);
+                self.cubes.collect_read(read)?
+            }
+            None => self.cubes.read_now(m, &device::LIVE)?,
+        };
         Ok(Snapshot::Cube(CubeSnap {
             linear: s.linear,
             pos: v[0],
@@ -105,6 +124,25 @@ impl DeviceSource for CubeSource {
             cube_state: v[6] as u32,
             limits: s.limits,
         }))
+    }
+
+    /// Only on CAN, and only once the module's kind and limits are known:
+    /// nothing but the burst itself goes out ahead.
+    fn poll_ahead(&mut self, dev: DeviceKey) {
+        let Ok(m) = Self::module(dev) else { return };
+        if !self.cubes.session().is_can()
+            || !self.statics.contains_key(&m.get())
+            || self.ahead.iter().any(|r| r.module() == m)
+        {
+            return;
+        }
+        if self.ahead.len() >= AHEAD {
+            let oldest = self.ahead.remove(0);
+            self.cubes.abandon_read(oldest);
+        }
+        if let Ok(read) = self.cubes.send_read(m, &device::LIVE) {
+            self.ahead.push(read);
+        }
     }
 
     fn act(&mut self, dev: DeviceKey, action: Action) -> Result<String, SourceError> {

@@ -182,6 +182,13 @@ pub trait DeviceSource: Send {
     fn discover(&mut self) -> Result<Vec<DeviceKey>, SourceError>;
     /// Reads one device.
     fn poll(&mut self, dev: DeviceKey) -> Result<Snapshot, SourceError>;
+    /// Sends the reads of `dev`'s next poll ahead of it, so that the link
+    /// carries them while the poll before is read (on a CAN link shared by
+    /// several families, whichever family that poll is of); the next
+    /// [`Self::poll`] of `dev` takes their answers. Errors are left for that
+    /// poll to meet and report. A source that cannot does nothing (the
+    /// default): its poll sends the reads itself.
+    fn poll_ahead(&mut self, _dev: DeviceKey) {}
     /// Carries out an action; the text says what was done.
     fn act(&mut self, dev: DeviceKey, action: Action) -> Result<String, SourceError>;
     /// Stops every device of the family, as fast as the link allows.

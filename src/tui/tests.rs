@@ -1351,3 +1351,65 @@ fn a_screen_as_svg() {
     assert!(svg.contains("<rect x=\"8.4\" y=\"17.0\" width=\"16.8\" height=\"17\" fill=\"#d4d4d4\"/>"), "{svg}");
     assert!(svg.contains("fill=\"#1e1e1e\" font-weight=\"bold\">ok</text>"), "{svg}");
 }
+
+/// Every device answer reaches the bus 1 ms after its request: a burst's
+/// answers are still to come when the next burst could go out.
+struct OneMsLate;
+impl Fault for OneMsLate {
+    fn device_frame(&mut self, frame: CanFrame, out: &mut Vec<crate::link::mem::Delivery>) {
+        out.push(crate::link::mem::Delivery { after: Duration::from_millis(1), frame });
+    }
+}
+
+// A round has the next module's reads on the bus before the current
+// module's answers are read, so the link does not idle while they cross to
+// the host; each module still gets its own values, and one round later the
+// same holds (nothing sent ahead is left over).
+#[test]
+fn a_round_sends_the_next_modules_reads_before_the_current_answers_are_read() {
+    use crate::session::TraceEvent;
+    let clock = VirtualClock::new();
+    let shared: Arc<dyn Clock> = Arc::new(clock.clone());
+    let bench = Bench::contract(Arc::clone(&shared));
+    bench.bus.set_fault(Some(Box::new(OneMsLate)));
+    let trace = Arc::new(std::sync::Mutex::new(Vec::new()));
+    let mut pc = PowerCube::over_can(Box::new(bench.bus.open())).with_clock(Arc::clone(&shared));
+    let seen = Arc::clone(&trace);
+    pc.set_tracer(Box::new(move |ev| {
+        let line = match ev {
+            TraceEvent::Sent(s) => format!("sent {}", s.rsplit(' ').next().unwrap_or_default()),
+            TraceEvent::Received(s) if s.contains(" ack") => "ack".into(),
+            _ => return,
+        };
+        seen.lock().unwrap().push(line);
+    }));
+    let sources: Vec<Box<dyn DeviceSource>> = vec![Box::new(CubeSource::new(pc, None))];
+    let mut worker = LinkWorker::new(0, sources, Arc::clone(&shared), 10.0);
+    let LinkEvent::Discovered { devices, .. } = worker.discover() else { panic!("discover reports") };
+    assert!(devices.len() >= 2, "{devices:?}");
+    let mut polled = Vec::new();
+    for _ in 0..3 {
+        trace.lock().unwrap().clear();
+        polled.clear();
+        worker.round(&mut Vec::new, &mut |ev| {
+            if let LinkEvent::Polled { device, result, .. } = ev {
+                polled.push((device, result));
+            }
+        });
+    }
+    assert_eq!(polled.iter().map(|p| p.0).collect::<Vec<_>>(), devices);
+    assert!(polled.iter().all(|p| p.1.is_ok()), "{polled:?}");
+    for (d, p) in devices.iter().zip(&polled) {
+        let (DeviceKey::Cube(m), Ok(Snapshot::Cube(snap))) = (d, &p.1) else { panic!("{p:?}") };
+        assert!(snap.limits.max_pos > snap.limits.min_pos, "module {m}: {snap:?}");
+    }
+    let lines = trace.lock().unwrap().clone();
+    let first_ack = lines.iter().position(|l| l == "ack").expect("answers read");
+    let DeviceKey::Cube(second) = devices[1] else { unreachable!() };
+    assert!(
+        lines[..first_ack].iter().any(|l| *l == format!("sent {second}")),
+        "module {second}'s reads went out only after the first answers were read: {lines:?}"
+    );
+    let reads = lines.iter().filter(|l| l.starts_with("sent")).count();
+    assert_eq!(reads, lines.len() - reads, "every read sent in the round is answered in it: {lines:?}");
+}

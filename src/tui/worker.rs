@@ -248,6 +248,13 @@ impl LinkWorker {
             if self.handle(pending(), out) {
                 return true;
             }
+            // The device's reads and the next device's go out before this
+            // poll waits: the link carries the next device's while this
+            // one's answers come back (sources that cannot, send on poll).
+            let n = self.devices.len();
+            for &(s, dev) in &self.devices[i.min(n)..(i + 2).min(n)] {
+                self.sources[s].poll_ahead(dev);
+            }
             let ev = self.poll_device(i);
             answered |= matches!(ev, LinkEvent::Polled { health: Health::Answer, .. });
             out(ev);
