@@ -376,3 +376,36 @@ fn a_signal_halts_the_pac_axes_and_cdios_motors_the_batch_moved() {
     let at = comes_to_rest(sim.link("pac"), &["pac-axis", "2"], "/position/value");
     assert!(at.as_f64().unwrap() < 900.0, "axis 2 was stopped on its way: {at} ({seen:?} {err})");
 }
+
+// A device the batch cannot reach for its halt (a Cdios line on a
+// PA-CONTROL line failed, yet it counts as a motion line) is named with the
+// reason; the other halts still go out.
+#[test]
+fn a_halt_that_cannot_reach_its_device_says_why_and_the_others_still_go_out() {
+    let sim = Sim::start(&[], 3);
+    let text =
+        format!("pac-online\npac-no-ref 2\ncdios-goto -m 0 100\npac-move 2 9000\n{}", "pac-state\n".repeat(20_000));
+    let mut child = bin()
+        .args(["--link", sim.link("pac"), "batch", "--keep-going", "-"])
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    child.stdin.take().unwrap().write_all(text.as_bytes()).unwrap();
+    let mut out = BufReader::new(child.stdout.take().unwrap()).lines();
+    while !out.next().expect("batch output").unwrap().contains("0A94 started") {}
+    std::thread::spawn(move || out.for_each(drop));
+    std::thread::sleep(Duration::from_millis(100));
+    unsafe { libc::kill(child.id() as i32, libc::SIGTERM) };
+    let (code, err) = wait_exit(&mut child);
+    assert_eq!(code, 143, "{err}");
+    let failed = format!(
+        "halted: `pac-stop`, `cdios-stop --node 1 -m 0 --option fast` failed: {} is a serial link; the Cdios is on \
+         CAN (socketcan:, slcan: or sim), `pac-stop-axis 2`\n",
+        sim.link("pac")
+    );
+    assert!(err.contains(&failed), "{err}");
+    let at = comes_to_rest(sim.link("pac"), &["pac-axis", "2"], "/position/value");
+    assert!(at.as_f64().unwrap() < 9000.0, "axis 2 was stopped on its way: {at} ({err})");
+}

@@ -205,10 +205,9 @@ impl<'a> Engine<'a> {
             return None;
         }
         let why = supervisor::stop_reason().map(|r| r.to_string()).unwrap_or_else(|| "a stop".into());
-        let attempts = 1 + self.ctx.retry.read_retries;
         let done: Vec<String> = self
             .moved
-            .halt(&mut Reached::new(self.ctx), attempts)
+            .halt(&mut Reached(self.ctx), self.ctx.retry)
             .into_iter()
             .map(|h| match h.result {
                 Ok(_) => format!("`{}`", h.target),
@@ -232,49 +231,24 @@ impl<'a> Engine<'a> {
     }
 }
 
-/// The devices of the halts, opened on the link the run keeps open, each
-/// family once.
-struct Reached<'a> {
-    ctx: &'a Ctx,
-    cubes: Option<Cubes>,
-    controller: Option<Controller>,
-    nodes: Vec<Node>,
-}
-
-impl<'a> Reached<'a> {
-    fn new(ctx: &'a Ctx) -> Self {
-        Self { ctx, cubes: None, controller: None, nodes: Vec::new() }
-    }
-}
+/// The devices of the halts, opened on the link the run keeps open.
+struct Reached<'a>(&'a Ctx);
 
 fn reason(e: anyhow::Error) -> String {
     error_json::message(&e)
 }
 
 impl Reach for Reached<'_> {
-    fn cubes(&mut self) -> Result<&mut Cubes, String> {
-        if self.cubes.is_none() {
-            self.cubes = Some(Cubes::new(self.ctx.powercube().map_err(reason)?));
-        }
-        Ok(self.cubes.as_mut().expect("opened above"))
+    fn cubes(&mut self) -> Result<Cubes, String> {
+        Ok(Cubes::new(self.0.powercube().map_err(reason)?))
     }
 
-    fn controller(&mut self) -> Result<&mut Controller, String> {
-        if self.controller.is_none() {
-            self.controller = Some(Controller::new(self.ctx.pac().map_err(reason)?));
-        }
-        Ok(self.controller.as_mut().expect("opened above"))
+    fn controller(&mut self) -> Result<Controller, String> {
+        Ok(Controller::new(self.0.pac().map_err(reason)?))
     }
 
-    fn node(&mut self, node: NodeId) -> Result<&mut Node, String> {
-        let at = match self.nodes.iter().position(|n| n.id() == node) {
-            Some(at) => at,
-            None => {
-                self.nodes.push(Node::new(self.ctx.cdios().map_err(reason)?, node, self.ctx.retry));
-                self.nodes.len() - 1
-            }
-        };
-        Ok(&mut self.nodes[at])
+    fn node(&mut self, node: NodeId) -> Result<Node, String> {
+        Ok(Node::new(self.0.cdios().map_err(reason)?, node, self.0.retry))
     }
 }
 

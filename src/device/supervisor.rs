@@ -98,6 +98,37 @@ mod tests {
         assert_eq!(StopReason::Output("Broken pipe".into()).to_string(), "output failed (Broken pipe)");
     }
 
+    /// The hook records a panic process-wide (a stop that never resets), so
+    /// it runs in a child process of this test binary.
+    #[test]
+    fn a_panic_on_another_thread_is_recorded_with_its_thread_and_message() {
+        const CHILD: &str = "AXISCTL_SUPERVISOR_TEST_CHILD";
+        if std::env::var_os(CHILD).is_none() {
+            let name = "device::supervisor::tests::a_panic_on_another_thread_is_recorded_with_its_thread_and_message";
+            let out = std::process::Command::new(std::env::current_exe().unwrap())
+                .args(["--exact", name, "--nocapture"])
+                .env(CHILD, "1")
+                .output()
+                .unwrap();
+            let text = format!("{}{}", String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr));
+            assert!(out.status.success() && text.contains("1 passed"), "{text}");
+            return;
+        }
+        assert_eq!(panic_failure(), None);
+        install_panic_hook();
+        install_panic_hook(); // once per process: a second call chains nothing
+        let line = line!() + 2;
+        let worker = std::thread::Builder::new().name("worker".into());
+        let r = worker.spawn(|| panic!("boom {}", 7)).unwrap().join();
+        assert!(r.is_err());
+        assert_eq!(panic_failure().as_deref(), Some(format!("thread 'worker' at {}:{line}: boom 7", file!()).as_str()));
+        assert!(stop_requested(), "a panic anywhere is a reason to stop");
+        // A literal message, on an unnamed thread (kept: the first panic counts).
+        let r = std::thread::spawn(|| panic!("static")).join();
+        assert!(r.is_err());
+        assert!(panic_failure().unwrap().ends_with("boom 7"));
+    }
+
     #[test]
     fn a_panic_in_the_body_halts_then_goes_on() {
         let mut halted = false;

@@ -15,6 +15,7 @@ use crate::device::pac::Controller;
 use crate::device::powercube::Cubes;
 use crate::proto::cdios::{ModuleId as CdiosModule, NodeId};
 use crate::proto::powercube::ModuleId;
+use crate::session::RetryPolicy;
 
 /// A device a motion went to, as its halt addresses it.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -46,12 +47,48 @@ impl fmt::Display for MotionTarget {
 }
 
 /// Where the halts get their devices: the caller opens them on the link it
-/// holds (a run of many commands keeps one open link). An error says why
-/// the device could not be reached.
+/// holds (a run of many commands keeps one open link). Each family is
+/// asked once per stop and each Cdios node once; an error says why the
+/// device could not be reached (asked again for its next halt).
 pub trait Reach {
-    fn cubes(&mut self) -> Result<&mut Cubes, String>;
-    fn controller(&mut self) -> Result<&mut Controller, String>;
-    fn node(&mut self, node: NodeId) -> Result<&mut Node, String>;
+    fn cubes(&mut self) -> Result<Cubes, String>;
+    fn controller(&mut self) -> Result<Controller, String>;
+    fn node(&mut self, node: NodeId) -> Result<Node, String>;
+}
+
+/// The devices opened for one stop.
+#[derive(Default)]
+struct Opened {
+    cubes: Option<Cubes>,
+    controller: Option<Controller>,
+    nodes: Vec<Node>,
+}
+
+impl Opened {
+    fn cubes(&mut self, reach: &mut dyn Reach) -> Result<&mut Cubes, String> {
+        if self.cubes.is_none() {
+            self.cubes = Some(reach.cubes()?);
+        }
+        Ok(self.cubes.as_mut().expect("opened above"))
+    }
+
+    fn controller(&mut self, reach: &mut dyn Reach) -> Result<&mut Controller, String> {
+        if self.controller.is_none() {
+            self.controller = Some(reach.controller()?);
+        }
+        Ok(self.controller.as_mut().expect("opened above"))
+    }
+
+    fn node(&mut self, reach: &mut dyn Reach, node: NodeId) -> Result<&mut Node, String> {
+        let at = match self.nodes.iter().position(|n| n.id() == node) {
+            Some(at) => at,
+            None => {
+                self.nodes.push(reach.node(node)?);
+                self.nodes.len() - 1
+            }
+        };
+        Ok(&mut self.nodes[at])
+    }
 }
 
 /// One halt and how it went: what the device layer said, or why it failed.
@@ -90,33 +127,36 @@ impl MovedDevices {
 
     /// Halts every device kept, in order, each whatever became of the
     /// others, and forgets them (a later stop halts only what moved since).
-    /// `attempts`: how often a halt whose acknowledge is lost is sent
-    /// (stopping twice is harmless; a motion is never resent).
-    pub fn halt(&mut self, reach: &mut dyn Reach, attempts: u32) -> Vec<HaltOutcome> {
+    /// A halt whose acknowledge is lost is sent as often as a read is
+    /// (once, then `retry.read_retries` more times): stopping twice is
+    /// harmless; a motion is never resent.
+    pub fn halt(&mut self, reach: &mut dyn Reach, retry: RetryPolicy) -> Vec<HaltOutcome> {
+        let attempts = 1 + retry.read_retries;
+        let mut opened = Opened::default();
         std::mem::take(&mut self.targets)
             .into_iter()
-            .map(|target| HaltOutcome { target, result: halt_one(reach, target, attempts) })
+            .map(|target| HaltOutcome { target, result: halt_one(&mut opened, reach, target, attempts) })
             .collect()
     }
 }
 
-fn halt_one(reach: &mut dyn Reach, target: MotionTarget, attempts: u32) -> Result<String, String> {
+fn halt_one(opened: &mut Opened, reach: &mut dyn Reach, target: MotionTarget, attempts: u32) -> Result<String, String> {
     match target {
         MotionTarget::Cube(m) => {
-            reach.cubes()?.halt_retrying(m, attempts).map_err(|e| e.to_string())?;
+            opened.cubes(reach)?.halt_retrying(m, attempts).map_err(|e| e.to_string())?;
             Ok(format!("module {m} halted"))
         }
         // The broadcast stops every module on the bus, known or not.
         MotionTarget::CubeBus => {
-            reach.cubes()?.halt_all(&[]).broadcast.map_err(|e| e.to_string())?;
+            opened.cubes(reach)?.halt_all(&[]).broadcast.map_err(|e| e.to_string())?;
             Ok("Halt broadcast sent".into())
         }
-        MotionTarget::PacAxis(axis) => match reach.controller()?.halt_axis(axis).result {
+        MotionTarget::PacAxis(axis) => match opened.controller(reach)?.halt_axis(axis).result {
             Ok(at) => Ok(format!("axis {axis} stopped at {at}")),
             Err(e) => Err(e),
         },
         MotionTarget::PacController => {
-            let steps = reach.controller()?.halt_all();
+            let steps = opened.controller(reach)?.halt_all();
             let failed: Vec<String> =
                 steps.iter().filter_map(|s| s.result.as_ref().err()).map(|e| e.to_string()).collect();
             if failed.is_empty() {
@@ -125,7 +165,7 @@ fn halt_one(reach: &mut dyn Reach, target: MotionTarget, attempts: u32) -> Resul
                 Err(failed.join("; "))
             }
         }
-        MotionTarget::Cdios { node, module } => match reach.node(node)?.halt_motor(module, attempts) {
+        MotionTarget::Cdios { node, module } => match opened.node(reach, node)?.halt_motor(module, attempts) {
             Ok(true) => Ok(format!("node {node} module {module}: fast stop sent")),
             Ok(false) => Ok(format!("node {node} module {module}: not running")),
             Err(e) => Err(e.to_string()),

@@ -9,7 +9,7 @@ use super::*;
 use crate::clock::{Clock, VirtualClock};
 use crate::device::cdios::{enable_commands, goto_commands};
 use crate::device::powercube::Move;
-use crate::device::tests::{recorded_bench, Recorded};
+use crate::device::tests::{recorded_bench, Recorded, Recording};
 use crate::link::mem::{ByteDevice, MemByteLink};
 use crate::link::SerialFormat;
 use crate::proto::cdios::GotoMode;
@@ -24,49 +24,78 @@ use crate::session::RetryPolicy;
 use crate::sim::bench::Bench;
 use crate::sim::shared::lock;
 
-/// The bench's devices, each opened once as a run of many commands would,
-/// every CAN frame sent recorded. `unreachable` families fail to open.
+/// The bench, handles of its own that set the devices moving, and the
+/// opening of the halts' devices, each on a link of its own onto the same
+/// bench (the PowerCube one records what it sends). `unreachable` families
+/// fail to open; a `silent` controller never answers.
 struct Rig {
     clock: VirtualClock,
+    shared: Arc<dyn Clock>,
     bench: Bench,
     sent: Arc<Mutex<Vec<CanFrame>>>,
     cubes: Cubes,
     ctl: Controller,
     node: Node,
     unreachable: Vec<&'static str>,
-    /// The nodes asked for, in order.
-    asked: Vec<u8>,
+    silent: bool,
+    /// What was opened, in order: `powercube`, `pac`, `node N`.
+    opened: Vec<String>,
 }
 
 fn rig() -> Rig {
     let Recorded { clock, shared, bench, link, sent } = recorded_bench();
-    let cubes = Cubes::new(PowerCube::over_can(Box::new(link)).with_clock(Arc::clone(&shared)));
-    let pac = Pac::new(Box::new(bench.pac_link(Arc::clone(&shared))), 9600, SerialFormat::F7N1);
-    let ctl = Controller::new(pac.with_clock(Arc::clone(&shared)));
-    let cdios = Cdios::new(Box::new(bench.bus.open())).with_clock(shared);
-    let node = Node::new(cdios, NodeId::new(1).unwrap(), RetryPolicy::default());
-    Rig { clock, bench, sent, cubes, ctl, node, unreachable: Vec::new(), asked: Vec::new() }
+    let cubes = Cubes::new(PowerCube::over_can(link.inner).with_clock(Arc::clone(&shared)));
+    Rig {
+        clock,
+        shared: Arc::clone(&shared),
+        cubes,
+        ctl: Controller::new(pac_on(Box::new(bench.pac_link(Arc::clone(&shared))), &shared)),
+        node: Node::new(Cdios::new(Box::new(bench.bus.open())).with_clock(shared), node(1), RetryPolicy::default()),
+        bench,
+        sent,
+        unreachable: Vec::new(),
+        silent: false,
+        opened: Vec::new(),
+    }
+}
+
+fn pac_on(link: Box<dyn crate::link::ByteLink>, clock: &Arc<dyn Clock>) -> Pac {
+    Pac::new(link, 9600, SerialFormat::F7N1).with_clock(Arc::clone(clock))
+}
+
+fn retries(n: u32) -> RetryPolicy {
+    RetryPolicy { read_retries: n }
 }
 
 impl Reach for Rig {
-    fn cubes(&mut self) -> Result<&mut Cubes, String> {
-        match self.unreachable.contains(&"powercube") {
-            true => Err("no PowerCube link".into()),
-            false => Ok(&mut self.cubes),
+    fn cubes(&mut self) -> Result<Cubes, String> {
+        self.opened.push("powercube".into());
+        if self.unreachable.contains(&"powercube") {
+            return Err("no PowerCube link".into());
         }
+        let link = Recording { inner: Box::new(self.bench.bus.open()), sent: Arc::clone(&self.sent) };
+        Ok(Cubes::new(PowerCube::over_can(Box::new(link)).with_clock(Arc::clone(&self.shared))))
     }
-    fn controller(&mut self) -> Result<&mut Controller, String> {
-        match self.unreachable.contains(&"pac") {
-            true => Err("no PA-CONTROL link".into()),
-            false => Ok(&mut self.ctl),
+
+    fn controller(&mut self) -> Result<Controller, String> {
+        self.opened.push("pac".into());
+        if self.unreachable.contains(&"pac") {
+            return Err("no PA-CONTROL link".into());
         }
+        let link: Box<dyn crate::link::ByteLink> = match self.silent {
+            true => Box::new(MemByteLink::new(Box::new(Silent), Arc::clone(&self.shared))),
+            false => Box::new(self.bench.pac_link(Arc::clone(&self.shared))),
+        };
+        Ok(Controller::new(pac_on(link, &self.shared)))
     }
-    fn node(&mut self, node: NodeId) -> Result<&mut Node, String> {
-        self.asked.push(node.get());
-        match self.unreachable.contains(&"cdios") {
-            true => Err("no Cdios link".into()),
-            false => Ok(&mut self.node),
+
+    fn node(&mut self, n: NodeId) -> Result<Node, String> {
+        self.opened.push(format!("node {n}"));
+        if self.unreachable.contains(&"cdios") {
+            return Err("no Cdios link".into());
         }
+        let s = Cdios::new(Box::new(self.bench.bus.open())).with_clock(Arc::clone(&self.shared));
+        Ok(Node::new(s, n, RetryPolicy::default()))
     }
 }
 
@@ -198,7 +227,7 @@ fn every_device_of_every_family_is_halted_in_order_and_then_forgotten() {
     for t in [MotionTarget::Cube(cube(3)), MotionTarget::PacAxis(2), cdios_target(1, 0), MotionTarget::CubeBus] {
         moved.note(t);
     }
-    let done = moved.halt(&mut r, 2);
+    let done = moved.halt(&mut r, retries(1));
     let got: Vec<(MotionTarget, Result<&str, &str>)> =
         done.iter().map(|h| (h.target, h.result.as_deref().map_err(|e| e.as_str()))).collect();
     assert_eq!(got[0], (MotionTarget::Cube(cube(3)), Ok("module 3 halted")));
@@ -206,7 +235,7 @@ fn every_device_of_every_family_is_halted_in_order_and_then_forgotten() {
     assert!(got[1].1.is_ok_and(|t| t.starts_with("axis 2 stopped at ")), "{got:?}");
     assert_eq!(got[2], (cdios_target(1, 0), Ok("node 1 module 0: fast stop sent")));
     assert_eq!(got[3], (MotionTarget::CubeBus, Ok("Halt broadcast sent")));
-    assert_eq!(r.asked, [1], "the node of the motion is asked for");
+    assert_eq!(r.opened, ["powercube", "pac", "node 1"], "each family opened once for the stop");
     r.run(Duration::from_secs(10));
     assert!(!r.cube_moving(3), "module 3 stands");
     assert!(!r.cube_moving(5), "module 5 stands: the broadcast reached it");
@@ -214,7 +243,7 @@ fn every_device_of_every_family_is_halted_in_order_and_then_forgotten() {
     assert!(!r.motor_running(0), "motor 0 stands");
     assert!(moved.is_empty(), "halted devices are forgotten");
     r.sent.lock().unwrap().clear();
-    assert!(moved.halt(&mut r, 2).is_empty());
+    assert!(moved.halt(&mut r, retries(1)).is_empty());
     assert!(r.sent.lock().unwrap().is_empty(), "a second stop sends nothing");
 }
 
@@ -225,7 +254,7 @@ fn the_whole_controller_is_halted_by_its_mode_read_fresh() {
     r.run(Duration::from_millis(300));
     let mut moved = MovedDevices::new();
     moved.note(MotionTarget::PacController);
-    let done = moved.halt(&mut r, 1);
+    let done = moved.halt(&mut r, retries(0));
     assert_eq!(done.len(), 1);
     assert_eq!(done[0].result.as_deref(), Ok("online, no axes known: STOP (0600) sent"));
     r.run(Duration::from_secs(10));
@@ -246,9 +275,7 @@ fn a_halt_that_fails_says_why_and_the_others_still_go_out() {
     r.start_motor(1);
     r.run(Duration::from_millis(300));
     // A controller that never answers: every step of its halt fails.
-    let shared: Arc<dyn Clock> = Arc::new(r.clock.clone());
-    let silent = Pac::new(Box::new(MemByteLink::new(Box::new(Silent), Arc::clone(&shared))), 9600, SerialFormat::F7N1);
-    r.ctl = Controller::new(silent.with_clock(shared));
+    r.silent = true;
     let mut moved = MovedDevices::new();
     for t in [
         MotionTarget::PacController,
@@ -259,7 +286,7 @@ fn a_halt_that_fails_says_why_and_the_others_still_go_out() {
     ] {
         moved.note(t);
     }
-    let done = moved.halt(&mut r, 2);
+    let done = moved.halt(&mut r, retries(1));
     assert_eq!(done.iter().map(|h| h.target).collect::<Vec<_>>(), moved_order());
     let err = |i: usize| done[i].result.clone().unwrap_err();
     assert!(err(0).contains("no answer") && err(0).contains("; "), "status read and STOP both fail: {}", err(0));
@@ -291,7 +318,8 @@ fn a_device_that_cannot_be_reached_is_a_failed_halt_of_its_own() {
     for t in [MotionTarget::PacAxis(1), MotionTarget::PacController, cdios_target(1, 0), MotionTarget::Cube(cube(17))] {
         moved.note(t);
     }
-    let results: Vec<Result<String, String>> = moved.halt(&mut r, 1).into_iter().map(|h| h.result).collect();
+    let results: Vec<Result<String, String>> = moved.halt(&mut r, retries(0)).into_iter().map(|h| h.result).collect();
+    assert_eq!(r.opened, ["pac", "pac", "node 1", "powercube"], "a family that failed to open is asked again");
     assert_eq!(
         results,
         [
@@ -304,7 +332,7 @@ fn a_device_that_cannot_be_reached_is_a_failed_halt_of_its_own() {
     r.unreachable = vec!["powercube"];
     moved.note(MotionTarget::Cube(cube(17)));
     moved.note(MotionTarget::CubeBus);
-    let results: Vec<Result<String, String>> = moved.halt(&mut r, 1).into_iter().map(|h| h.result).collect();
+    let results: Vec<Result<String, String>> = moved.halt(&mut r, retries(0)).into_iter().map(|h| h.result).collect();
     assert_eq!(results, [Err("no PowerCube link".into()), Err("no PowerCube link".into())]);
 }
 
@@ -317,7 +345,7 @@ fn a_motor_that_came_to_its_end_by_itself_is_no_failure() {
     assert!(!r.motor_running(0));
     let mut moved = MovedDevices::new();
     moved.note(cdios_target(1, 0));
-    let done = moved.halt(&mut r, 2);
+    let done = moved.halt(&mut r, retries(1));
     assert_eq!(done[0].result.as_deref(), Ok("node 1 module 0: not running"));
 }
 
@@ -334,6 +362,36 @@ fn a_lost_halt_acknowledge_is_sent_again_up_to_the_attempts() {
             .count()
     };
     moved.note(MotionTarget::Cube(cube(9)));
-    assert!(moved.halt(&mut r, 3)[0].result.is_err());
+    assert!(moved.halt(&mut r, retries(2))[0].result.is_err());
     assert_eq!(halts(&r), 3, "module 9 is absent: three halts, no answer");
+}
+
+#[test]
+fn each_family_and_each_node_is_opened_once_per_stop() {
+    let mut r = rig();
+    r.start_motor(0);
+    r.start_motor(1);
+    r.start_axis(1);
+    r.run(Duration::from_millis(100));
+    let mut moved = MovedDevices::new();
+    for t in [
+        MotionTarget::Cube(cube(3)),
+        cdios_target(1, 0),
+        MotionTarget::PacAxis(1),
+        MotionTarget::Cube(cube(5)),
+        cdios_target(2, 0),
+        MotionTarget::PacController,
+        cdios_target(1, 1),
+        MotionTarget::CubeBus,
+    ] {
+        moved.note(t);
+    }
+    let done = moved.halt(&mut r, retries(0));
+    assert_eq!(r.opened, ["powercube", "node 1", "pac", "node 2"]);
+    let ok: Vec<bool> = done.iter().map(|h| h.result.is_ok()).collect();
+    // Node 2 is not on the bench: its halt fails; node 1's motor 1 is stopped.
+    assert_eq!(ok, [true, true, true, true, false, true, true, true], "{done:?}");
+    assert_eq!(done[6].result.as_deref(), Ok("node 1 module 1: fast stop sent"));
+    r.run(Duration::from_millis(500));
+    assert!(!r.motor_running(1));
 }
