@@ -528,15 +528,16 @@ def run_all(args):
                     "Cdios node 1 modules 0, 1 on CAN 1 Mbit/s via an slcan pty",
                     can,
                     ["cdios"],
-                    "one command at a time: 2 x 8-byte frames ≈ 0.23 ms of wire time, then one turnaround",
+                    "per module: 4 reads pipelined = 8 x 8-byte frames ≈ 0.9 ms of wire time; the next "
+                    "module's burst goes out before this one's replies are read, so a round pays one turnaround",
                 ),
                 (
                     "can_poll_full",
                     "full CAN link (PowerCube + Cdios) at 1 Mbit/s via an slcan pty",
                     can,
                     [],
-                    "as the two rows above, interleaved; a PowerCube module's burst also goes out while the "
-                    "device before it (PowerCube or Cdios) is read",
+                    "as the two rows above, interleaved; each device's burst goes out while the device before "
+                    "it is read, whatever its family",
                 ),
                 (
                     "rs232_poll_pc",

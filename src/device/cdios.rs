@@ -135,6 +135,20 @@ pub enum Stopped {
     NotRunning,
 }
 
+/// A poll sent by [`Node::send_poll`] whose replies are still to be collected.
+#[derive(Debug)]
+#[must_use = "a poll sent is collected or abandoned"]
+pub struct SentPoll {
+    module: ModuleId,
+    reads: crate::session::cdios::SentReads,
+}
+
+impl SentPoll {
+    pub fn module(&self) -> ModuleId {
+        self.module
+    }
+}
+
 /// A module as the dashboard polls it.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Reading {
@@ -176,6 +190,11 @@ impl Node {
 
     pub fn id(&self) -> NodeId {
         self.node
+    }
+
+    /// The next command would first wake the node (probe, NMT start).
+    pub fn needs_wake(&self) -> bool {
+        self.s.needs_start(self.node)
     }
 
     pub fn session(&mut self) -> &mut Cdios {
@@ -304,17 +323,27 @@ impl Node {
 
     /// One burst per poll: status, speed, position, setpoint.
     pub fn poll(&mut self, m: ModuleId) -> Result<Reading, Error> {
+        let sent = self.send_poll(m)?;
+        self.collect_poll(sent)
+    }
+
+    /// The send half of [`Self::poll`]: the burst goes out and its replies
+    /// are left for [`Self::collect_poll`], so that other commands (the next
+    /// module's poll, an action) can go out meanwhile.
+    pub fn send_poll(&mut self, m: ModuleId) -> Result<SentPoll, Error> {
         self.ready(m)?;
-        let replies = self.s.read_many(
-            self.node,
-            Address::Module(m),
-            &[
-                Command::ReadStatus(StatusSelector::Status),
-                Command::ReadStatus(StatusSelector::SpeedError),
-                Command::ReadPosition(PositionSource::Current),
-                Command::ReadPosition(PositionSource::Setpoint),
-            ],
-        )?;
+        let cmds = [
+            Command::ReadStatus(StatusSelector::Status),
+            Command::ReadStatus(StatusSelector::SpeedError),
+            Command::ReadPosition(PositionSource::Current),
+            Command::ReadPosition(PositionSource::Setpoint),
+        ];
+        Ok(SentPoll { module: m, reads: self.s.send_many(self.node, Address::Module(m), &cmds)? })
+    }
+
+    /// The reading of a poll sent with [`Self::send_poll`].
+    pub fn collect_poll(&mut self, sent: SentPoll) -> Result<Reading, Error> {
+        let replies = self.s.collect_many(sent.reads)?;
         let get = |i: usize, k: &str| replies[i].get(k).unwrap_or(0);
         let byte = |k| get(0, k) as u8;
         Ok(Reading {
@@ -324,6 +353,11 @@ impl Node {
             rpm_error: get(1, "rpm_error"),
             status: [byte("status1"), byte("status2"), byte("status3"), byte("status4")],
         })
+    }
+
+    /// Gives up a poll sent with [`Self::send_poll`] without waiting for it.
+    pub fn abandon_poll(&mut self, sent: SentPoll) {
+        self.s.abandon_many(sent.reads);
     }
 
     /// The modules 0..=15 that answer a status read. An absent one times out

@@ -1,5 +1,11 @@
 //! The Cdios session: commands to `0x200 + node`, answers from `0x180 + node`
-//! (specs README, "Cdios 6168"), one command at a time.
+//! (specs README, "Cdios 6168"), one command at a time, or reads of one
+//! module as one burst ([`Cdios::read_many`]). A burst may be sent
+//! ([`Cdios::send_many`]) and collected later ([`Cdios::collect_many`]),
+//! with other commands in between: every reply read, whoever reads it, is
+//! offered first to the bursts still waiting, oldest first; a burst nobody
+//! collects ([`Cdios::abandon_many`]) keeps taking its replies until its
+//! deadline, so none is taken for the reply of a later command.
 //!
 //! - The node is started with NMT once per node and given 100 ms to settle,
 //!   unless the caller says it runs already ([`Cdios::set_nmt`]).
@@ -84,11 +90,36 @@ impl Retryable for Failure {
     }
 }
 
-/// Events received and not taken yet.
+/// Events received and not taken yet, and the bursts of reads still
+/// awaiting replies: every answer read, whoever reads it, is offered to
+/// them first, oldest first ([`Cdios::send_many`]).
 #[derive(Default)]
 struct Events {
     queue: VecDeque<Event>,
     dropped: u64,
+    in_flight: VecDeque<InFlight>,
+    next_burst: u64,
+}
+
+/// A burst of reads sent and not collected yet.
+struct InFlight {
+    id: u64,
+    burst: Burst,
+    /// It takes replies until then.
+    deadline: Instant,
+    /// Nobody will collect it: it only keeps its late replies from being
+    /// taken for the replies of later commands.
+    abandoned: bool,
+}
+
+/// What a received frame was.
+enum Sorted {
+    /// An answer no burst in flight took.
+    Answer(Answer),
+    /// A reply a burst in flight took (the burst's id).
+    Settled(u64),
+    /// An event, another family's frame, something undecodable.
+    Other,
 }
 
 impl Events {
@@ -101,8 +132,16 @@ impl Events {
     }
 
     /// Sorts a received frame: events are queued (and `None` returned),
-    /// other families' frames are ignored, answers come back.
+    /// other families' frames are ignored, replies a burst in flight takes
+    /// go to it, other answers come back.
     fn take_answer(&mut self, core: &mut Core, frame: &CanFrame) -> Option<Answer> {
+        match self.sort(core, frame) {
+            Sorted::Answer(a) => Some(a),
+            Sorted::Settled(_) | Sorted::Other => None,
+        }
+    }
+
+    fn sort(&mut self, core: &mut Core, frame: &CanFrame) -> Sorted {
         match incoming(frame) {
             Incoming::Foreign => core.trace(|| TraceEvent::Received(format!("{frame:<22} ignored (not Cdios)"))),
             // Nothing on an answer id can be told apart without its code byte.
@@ -111,9 +150,20 @@ impl Events {
                 core.trace(|| TraceEvent::Received(format!("{frame:<22} event: {answer}")));
                 self.push(Event { at: core.now(), answer });
             }
-            Incoming::Answer(answer) => return Some(answer),
+            Incoming::Answer(answer) => {
+                let now = core.now();
+                let live = self.in_flight.iter_mut().filter(|b| b.burst.pending() > 0 && now < b.deadline);
+                for b in live {
+                    if let Settled::Read(_) = b.burst.handle(&answer) {
+                        let note = if b.abandoned { " (to an abandoned burst)" } else { "" };
+                        core.trace(|| TraceEvent::Received(format!("{frame:<22} {answer}{note}")));
+                        return Sorted::Settled(b.id);
+                    }
+                }
+                return Sorted::Answer(answer);
+            }
         }
-        None
+        Sorted::Other
     }
 
     /// Drops the answers queued before a command (events among them are kept).
@@ -327,16 +377,52 @@ impl Cdios {
         address: Address,
         cmds: &[Command],
     ) -> Result<Vec<DecodedReply>, SessionError> {
+        let sent = self.send_many(node, address, cmds)?;
+        self.collect_many(sent)
+    }
+
+    /// The send half of [`Self::read_many`]: the burst goes out and its
+    /// replies are left for [`Self::collect_many`]; other commands (another
+    /// module's burst, an action) may go out meanwhile, and each reply is
+    /// offered to the oldest burst still waiting first. Reads that cannot go
+    /// as one burst are all sent by the collect, one at a time.
+    pub fn send_many(&mut self, node: NodeId, address: Address, cmds: &[Command]) -> Result<SentReads, SessionError> {
         let data = cmds.iter().map(|cmd| encode(node, address, cmd)).collect::<Result<Vec<_>, _>>()?;
-        let burst = Burst::pipelinable(&data);
-        let got = if burst { self.burst(node, address, &data)? } else { vec![None; data.len()] };
-        let mut out = Vec::with_capacity(cmds.len());
+        if !Burst::pipelinable(&data) {
+            return Ok(SentReads { node, address, data, id: None });
+        }
+        self.start_node(node)?;
+        let Self { link, core, events, .. } = self;
+        let now = core.now();
+        events.in_flight.retain(|b| !(b.abandoned && (b.burst.pending() == 0 || now >= b.deadline)));
+        events.drain(core, &mut **link)?;
+        let burst = Burst::new(node, address, &data);
+        let frames: Vec<CanFrame> = burst.frames().collect();
+        for (f, d) in frames.iter().zip(&data) {
+            let ex = Exchange::new(node, address, *d);
+            core.trace(|| TraceEvent::Sent(format!("{f:<22} {ex} to {}", target(node, address))));
+        }
+        let deadline = core.send_burst(&mut **link, &frames)?;
+        let id = events.next_burst;
+        events.next_burst += 1;
+        events.in_flight.push_back(InFlight { id, burst, deadline, abandoned: false });
+        Ok(SentReads { node, address, data, id: Some(id) })
+    }
+
+    /// The replies of reads sent with [`Self::send_many`], in command order.
+    pub fn collect_many(&mut self, sent: SentReads) -> Result<Vec<DecodedReply>, SessionError> {
+        let SentReads { node, address, data, id } = sent;
+        let got = match id {
+            Some(id) => self.collect_burst(id)?,
+            None => vec![None; data.len()],
+        };
+        let mut out = Vec::with_capacity(data.len());
         for (d, r) in data.iter().zip(got) {
             let ex = Exchange::new(node, address, *d);
             out.push(match r {
                 Some(r) => r,
                 // The burst was the first attempt of every read it did not answer.
-                None if burst => {
+                None if id.is_some() => {
                     let (what, timeout) = (ex.to_string(), self.core.timeout);
                     let first = SessionError::Timeout { target: target(node, address), what, timeout };
                     reply_of(node, address, self.exchange(ex, Some(first))?)?
@@ -347,37 +433,33 @@ impl Cdios {
         Ok(out)
     }
 
-    fn burst(
-        &mut self,
-        node: NodeId,
-        address: Address,
-        data: &[[u8; 8]],
-    ) -> Result<Vec<Option<DecodedReply>>, SessionError> {
-        self.start_node(node)?;
-        let Self { link, core, events, .. } = self;
-        events.drain(core, &mut **link)?;
-        let mut burst = Burst::new(node, address, data);
-        let frames: Vec<CanFrame> = burst.frames().collect();
-        for (f, d) in frames.iter().zip(data) {
-            let ex = Exchange::new(node, address, *d);
-            core.trace(|| TraceEvent::Sent(format!("{f:<22} {ex} to {}", target(node, address))));
+    /// Gives up reads sent with [`Self::send_many`] without waiting: their
+    /// replies are taken (and dropped) as they come, up to the burst's deadline.
+    pub fn abandon_many(&mut self, sent: SentReads) {
+        if let Some(b) = sent.id.and_then(|id| self.events.in_flight.iter_mut().find(|b| b.id == id)) {
+            b.abandoned = true;
         }
-        core.burst(&mut **link, &frames, data.len(), |core, frame| {
-            let Some(answer) = events.take_answer(core, &frame) else { return false };
-            match burst.handle(&answer) {
-                Settled::Read(_) => {
-                    core.trace(|| TraceEvent::Received(format!("{frame:<22} {answer}")));
-                    true
-                }
-                Settled::OtherTarget => false,
-                // Errors and odd replies: left to the one-at-a-time path.
-                Settled::LeftForSingle => {
-                    core.trace(|| TraceEvent::Received(format!("{frame:<22} left for a single read")));
-                    false
-                }
+    }
+
+    fn collect_burst(&mut self, id: u64) -> Result<Vec<Option<DecodedReply>>, SessionError> {
+        let Self { link, core, events, .. } = self;
+        let at = events.in_flight.iter().position(|b| b.id == id).expect("a burst is collected once");
+        let (deadline, pending) = (events.in_flight[at].deadline, events.in_flight[at].burst.pending());
+        let received = core.collect(&mut **link, deadline, pending, |core, frame| match events.sort(core, &frame) {
+            Sorted::Settled(settled) => settled == id,
+            // Errors and odd replies: left to the one-at-a-time path.
+            Sorted::Answer(answer) => {
+                core.trace(|| {
+                    TraceEvent::Received(format!("{frame:<22} {answer} not awaited here (left for a single read)"))
+                });
+                false
             }
-        })?;
-        Ok(burst.into_replies())
+            Sorted::Other => false,
+        });
+        let at = events.in_flight.iter().position(|b| b.id == id).expect("found above");
+        let done = events.in_flight.remove(at).expect("found above");
+        received?;
+        Ok(done.burst.into_replies())
     }
 
     /// 26h selector 0: the four status bytes, decoded.
@@ -403,6 +485,18 @@ impl Cdios {
         let r = self.read(node, Address::Module(module), &Command::ReadPosition(source))?;
         Ok(r.get("position").unwrap_or(0) as i32)
     }
+}
+
+/// Reads sent with [`Cdios::send_many`], to hand to [`Cdios::collect_many`]
+/// or [`Cdios::abandon_many`].
+#[derive(Debug)]
+#[must_use = "reads sent are collected or abandoned"]
+pub struct SentReads {
+    node: NodeId,
+    address: Address,
+    data: Vec<[u8; 8]>,
+    /// The burst in flight; `None`: the reads go one at a time at the collect.
+    id: Option<u64>,
 }
 
 /// The decoded reply a read must have got.

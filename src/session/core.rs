@@ -98,36 +98,19 @@ impl Core {
         Ok(())
     }
 
-    /// The pipelined CAN burst: every frame in one go (on an slcan adapter
-    /// one write), then the answers within one timeout after the send. `on`
-    /// sees each received frame and says whether it settled a request; the
-    /// burst ends when `pending` are settled or at the deadline.
-    /// [`Self::send_burst`] then [`Self::collect`].
-    pub fn burst(
-        &mut self,
-        link: &mut dyn CanLink,
-        frames: &[CanFrame],
-        pending: usize,
-        on: impl FnMut(&mut Self, CanFrame) -> bool,
-    ) -> Result<(), LinkError> {
-        let deadline = self.send_burst(link, frames)?;
-        if pending == 0 {
-            return Ok(());
-        }
-        self.collect(link, deadline, pending, on)
-    }
-
-    /// The send half of [`Self::burst`]: every frame in one go; the deadline
-    /// of its answers (one timeout from now). Whatever is sent next goes out
-    /// behind these frames while their answers are still on their way, so
-    /// the bus need not fall idle while the answers cross the link.
+    /// The pipelined CAN burst, sent: every frame in one go (on an slcan
+    /// adapter one write); the deadline of its answers (one timeout from
+    /// now). Whatever is sent next goes out behind these frames while their
+    /// answers are still on their way, so the bus need not fall idle while
+    /// the answers cross the link; [`Self::collect`] waits for them.
     pub fn send_burst(&mut self, link: &mut dyn CanLink, frames: &[CanFrame]) -> Result<Instant, LinkError> {
         link.send_many(frames)?;
         Ok(self.clock.now() + self.timeout)
     }
 
-    /// The collect half of [`Self::burst`]: receives until `on` has said
-    /// `pending` times that a frame settled a request, or until `deadline`.
+    /// The answers of a burst: receives until `on` has said `pending` times
+    /// that a frame settled a request, or until `deadline`. `on` sees every
+    /// frame received, whichever request it answers.
     pub fn collect(
         &mut self,
         link: &mut dyn CanLink,

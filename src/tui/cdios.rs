@@ -1,9 +1,11 @@
 //! The Cdios device source: the 6168 modules of one node, four reads per
-//! poll (status bytes, speed and RPM error, position, setpoint). Every
-//! action is a [`crate::device::cdios`] operation; this file only words it.
+//! poll (status bytes, speed and RPM error, position, setpoint), sent as one
+//! burst, and sent ahead while the device before is read
+//! ([`DeviceSource::poll_ahead`]). Every action is a
+//! [`crate::device::cdios`] operation; this file only words it.
 
 use super::source::{Action, CdiosSnap, DeviceKey, DeviceSource, HaltReport, Snapshot, SourceError};
-use crate::device::cdios::{self as device, Node, Stopped};
+use crate::device::cdios::{self as device, Node, SentPoll, Stopped};
 use crate::family::Family;
 use crate::proto::cdios::{Command, GotoMode, ModuleId, NodeId, StopOption};
 use crate::session::cdios::Cdios;
@@ -14,7 +16,13 @@ pub struct CdiosSource {
     /// Given with `--cdios-modules`; `None` scans 0..=15 at start.
     wanted: Option<Vec<ModuleId>>,
     known: Vec<ModuleId>,
+    /// Polls sent ahead, oldest first.
+    ahead: Vec<SentPoll>,
 }
+
+/// Polls sent ahead at most: the next module's, and the one after it when
+/// the worker sends the current one ahead too.
+const AHEAD: usize = 2;
 
 /// A goto position as the CLI checks it: the table's range for the field.
 pub fn check_position(row: &str, v: f64) -> Result<i32, String> {
@@ -41,7 +49,7 @@ fn sent(what: &str, confirmed: bool) -> String {
 
 impl CdiosSource {
     pub fn new(s: Cdios, node: NodeId, modules: Option<Vec<ModuleId>>, retry: RetryPolicy) -> Self {
-        Self { node: Node::new(s, node, retry), wanted: modules, known: Vec::new() }
+        Self { node: Node::new(s, node, retry), wanted: modules, known: Vec::new(), ahead: Vec::new() }
     }
 
     fn module(&self, dev: DeviceKey) -> Result<ModuleId, SourceError> {
@@ -75,6 +83,10 @@ impl DeviceSource for CdiosSource {
     }
 
     fn discover(&mut self) -> Result<Vec<DeviceKey>, SourceError> {
+        // A poll sent ahead for the old list is not waited for.
+        for sent in std::mem::take(&mut self.ahead) {
+            self.node.abandon_poll(sent);
+        }
         self.known = match &self.wanted {
             Some(list) => list.clone(),
             None => self.node.scan()?,
@@ -85,7 +97,13 @@ impl DeviceSource for CdiosSource {
 
     fn poll(&mut self, dev: DeviceKey) -> Result<Snapshot, SourceError> {
         let m = self.module(dev)?;
-        let r = self.node.poll(m)?;
+        let r = match self.ahead.iter().position(|p| p.module() == m) {
+            Some(i) => {
+                let sent = self.ahead.remove(i);
+                self.node.collect_poll(sent)?
+            }
+            None => self.node.poll(m)?,
+        };
         Ok(Snapshot::Cdios(CdiosSnap {
             position: r.position,
             setpoint: r.setpoint,
@@ -93,6 +111,22 @@ impl DeviceSource for CdiosSource {
             rpm_error: r.rpm_error,
             status: r.status,
         }))
+    }
+
+    /// Only a module that answered before: a node still to be woken is
+    /// woken by its poll, where a failure is reported.
+    fn poll_ahead(&mut self, dev: DeviceKey) {
+        let Ok(m) = self.module(dev) else { return };
+        if !self.known.contains(&m) || self.ahead.iter().any(|p| p.module() == m) || self.node.needs_wake() {
+            return;
+        }
+        if self.ahead.len() >= AHEAD {
+            let oldest = self.ahead.remove(0);
+            self.node.abandon_poll(oldest);
+        }
+        if let Ok(sent) = self.node.send_poll(m) {
+            self.ahead.push(sent);
+        }
     }
 
     fn act(&mut self, dev: DeviceKey, action: Action) -> Result<String, SourceError> {

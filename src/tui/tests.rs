@@ -1413,3 +1413,49 @@ fn a_round_sends_the_next_modules_reads_before_the_current_answers_are_read() {
     let reads = lines.iter().filter(|l| l.starts_with("sent")).count();
     assert_eq!(reads, lines.len() - reads, "every read sent in the round is answered in it: {lines:?}");
 }
+
+// The same for the Cdios modules of a node: module 1's reads are on the bus
+// before module 0's replies are read, and both polls get their readings.
+#[test]
+fn a_round_sends_the_next_cdios_modules_reads_before_the_current_replies_are_read() {
+    use crate::session::TraceEvent;
+    let clock = VirtualClock::new();
+    let shared: Arc<dyn Clock> = Arc::new(clock.clone());
+    let bench = Bench::contract(Arc::clone(&shared));
+    bench.bus.set_fault(Some(Box::new(OneMsLate)));
+    let trace = Arc::new(std::sync::Mutex::new(Vec::new()));
+    let mut session = Cdios::new(Box::new(bench.bus.open())).with_clock(Arc::clone(&shared));
+    let seen = Arc::clone(&trace);
+    session.set_tracer(Box::new(move |ev| {
+        let line = match ev {
+            TraceEvent::Sent(s) => format!("sent {}", s.rsplit(' ').next().unwrap_or_default()),
+            TraceEvent::Received(_) => "received".into(),
+            TraceEvent::Note(_) => return,
+        };
+        seen.lock().unwrap().push(line);
+    }));
+    let source = CdiosSource::new(session, NodeId::new(1).unwrap(), None, RetryPolicy::default());
+    let mut worker = LinkWorker::new(0, vec![Box::new(source)], Arc::clone(&shared), 10.0);
+    let LinkEvent::Discovered { devices, .. } = worker.discover() else { panic!("discover reports") };
+    assert_eq!(devices.len(), 2, "{devices:?}");
+    let mut polled = Vec::new();
+    for _ in 0..3 {
+        trace.lock().unwrap().clear();
+        polled.clear();
+        worker.round(&mut Vec::new, &mut |ev| {
+            if let LinkEvent::Polled { device, result, .. } = ev {
+                polled.push((device, result));
+            }
+        });
+    }
+    assert_eq!(polled.iter().map(|p| p.0).collect::<Vec<_>>(), devices);
+    assert!(polled.iter().all(|p| matches!(p.1, Ok(Snapshot::Cdios(_)))), "{polled:?}");
+    let lines = trace.lock().unwrap().clone();
+    let first_reply = lines.iter().position(|l| l == "received").expect("replies read");
+    assert!(
+        lines[..first_reply].iter().any(|l| l == "sent 1"),
+        "module 1's reads went out only after the first replies were read: {lines:?}"
+    );
+    let reads = lines.iter().filter(|l| l.starts_with("sent")).count();
+    assert_eq!(reads, 8, "four reads a module, none sent again: {lines:?}");
+}

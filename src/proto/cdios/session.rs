@@ -140,10 +140,10 @@ impl Exchange {
 
 /// Several reads of one module sent at once, and the replies matched so far.
 #[derive(Debug)]
-pub struct Burst<'a> {
+pub struct Burst {
     node: NodeId,
     address: Address,
-    data: &'a [[u8; 8]],
+    data: Vec<[u8; 8]>,
     got: Vec<Option<DecodedReply>>,
     pending: usize,
 }
@@ -159,18 +159,18 @@ pub enum Settled {
     LeftForSingle,
 }
 
-impl<'a> Burst<'a> {
+impl Burst {
     /// Whether the reads can go as one burst: more than one, and every reply
     /// told apart from the others.
     pub fn pipelinable(data: &[[u8; 8]]) -> bool {
         data.len() > 1 && data.iter().enumerate().all(|(i, a)| data[..i].iter().all(|b| !same_reply(a, b)))
     }
 
-    pub fn new(node: NodeId, address: Address, data: &'a [[u8; 8]]) -> Self {
-        Self { node, address, data, got: vec![None; data.len()], pending: data.len() }
+    pub fn new(node: NodeId, address: Address, data: &[[u8; 8]]) -> Self {
+        Self { node, address, data: data.to_vec(), got: vec![None; data.len()], pending: data.len() }
     }
 
-    pub fn frames(&self) -> impl Iterator<Item = CanFrame> + 'a {
+    pub fn frames(&self) -> impl Iterator<Item = CanFrame> + '_ {
         let node = self.node;
         self.data.iter().map(move |d| transport::command_frame(node, d))
     }

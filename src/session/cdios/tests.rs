@@ -468,3 +468,65 @@ fn read_many_retries_exactly_like_single_reads() {
     assert_eq!(e.kind(), crate::session::ErrorKind::Timeout);
     assert_eq!(silent.sent().len(), 2, "--retries 0: the burst only");
 }
+
+/// Every reply reaches the bus 1 ms after its command: a burst's replies are
+/// still to come when the next burst goes out.
+struct OneMsLate;
+
+impl crate::link::mem::Fault for OneMsLate {
+    fn device_frame(&mut self, frame: CanFrame, out: &mut Vec<crate::link::mem::Delivery>) {
+        out.push(crate::link::mem::Delivery { after: Duration::from_millis(1), frame });
+    }
+}
+
+/// A running node whose replies come 1 ms late: position reads answer the
+/// count of position reads so far plus 100 x the module; the rest as
+/// [`plain_node`].
+fn late_counting_node() -> Rig {
+    let clock = Arc::new(VirtualClock::new());
+    let bus = MemBus::new(clock.clone());
+    let seen = Arc::new(Mutex::new(Vec::new()));
+    let mut count = 0i32;
+    let respond = move |frame: &CanFrame| match on_command(frame) {
+        Some(d) if d[0] == 0x21 => {
+            count += 1;
+            let v = (count + 100 * i32::from(d[1])).to_le_bytes();
+            vec![CanFrame::new(0x181, &[0x21, d[1], d[2], v[0], v[1], v[2], v[3], 0]).unwrap()]
+        }
+        _ => plain_node(frame),
+    };
+    bus.attach(Box::new(Scripted { seen: Arc::clone(&seen), respond: Box::new(respond) }));
+    bus.set_fault(Some(Box::new(OneMsLate)));
+    let mut session = Cdios::new(Box::new(bus.open())).with_clock(clock.clone());
+    session.set_nmt(false);
+    Rig { clock, seen, session }
+}
+
+const POLL: [Command; 2] =
+    [Command::ReadStatus(StatusSelector::Status), Command::ReadPosition(PositionSource::Current)];
+
+// Two modules' bursts go out before either is answered; each takes its own
+// replies, whichever is collected first.
+#[test]
+fn two_bursts_in_flight_take_their_own_replies() {
+    let mut rig = late_counting_node();
+    let first = rig.session.send_many(node1(), m(0), &POLL).unwrap();
+    let second = rig.session.send_many(node1(), m(1), &POLL).unwrap();
+    assert_eq!(rig.sent().len(), 4, "both bursts out: {:?}", rig.sent());
+    let r1 = rig.session.collect_many(second).unwrap();
+    let r0 = rig.session.collect_many(first).unwrap();
+    assert_eq!((r0[1].get("position"), r1[1].get("position")), (Some(1), Some(102)));
+    assert_eq!(r0[0].get("status1"), Some(0x81));
+    assert_eq!(rig.sent().len(), 4, "no read went again on its own: {:?}", rig.sent());
+}
+
+// A burst given up before its replies came: they are dropped as they come,
+// not taken for the reply of the next read of the same value.
+#[test]
+fn the_replies_of_an_abandoned_burst_are_not_taken_by_a_later_read() {
+    let mut rig = late_counting_node();
+    let sent = rig.session.send_many(node1(), m(0), &POLL).unwrap();
+    rig.session.abandon_many(sent);
+    let pos = rig.session.read_position(node1(), ModuleId::new(0).unwrap(), PositionSource::Current).unwrap();
+    assert_eq!(pos, 2, "the abandoned burst's reply was 1");
+}
