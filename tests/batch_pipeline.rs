@@ -255,3 +255,44 @@ fn a_signal_stops_pipelined_reads_after_the_line_that_was_shown() {
     assert_eq!(shown, after, "every line up to the stop was shown, none after it: {}", ended.stderr);
     assert!(after < 20_000, "{}", ended.stderr);
 }
+
+// A group that follows another at once goes out before the first group's
+// answers are read (the bus stays busy while its lines are shown); the
+// lines still print what their one-shots print, across every group. The
+// bench runs at 5 kbit/s so that no answer is back before the next group
+// leaves (at once, the answers would already wait when it goes).
+#[test]
+fn the_next_group_goes_out_before_this_one_is_read_and_every_line_prints_as_alone() {
+    let gp = "get-param -m 3,5,17 ActPos ActVel MaxVel";
+    let lines: Vec<&str> = [gp, "state -m 17,3"].iter().copied().cycle().take(12).collect();
+    let alone: String = lines.iter().map(|l| one_shot(&["--link", "sim"], l).stdout).collect();
+    let r = batch_stdin(&["--link", "sim", "batch", "-"], &script(&lines));
+    assert_eq!(r.code, 0, "{}", r.stderr);
+    assert_eq!(r.stdout, alone);
+
+    // 12 + 12 requests, then 12 + 2 in the next group.
+    let sent_first = |lines: &[&str]| {
+        let dir = tempfile::tempdir().unwrap();
+        let log = dir.path().join("ahead.log");
+        let out = bin()
+            .env("AXISCTL_SIM_WIRE_SPEED", "bitrate=5000")
+            .args(["--link", "sim", "--timeout", "5000", "--log", log.to_str().unwrap(), "batch", "-"])
+            .stdin(Stdio::piped())
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .and_then(|mut child| {
+                child.stdin.take().unwrap().write_all(script(lines).as_bytes())?;
+                child.wait_with_output()
+            })
+            .unwrap();
+        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+        let got = frames(&log);
+        (got.iter().position(|f| is_answer(f)), got)
+    };
+    let (first_answer, got) = sent_first(&[gp, gp, gp, "state -m 17,3"]);
+    assert_eq!(first_answer, Some(24 + 14), "the second group left before the first answer: {got:?}");
+    // A line that runs on its own between two groups: the second waits.
+    let (first_answer, got) = sent_first(&[gp, gp, "info -m 3", gp, "state -m 17,3"]);
+    assert_eq!(first_answer, Some(24), "{got:?}");
+}

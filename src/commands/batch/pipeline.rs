@@ -13,17 +13,20 @@
 //! `--keep-going`. Every other line, and every line on RS232, runs on its
 //! own as before.
 //!
-//! The next group's burst leaves once the lines of this one are shown: to
-//! send it while this one's answers are still coming, the answers of two
-//! bursts would share the bus, and a late answer of the first (or a retry,
-//! which drains what is queued) could be taken for one of the second.
+//! A group that follows another at once leaves before that one's answers
+//! are read, on the same session, so the bus is busy while the lines are
+//! shown. The session hands each answer to the oldest burst still owed
+//! one, so neither a late answer nor a retry's drain is taken for another
+//! line's. A line between two groups runs on its own session, which knows
+//! nothing of a burst out: the group after it waits for it.
 
 use std::ops::Range;
 
 use axisctl::device::powercube::Cubes;
 use axisctl::family::Family;
 use axisctl::open::Opener;
-use axisctl::proto::powercube::Response;
+use axisctl::proto::powercube::{ModuleId, Request, Response};
+use axisctl::session::powercube::Burst;
 use axisctl::session::SessionError;
 use serde_json::json;
 
@@ -45,6 +48,9 @@ pub struct Pipeline {
     plans: Vec<Option<PipelinedRead>>,
     groups: Vec<Range<usize>>,
     sent: Option<Sent>,
+    /// The next group's burst, sent on `sent`'s session before that
+    /// group's answers were read.
+    ahead: Option<(Range<usize>, Burst)>,
 }
 
 /// A group whose burst went out: its session (the retries use it) and each
@@ -70,21 +76,59 @@ impl Pipeline {
         let plans: Vec<Option<PipelinedRead>> =
             lines.iter().map(|(_, _, line)| if can { plan(line) } else { None }).collect();
         let sizes: Vec<Option<usize>> = plans.iter().map(|p| p.as_ref().map(|p| p.requests().len())).collect();
-        Self { groups: groups(&sizes, MAX_BURST), plans, sent: None }
+        Self { groups: groups(&sizes, MAX_BURST), plans, sent: None, ahead: None }
     }
 
     /// The answers of line `i` (an index into the lines), when it belongs
-    /// to a group; the group's burst goes out at its first line. `None` also
-    /// when the session could not be opened or the burst failed as a whole
-    /// (the link): its lines then run on their own and say what failed.
+    /// to a group; the group's burst goes out at its first line, unless it
+    /// went out ahead. `None` also when the session could not be opened or
+    /// the burst failed as a whole (the link): its lines then run on their
+    /// own and say what failed.
     pub fn answered(&mut self, ctx: &Ctx, i: usize) -> Option<Answered<'_>> {
         let group = self.groups.iter().find(|g| g.contains(&i))?.clone();
         if group.start == i {
-            self.sent = send(ctx, &self.plans, group.clone());
+            self.sent = self.start(ctx, group.clone());
         }
         let sent = self.sent.as_mut().filter(|s| s.lines == group)?;
         let answers = sent.answers[i - group.start].take()?;
         Some(Answered { read: self.plans[i].as_ref()?, cubes: &mut sent.cubes, answers })
+    }
+
+    /// Reads `group`'s answers. The group that follows it at once goes out
+    /// first, on the same session, so that it is on the wire while this
+    /// group's lines are shown and the bus does not wait for the pty's turn
+    /// around. The session gives each answer to the oldest burst still owed
+    /// one, so a retry or a late answer cannot be taken for another line's.
+    /// Only a group that follows at once goes ahead: a line in between runs
+    /// on a session of its own, which knows nothing of a burst out.
+    fn start(&mut self, ctx: &Ctx, group: Range<usize>) -> Option<Sent> {
+        let previous = self.sent.take();
+        let (mut cubes, burst) = match (self.ahead.take(), previous) {
+            (Some((lines, burst)), Some(prev)) if lines == group => (prev.cubes, burst),
+            _ => {
+                let mut cubes = Cubes::new(ctx.powercube().ok()?);
+                let burst = cubes.session().send_burst(&requests(&self.plans, group.clone()).0).ok()?;
+                (cubes, burst)
+            }
+        };
+        if let Some(next) = self.groups.iter().find(|g| g.start == group.end).cloned() {
+            if let Ok(b) = cubes.session().send_burst(&requests(&self.plans, next.clone()).0) {
+                self.ahead = Some((next, b));
+            }
+        }
+        let answers = match cubes.session().collect(burst) {
+            Ok(c) => c.answers,
+            Err(_) => {
+                if let Some((_, b)) = self.ahead.take() {
+                    cubes.session().abandon(b);
+                }
+                return None;
+            }
+        };
+        let mut answers = answers.into_iter();
+        let counts = requests(&self.plans, group.clone()).1;
+        let answers = counts.iter().map(|n| Some(answers.by_ref().take(*n).collect())).collect();
+        Some(Sent { lines: group, cubes, answers })
     }
 }
 
@@ -105,14 +149,10 @@ fn plan(line: &Line) -> Option<PipelinedRead> {
     }
 }
 
-/// Sends the requests of every line of `group` in one burst.
-fn send(ctx: &Ctx, plans: &[Option<PipelinedRead>], group: Range<usize>) -> Option<Sent> {
-    let mut cubes = Cubes::new(ctx.powercube().ok()?);
-    let reqs: Vec<_> = plans[group.clone()].iter().map(|p| p.as_ref().map(PipelinedRead::requests)).collect();
-    let all: Vec<_> = reqs.iter().flatten().flatten().copied().collect();
-    let mut answers = cubes.session().transact_many(&all).ok()?.into_iter();
-    let answers = reqs.iter().map(|r| Some(answers.by_ref().take(r.as_ref()?.len()).collect())).collect();
-    Some(Sent { lines: group, cubes, answers })
+/// The requests of every line of `group`, in line order, and how many each line has.
+fn requests(plans: &[Option<PipelinedRead>], group: Range<usize>) -> (Vec<(ModuleId, Request)>, Vec<usize>) {
+    let per_line: Vec<Vec<(ModuleId, Request)>> = plans[group].iter().flatten().map(PipelinedRead::requests).collect();
+    (per_line.iter().flatten().copied().collect(), per_line.iter().map(Vec::len).collect())
 }
 
 /// The groups among lines that can be pipelined (`Some(requests)`) or not
