@@ -12,21 +12,8 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use axisctl::link::ByteLink;
-use common::{bin, Run, Sim};
+use common::{bin, run_with_stdin, Sim};
 use serde_json::Value;
-
-/// Runs `axisctl ARGS batch ...` with `stdin` as its standard input.
-fn batch_stdin(args: &[&str], stdin: &str) -> Run {
-    let mut child =
-        bin().args(args).stdin(Stdio::piped()).stdout(Stdio::piped()).stderr(Stdio::piped()).spawn().unwrap();
-    child.stdin.take().unwrap().write_all(stdin.as_bytes()).unwrap();
-    let out = child.wait_with_output().unwrap();
-    Run {
-        code: out.status.code().unwrap_or(-1),
-        stdout: String::from_utf8_lossy(&out.stdout).into(),
-        stderr: String::from_utf8_lossy(&out.stderr).into(),
-    }
-}
 
 fn script(text: &str) -> tempfile::NamedTempFile {
     let mut f = tempfile::NamedTempFile::new().unwrap();
@@ -62,7 +49,7 @@ fn a_file_runs_line_by_line_on_one_bench() {
 #[test]
 fn json_lines_from_stdin_follow_the_schema_and_the_docs() {
     let v = batch_line_schema();
-    let r = batch_stdin(
+    let r = run_with_stdin(
         &["--link", "sim", "--json", "--timeout", "20", "batch", "--keep-going", "-"],
         "get-param -m 17 ActPos\nhalt -m 17\nstate -m 9   # no such module\n",
     );
@@ -115,20 +102,20 @@ fn keys(v: &Value) -> Vec<String> {
 #[test]
 fn the_first_failure_stops_the_batch_unless_keep_going() {
     let text = "get-param -m 17 ActPos\nstate -m 9\nget-param -m 3 ActPos\n";
-    let r = batch_stdin(&["--link", "sim", "--json", "--timeout", "20", "batch"], text);
+    let r = run_with_stdin(&["--link", "sim", "--json", "--timeout", "20", "batch"], text);
     assert_eq!(r.code, 4, "{}", r.stderr);
     let got = lines(&r.stdout);
     assert_eq!(got.len(), 2, "line 3 never ran: {}", r.stdout);
     assert_eq!(got[1]["error"]["exit_code"], 4);
 
-    let r = batch_stdin(&["--link", "sim", "--json", "--timeout", "20", "batch", "--keep-going"], text);
+    let r = run_with_stdin(&["--link", "sim", "--json", "--timeout", "20", "batch", "--keep-going"], text);
     assert_eq!(r.code, 4, "still the first failure's code: {}", r.stderr);
     let got = lines(&r.stdout);
     assert_eq!(got.len(), 3, "{}", r.stdout);
     assert_eq!(got[2]["result"]["module"], 3);
 
     // Without --json the failure is said on stderr with its line.
-    let r = batch_stdin(&["--link", "sim", "--timeout", "20", "batch"], text);
+    let r = run_with_stdin(&["--link", "sim", "--timeout", "20", "batch"], text);
     assert_eq!(r.code, 4);
     assert!(r.stderr.contains("line 2 (state -m 9): no answer from module 9"), "{}", r.stderr);
 }
@@ -139,7 +126,7 @@ fn a_bad_line_anywhere_runs_nothing() {
     let log = dir.path().join("traffic.log");
     let text =
         "move-ramp -m 17 0.1\nget-param -m 17 ActPos\nmove-rmap -m 17 0.2\nget-param -m 40 ActPos\n'unbalanced\n";
-    let r = batch_stdin(&["--link", "sim", "--json", "--log", log.to_str().unwrap(), "batch"], text);
+    let r = run_with_stdin(&["--link", "sim", "--json", "--log", log.to_str().unwrap(), "batch"], text);
     assert_eq!(r.code, 2, "{}", r.stderr);
     let got = lines(&r.stdout);
     let v = batch_line_schema();
@@ -156,7 +143,7 @@ fn a_bad_line_anywhere_runs_nothing() {
 #[test]
 fn lines_that_cannot_run_in_a_batch_and_options_on_a_line_are_refused() {
     for line in ["dashboard", "sim", "batch", "shell", "get-param -m 17 ActPos --timeout 5", "--json scan"] {
-        let r = batch_stdin(&["--link", "sim", "batch"], &format!("get-param -m 17 ActPos\n{line}\n"));
+        let r = run_with_stdin(&["--link", "sim", "batch"], &format!("get-param -m 17 ActPos\n{line}\n"));
         assert_eq!(r.code, 2, "{line}: {}", r.stderr);
         assert!(r.stdout.is_empty(), "line 1 did not run either: {}", r.stdout);
         assert!(r.stderr.contains("line 2"), "{line}: {}", r.stderr);
@@ -167,7 +154,7 @@ fn lines_that_cannot_run_in_a_batch_and_options_on_a_line_are_refused() {
 
 #[test]
 fn help_lines_print_the_help_and_offline_lines_need_no_link() {
-    let r = batch_stdin(&["batch"], "decode cube-state 0x02\nhelp get-param\n");
+    let r = run_with_stdin(&["batch"], "decode cube-state 0x02\nhelp get-param\n");
     assert_eq!(r.code, 0, "{}", r.stderr);
     assert!(r.stdout.contains("STATE_HOME_OK"), "{}", r.stdout);
     assert!(r.stdout.contains("Usage: axisctl get-param"), "{}", r.stdout);
@@ -210,7 +197,7 @@ impl FakeAdapter {
 fn the_link_is_opened_once_for_every_line() {
     let adapter = FakeAdapter::start();
     let link = format!("slcan:{}", adapter.path);
-    let r = batch_stdin(
+    let r = run_with_stdin(
         &["--link", &link, "--timeout", "5", "--retries", "0", "batch", "--keep-going"],
         "state -m 17\nstate -m 3\nget-param -m 5 ActPos\n",
     );
@@ -229,14 +216,14 @@ fn served_simulators_keep_their_state_between_lines() {
     let (pc, pac) = (sim.link("powercube"), sim.link("pac"));
     let v = batch_line_schema();
     let text = "reset -m 17\nhome -m 17 --wait\nmove-ramp -m 17 0.05 --vel 0.05 --wait\nget-param -m 17 ActPos\n";
-    let r = batch_stdin(&["--link", pc, "--json", "batch"], text);
+    let r = run_with_stdin(&["--link", pc, "--json", "batch"], text);
     assert_eq!(r.code, 0, "{}", r.stderr);
     let got = lines(&r.stdout);
     got.iter().for_each(|l| assert_valid(&v, l));
     let pos = got[3]["result"]["params"]["ActPos"]["value"].as_f64().unwrap();
     assert!((pos - 0.05).abs() < 1e-3, "{}", got[3]);
 
-    let r = batch_stdin(&["--link", pac, "--json", "batch"], "pac-state\npac-axis 2\npac-axes\n");
+    let r = run_with_stdin(&["--link", pac, "--json", "batch"], "pac-state\npac-axis 2\npac-axes\n");
     assert_eq!(r.code, 0, "{}", r.stderr);
     let got = lines(&r.stdout);
     assert_eq!(got.len(), 3);

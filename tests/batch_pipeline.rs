@@ -10,20 +10,8 @@ use std::io::Write;
 use std::path::Path;
 use std::process::Stdio;
 
-use common::{bin, Run, Sim};
+use common::{bin, run_with_stdin, Run, Sim};
 use serde_json::{json, Value};
-
-fn batch_stdin(args: &[&str], stdin: &str) -> Run {
-    let mut child =
-        bin().args(args).stdin(Stdio::piped()).stdout(Stdio::piped()).stderr(Stdio::piped()).spawn().unwrap();
-    child.stdin.take().unwrap().write_all(stdin.as_bytes()).unwrap();
-    let out = child.wait_with_output().unwrap();
-    Run {
-        code: out.status.code().unwrap_or(-1),
-        stdout: String::from_utf8_lossy(&out.stdout).into(),
-        stderr: String::from_utf8_lossy(&out.stderr).into(),
-    }
-}
 
 /// `axisctl GLOBAL LINE` as a one-shot process.
 fn one_shot(global: &[&str], line: &str) -> Run {
@@ -57,7 +45,7 @@ fn json_lines(stdout: &str) -> Vec<Value> {
 
 /// The batch's stdout against the one-shots', human and `--json`.
 fn assert_same_as_one_shots(link: &str) {
-    let r = batch_stdin(&["--link", link, "batch", "-"], &script(&LINES));
+    let r = run_with_stdin(&["--link", link, "batch", "-"], &script(&LINES));
     assert_eq!(r.code, 0, "{}", r.stderr);
     let mut alone = String::new();
     for line in LINES {
@@ -68,7 +56,7 @@ fn assert_same_as_one_shots(link: &str) {
     assert_eq!(r.stdout, alone);
     assert!(r.stdout.contains(" m\n") && r.stdout.contains(" rad\n"), "linear and rotary units: {}", r.stdout);
 
-    let r = batch_stdin(&["--link", link, "--json", "batch", "-"], &script(&LINES));
+    let r = run_with_stdin(&["--link", link, "--json", "batch", "-"], &script(&LINES));
     assert_eq!(r.code, 0, "{}", r.stderr);
     let got = json_lines(&r.stdout);
     assert_eq!(got.len(), LINES.len(), "{}", r.stdout);
@@ -115,7 +103,7 @@ fn a_group_s_requests_leave_before_its_first_answer_and_each_line_sends_its_one_
     let dir = tempfile::tempdir().unwrap();
     let lines = ["get-param -m 3 ActPos", "get-param -m 17 ActPos ActVel", "state -m 5", "get-param -m 3 ActPos"];
     let log = dir.path().join("batch.log");
-    let r = batch_stdin(&["--link", "sim", "--log", log.to_str().unwrap(), "batch", "-"], &script(&lines));
+    let r = run_with_stdin(&["--link", "sim", "--log", log.to_str().unwrap(), "batch", "-"], &script(&lines));
     assert_eq!(r.code, 0, "{}", r.stderr);
     let got = frames(&log);
     let first_answer = got.iter().position(|f| is_answer(f)).expect("answers");
@@ -144,7 +132,7 @@ fn an_absent_module_fails_its_line_as_alone_and_stops_the_rest_unless_keep_going
     let dir = tempfile::tempdir().unwrap();
     let log = dir.path().join("stopped.log");
     let args: Vec<&str> = global.iter().copied().chain(["--log", log.to_str().unwrap(), "batch", "-"]).collect();
-    let r = batch_stdin(&args, &script(&lines));
+    let r = run_with_stdin(&args, &script(&lines));
     assert_eq!(r.code, alone.code, "{}", r.stderr);
     assert_eq!(r.stdout, one_shot(&global, lines[0]).stdout, "line 3 was read but prints nothing");
     assert_eq!(r.stderr, format!("axisctl: line 2 ({}): {message}\n", lines[1]));
@@ -153,7 +141,7 @@ fn an_absent_module_fails_its_line_as_alone_and_stops_the_rest_unless_keep_going
     let log = dir.path().join("batch.log");
     let args: Vec<&str> =
         global.iter().copied().chain(["--log", log.to_str().unwrap(), "batch", "--keep-going", "-"]).collect();
-    let r = batch_stdin(&args, &script(&lines));
+    let r = run_with_stdin(&args, &script(&lines));
     assert_eq!(r.code, alone.code, "{}", r.stderr);
     assert_eq!(r.stdout, one_shot(&global, lines[0]).stdout + &one_shot(&global, lines[2]).stdout);
     assert_eq!(r.stderr, format!("axisctl: line 2 ({}): {message}\n", lines[1]));
@@ -182,7 +170,7 @@ fn a_failure_in_the_middle_of_a_group_follows_the_schema_under_json() {
     assert_eq!(alone.code, 4);
 
     let args: Vec<&str> = global.iter().copied().chain(["batch", "-"]).collect();
-    let r = batch_stdin(&args, &script(&lines));
+    let r = run_with_stdin(&args, &script(&lines));
     assert_eq!(r.code, 4, "{}", r.stderr);
     let got = json_lines(&r.stdout);
     assert_eq!(got.len(), 2, "line 3 prints nothing: {}", r.stdout);
@@ -194,7 +182,7 @@ fn a_failure_in_the_middle_of_a_group_follows_the_schema_under_json() {
     assert_eq!(got[1]["error"]["module"], 9);
 
     let args: Vec<&str> = global.iter().copied().chain(["batch", "--keep-going", "-"]).collect();
-    let r = batch_stdin(&args, &script(&lines));
+    let r = run_with_stdin(&args, &script(&lines));
     assert_eq!(r.code, 4, "{}", r.stderr);
     let got = json_lines(&r.stdout);
     assert_eq!(got.len(), 3, "{}", r.stdout);
@@ -211,7 +199,7 @@ fn lines_on_rs232_run_one_at_a_time() {
     let sim = Sim::start(&["--powercube", "pty-serial"], 1);
     let link = sim.link("powercube");
     let lines = ["get-param -m 3 ActPos", "get-param -m 17 ActPos"];
-    let r = batch_stdin(&["--link", link, "batch", "-"], &script(&lines));
+    let r = run_with_stdin(&["--link", link, "batch", "-"], &script(&lines));
     assert_eq!(r.code, 0, "{}", r.stderr);
     let alone: String = lines.iter().map(|l| one_shot(&["--link", link], l).stdout).collect();
     assert_eq!(r.stdout, alone);
@@ -266,7 +254,7 @@ fn the_next_group_goes_out_before_this_one_is_read_and_every_line_prints_as_alon
     let gp = "get-param -m 3,5,17 ActPos ActVel MaxVel";
     let lines: Vec<&str> = [gp, "state -m 17,3"].iter().copied().cycle().take(12).collect();
     let alone: String = lines.iter().map(|l| one_shot(&["--link", "sim"], l).stdout).collect();
-    let r = batch_stdin(&["--link", "sim", "batch", "-"], &script(&lines));
+    let r = run_with_stdin(&["--link", "sim", "batch", "-"], &script(&lines));
     assert_eq!(r.code, 0, "{}", r.stderr);
     assert_eq!(r.stdout, alone);
 

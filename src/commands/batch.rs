@@ -143,16 +143,24 @@ impl<'a> Engine<'a> {
             }
             Line::Run { command } => command,
         };
+        let moves = command.starts_motion();
+        let result = self.report(n, text, |ctx| super::dispatch(ctx, *command));
+        if let Some(target) = moves {
+            self.moved.note(target);
+        }
+        result
+    }
+
+    /// Runs `line` as line `n` and reports it: what it prints, in line
+    /// under `--json` (`"result": null` when it printed nothing), or its
+    /// failure. `Err` holds the failure's exit code.
+    fn report(&mut self, n: usize, text: &str, line: impl FnOnce(&Ctx) -> anyhow::Result<()>) -> Result<(), u8> {
         output::forget_target();
         if self.ctx.json {
             output::begin_batch_line(n, text, false);
         }
-        let moves = command.starts_motion();
-        let result = super::dispatch(self.ctx, *command);
+        let result = line(self.ctx);
         let printed = output::end_batch_line();
-        if let Some(target) = moves {
-            self.moved.note(target);
-        }
         match result {
             Ok(()) => {
                 if self.ctx.json && !printed {

@@ -28,7 +28,19 @@ impl Run {
 }
 
 pub fn run(args: &[&str]) -> Run {
-    let Output { status, stdout, stderr } = bin().args(args).output().expect("run axisctl");
+    finished(bin().args(args).output().expect("run axisctl"))
+}
+
+/// `axisctl ARGS` with `stdin` as its standard input.
+pub fn run_with_stdin(args: &[&str], stdin: &str) -> Run {
+    use std::io::Write;
+    let mut child =
+        bin().args(args).stdin(Stdio::piped()).stdout(Stdio::piped()).stderr(Stdio::piped()).spawn().unwrap();
+    child.stdin.take().unwrap().write_all(stdin.as_bytes()).unwrap();
+    finished(child.wait_with_output().unwrap())
+}
+
+fn finished(Output { status, stdout, stderr }: Output) -> Run {
     Run {
         code: status.code().unwrap_or(-1),
         stdout: String::from_utf8_lossy(&stdout).into(),

@@ -28,13 +28,11 @@ use axisctl::open::Opener;
 use axisctl::proto::powercube::{ModuleId, Request, Response};
 use axisctl::session::powercube::Burst;
 use axisctl::session::SessionError;
-use serde_json::json;
 
 use super::{Engine, Line};
 use crate::cli::Command;
 use crate::commands::powercube::PipelinedRead;
 use crate::commands::Ctx;
-use crate::output;
 
 /// Requests in one burst at most: a real adapter's transmit queue is short
 /// (the scan pipelines 31), and a request that waits in it longer than the
@@ -189,22 +187,7 @@ impl Engine<'_> {
     /// Reports a line whose requests went out in its group's burst, as
     /// [`Engine::run`] reports a line.
     pub fn run_answered(&mut self, n: usize, text: &str, answered: Answered<'_>) -> Result<(), u8> {
-        output::forget_target();
-        if self.ctx.json {
-            output::begin_batch_line(n, text, false);
-        }
-        let result = answered.finish(self.ctx);
-        let printed = output::end_batch_line();
-        match result {
-            Ok(()) => {
-                if self.ctx.json && !printed {
-                    output::json(&json!({"line": n, "command": text, "result": null}));
-                }
-                output::flush();
-                Ok(())
-            }
-            Err(e) => Err(self.failed(n, text, e)),
-        }
+        self.report(n, text, |ctx| answered.finish(ctx))
     }
 }
 
