@@ -104,8 +104,8 @@ def figures(add, links, n=1000):
     limit = (f"{frames:.0f} frames per line ({per_line:.0f} bits with stuffing and intermission: "
              f"{per_line:.0f} µs at 1 Mbit/s); consecutive get-param and state lines are pipelined, their requests "
              f"in bursts of up to 32 ({burst_lines:.0f} lines here), and the next burst leaves before this "
-             "one's answers are read, so the bus waits neither for a line nor for a burst; the gap to the "
-             "median burst is the process start, the parse of every line before the first runs and the "
+             "one's answers are read, so the bus waits neither for a line nor for a burst; what is left of the gap to the "
+             "wire limit is the process start, the parse of every line before the first runs and the "
              "first burst's trip across the pty "
              f"(load average {load:.1f} during the run)")
     add(
