@@ -703,6 +703,22 @@ mod tests {
         assert!(got[0].is_ok() && got[2].is_ok(), "{got:?}");
     }
 
+    // A burst takes answers only until its deadline: a request it never got
+    // an answer to must not take the answer to the same read asked later,
+    // while the burst waits to be collected.
+    #[test]
+    fn a_burst_past_its_deadline_takes_no_answer() {
+        let (mut pc, bus) = counting();
+        bus.set_fault(Some(Box::new(DropModule5)));
+        let first = pc.send_burst(&[act_pos(5)]).unwrap();
+        let (m, req) = act_pos(5);
+        assert!(matches!(pc.transact(m, &req), Err(SessionError::Timeout { .. })), "past the first's deadline");
+        bus.set_fault(None);
+        assert!(matches!(pc.transact(m, &req), Ok(Response::Get { .. })), "the answer is the request's own");
+        let got = pc.collect(first).unwrap().answers;
+        assert!(matches!(got[0], Err(SessionError::Timeout { .. })), "{got:?}");
+    }
+
     struct DropModule5;
 
     impl crate::link::mem::Fault for DropModule5 {
