@@ -83,7 +83,7 @@ enum Routed {
 /// Hands `frame` to the oldest burst still taking answers that has a
 /// request it answers.
 fn route(in_flight: &mut VecDeque<InFlight>, frame: &CanFrame, now: Instant) -> Routed {
-    for b in in_flight.iter_mut().filter(|b| b.exchange.pending() > 0 && now < b.deadline) {
+    for b in in_flight.iter_mut().filter(|b| now < b.deadline) {
         if b.exchange.handle(frame).is_some() {
             b.first_answer.get_or_insert(now);
             return if b.abandoned { Routed::Abandoned } else { Routed::Settled(b.id) };
@@ -716,6 +716,17 @@ mod tests {
         bus.set_fault(None);
         assert!(matches!(pc.transact(m, &req), Ok(Response::Get { .. })), "the answer is the request's own");
         let got = pc.collect(first).unwrap().answers;
+        assert!(matches!(got[0], Err(SessionError::Timeout { .. })), "{got:?}");
+    }
+
+    // The deadline belongs to the past: an answer that comes at the very
+    // instant a burst's time is up is as late as one after it.
+    #[test]
+    fn an_answer_at_the_deadline_itself_is_late() {
+        let (mut pc, bus) = counting();
+        bus.set_fault(Some(Box::new(Late(pc.timeout()))));
+        let burst = pc.send_burst(&[act_pos(5)]).unwrap();
+        let got = pc.collect(burst).unwrap().answers;
         assert!(matches!(got[0], Err(SessionError::Timeout { .. })), "{got:?}");
     }
 
