@@ -719,6 +719,25 @@ mod tests {
         assert!(matches!(got[0], Err(SessionError::Timeout { .. })), "{got:?}");
     }
 
+    // `--trace` says which burst each answer went to while another is
+    // collected: the collected one's are its acks, the others' are kept.
+    #[test]
+    fn the_trace_tells_the_collected_bursts_answers_from_another_bursts() {
+        let (mut pc, _bus) = counting();
+        let notes = Arc::new(std::sync::Mutex::new(Vec::new()));
+        let seen = Arc::clone(&notes);
+        pc.set_tracer(Box::new(move |ev| {
+            if let TraceEvent::Received(n) = ev {
+                seen.lock().unwrap().push(n.split_whitespace().skip(1).collect::<Vec<_>>().join(" "));
+            }
+        }));
+        let first = pc.send_burst(&[act_pos(5)]).unwrap();
+        let second = pc.send_burst(&[act_pos(3)]).unwrap();
+        assert_eq!(values(pc.collect(second).unwrap().answers), [2.0]);
+        assert_eq!(*notes.lock().unwrap(), ["ack (to another burst in flight)", "ack"]);
+        assert_eq!(values(pc.collect(first).unwrap().answers), [1.0]);
+    }
+
     // The deadline belongs to the past: an answer that comes at the very
     // instant a burst's time is up is as late as one after it.
     #[test]
