@@ -738,6 +738,22 @@ mod tests {
         assert_eq!(values(pc.collect(first).unwrap().answers), [1.0]);
     }
 
+    // `--trace` says when a burst is given up with answers still due.
+    #[test]
+    fn the_trace_says_how_many_answers_an_abandoned_burst_still_awaits() {
+        let (mut pc, _bus) = counting();
+        let notes = Arc::new(std::sync::Mutex::new(Vec::new()));
+        let seen = Arc::clone(&notes);
+        pc.set_tracer(Box::new(move |ev| {
+            if let TraceEvent::Note(n) = ev {
+                seen.lock().unwrap().push(n);
+            }
+        }));
+        let burst = pc.send_burst(&[act_pos(3), act_pos(5)]).unwrap();
+        pc.abandon(burst);
+        assert_eq!(*notes.lock().unwrap(), ["burst abandoned with 2 answers still due"]);
+    }
+
     // The deadline belongs to the past: an answer that comes at the very
     // instant a burst's time is up is as late as one after it.
     #[test]
