@@ -749,6 +749,10 @@ mod tests {
                 seen.lock().unwrap().push(n);
             }
         }));
+        let answered = pc.send_burst(&[act_pos(3)]).unwrap();
+        pc.get(ModuleId::new(5).unwrap(), param(ids::ACT_POS).unwrap()).unwrap();
+        pc.abandon(answered);
+        assert!(notes.lock().unwrap().is_empty(), "its answer came: nothing was due");
         let burst = pc.send_burst(&[act_pos(3), act_pos(5)]).unwrap();
         pc.abandon(burst);
         assert_eq!(*notes.lock().unwrap(), ["burst abandoned with 2 answers still due"]);
