@@ -101,11 +101,12 @@ impl Pipeline {
     /// on a session of its own, which knows nothing of a burst out.
     fn start(&mut self, ctx: &Ctx, group: Range<usize>) -> Option<Sent> {
         let previous = self.sent.take();
+        let (reqs, counts) = requests(&self.plans, group.clone());
         let (mut cubes, burst) = match (self.ahead.take(), previous) {
             (Some((lines, burst)), Some(prev)) if lines == group => (prev.cubes, burst),
             _ => {
                 let mut cubes = Cubes::new(ctx.powercube().ok()?);
-                let burst = cubes.session().send_burst(&requests(&self.plans, group.clone()).0).ok()?;
+                let burst = cubes.session().send_burst(&reqs).ok()?;
                 (cubes, burst)
             }
         };
@@ -124,7 +125,6 @@ impl Pipeline {
             }
         };
         let mut answers = answers.into_iter();
-        let counts = requests(&self.plans, group.clone()).1;
         let answers = counts.iter().map(|n| Some(answers.by_ref().take(*n).collect())).collect();
         Some(Sent { lines: group, cubes, answers })
     }
