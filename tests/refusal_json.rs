@@ -154,3 +154,24 @@ fn documented_errors_are_real_output() {
     }
     assert!(checked >= 3, "only {checked} documented errors");
 }
+
+// The environment's link matters only to commands that talk to a device: an
+// offline command runs whatever AXISCTL_LINK holds, and a command that needs
+// the link says which variable held the bad value.
+#[test]
+fn a_bad_axisctl_link_fails_only_commands_that_use_a_link_and_is_named() {
+    let offline: &[&[&str]] =
+        &[&["decode", "cube-state", "1"], &["params"], &["flags", "brake"], &["completions", "bash"], &["man"]];
+    for args in offline {
+        let r = common::bin().env("AXISCTL_LINK", "bogus").args(*args).output().unwrap();
+        assert_eq!(r.status.code(), Some(0), "{args:?}: {}", String::from_utf8_lossy(&r.stderr));
+    }
+    let r = common::bin().env("AXISCTL_LINK", "bogus").args(["--json", "state", "-m", "3"]).output().unwrap();
+    assert_eq!(r.status.code(), Some(2));
+    let doc: Value = serde_json::from_slice(&r.stderr).unwrap();
+    let message = doc["error"]["message"].as_str().unwrap();
+    assert!(message.starts_with("AXISCTL_LINK: bad link \"bogus\""), "{doc}");
+    let r = common::bin().args(["--link", "bogus", "state", "-m", "3"]).output().unwrap();
+    assert_eq!(r.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&r.stderr).contains("--link: bad link \"bogus\""));
+}

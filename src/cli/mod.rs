@@ -46,6 +46,9 @@ pub struct Global {
     /// The link: socketcan:IFACE, slcan:TTY[?bitrate=N], serial:TTY[?baud=N&format=F] or sim
     #[arg(long, global = true, env = "AXISCTL_LINK", value_name = "URI")]
     pub link: Option<String>,
+    /// The link came from `AXISCTL_LINK`, not `--link`: an error about it names the variable.
+    #[arg(skip)]
+    pub link_from_env: bool,
     /// Machine output: one JSON document on stdout (JSON Lines for streams)
     #[arg(long, global = true)]
     pub json: bool,
@@ -190,5 +193,7 @@ fn finish(cmd: clap::Command, path: &str) -> clap::Command {
 pub fn parse(exit_codes: &str) -> Result<Cli, clap::Error> {
     let mut cmd = command(exit_codes);
     let matches = cmd.try_get_matches_from_mut(std::env::args_os()).map_err(|e| suggest::subcommand(e, &cmd))?;
-    Cli::from_arg_matches(&matches).map_err(|e| e.with_cmd(&cmd))
+    let mut cli = Cli::from_arg_matches(&matches).map_err(|e| e.with_cmd(&cmd))?;
+    cli.global.link_from_env = matches.value_source("link") == Some(clap::parser::ValueSource::EnvVariable);
+    Ok(cli)
 }

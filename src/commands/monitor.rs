@@ -104,7 +104,7 @@ pub fn run(ctx: &Ctx, a: &MonitorArgs) -> anyhow::Result<()> {
     let mut stats = Stats::default();
     let mut shown = 0u64;
     let limit = a.count.unwrap_or(u64::MAX);
-    let iface = ctx.link.as_ref().map_or_else(|| "can0".to_string(), axisctl::link::log::log_iface);
+    let iface = ctx.given_link().ok().flatten().map_or_else(|| "can0".to_string(), axisctl::link::log::log_iface);
     let link = a.from_log.is_none().then_some(ctx.link_text.as_str());
     let mut p = Printer { ctx, candump: a.candump, iface, link, out: std::io::stdout().lock() };
     let mut handle = |ts: f64, f: &CanFrame, p: &mut Printer| -> anyhow::Result<bool> {
