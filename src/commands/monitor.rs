@@ -1,6 +1,7 @@
 //! `axisctl monitor`: every frame on a CAN link (or in a candump log),
 //! decoded, filtered, counted. Never sends anything.
 
+use std::io::BufRead;
 use std::io::Write;
 use std::time::{Duration, SystemTime, UNIX_EPOCH};
 
@@ -122,16 +123,35 @@ pub fn run(ctx: &Ctx, a: &MonitorArgs) -> anyhow::Result<()> {
         Ok(shown < limit)
     };
     if let Some(path) = &a.from_log {
-        let text = std::fs::read_to_string(path).map_err(|e| usage(format!("cannot read {}: {e}", path.display())))?;
-        for (n, line) in text.lines().enumerate().filter(|(_, l)| !l.trim().is_empty()) {
-            let (ts, iface, frame) =
-                parse_candump_line(line).map_err(|e| usage(format!("{}:{}: {e}", path.display(), n + 1)))?;
+        // Streamed line by line (a log may be larger than memory; `-` is a
+        // pipe from candump -L or a decompressor), each line bounded.
+        let name = if path.as_os_str() == "-" { "standard input".to_string() } else { path.display().to_string() };
+        let input: Box<dyn BufRead> = if path.as_os_str() == "-" {
+            Box::new(std::io::stdin().lock())
+        } else {
+            let file = std::fs::File::open(path).map_err(|e| usage(format!("cannot read {name}: {e}")))?;
+            Box::new(std::io::BufReader::new(file))
+        };
+        let mut lines = BoundedLines { input, line: Vec::new(), n: 0 };
+        loop {
+            let n = lines.n + 1;
+            let Some(line) = lines.next_line().map_err(|e| usage(format!("{name}:{n}: {e}")))? else { break };
+            if line.trim().is_empty() {
+                continue;
+            }
+            let (ts, iface, frame) = parse_candump_line(line).map_err(|e| usage(format!("{name}:{n}: {e}")))?;
             p.iface = iface;
             if !handle(ts, &frame, &mut p)? {
                 break;
             }
         }
     } else {
+        if matches!(ctx.link()?, axisctl::link::LinkSpec::Sim) && !ctx.json {
+            crate::output::err_line(format_args!(
+                "axisctl: monitor: the in-process bench has no other client, so nothing will show; \
+                 serve it with `axisctl sim` and monitor the link it prints (Ctrl-C ends)"
+            ));
+        }
         arm_interrupt()?;
         let mut link = ctx.can_link()?;
         let start = std::time::Instant::now();
@@ -158,4 +178,33 @@ pub fn run(ctx: &Ctx, a: &MonitorArgs) -> anyhow::Result<()> {
         }
     }
     Ok(())
+}
+
+/// The longest candump line: `(seconds.micros) iface ID#` and 8 data bytes
+/// (64 for CAN FD) need far less; a longer one is no candump line.
+const MAX_LOG_LINE: usize = 4096;
+
+/// Lines of a candump log, each at most [`MAX_LOG_LINE`] bytes, counted.
+struct BoundedLines {
+    input: Box<dyn BufRead>,
+    line: Vec<u8>,
+    n: usize,
+}
+
+impl BoundedLines {
+    fn next_line(&mut self) -> std::io::Result<Option<&str>> {
+        use std::io::Read;
+        self.line.clear();
+        self.n += 1;
+        let read = (&mut self.input).take(MAX_LOG_LINE as u64 + 1).read_until(b'\n', &mut self.line)?;
+        if read == 0 {
+            return Ok(None);
+        }
+        if self.line.len() > MAX_LOG_LINE {
+            return Err(std::io::Error::other(format!("line longer than {MAX_LOG_LINE} bytes: not a candump log")));
+        }
+        std::str::from_utf8(&self.line)
+            .map(|l| Some(l.trim_end_matches(['\n', '\r'])))
+            .map_err(|_| std::io::Error::other("not text: not a candump log"))
+    }
 }
