@@ -34,7 +34,7 @@ pub struct MonitorArgs {
     /// Print candump -L lines instead of decoded ones
     #[arg(long)]
     pub candump: bool,
-    /// Decode a candump log file instead of listening on a link
+    /// Decode a candump log file instead of listening on a link (- reads standard input)
     #[arg(long, value_name = "FILE")]
     pub from_log: Option<PathBuf>,
 }
