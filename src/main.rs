@@ -20,6 +20,14 @@ fn main() -> ExitCode {
                 let _ = writeln!(std::io::stderr(), "{}", commands::error_json::usage(&e, code));
                 return ExitCode::from(code);
             }
+            // One error style: clap's "error: ..." is said as every other
+            // error of the tool is, "axisctl: ...".
+            if e.use_stderr() {
+                let text = e.render().to_string();
+                let text = text.strip_prefix("error: ").map_or(text.clone(), |rest| format!("axisctl: {rest}"));
+                let _ = write!(std::io::stderr(), "{text}");
+                return ExitCode::from(code);
+            }
             // Help and version go to stdout: a full disk fails them like any
             // output; a reader that went away does not.
             return match e.print() {
@@ -32,6 +40,7 @@ fn main() -> ExitCode {
         }
     };
     let json = cli.global.json;
+    output::set_quiet(cli.global.quiet);
     let result = commands::run(cli);
     output::flush();
     match result {

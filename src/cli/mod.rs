@@ -57,8 +57,11 @@ pub struct Global {
           value_parser = ids::number(1, MAX_TIMEOUT_MS, "ms"))]
     pub timeout: Option<u64>,
     /// Print every frame sent and received, decoded, on stderr
-    #[arg(long, global = true)]
+    #[arg(long, short = 'v', visible_alias = "verbose", global = true)]
     pub trace: bool,
+    /// Print no results, only errors and warnings (on stderr); the exit status says how it went
+    #[arg(long, short = 'q', global = true, conflicts_with = "json")]
+    pub quiet: bool,
     /// Append every CAN frame in candump -l format (serial traffic as hex lines) to FILE
     #[arg(long, global = true, value_name = "FILE")]
     pub log: Option<PathBuf>,
