@@ -133,3 +133,27 @@ fn monitoring_the_in_process_bench_says_nothing_will_show() {
     assert_eq!(r.code, 0, "{}", r.stderr);
     assert!(r.stderr.contains("the in-process bench has no other client"), "{}", r.stderr);
 }
+
+/// `--timestamps` counts the time column as candump's -t a|d|z does.
+#[test]
+fn timestamps_absolute_delta_and_zero() {
+    let log = tempfile::NamedTempFile::new().unwrap();
+    std::fs::write(
+        log.path(),
+        "(1700000000.250000) can0 0E3#01\n(1700000000.750000) can0 0A3#01\n(1700000001.000000) can0 0E3#01\n",
+    )
+    .unwrap();
+    let p = log.path().to_str().unwrap();
+    let column = |how: &str| -> Vec<String> {
+        let r = run(&["monitor", "--from-log", p, "--timestamps", how]);
+        assert_eq!(r.code, 0, "{}", r.stderr);
+        r.stdout.lines().map(|l| l.split_whitespace().next().unwrap().to_string()).collect()
+    };
+    assert_eq!(column("absolute"), ["1700000000.250000", "1700000000.750000", "1700000001.000000"]);
+    assert_eq!(column("delta"), ["0.000000", "0.500000", "0.250000"]);
+    assert_eq!(column("zero"), ["0.000000", "0.500000", "0.750000"]);
+    // A filter that is none is refused before anything is read.
+    let r = run(&["monitor", "--from-log", p, "--filter", "0E0"]);
+    assert_eq!(r.code, 2, "{}", r.stderr);
+    assert!(r.stderr.contains("write ID:MASK"), "{}", r.stderr);
+}

@@ -6,18 +6,20 @@ use std::io::Write;
 use std::time::{Duration, SystemTime, UNIX_EPOCH};
 
 use axisctl::family::Family;
-use axisctl::monitor::{describe, FamilyFilter, FrameInfo, Stats};
+use axisctl::monitor::{describe, passes_any, FamilyFilter, FrameInfo, IdFilter, Stats};
 use axisctl::proto::candump::{format_candump_line, parse_candump_line};
 use axisctl::proto::CanFrame;
 use serde_json::json;
 
 use super::{arm_interrupt, interrupted, usage, Ctx};
+use crate::cli::monitor::Timestamps;
 use crate::cli::MonitorArgs;
 
 struct Filter {
     families: Vec<FamilyFilter>,
     modules: Vec<u8>,
     ids: Vec<u32>,
+    masks: Vec<IdFilter>,
 }
 
 impl Filter {
@@ -35,6 +37,7 @@ impl Filter {
             families: a.family.clone(),
             modules: a.module.iter().flat_map(|l| l.0.iter().copied()).collect(),
             ids,
+            masks: a.filter.clone(),
         })
     }
 
@@ -42,12 +45,17 @@ impl Filter {
         (self.families.is_empty() || self.families.iter().any(|f| f.pass(i)))
             && (self.modules.is_empty() || i.module.is_some_and(|m| self.modules.contains(&m)))
             && (self.ids.is_empty() || self.ids.contains(&f.id()))
+            && passes_any(&self.masks, f)
     }
 }
 
 struct Printer<'a> {
     ctx: &'a Ctx,
     candump: bool,
+    timestamps: Timestamps,
+    /// The stamp of the first frame shown and of the one before, for `--timestamps zero|delta`.
+    first: Option<f64>,
+    last: Option<f64>,
     iface: String,
     /// The link listened on, for the envelope; `None` for a log replay.
     link: Option<&'a str>,
@@ -87,7 +95,13 @@ impl Printer<'_> {
                 None if i.kind == "error" => self.ctx.style.error(&i.summary),
                 None => i.summary.clone(),
             };
-            writeln!(self.out, "{ts:17.6}  {:<24} {fam:<9} {:<9} {who:<17} {text}", f.to_string(), i.kind)?;
+            let shown = match self.timestamps {
+                Timestamps::Absolute => ts,
+                Timestamps::Zero => ts - *self.first.get_or_insert(ts),
+                Timestamps::Delta => ts - self.last.unwrap_or(ts),
+            };
+            self.last = Some(ts);
+            writeln!(self.out, "{shown:17.6}  {:<24} {fam:<9} {:<9} {who:<17} {text}", f.to_string(), i.kind)?;
         }
         self.out.flush()
     }
@@ -107,7 +121,16 @@ pub fn run(ctx: &Ctx, a: &MonitorArgs) -> anyhow::Result<()> {
     let limit = a.count.unwrap_or(u64::MAX);
     let iface = ctx.given_link().ok().flatten().map_or_else(|| "can0".to_string(), axisctl::link::log::log_iface);
     let link = a.from_log.is_none().then_some(ctx.link_text.as_str());
-    let mut p = Printer { ctx, candump: a.candump, iface, link, out: std::io::stdout().lock() };
+    let mut p = Printer {
+        ctx,
+        candump: a.candump,
+        timestamps: a.timestamps,
+        first: None,
+        last: None,
+        iface,
+        link,
+        out: std::io::stdout().lock(),
+    };
     let mut handle = |ts: f64, f: &CanFrame, p: &mut Printer| -> anyhow::Result<bool> {
         let info = describe(f);
         if filter.pass(f, &info) {
