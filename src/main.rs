@@ -12,6 +12,9 @@ mod output;
 fn main() -> ExitCode {
     // First of all: a panic on any thread from here on halts a supervised motion.
     supervisor::install_panic_hook();
+    // A shell asking for completions (the script of `axisctl completions`):
+    // answered from the parser and the tables, then the process ends.
+    cli::complete::answer_shell(|| cli::command(&commands::exit::summary()));
     let cli = match cli::parse(&commands::exit::summary()) {
         Ok(cli) => cli,
         Err(e) => {

@@ -29,7 +29,7 @@ pub struct RecordArgs {
     pub node: Option<u8>,
     /// The values: PowerCube parameter names (ActPos ActVel Cur; `axisctl params powercube`);
     /// PA-CONTROL position, speed, status; Cdios position, setpoint, speed, rpm-error
-    #[arg(value_name = "VALUE", required = true)]
+    #[arg(value_name = "VALUE", required = true, add = super::complete::record_values())]
     pub values: Vec<String>,
     /// Samples per second (default: as fast as the link allows)
     #[arg(long, value_name = "HZ")]
