@@ -9,7 +9,7 @@ pub struct WaitArgs {
     /// Wait until the motion ends (exit 5 if an error flag appears; Ctrl-C halts the module)
     #[arg(long)]
     pub wait: bool,
-    /// Give up waiting after this many seconds (the module is halted)
+    /// Give up waiting after this many seconds, 0.001 to 86400 (the device is halted, exit 7)
     #[arg(long, value_name = "S", default_value = DEFAULT_WAIT_TIMEOUT, value_parser = wait_timeout, requires = "wait")]
     pub wait_timeout: Duration,
     /// Poll interval while waiting, in ms
