@@ -144,7 +144,7 @@ fn a_pac_move_and_reference_drive_that_run_out_are_wait_timeouts_and_stop_the_ax
 }
 
 #[test]
-fn a_cdios_goto_that_runs_out_is_a_wait_timeout_and_stops_the_motor() {
+fn a_cdios_goto_and_traject_that_run_out_are_wait_timeouts_and_stop_the_motor() {
     let s = Sim::start(&["--cdios", "pty-slcan"], 1);
     let link = s.link("cdios");
     ok(&["--link", link, "cdios-enable", "-m", "0"]);
@@ -154,9 +154,28 @@ fn a_cdios_goto_that_runs_out_is_a_wait_timeout_and_stops_the_motor() {
         "wait timed out after 0.5 s: node 1 module 0 was still running the goto (it answered every poll); \
          node 1 module 0 stopped (fast stop)"
     );
-    let st = ok(&["--link", link, "--json", "cdios-status", "-m", "0"]);
-    let flags: Vec<&str> = st["state"]["flags"].as_array().unwrap().iter().filter_map(Value::as_str).collect();
-    assert!(!flags.iter().any(|f| ["GOTO_ACTIVE", "RUNNING_FORWARD", "RUNNING_BACKWARD"].contains(f)), "{flags:?}");
     let at = ok(&["--link", link, "--json", "cdios-position", "-m", "0"])["position"].as_i64().unwrap();
     assert!(at > 0 && at < 1_000_000, "stopped on the way: {at}");
+    assert_stands(link);
+
+    // A traject to 200000 more at 1000 rpm: far longer than the wait.
+    let end = format!("traject1.end_position={}", at + 200_000);
+    ok(&["--link", link, "cdios-config", "-m", "0", &end, "traject1.length=1", "traject1.initial_speed=1000"]);
+    let msg = runs_out(&["--link", link, "cdios-traject", "-m", "0", "1", "--wait", "--wait-timeout", "0.5"]);
+    assert_eq!(
+        msg,
+        "wait timed out after 0.5 s: node 1 module 0 was still running the traject (it answered every poll); \
+         node 1 module 0 stopped (fast stop)"
+    );
+    assert_stands(link);
+    let now = ok(&["--link", link, "--json", "cdios-position", "-m", "0"])["position"].as_i64().unwrap();
+    assert!(now > at && now < at + 200_000, "stopped on the way: {at} -> {now}");
+}
+
+/// Cdios module 0 runs no goto or traject and its motor turns neither way.
+fn assert_stands(link: &str) {
+    let st = ok(&["--link", link, "--json", "cdios-status", "-m", "0"]);
+    let flags: Vec<&str> = st["state"]["flags"].as_array().unwrap().iter().filter_map(Value::as_str).collect();
+    let moving = ["GOTO_ACTIVE", "TRAJECT_RUNNING", "RUNNING_FORWARD", "RUNNING_REVERSE"];
+    assert!(!flags.iter().any(|f| moving.contains(f)), "{flags:?}");
 }
