@@ -390,9 +390,12 @@ fn run_served(args: &[&str]) -> Run {
     common::wait_bounded(child, 120, &all).run()
 }
 
-// The recordings are paced (--rate) and counted (--count), not timed
-// (--for): the last sample comes at least 0.45 s after the motion started,
-// however slow the machine, so the motion shows in it.
+// The recordings are counted (--count), not timed (--for): their samples
+// are due every 50 ms (--rate 20; one that comes late is followed by the
+// overdue ones at once), so the last is taken at least 1.95 s after the
+// first, however slow the machine. The motion starts after the first
+// sample; only an answer more than a second and a half late could leave
+// it no time to show in the last.
 #[test]
 fn served_pac_and_cdios_moves_are_recorded_on_the_same_link() {
     let sim = Sim::start(&[], 3);
@@ -402,12 +405,12 @@ fn served_pac_and_cdios_moves_are_recorded_on_the_same_link() {
         assert_eq!(r.code, 0, "{args:?}: {}", r.stderr);
     }
     let r = run_served(&[
-        "--link", pac, "--json", "record", "--axis", "2", "position", "speed", "--rate", "20", "--count", "10", "--",
+        "--link", pac, "--json", "record", "--axis", "2", "position", "speed", "--rate", "20", "--count", "40", "--",
         "pac-move", "2", "250",
     ]);
     assert_eq!(r.code, 0, "{}", r.stderr);
     let lines = checked_lines(&r);
-    assert_eq!(lines.len(), 10, "{}", r.stdout);
+    assert_eq!(lines.len(), 40, "{}", r.stdout);
     let pos = |l: &Value| l["devices"][0]["values"]["position"]["value"].as_f64().unwrap();
     assert_eq!(lines[0]["devices"][0]["axis"], 2);
     assert_eq!(lines[0]["devices"][0]["values"]["position"]["unit"], "AE");
@@ -431,7 +434,7 @@ fn served_pac_and_cdios_moves_are_recorded_on_the_same_link() {
         "--rate",
         "20",
         "--count",
-        "10",
+        "40",
         "--",
         "cdios-goto",
         "-m",
@@ -440,7 +443,7 @@ fn served_pac_and_cdios_moves_are_recorded_on_the_same_link() {
     ]);
     assert_eq!(r.code, 0, "{}", r.stderr);
     let lines = checked_lines(&r);
-    assert_eq!(lines.len(), 10, "{}", r.stdout);
+    assert_eq!(lines.len(), 40, "{}", r.stdout);
     let pos = |l: &Value| l["devices"][0]["values"]["position"]["value"].as_f64().unwrap();
     assert_eq!(lines[0]["devices"][0]["node"], 1);
     assert_eq!(lines[0]["devices"][0]["values"]["speed"]["unit"], "rpm");
