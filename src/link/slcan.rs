@@ -87,16 +87,25 @@ impl<B: ByteLink> SlcanLink<B> {
     }
 
     /// `C`, `S<n>`, `O`, each answered before the `V` sent after it; run
-    /// again from a resync while line noise garbles a reply.
+    /// again from a resync while line noise garbles a reply. An adapter
+    /// whose `V` answer the resync never saw (noise on that line, or no `V`
+    /// at all) is resynced again; on the last attempt the commands are
+    /// taken by their first reply, without `V`.
     fn handshake(&mut self, set_bitrate: Command) -> Result<(), LinkError> {
         for attempt in 1..=SETUP_ATTEMPTS {
+            let last = attempt == SETUP_ATTEMPTS;
             let errors = self.decode_errors;
-            self.resync()?;
-            let close = self.ask(Command::Close)?;
-            let bitrate = self.ask(set_bitrate)?;
-            let open = self.ask(Command::Open)?;
+            let marked = self.resync()?;
+            if !marked && !last {
+                continue;
+            }
+            let close = self.ask(Command::Close, marked, PROBE)?;
+            // Without V, an adapter silent to C is not waited for again.
+            let wait = if close.answered() { SETUP_REPLY } else { Duration::ZERO };
+            let bitrate = self.ask(set_bitrate, marked, wait)?;
+            let open = self.ask(Command::Open, marked, wait)?;
             let noisy = self.decode_errors > errors || [&close, &bitrate, &open].iter().any(|r| r.noisy());
-            if noisy && attempt < SETUP_ATTEMPTS {
+            if noisy && !last {
                 continue;
             }
             self.acks = [&close, &bitrate, &open].iter().any(|r| r.answered());
@@ -117,14 +126,17 @@ impl<B: ByteLink> SlcanLink<B> {
         Ok(())
     }
 
-    /// Sends a setup command and `V`, and sorts what comes back until the
-    /// `V` line (at most [`SETUP_REPLY`]). Frames are stale traffic from
-    /// before the channel was (re)opened, dropped.
-    fn ask(&mut self, cmd: Command) -> Result<SetupReply, LinkError> {
+    /// Sends a setup command and, with `marked`, `V`, and sorts what comes
+    /// back: until the `V` line (at most [`SETUP_REPLY`]), or without
+    /// `marked` until the first reply (at most `wait`). Frames are stale
+    /// traffic from before the channel was (re)opened, dropped.
+    fn ask(&mut self, cmd: Command, marked: bool, wait: Duration) -> Result<SetupReply, LinkError> {
         let mut bytes = cmd.to_bytes();
-        bytes.extend_from_slice(&Command::Version.to_bytes());
+        if marked {
+            bytes.extend_from_slice(&Command::Version.to_bytes());
+        }
         self.io.write_all(&bytes)?;
-        let deadline = Instant::now() + SETUP_REPLY;
+        let deadline = Instant::now() + if marked { SETUP_REPLY } else { wait };
         let mut r = SetupReply::default();
         while let Some(ev) = self.next_event(deadline)? {
             match ev {
@@ -136,6 +148,9 @@ impl<B: ByteLink> SlcanLink<B> {
                 SlcanEvent::Other(line) if line.starts_with('V') => break,
                 SlcanEvent::Other(_) => r.stray += 1,
                 _ => {}
+            }
+            if !marked && r.answered() {
+                break;
             }
         }
         Ok(r)
@@ -161,19 +176,19 @@ impl<B: ByteLink> SlcanLink<B> {
     }
 
     /// Ends whatever half line the adapter holds and skips every reply up to the
-    /// answer to `V`. Without it, a `C` glued to a dead client's half line is
-    /// rejected, the channel stays open and `S<n>` is refused. An adapter that
-    /// does not answer `V` costs [`PROBE`], and its stale replies (if any) are
-    /// left for the setup, as before.
-    fn resync(&mut self) -> Result<(), LinkError> {
+    /// answer to `V`; whether that answer came. Without it, a `C` glued to a
+    /// dead client's half line is rejected, the channel stays open and `S<n>`
+    /// is refused. An adapter that does not answer `V` costs [`PROBE`], and its
+    /// stale replies (if any) are left for the setup, as before.
+    fn resync(&mut self) -> Result<bool, LinkError> {
         self.io.write_all(RESYNC)?;
         let deadline = Instant::now() + PROBE;
         while let Some(ev) = self.next_event(deadline)? {
             if matches!(&ev, SlcanEvent::Other(line) if line.starts_with('V')) {
-                break;
+                return Ok(true);
             }
         }
-        Ok(())
+        Ok(false)
     }
 
     fn command(&mut self, cmd: Command) -> Result<(), LinkError> {
@@ -497,6 +512,19 @@ mod tests {
         let refusing = [&b"V1013\r"[..], b"\x07V1013\r", b"\rV1013\r", b"\x07V1013\r"];
         let err = SlcanLink::new(scripted(&refusing), 1_000_000).unwrap_err();
         assert!(matches!(&err, LinkError::Adapter(m) if m.contains("open")), "{err}");
+    }
+
+    /// An adapter that rejects `V` (BEL) is resynced up to three times, then
+    /// set up by the first reply to each command, as without `V` at all.
+    #[test]
+    fn an_adapter_without_v_opens_by_the_first_replies() {
+        let t0 = Instant::now();
+        let link = SlcanLink::new(scripted(&[b"\x07", b"\x07", b"\x07", b"\r", b"\r", b"\r"]), 1_000_000).unwrap();
+        assert!(link.adapter_acks());
+        assert!(link.io.replies.is_empty(), "three resyncs, then C, S8 and O");
+        assert!(t0.elapsed() < Duration::from_secs(1), "{:?}", t0.elapsed());
+        let err = SlcanLink::new(scripted(&[b"\x07", b"\x07", b"\x07", b"\r", b"\x07"]), 125_000).unwrap_err();
+        assert!(matches!(&err, LinkError::Adapter(m) if m.contains("125000")), "{err}");
     }
 
     #[test]
