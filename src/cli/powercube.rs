@@ -116,8 +116,8 @@ pub enum PowerCubeCommand {
         /// Target position (rad or m; encoder ticks with --ticks)
         #[arg(allow_negative_numbers = true)]
         pos: f64,
-        /// Time to reach the position, ms
-        #[arg(long, value_name = "MS")]
+        /// Time to reach the position, 1 to 65535 ms (the step's UInt16)
+        #[arg(long, value_name = "MS", value_parser = ids::number(1u16, u16::MAX, "ms"))]
         time: u16,
         /// Values are encoder ticks
         #[arg(long)]

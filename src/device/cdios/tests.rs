@@ -267,7 +267,18 @@ fn a_wait_on_a_motor_never_seen_running_away_from_its_setpoint_times_out() {
     let spec = WaitSpec { timeout: Duration::from_secs(2), ..wait_spec() };
     let mut looks = 0;
     let e = r.node.wait(id(0), Goal::Goto, spec, &|| false, &mut |_, _| looks += 1).unwrap_err();
-    assert!(matches!(e, Error::Session(SessionError::Timeout { .. })), "{e:?}");
+    assert!(matches!(e, Error::Session(SessionError::WaitExpired(_))), "{e:?}");
+    assert_eq!(e.kind(), crate::session::ErrorKind::WaitTimeout);
+    // The motor is disabled as well as at rest: its refusal of the stop is
+    // said in full.
+    let text = e.to_string();
+    assert!(
+        text.starts_with(
+            "wait timed out after 2 s: node 1 module 0 was still running the goto (it answered every poll); \
+             STOP OF NODE 1 MODULE 0 FAILED: node 1 module 0 refused stop"
+        ),
+        "{text}"
+    );
     assert!(looks > 1, "{looks} looks");
     assert!(!r.motor(0).0);
 }
