@@ -36,10 +36,7 @@ pub const EXAMPLES: &[(&str, &[&str])] = &[
     ("get-config", &["--link sim get-config -m 17"]),
     (
         "set-config",
-        &[
-            "--link sim set-config -m 17 +brake-present -sync-motion",
-            "--link sim set-config -m 17 -brake-present",
-        ],
+        &["--link sim set-config -m 17 +brake-present -sync-motion", "--link sim set-config -m 17 -brake-present"],
     ),
     ("dio", &["--link sim dio -m 17", "--link sim dio -m 17 --out 0b0101"]),
     (
