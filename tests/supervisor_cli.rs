@@ -549,14 +549,16 @@ fn sigtstp_during_a_wait_halts_first_then_stops_and_continued_exits_148() {
 
 /// SIGTTIN and SIGTTOU (a background job that reads or writes its terminal
 /// under `stty tostop`) stop a process as SIGTSTP does: halt first, then
-/// stop; continued, exit 149 / 150.
+/// stop; continued, exit 149 / 150, with `--json` an error document of the
+/// kind `interrupted` that the schema allows.
 #[test]
 fn sigttin_and_sigttou_during_a_wait_halt_first_then_stop() {
     let s = Sim::start(&["--powercube", "pty-slcan"], 1);
     let link = s.link("powercube");
+    let schema = common::schema("error_document");
     for (sig, code) in [(libc::SIGTTIN, 149), (libc::SIGTTOU, 150)] {
         let log = temp_log("ttio");
-        let mut args = vec!["--log", log.to_str().unwrap()];
+        let mut args = vec!["--json", "--log", log.to_str().unwrap()];
         args.extend(ramp_args(link, &[]));
         let mut w = Watched::start(&args, || Ok(()));
         w.until_the_wait_polls();
@@ -572,7 +574,12 @@ fn sigttin_and_sigttou_during_a_wait_halt_first_then_stop() {
         let r = w.end(&args);
         let _ = std::fs::remove_file(&log);
         assert_eq!((r.code, r.signal), (code, None), "signal {sig}: {}", r.stderr);
-        assert!(r.stderr.contains("interrupted: module 3 halted"), "signal {sig}: {}", r.stderr);
+        let doc = r.stderr.lines().find_map(|l| serde_json::from_str::<serde_json::Value>(l).ok());
+        let doc = doc.unwrap_or_else(|| panic!("signal {sig}: no error document: {}", r.stderr));
+        assert_eq!(doc["error"]["kind"], "interrupted", "{doc}");
+        assert_eq!(doc["error"]["exit_code"], code, "{doc}");
+        assert!(doc["error"]["message"].as_str().unwrap().contains("interrupted: module 3 halted"), "{doc}");
+        assert_eq!(common::schema_errors(&schema, &doc), None, "{doc}");
         let reset = run_bounded(&["--link", link, "reset", "-m", "3"]);
         assert_eq!(reset.code, 0, "{}", reset.stderr);
     }
@@ -674,4 +681,26 @@ fn a_log_past_ulimit_f_halts_instead_of_dying_of_sigxfsz() {
     let took = exited.duration_since(last).unwrap();
     eprintln!("last logged line to the exit: {took:?}");
     assert!(took < Duration::from_secs(1), "halted and exited {took:?} after the last line the log took");
+}
+
+/// The other signals whose default would end the process with the module
+/// moving (`kill -USR1` is a habit from `dd`): each halts it and exits
+/// with 128 + the signal.
+#[test]
+fn the_other_ending_signals_halt_with_their_exit_codes() {
+    let s = Sim::start(&["--powercube", "pty-slcan"], 1);
+    let link = s.link("powercube");
+    let args = ramp_args(link, &[]);
+    for sig in [libc::SIGUSR1, libc::SIGUSR2, libc::SIGALRM, libc::SIGVTALRM, libc::SIGPROF, libc::SIGIO, libc::SIGPWR]
+    {
+        let w = Watched::start(&args, || Ok(()));
+        w.until_the_wait_polls();
+        w.signal(sig);
+        let r = w.end(&args);
+        assert_eq!((r.code, r.signal), (128 + sig, None), "signal {sig}: {}", r.stderr);
+        assert!(r.stderr.contains("interrupted: module 3 halted"), "signal {sig}: {}", r.stderr);
+        assert!(cube_stands(link), "signal {sig}: module 3 still moving");
+        let reset = run_bounded(&["--link", link, "reset", "-m", "3"]);
+        assert_eq!(reset.code, 0, "{}", reset.stderr);
+    }
 }

@@ -1,6 +1,7 @@
 //! Why a supervised wait must stop now, kept below every layer that can
-//! notice it: a caught signal (SIGINT, SIGTERM, SIGHUP, SIGQUIT, and the
-//! job-control stops SIGTSTP, SIGTTIN, SIGTTOU), a failed output write, a
+//! notice it: a caught signal ([`SIGNALS`]: SIGINT, SIGTERM, SIGHUP, SIGQUIT
+//! and the others that would end the process; [`JOB_STOPS`]: SIGTSTP,
+//! SIGTTIN, SIGTTOU, that would stop it), a failed output write, a
 //! failed traffic-log write, a panic on any thread. A caught signal or a
 //! panic also wakes [`sleep`], so a poll interval never delays the halt.
 //! The policy (when to arm, what to halt) is the motion supervisor's,
@@ -10,8 +11,23 @@ use std::sync::atomic::{AtomicBool, AtomicI32, Ordering};
 use std::sync::Mutex;
 use std::time::Duration;
 
-/// The signals that halt a supervised motion and then end the process.
-pub const SIGNALS: [i32; 4] = [libc::SIGINT, libc::SIGTERM, libc::SIGHUP, libc::SIGQUIT];
+/// The signals that halt a supervised motion and then end the process:
+/// every signal whose default action ends it, but the crash reports (SIGSEGV,
+/// SIGBUS, SIGFPE, SIGILL, SIGTRAP, SIGSYS, SIGABRT: no halt can safely run
+/// in a process that faulted) and the real-time signals.
+pub const SIGNALS: [i32; 11] = [
+    libc::SIGINT,
+    libc::SIGTERM,
+    libc::SIGHUP,
+    libc::SIGQUIT,
+    libc::SIGUSR1,
+    libc::SIGUSR2,
+    libc::SIGALRM,
+    libc::SIGVTALRM,
+    libc::SIGPROF,
+    libc::SIGIO,
+    libc::SIGPWR,
+];
 
 /// The job-control signals that would stop the process where it stands
 /// (Ctrl-Z; a background job that reads or writes its terminal): a
@@ -201,6 +217,13 @@ pub fn signal_name(sig: i32) -> &'static str {
         libc::SIGTERM => "SIGTERM",
         libc::SIGHUP => "SIGHUP",
         libc::SIGQUIT => "SIGQUIT",
+        libc::SIGUSR1 => "SIGUSR1",
+        libc::SIGUSR2 => "SIGUSR2",
+        libc::SIGALRM => "SIGALRM",
+        libc::SIGVTALRM => "SIGVTALRM",
+        libc::SIGPROF => "SIGPROF",
+        libc::SIGIO => "SIGIO",
+        libc::SIGPWR => "SIGPWR",
         libc::SIGTSTP => "SIGTSTP",
         libc::SIGTTIN => "SIGTTIN",
         libc::SIGTTOU => "SIGTTOU",
@@ -406,7 +429,14 @@ mod tests {
         assert_eq!(signal_name(libc::SIGTSTP), "SIGTSTP");
         assert_eq!(signal_name(libc::SIGTTIN), "SIGTTIN");
         assert_eq!(signal_name(libc::SIGTTOU), "SIGTTOU");
-        assert_eq!(signal_name(libc::SIGUSR1), "a signal");
+        assert_eq!(signal_name(libc::SIGUSR1), "SIGUSR1");
+        assert_eq!(signal_name(libc::SIGUSR2), "SIGUSR2");
+        assert_eq!(signal_name(libc::SIGALRM), "SIGALRM");
+        assert_eq!(signal_name(libc::SIGVTALRM), "SIGVTALRM");
+        assert_eq!(signal_name(libc::SIGPROF), "SIGPROF");
+        assert_eq!(signal_name(libc::SIGIO), "SIGIO");
+        assert_eq!(signal_name(libc::SIGPWR), "SIGPWR");
+        assert_eq!(signal_name(libc::SIGSEGV), "a signal");
     }
 
     // Armed, a signal no longer ends the process: it is recorded (the first

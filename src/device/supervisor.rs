@@ -2,7 +2,8 @@
 //! process that ends without stopping it.
 //!
 //! It is armed before the first motion byte leaves. From then on SIGINT,
-//! SIGTERM, SIGHUP and SIGQUIT no longer end the process, and SIGTSTP,
+//! SIGTERM, SIGHUP, SIGQUIT and the other [`SIGNALS`] whose default would
+//! end it no longer end the process, and SIGTSTP,
 //! SIGTTIN and SIGTTOU no longer stop it: the handler only records the
 //! signal and wakes the wait ([`sleep`] sleeps on a pipe the handler writes
 //! to, so a signal cuts any poll interval short). The wait sees
