@@ -565,7 +565,16 @@ mod tests {
         assert_eq!((caught(), job_stop()), (Some(libc::SIGTTOU), Some(libc::SIGTTOU)));
         assert!(stop_requested());
         assert_eq!(action_of(libc::SIGTTOU), libc::SIG_IGN, "a second SIGTTOU is not raised for ever");
+        // Raised on this thread, whose mask arm unblocked, each is handled
+        // before raise returns (the first signal stays the one recorded).
+        for sig in [libc::SIGTTIN, libc::SIGTSTP, libc::SIGINT] {
+            // SAFETY: raise on this thread.
+            assert_eq!(unsafe { libc::raise(sig) }, 0);
+        }
+        assert_eq!(action_of(libc::SIGTTIN), libc::SIG_IGN, "nor a second SIGTTIN");
         assert_eq!(action_of(libc::SIGTSTP), handler(), "SIGTSTP keeps its handler");
+        assert_eq!(action_of(libc::SIGINT), handler(), "SIGINT keeps its handler");
+        assert_eq!(caught(), Some(libc::SIGTTOU));
     }
 
     // Only a job-control stop is one: SIGINT is not.
