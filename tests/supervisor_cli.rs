@@ -441,15 +441,22 @@ impl Watched {
     /// Returns once the motion frame is acknowledged and the wait has had
     /// an answer to its first poll: the module is moving, watched.
     fn until_the_wait_polls(&self) {
+        self.until_polled_after_motion(1);
+    }
+
+    /// Returns once the `nth` motion frame is acknowledged and the next
+    /// answer is in (the first poll of its wait).
+    fn until_polled_after_motion(&self, nth: usize) {
         let deadline = std::time::Instant::now() + Duration::from_secs(20);
-        let mut answers_since_motion = None;
-        while answers_since_motion.is_none_or(|n| n < 2) {
+        let (mut motions, mut answers_since_motion) = (0, 0);
+        while motions < nth || answers_since_motion < 2 {
             let left = deadline.saturating_duration_since(std::time::Instant::now());
             let line = self.lines.recv_timeout(left).expect("the wait polls within 20 s");
             if line.starts_with("-> ") && line.contains("SetMotion") {
-                answers_since_motion = Some(0);
+                motions += 1;
+                answers_since_motion = 0;
             } else if line.starts_with("<- ") {
-                answers_since_motion = answers_since_motion.map(|n| n + 1);
+                answers_since_motion += 1;
             }
         }
     }
@@ -703,4 +710,30 @@ fn the_other_ending_signals_halt_with_their_exit_codes() {
         let reset = run_bounded(&["--link", link, "reset", "-m", "3"]);
         assert_eq!(reset.code, 0, "{}", reset.stderr);
     }
+}
+
+/// Ctrl-Z during a batch: every device its lines moved (module 3 set
+/// moving without a wait, module 5 waited for) is halted, the port is
+/// released, then the process stops; continued, it exits 148.
+#[test]
+fn sigtstp_during_a_batch_halts_what_its_lines_moved_then_stops() {
+    let s = Sim::start(&["--powercube", "pty-slcan"], 1);
+    let link = s.link("powercube");
+    let lines = temp_log("batch-lines");
+    std::fs::write(&lines, "move-vel -m 3 0.1\nmove-ramp -m 5 3 --vel 0.01 --force --wait\n").unwrap();
+    let args = ["--link", link, "--timeout", "3000", "batch", lines.to_str().unwrap()];
+    let mut w = Watched::start(&args, || Ok(()));
+    w.until_polled_after_motion(2);
+    w.signal(libc::SIGTSTP);
+    w.until_stopped();
+    for m in ["3", "5"] {
+        let raw = module_state(link, m);
+        assert!(raw & 0x800 == 0 && raw & 0x4 != 0, "module {m} halted and standing while stopped: {raw:#x}");
+    }
+    w.signal(libc::SIGCONT);
+    let r = w.end(&args);
+    let _ = std::fs::remove_file(&lines);
+    assert_eq!((r.code, r.signal), (148, None), "{}", r.stderr);
+    assert!(r.stderr.contains("stopped by SIGTSTP after line"), "{}", r.stderr);
+    assert!(r.stderr.contains("`halt -m 3`") && r.stderr.contains("`halt -m 5`"), "{}", r.stderr);
 }
