@@ -10,8 +10,11 @@ mod commands;
 mod output;
 
 fn main() -> ExitCode {
-    // First of all: a panic on any thread from here on halts a supervised motion.
+    // First of all: a panic on any thread from here on halts a supervised
+    // motion, and a write past `ulimit -f` fails (and is reported) instead of
+    // killing the process.
     supervisor::install_panic_hook();
+    supervisor::ignore_file_size_signal();
     // A shell asking for completions (the script of `axisctl completions`):
     // answered from the parser and the tables, then the process ends.
     cli::complete::answer_shell(|| cli::command(&commands::exit::summary()));
@@ -46,6 +49,26 @@ fn main() -> ExitCode {
     output::set_quiet(cli.global.quiet);
     let result = commands::run(cli);
     output::flush();
+    let code = finish(result, json);
+    // Ctrl-Z (or a background job that used its terminal) during a
+    // supervised motion: what it moved is halted and its links are closed
+    // by now, so the process stops as asked. Continued, it exits: the
+    // motion is not resumed.
+    if let Some(sig) = supervisor::job_stop() {
+        if !json {
+            let name = supervisor::signal_name(sig);
+            let _ = writeln!(
+                std::io::stderr(),
+                "axisctl: {name}: stopping; continued, axisctl ends (the motion is not resumed)"
+            );
+        }
+        supervisor::suspend_if_asked();
+    }
+    code
+}
+
+/// Reports the command's result, and the exit code it asks for.
+fn finish(result: anyhow::Result<()>, json: bool) -> ExitCode {
     match result {
         // The traffic log never fails the traffic (a halt must not wait for
         // it), so a log that could not be written is reported here.

@@ -203,3 +203,29 @@ fn a_missing_snapshot_dir_is_refused() {
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains(&format!("--snapshot-dir {}: no such directory", gone.display())), "{err}");
 }
+
+/// SIGTSTP sent with kill (the Ctrl-Z key is only a key in the raw
+/// terminal) while an axis the dashboard started moves: it halts what it
+/// moved and restores the terminal as on SIGTERM, then the process stops
+/// (bash reports the job stopped); `fg` ends it with 148, nothing resumed.
+#[test]
+fn sigtstp_halts_restores_the_terminal_then_stops_and_fg_exits_148() {
+    let t = Tmux::start("dashboard", 80, 24, &[]);
+    t.wait_for("READY$");
+    t.keys(&[&format!("{} --link sim dashboard", env!("CARGO_BIN_EXE_axisctl")), "Enter"]);
+    t.wait_for("module 17");
+    t.keys(&["h"]);
+    t.wait_for("Home acknowledged");
+    let pid = t.program_pid();
+    // SAFETY: kill(2) on the pid of the dashboard this test started.
+    assert_eq!(unsafe { libc::kill(pid, libc::SIGTSTP) }, 0);
+    let screen = t.wait_until("the job stopped, back in bash", |s| s.matches("READY$").count() >= 2);
+    assert_eq!(t.display("#{alternate_on}"), "0", "the alternate screen is left:\n{screen}");
+    assert!(screen.contains("SIGTSTP: halted what the dashboard moved"), "{screen}");
+    assert!(screen.contains("Stopped"), "bash reports the job stopped:\n{screen}");
+    t.keys(&["fg", "Enter"]);
+    t.wait_until("the return to bash after fg", |s| s.matches("READY$").count() >= 3);
+    t.keys(&["echo code=$? DO''NE", "Enter"]);
+    let screen = t.wait_for("DONE");
+    assert!(screen.contains("code=148 DONE"), "continued, the dashboard exits 148:\n{screen}");
+}

@@ -101,3 +101,32 @@ fn sigterm_at_the_prompt_halts_what_the_shell_moved_and_ends_it() {
     let lines: Vec<&str> = screen.lines().map(str::trim).collect();
     assert!(lines.contains(&"icanon") && !lines.contains(&"-icanon"), "the terminal is given back:\n{screen}");
 }
+
+// Ctrl-Z at the prompt (the line editor sends SIGTSTP to the process
+// group) with a module still moving from a line without --wait: the shell
+// halts it first, then stops; `fg` brings the prompt back, and the module
+// is read halted and standing.
+#[test]
+fn ctrl_z_at_the_prompt_halts_what_the_shell_moved_then_stops_it() {
+    let state = tempfile::tempdir().unwrap();
+    let t = terminal(state.path(), "tstp");
+    t.wait_for("READY$");
+    t.keys(&[&format!("{} --link sim shell", env!("CARGO_BIN_EXE_axisctl")), "Enter"]);
+    prompts(&t, 1);
+    t.keys(&["move-vel -m 3 0.1", "Enter"]);
+    t.wait_for("acknowledged");
+    prompts(&t, 2);
+    t.keys(&["C-z"]);
+    let screen = t.wait_for("halted: `halt -m 3`");
+    assert!(screen.contains("stopped by SIGTSTP after line 1"), "{screen}");
+    let screen = t.wait_until("the job stopped, back in bash", |s| s.matches("READY$").count() >= 2);
+    assert!(screen.contains("Stopped"), "bash reports the job stopped:\n{screen}");
+    t.keys(&["fg", "Enter"]);
+    t.keys(&["get-param -m 3 CubeState", "Enter"]);
+    let screen = t.wait_until("the state read after fg", |s| s.contains("CubeState  0x"));
+    let raw = screen.lines().find_map(|l| l.trim().strip_prefix("CubeState  0x")).unwrap();
+    let raw = u32::from_str_radix(raw.split_whitespace().next().unwrap(), 16).unwrap();
+    assert!(raw & 0x800 == 0 && raw & 0x4 != 0, "module 3 halted and standing: {raw:#x}\n{screen}");
+    t.keys(&["C-d"]);
+    t.wait_until("the return to bash", |s| s.matches("READY$").count() >= 3);
+}

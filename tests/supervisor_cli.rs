@@ -402,3 +402,338 @@ fn cdios_a_signal_while_the_node_starts_sends_no_goto() {
     let sent_goto = r.stderr.lines().any(|l| l.starts_with("-> ") && l.contains("goto"));
     assert!(!sent_goto, "the goto went out: {}", r.stderr);
 }
+
+/// A `--wait` move under watch: its `--trace` lines come one by one on
+/// `lines` (all of them are also kept for the end), and it runs in a
+/// process group of its own, as a shell puts a job.
+struct Watched {
+    child: std::process::Child,
+    lines: std::sync::mpsc::Receiver<String>,
+    stderr: std::thread::JoinHandle<String>,
+}
+
+impl Watched {
+    /// Starts `axisctl --trace ARGS`; `setup` runs in the child before exec.
+    fn start(args: &[&str], setup: impl FnMut() -> std::io::Result<()> + Send + Sync + 'static) -> Self {
+        use std::io::BufRead;
+        use std::os::unix::process::CommandExt;
+        let mut cmd = common::bin();
+        cmd.arg("--trace").args(args).stdout(Stdio::null()).stderr(Stdio::piped()).process_group(0);
+        // SAFETY: `setup` makes only async-signal-safe calls.
+        unsafe {
+            cmd.pre_exec(setup);
+        }
+        let mut child = cmd.spawn().unwrap();
+        let err = child.stderr.take().unwrap();
+        let (tx, lines) = std::sync::mpsc::channel();
+        let stderr = std::thread::spawn(move || {
+            let mut text = String::new();
+            for line in std::io::BufReader::new(err).lines().map_while(Result::ok) {
+                let _ = tx.send(line.clone());
+                text.push_str(&line);
+                text.push('\n');
+            }
+            text
+        });
+        Self { child, lines, stderr }
+    }
+
+    /// Returns once the motion frame is acknowledged and the wait has had
+    /// an answer to its first poll: the module is moving, watched.
+    fn until_the_wait_polls(&self) {
+        self.until_polled_after_motion(1);
+    }
+
+    /// Returns once the `nth` motion frame is acknowledged and the next
+    /// answer is in (the first poll of its wait).
+    fn until_polled_after_motion(&self, nth: usize) {
+        let deadline = std::time::Instant::now() + Duration::from_secs(20);
+        let (mut motions, mut answers_since_motion) = (0, 0);
+        while motions < nth || answers_since_motion < 2 {
+            let left = deadline.saturating_duration_since(std::time::Instant::now());
+            let line = self.lines.recv_timeout(left).expect("the wait polls within 20 s");
+            if line.starts_with("-> ") && line.contains("SetMotion") {
+                motions += 1;
+                answers_since_motion = 0;
+            } else if line.starts_with("<- ") {
+                answers_since_motion += 1;
+            }
+        }
+    }
+
+    fn pid(&self) -> i32 {
+        self.child.id() as i32
+    }
+
+    fn signal(&self, sig: i32) {
+        // SAFETY: the child is ours and not reaped yet.
+        assert_eq!(unsafe { libc::kill(self.pid(), sig) }, 0);
+    }
+
+    /// Waits until the process is stopped (state T in /proc); fails if it
+    /// ends or is not stopped within 20 s.
+    fn until_stopped(&mut self) {
+        let deadline = std::time::Instant::now() + Duration::from_secs(20);
+        loop {
+            let stat = std::fs::read_to_string(format!("/proc/{}/stat", self.pid())).unwrap();
+            let state = stat.rsplit(')').next().unwrap().trim_start().chars().next();
+            if state == Some('T') {
+                return;
+            }
+            assert!(self.child.try_wait().unwrap().is_none(), "the process ended instead of stopping");
+            assert!(std::time::Instant::now() < deadline, "not stopped within 20 s (state {state:?})");
+            std::thread::sleep(Duration::from_millis(10));
+        }
+    }
+
+    fn end(self, what: &[&str]) -> Ended {
+        let mut ended = wait_bounded(self.child, 20, what);
+        ended.stderr = self.stderr.join().unwrap();
+        ended
+    }
+}
+
+/// The wall-clock instant of the first line of the `--log` at `log` at or
+/// after `since` that contains `frame` (lines start `(secs.micros)`).
+fn logged_after(log: &std::path::Path, frame: &str, since: std::time::SystemTime) -> Option<std::time::SystemTime> {
+    let text = std::fs::read_to_string(log).ok()?;
+    text.lines().filter(|l| l.contains(frame)).find_map(|l| {
+        let at = log_stamp(l)?;
+        (at >= since).then_some(at)
+    })
+}
+
+fn log_stamp(line: &str) -> Option<std::time::SystemTime> {
+    let stamp = line.strip_prefix('(')?.split(')').next()?;
+    let (secs, micros) = stamp.split_once('.')?;
+    Some(std::time::UNIX_EPOCH + Duration::new(secs.parse().ok()?, micros.parse::<u32>().ok()? * 1000))
+}
+
+fn temp_log(name: &str) -> std::path::PathBuf {
+    let log = std::env::temp_dir().join(format!("axisctl-sup-{}-{name}.log", std::process::id()));
+    let _ = std::fs::remove_file(&log);
+    log
+}
+
+/// Halt (0x02) to module 3 (0x0E0 + 3), as candump writes it.
+const HALT_FRAME: &str = " 0E3#02";
+
+/// A job-control stop signal (SIGTSTP: Ctrl-Z) during a wait: the module is
+/// halted first (the Halt frame within 1 s of the signal, by the `--log`
+/// stamps), then the process stops, with the port released: the module is
+/// read standing while the process is stopped. A SIGTERM that comes while
+/// it is stopped, then SIGCONT: it ends with 148, the motion not resumed.
+#[test]
+fn sigtstp_during_a_wait_halts_first_then_stops_and_continued_exits_148() {
+    let s = Sim::start(&["--powercube", "pty-slcan"], 1);
+    let link = s.link("powercube");
+    let log = temp_log("tstp");
+    let mut args = vec!["--log", log.to_str().unwrap()];
+    args.extend(ramp_args(link, &[]));
+    let mut w = Watched::start(&args, || Ok(()));
+    w.until_the_wait_polls();
+    let t0 = std::time::SystemTime::now();
+    w.signal(libc::SIGTSTP);
+    w.until_stopped();
+    let halt = logged_after(&log, HALT_FRAME, t0).expect("a Halt frame after the signal");
+    let took = halt.duration_since(t0).unwrap();
+    eprintln!("SIGTSTP to the Halt frame: {took:?}");
+    assert!(took < Duration::from_secs(1), "the Halt frame went out {took:?} after SIGTSTP");
+    assert!(cube_stands(link), "module 3 still moving while axisctl is stopped");
+    w.signal(libc::SIGTERM);
+    w.signal(libc::SIGCONT);
+    let r = w.end(&args);
+    let _ = std::fs::remove_file(&log);
+    assert_eq!((r.code, r.signal), (148, None), "{}", r.stderr);
+    assert!(r.stderr.contains("interrupted: module 3 halted"), "{}", r.stderr);
+    assert!(
+        r.stderr.contains("SIGTSTP: stopping; continued, axisctl ends (the motion is not resumed)"),
+        "{}",
+        r.stderr
+    );
+    assert!(cube_stands(link), "module 3 moved again after SIGCONT");
+}
+
+/// SIGTTIN and SIGTTOU (a background job that reads or writes its terminal
+/// under `stty tostop`) stop a process as SIGTSTP does: halt first, then
+/// stop; continued, exit 149 / 150, with `--json` an error document of the
+/// kind `interrupted` that the schema allows.
+#[test]
+fn sigttin_and_sigttou_during_a_wait_halt_first_then_stop() {
+    let s = Sim::start(&["--powercube", "pty-slcan"], 1);
+    let link = s.link("powercube");
+    let schema = common::schema("error_document");
+    for (sig, code) in [(libc::SIGTTIN, 149), (libc::SIGTTOU, 150)] {
+        let log = temp_log("ttio");
+        let mut args = vec!["--json", "--log", log.to_str().unwrap()];
+        args.extend(ramp_args(link, &[]));
+        let mut w = Watched::start(&args, || Ok(()));
+        w.until_the_wait_polls();
+        let t0 = std::time::SystemTime::now();
+        w.signal(sig);
+        w.until_stopped();
+        let halt = logged_after(&log, HALT_FRAME, t0).expect("a Halt frame after the signal");
+        let took = halt.duration_since(t0).unwrap();
+        eprintln!("signal {sig} to the Halt frame: {took:?}");
+        assert!(took < Duration::from_secs(1), "signal {sig}: the Halt frame went out {took:?} after it");
+        assert!(cube_stands(link), "signal {sig}: module 3 still moving while axisctl is stopped");
+        w.signal(libc::SIGCONT);
+        let r = w.end(&args);
+        let _ = std::fs::remove_file(&log);
+        assert_eq!((r.code, r.signal), (code, None), "signal {sig}: {}", r.stderr);
+        let doc = r.stderr.lines().find_map(|l| serde_json::from_str::<serde_json::Value>(l).ok());
+        let doc = doc.unwrap_or_else(|| panic!("signal {sig}: no error document: {}", r.stderr));
+        assert_eq!(doc["error"]["kind"], "interrupted", "{doc}");
+        assert_eq!(doc["error"]["exit_code"], code, "{doc}");
+        assert!(doc["error"]["message"].as_str().unwrap().contains("interrupted: module 3 halted"), "{doc}");
+        assert_eq!(common::schema_errors(&schema, &doc), None, "{doc}");
+        let reset = run_bounded(&["--link", link, "reset", "-m", "3"]);
+        assert_eq!(reset.code, 0, "{}", reset.stderr);
+    }
+}
+
+/// The supervised signals blocked, as a parent may leave them.
+fn block_supervised_signals() -> std::io::Result<()> {
+    // SAFETY: sigemptyset / sigaddset on a local set, then sigprocmask.
+    unsafe {
+        let mut set: libc::sigset_t = std::mem::zeroed();
+        libc::sigemptyset(&mut set);
+        for sig in [libc::SIGINT, libc::SIGTERM, libc::SIGHUP, libc::SIGQUIT, libc::SIGTSTP, libc::SIGXFSZ] {
+            libc::sigaddset(&mut set, sig);
+        }
+        if libc::sigprocmask(libc::SIG_BLOCK, &set, std::ptr::null_mut()) != 0 {
+            return Err(std::io::Error::last_os_error());
+        }
+    }
+    Ok(())
+}
+
+/// A wait started with INT, TERM, HUP, QUIT blocked (a mask inherited
+/// from the parent): Ctrl-C still halts it (130), and so does the
+/// emergency halt from a second process, whose SIGTERM the holder acts on
+/// (143) instead of leaving it pending while the module moves on.
+#[test]
+fn a_wait_started_with_the_signals_blocked_still_halts_on_them() {
+    use std::os::unix::process::CommandExt;
+    // The blocked mask does reach the child through this harness.
+    let mut probe = std::process::Command::new("grep");
+    probe.args(["^SigBlk", "/proc/self/status"]);
+    // SAFETY: block_supervised_signals makes only async-signal-safe calls.
+    let out = unsafe { probe.pre_exec(block_supervised_signals) }.output().unwrap();
+    let blk = String::from_utf8_lossy(&out.stdout);
+    let mask = u64::from_str_radix(blk.trim().trim_start_matches("SigBlk:").trim(), 16).unwrap();
+    for sig in [libc::SIGINT, libc::SIGTERM, libc::SIGHUP, libc::SIGQUIT] {
+        assert!(mask & (1 << (sig - 1)) != 0, "signal {sig} blocked in the child: {blk}");
+    }
+
+    let s = Sim::start(&["--powercube", "pty-slcan"], 1);
+    let link = s.link("powercube");
+    let args = ramp_args(link, &[]);
+    let w = Watched::start(&args, block_supervised_signals);
+    w.until_the_wait_polls();
+    w.signal(libc::SIGINT);
+    let r = w.end(&args);
+    assert_eq!((r.code, r.signal), (130, None), "{}", r.stderr);
+    assert!(r.stderr.contains("module 3 halted"), "{}", r.stderr);
+    assert!(cube_stands(link), "module 3 still moving");
+    let reset = run_bounded(&["--link", link, "reset", "-m", "3"]);
+    assert_eq!(reset.code, 0, "{}", reset.stderr);
+
+    let w = Watched::start(&args, block_supervised_signals);
+    w.until_the_wait_polls();
+    let halt = run_bounded(&["--link", link, "halt", "-m", "3"]);
+    assert_eq!(halt.code, 0, "the emergency halt: {}", halt.stderr);
+    assert!(halt.stderr.contains("it exited") || halt.stdout.contains("it exited"), "{}\n{}", halt.stdout, halt.stderr);
+    let r = w.end(&args);
+    assert_eq!((r.code, r.signal), (143, None), "{}", r.stderr);
+    assert!(r.stderr.contains("module 3 halted"), "{}", r.stderr);
+    assert!(cube_stands(link), "module 3 still moving");
+}
+
+/// `(ulimit -f 1; axisctl --log f.log move-ramp ... --wait)`: the write that
+/// crosses the limit raises SIGXFSZ, whose default would end the process
+/// with the module moving. It fails with EFBIG instead: the module is
+/// halted and the failure reported (exit 1), not a death by SIGXFSZ. The
+/// log cannot hold the Halt frame, so the time is bounded from its last
+/// line to the exit, after the halt's acknowledge.
+#[test]
+fn a_log_past_ulimit_f_halts_instead_of_dying_of_sigxfsz() {
+    use std::os::unix::process::CommandExt;
+    let s = Sim::start(&["--powercube", "pty-slcan"], 1);
+    let link = s.link("powercube");
+    let log = temp_log("xfsz");
+    let mut all = vec!["--log", log.to_str().unwrap()];
+    all.extend(ramp_args(link, &[]));
+    let mut cmd = common::bin();
+    cmd.args(&all).stdout(Stdio::null()).stderr(Stdio::piped());
+    // SAFETY: only async-signal-safe calls between fork and exec.
+    unsafe {
+        cmd.pre_exec(|| {
+            // What `ulimit -f 1` leaves: the default SIGXFSZ, 1024 bytes.
+            libc::signal(libc::SIGXFSZ, libc::SIG_DFL);
+            let lim = libc::rlimit { rlim_cur: 1024, rlim_max: 1024 };
+            libc::setrlimit(libc::RLIMIT_FSIZE, &lim);
+            Ok(())
+        });
+    }
+    let r = wait_bounded(cmd.spawn().unwrap(), 30, &all);
+    let exited = std::time::SystemTime::now();
+    let text = std::fs::read_to_string(&log).unwrap();
+    let _ = std::fs::remove_file(&log);
+    assert_eq!((r.code, r.signal), (1, None), "{}", r.stderr);
+    assert!(r.stderr.contains("File too large") && r.stderr.contains("module 3 halted"), "{}", r.stderr);
+    assert!(cube_stands(link), "module 3 still moving");
+    assert!(text.len() <= 1024 && text.contains(" 0E3#0B"), "the SetMotion frame is logged: {text}");
+    let last = text.lines().filter_map(log_stamp).next_back().expect("stamped lines");
+    let took = exited.duration_since(last).unwrap();
+    eprintln!("last logged line to the exit: {took:?}");
+    assert!(took < Duration::from_secs(1), "halted and exited {took:?} after the last line the log took");
+}
+
+/// The other signals whose default would end the process with the module
+/// moving (`kill -USR1` is a habit from `dd`): each halts it and exits
+/// with 128 + the signal.
+#[test]
+fn the_other_ending_signals_halt_with_their_exit_codes() {
+    let s = Sim::start(&["--powercube", "pty-slcan"], 1);
+    let link = s.link("powercube");
+    let args = ramp_args(link, &[]);
+    for sig in [libc::SIGUSR1, libc::SIGUSR2, libc::SIGALRM, libc::SIGVTALRM, libc::SIGPROF, libc::SIGIO, libc::SIGPWR]
+    {
+        let w = Watched::start(&args, || Ok(()));
+        w.until_the_wait_polls();
+        w.signal(sig);
+        let r = w.end(&args);
+        assert_eq!((r.code, r.signal), (128 + sig, None), "signal {sig}: {}", r.stderr);
+        assert!(r.stderr.contains("interrupted: module 3 halted"), "signal {sig}: {}", r.stderr);
+        assert!(cube_stands(link), "signal {sig}: module 3 still moving");
+        let reset = run_bounded(&["--link", link, "reset", "-m", "3"]);
+        assert_eq!(reset.code, 0, "{}", reset.stderr);
+    }
+}
+
+/// Ctrl-Z during a batch: every device its lines moved (module 3 set
+/// moving without a wait, module 5 waited for) is halted, the port is
+/// released, then the process stops; continued, it exits 148.
+#[test]
+fn sigtstp_during_a_batch_halts_what_its_lines_moved_then_stops() {
+    let s = Sim::start(&["--powercube", "pty-slcan"], 1);
+    let link = s.link("powercube");
+    let lines = temp_log("batch-lines");
+    std::fs::write(&lines, "move-vel -m 3 0.1\nmove-ramp -m 5 3 --vel 0.01 --force --wait\n").unwrap();
+    let args = ["--link", link, "--timeout", "3000", "batch", lines.to_str().unwrap()];
+    let mut w = Watched::start(&args, || Ok(()));
+    w.until_polled_after_motion(2);
+    w.signal(libc::SIGTSTP);
+    w.until_stopped();
+    for m in ["3", "5"] {
+        let raw = module_state(link, m);
+        assert!(raw & 0x800 == 0 && raw & 0x4 != 0, "module {m} halted and standing while stopped: {raw:#x}");
+    }
+    w.signal(libc::SIGCONT);
+    let r = w.end(&args);
+    let _ = std::fs::remove_file(&lines);
+    assert_eq!((r.code, r.signal), (148, None), "{}", r.stderr);
+    assert!(r.stderr.contains("stopped by SIGTSTP after line"), "{}", r.stderr);
+    assert!(r.stderr.contains("`halt -m 3`") && r.stderr.contains("`halt -m 5`"), "{}", r.stderr);
+}

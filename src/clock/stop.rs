@@ -1,16 +1,39 @@
 //! Why a supervised wait must stop now, kept below every layer that can
-//! notice it: a caught signal (SIGINT, SIGTERM, SIGHUP, SIGQUIT), a failed
-//! output write, a failed traffic-log write, a panic on any thread. A
-//! caught signal or a panic also wakes [`sleep`], so a poll interval never
-//! delays the halt. The policy (when to
-//! arm, what to halt) is the motion supervisor's, `device::supervisor`.
+//! notice it: a caught signal ([`SIGNALS`]: SIGINT, SIGTERM, SIGHUP, SIGQUIT
+//! and the others that would end the process; [`JOB_STOPS`]: SIGTSTP,
+//! SIGTTIN, SIGTTOU, that would stop it), a failed output write, a
+//! failed traffic-log write, a panic on any thread. A caught signal or a
+//! panic also wakes [`sleep`], so a poll interval never delays the halt.
+//! The policy (when to arm, what to halt) is the motion supervisor's,
+//! `device::supervisor`.
 
 use std::sync::atomic::{AtomicBool, AtomicI32, Ordering};
 use std::sync::Mutex;
 use std::time::Duration;
 
-/// The signals that halt a supervised motion.
-pub const SIGNALS: [i32; 4] = [libc::SIGINT, libc::SIGTERM, libc::SIGHUP, libc::SIGQUIT];
+/// The signals that halt a supervised motion and then end the process:
+/// every signal whose default action ends it, but the crash reports (SIGSEGV,
+/// SIGBUS, SIGFPE, SIGILL, SIGTRAP, SIGSYS, SIGABRT: no halt can safely run
+/// in a process that faulted) and the real-time signals.
+pub const SIGNALS: [i32; 11] = [
+    libc::SIGINT,
+    libc::SIGTERM,
+    libc::SIGHUP,
+    libc::SIGQUIT,
+    libc::SIGUSR1,
+    libc::SIGUSR2,
+    libc::SIGALRM,
+    libc::SIGVTALRM,
+    libc::SIGPROF,
+    libc::SIGIO,
+    libc::SIGPWR,
+];
+
+/// The job-control signals that would stop the process where it stands
+/// (Ctrl-Z; a background job that reads or writes its terminal): a
+/// supervised motion is halted first, and the process stops afterwards
+/// ([`suspend_if_asked`]), once nothing it moved is left moving.
+pub const JOB_STOPS: [i32; 3] = [libc::SIGTSTP, libc::SIGTTIN, libc::SIGTTOU];
 
 static CAUGHT: AtomicI32 = AtomicI32::new(0);
 static WAKE_WRITE: AtomicI32 = AtomicI32::new(-1);
@@ -28,9 +51,33 @@ static INSTALLED: Mutex<Option<Result<(), String>>> = Mutex::new(None);
 pub struct ArmError(String);
 
 extern "C" fn on_signal(sig: libc::c_int) {
-    // Only async-signal-safe work here: an atomic store and a write(2).
+    // Only async-signal-safe work here: an atomic store, sigaction(2) and a write(2).
     let _ = CAUGHT.compare_exchange(0, sig, Ordering::SeqCst, Ordering::SeqCst);
+    if sig == libc::SIGTTIN || sig == libc::SIGTTOU {
+        // The terminal read or write that raised it is restarted after this
+        // handler and would raise it again, for ever: from now on it fails
+        // (a read) or goes through (a write), so the halt can proceed.
+        set_action(sig, libc::SIG_IGN);
+    }
     wake();
+}
+
+/// sigaction(2) with `handler` (a function, `SIG_IGN` or `SIG_DFL`), no
+/// flag but SA_RESTART and an empty mask. Async-signal-safe.
+fn set_action(sig: libc::c_int, handler: libc::sighandler_t) -> bool {
+    // SAFETY: a zeroed sigaction with a valid handler; SA_RESTART keeps
+    // blocking reads of the link from failing with EINTR.
+    unsafe {
+        let mut act: libc::sigaction = std::mem::zeroed();
+        act.sa_sigaction = handler;
+        act.sa_flags = libc::SA_RESTART;
+        libc::sigemptyset(&mut act.sa_mask);
+        libc::sigaction(sig, &act, std::ptr::null_mut()) == 0
+    }
+}
+
+fn handler() -> libc::sighandler_t {
+    on_signal as extern "C" fn(libc::c_int) as libc::sighandler_t
 }
 
 /// Wakes a [`sleep`] in progress. Async-signal-safe.
@@ -46,15 +93,49 @@ fn wake() {
     }
 }
 
-/// Takes over the four signals (once per process): from now on they are
-/// recorded instead of ending the process. Call it before the first motion
-/// byte of a supervised motion is sent.
+/// Takes over [`SIGNALS`] and [`JOB_STOPS`] (once per process): from now
+/// on they are recorded instead of ending or stopping the process. Call it
+/// before the first motion byte of a supervised motion is sent, on the
+/// thread that will wait or spawn the threads that do.
+///
+/// A process may start with these signals blocked (a mask inherited from
+/// its parent): Ctrl-C and SIGTERM would then stay pending for ever and the
+/// motion run to its end. Every call unblocks them on the calling thread,
+/// and threads it spawns later inherit its mask. A signal left pending
+/// while they were blocked is acted on now, before any motion byte.
 pub fn arm() -> Result<(), ArmError> {
     let mut installed = INSTALLED.lock().unwrap_or_else(|e| e.into_inner());
     if installed.is_none() {
         *installed = Some(install());
     }
-    installed.clone().unwrap_or(Ok(())).map_err(ArmError)
+    installed.clone().unwrap_or(Ok(())).map_err(ArmError)?;
+    drop(installed);
+    unblock().map_err(ArmError)
+}
+
+/// Unblocks the supervised signals on the calling thread.
+fn unblock() -> Result<(), String> {
+    // SAFETY: a sigset filled by sigemptyset / sigaddset, then handed to
+    // pthread_sigmask for this thread only.
+    unsafe {
+        let mut set: libc::sigset_t = std::mem::zeroed();
+        libc::sigemptyset(&mut set);
+        for sig in SIGNALS.into_iter().chain(JOB_STOPS).chain([libc::SIGXFSZ]) {
+            libc::sigaddset(&mut set, sig);
+        }
+        match libc::pthread_sigmask(libc::SIG_UNBLOCK, &set, std::ptr::null_mut()) {
+            0 => Ok(()),
+            e => Err(std::io::Error::from_raw_os_error(e).to_string()),
+        }
+    }
+}
+
+/// A write past the file size limit (`ulimit -f`, RLIMIT_FSIZE) raises
+/// SIGXFSZ, whose default ends the process at once, with a motion running
+/// and no halt. Ignored, the write fails with EFBIG instead, which the
+/// output and `--log` failure paths report and halt on.
+pub fn ignore_file_size_signal() {
+    set_action(libc::SIGXFSZ, libc::SIG_IGN);
 }
 
 fn install() -> Result<(), String> {
@@ -65,17 +146,10 @@ fn install() -> Result<(), String> {
     }
     WAKE_READ.store(fds[0], Ordering::SeqCst);
     WAKE_WRITE.store(fds[1], Ordering::SeqCst);
-    for sig in SIGNALS {
-        // SAFETY: a zeroed sigaction with our handler; SA_RESTART keeps
-        // blocking reads of the link from failing with EINTR.
-        unsafe {
-            let mut act: libc::sigaction = std::mem::zeroed();
-            act.sa_sigaction = on_signal as extern "C" fn(libc::c_int) as usize;
-            act.sa_flags = libc::SA_RESTART;
-            libc::sigemptyset(&mut act.sa_mask);
-            if libc::sigaction(sig, &act, std::ptr::null_mut()) != 0 {
-                return Err(std::io::Error::last_os_error().to_string());
-            }
+    ignore_file_size_signal();
+    for sig in SIGNALS.into_iter().chain(JOB_STOPS) {
+        if !set_action(sig, handler()) {
+            return Err(std::io::Error::last_os_error().to_string());
         }
     }
     Ok(())
@@ -96,8 +170,42 @@ pub fn forget_signal() {
     CAUGHT.store(0, Ordering::SeqCst);
 }
 
+/// The job-control stop [`caught`] holds, if that is what was caught.
+pub fn job_stop() -> Option<i32> {
+    caught().filter(|sig| JOB_STOPS.contains(sig))
+}
+
+/// Stops the process as the job-control signal [`caught`] asked, if one
+/// did; returns it once the process is continued (`fg`, SIGCONT). Call it
+/// only when what the stop interrupted is halted and its links are closed:
+/// a stopped process answers no signal, so an emergency halt from another
+/// terminal must find the port free and nothing moving.
+///
+/// The signal itself is raised with its default action, so a shell reports
+/// the job as stopped as usual, and the kernel drops it for a process group
+/// that no shell could continue (an orphaned one): then the call returns at
+/// once. The signal is forgotten first: one that comes while the process is
+/// stopped (a SIGTERM, then SIGCONT) is news and recorded as such.
+pub fn suspend_if_asked() -> Option<i32> {
+    let sig = job_stop()?;
+    let _ = CAUGHT.compare_exchange(sig, 0, Ordering::SeqCst, Ordering::SeqCst);
+    set_action(sig, libc::SIG_DFL);
+    // SAFETY: a sigset of one signal, unblocked on this thread before it is
+    // raised on it (a blocked one would stay pending and stop nothing).
+    unsafe {
+        let mut set: libc::sigset_t = std::mem::zeroed();
+        libc::sigemptyset(&mut set);
+        libc::sigaddset(&mut set, sig);
+        libc::pthread_sigmask(libc::SIG_UNBLOCK, &set, std::ptr::null_mut());
+        libc::raise(sig);
+    }
+    set_action(sig, handler());
+    Some(sig)
+}
+
 /// The exit code a caught signal asks for: 128 + its number (130 for
-/// SIGINT, 143 for SIGTERM, 129 for SIGHUP, 131 for SIGQUIT).
+/// SIGINT, 143 for SIGTERM, 129 for SIGHUP, 131 for SIGQUIT, 148 for
+/// SIGTSTP, 149 for SIGTTIN, 150 for SIGTTOU).
 pub fn exit_code(sig: i32) -> u8 {
     (128 + sig).clamp(0, 255) as u8
 }
@@ -109,6 +217,16 @@ pub fn signal_name(sig: i32) -> &'static str {
         libc::SIGTERM => "SIGTERM",
         libc::SIGHUP => "SIGHUP",
         libc::SIGQUIT => "SIGQUIT",
+        libc::SIGUSR1 => "SIGUSR1",
+        libc::SIGUSR2 => "SIGUSR2",
+        libc::SIGALRM => "SIGALRM",
+        libc::SIGVTALRM => "SIGVTALRM",
+        libc::SIGPROF => "SIGPROF",
+        libc::SIGIO => "SIGIO",
+        libc::SIGPWR => "SIGPWR",
+        libc::SIGTSTP => "SIGTSTP",
+        libc::SIGTTIN => "SIGTTIN",
+        libc::SIGTTOU => "SIGTTOU",
         _ => "a signal",
     }
 }
@@ -308,7 +426,17 @@ mod tests {
         assert_eq!(signal_name(libc::SIGTERM), "SIGTERM");
         assert_eq!(signal_name(libc::SIGHUP), "SIGHUP");
         assert_eq!(signal_name(libc::SIGQUIT), "SIGQUIT");
-        assert_eq!(signal_name(libc::SIGUSR1), "a signal");
+        assert_eq!(signal_name(libc::SIGTSTP), "SIGTSTP");
+        assert_eq!(signal_name(libc::SIGTTIN), "SIGTTIN");
+        assert_eq!(signal_name(libc::SIGTTOU), "SIGTTOU");
+        assert_eq!(signal_name(libc::SIGUSR1), "SIGUSR1");
+        assert_eq!(signal_name(libc::SIGUSR2), "SIGUSR2");
+        assert_eq!(signal_name(libc::SIGALRM), "SIGALRM");
+        assert_eq!(signal_name(libc::SIGVTALRM), "SIGVTALRM");
+        assert_eq!(signal_name(libc::SIGPROF), "SIGPROF");
+        assert_eq!(signal_name(libc::SIGIO), "SIGIO");
+        assert_eq!(signal_name(libc::SIGPWR), "SIGPWR");
+        assert_eq!(signal_name(libc::SIGSEGV), "a signal");
     }
 
     // Armed, a signal no longer ends the process: it is recorded (the first
@@ -377,6 +505,90 @@ mod tests {
         assert!(stop_requested());
         note_log_failure(&std::io::Error::other("later"));
         assert_eq!(log_failure().as_deref(), Some("no space left"), "the first error is kept");
+    }
+
+    fn mask_of_this_thread() -> libc::sigset_t {
+        // SAFETY: a query: the current mask is written into `old`.
+        unsafe {
+            let mut old: libc::sigset_t = std::mem::zeroed();
+            assert_eq!(libc::pthread_sigmask(libc::SIG_BLOCK, std::ptr::null(), &mut old), 0);
+            old
+        }
+    }
+
+    fn action_of(sig: i32) -> libc::sighandler_t {
+        // SAFETY: a query: the current action is written into `old`.
+        unsafe {
+            let mut old: libc::sigaction = std::mem::zeroed();
+            assert_eq!(libc::sigaction(sig, std::ptr::null(), &mut old), 0);
+            old.sa_sigaction
+        }
+    }
+
+    // A mask inherited blocked is lifted on the arming thread (else Ctrl-C
+    // and SIGTERM would stay pending while the motion runs on); SIGXFSZ is
+    // ignored, so a write past the file size limit fails instead of killing
+    // the process; a job-control stop is recorded and wakes the sleep
+    // instead of stopping the process, and SIGTTOU is ignored from then on
+    // (the terminal write that raised it is restarted and would raise it again).
+    #[test]
+    fn arm_unblocks_the_signals_ignores_sigxfsz_and_records_a_job_stop() {
+        if !in_child("arm_unblocks_the_signals_ignores_sigxfsz_and_records_a_job_stop") {
+            return;
+        }
+        let all: Vec<i32> = SIGNALS.into_iter().chain(JOB_STOPS).chain([libc::SIGXFSZ]).collect();
+        // SAFETY: a local set handed to pthread_sigmask for this thread.
+        unsafe {
+            let mut set: libc::sigset_t = std::mem::zeroed();
+            libc::sigemptyset(&mut set);
+            for &sig in &all {
+                libc::sigaddset(&mut set, sig);
+            }
+            assert_eq!(libc::pthread_sigmask(libc::SIG_BLOCK, &set, std::ptr::null_mut()), 0);
+        }
+        assert_eq!(action_of(libc::SIGXFSZ), libc::SIG_DFL);
+        arm().unwrap();
+        let mask = mask_of_this_thread();
+        for &sig in &all {
+            // SAFETY: a membership query on a filled set.
+            assert_eq!(unsafe { libc::sigismember(&mask, sig) }, 0, "signal {sig} still blocked");
+        }
+        assert_eq!(action_of(libc::SIGXFSZ), libc::SIG_IGN);
+        assert_eq!(job_stop(), None);
+        let catcher = signal_catcher();
+        std::thread::spawn(move || {
+            std::thread::sleep(Duration::from_millis(100));
+            send(catcher, libc::SIGTTOU);
+        });
+        let d = took(|| sleep(Duration::from_secs(30)));
+        assert!(d < Duration::from_secs(10), "the job-control stop woke the sleep: {d:?}");
+        assert_eq!((caught(), job_stop()), (Some(libc::SIGTTOU), Some(libc::SIGTTOU)));
+        assert!(stop_requested());
+        assert_eq!(action_of(libc::SIGTTOU), libc::SIG_IGN, "a second SIGTTOU is not raised for ever");
+        // Raised on this thread, whose mask arm unblocked, each is handled
+        // before raise returns (the first signal stays the one recorded).
+        for sig in [libc::SIGTTIN, libc::SIGTSTP, libc::SIGINT] {
+            // SAFETY: raise on this thread.
+            assert_eq!(unsafe { libc::raise(sig) }, 0);
+        }
+        assert_eq!(action_of(libc::SIGTTIN), libc::SIG_IGN, "nor a second SIGTTIN");
+        assert_eq!(action_of(libc::SIGTSTP), handler(), "SIGTSTP keeps its handler");
+        assert_eq!(action_of(libc::SIGINT), handler(), "SIGINT keeps its handler");
+        assert_eq!(caught(), Some(libc::SIGTTOU));
+    }
+
+    // Only a job-control stop is one: SIGINT is not.
+    #[test]
+    fn an_ending_signal_is_no_job_stop() {
+        if !in_child("an_ending_signal_is_no_job_stop") {
+            return;
+        }
+        arm().unwrap();
+        // SAFETY: raise on this thread, whose mask arm just unblocked.
+        assert_eq!(unsafe { libc::raise(libc::SIGINT) }, 0);
+        assert_eq!((caught(), job_stop()), (Some(libc::SIGINT), None));
+        assert_eq!(suspend_if_asked(), None, "nothing to stop for");
+        assert_eq!(caught(), Some(libc::SIGINT), "and the signal is kept");
     }
 
     // A process started with stdin closed gets fd 0 for the wake pipe's read

@@ -41,6 +41,9 @@ pub fn run(ctx: &Ctx, args: &DashboardArgs) -> anyhow::Result<()> {
         // The terminal is restored by now; exit as a shell reports a
         // process ended by the signal (143 SIGTERM, 129 SIGHUP).
         crate::output::err_line(format_args!("axisctl: {t}"));
+        // Ctrl-Z sent with kill (the raw terminal turns the key into a
+        // key): halted and restored, now stop as asked; continued, exit.
+        axisctl::device::supervisor::suspend_if_asked();
         std::process::exit(128 + t.signal);
     }
     r

@@ -5,6 +5,8 @@
 //! Ctrl-C at the prompt clears the line (the terminal is in raw mode, so it
 //! is a key, not a signal); during a command it is the signal, and the
 //! engine halts what the lines moved, as in a batch, then prompts again.
+//! Ctrl-Z, at the prompt or during a command, halts what the lines moved,
+//! then stops the shell; `fg` brings the prompt back.
 //! Ctrl-D (or `exit`) ends the shell; a failed line does not.
 
 use std::borrow::Cow;
@@ -100,8 +102,12 @@ fn session(
             }
         }
         if engine.stop_if_requested(n).is_some() {
-            // What the lines moved is halted: the next command starts afresh.
-            supervisor::forget_signal();
+            // What the lines moved is halted: after Ctrl-Z the shell stops
+            // now (it forgets that signal itself, and a signal that comes
+            // while it is stopped is the watcher's); the next command starts afresh.
+            if supervisor::suspend_if_asked().is_none() {
+                supervisor::forget_signal();
+            }
         }
         engine.first_failure = None;
         output::flush();
@@ -132,6 +138,15 @@ fn stop_at_the_prompt(
         // The prompt may be returning with a line: then the engine has it.
         let Ok(mut engine) = engine.try_lock() else { continue };
         if !at_prompt.load(Ordering::SeqCst) {
+            continue;
+        }
+        if supervisor::job_stop().is_some() {
+            // Ctrl-Z at the prompt: the line editor sends SIGTSTP to the
+            // process group. What the lines moved is halted, then the shell
+            // stops as asked; continued (`fg`), the prompt goes on.
+            engine.stop_if_requested(last.load(Ordering::SeqCst));
+            engine.first_failure = None;
+            supervisor::suspend_if_asked();
             continue;
         }
         terminal.restore();

@@ -2,11 +2,18 @@
 //! process that ends without stopping it.
 //!
 //! It is armed before the first motion byte leaves. From then on SIGINT,
-//! SIGTERM, SIGHUP and SIGQUIT no longer end the process: the handler only
-//! records the signal and wakes the wait ([`sleep`] sleeps on a pipe the
-//! handler writes to, so a signal cuts any poll interval short). The wait
-//! sees [`stop_requested`], halts the device and returns; the binary then
-//! exits with 128 + the signal's number. A failed output write is recorded
+//! SIGTERM, SIGHUP, SIGQUIT and the other [`SIGNALS`] whose default would
+//! end it no longer end the process, and SIGTSTP,
+//! SIGTTIN and SIGTTOU no longer stop it: the handler only records the
+//! signal and wakes the wait ([`sleep`] sleeps on a pipe the handler writes
+//! to, so a signal cuts any poll interval short). The wait sees
+//! [`stop_requested`], halts the device and returns; the binary then exits
+//! with 128 + the signal's number, after a job-control stop once it has
+//! stopped and been continued ([`suspend_if_asked`]: the motion is not
+//! resumed). Arming also unblocks these signals on the arming thread (a
+//! mask inherited blocked would make Ctrl-C do nothing), and ignores
+//! SIGXFSZ, so a write past `ulimit -f` fails with EFBIG and halts like any
+//! failed write instead of killing the process. A failed output write is recorded
 //! the same way ([`note_output_failure`]): a wait whose progress cannot be
 //! shown halts rather than panics. [`guard`] halts on a panic of the
 //! waiting thread itself; the panic hook ([`install_panic_hook`], set by the
@@ -26,8 +33,9 @@ mod moved;
 pub use moved::{HaltOutcome, MotionTarget, MovedDevices, Reach};
 
 pub use crate::clock::stop::{
-    arm, caught, exit_code, forget_signal, log_failure, note_log_failure, note_output_failure, note_panic,
-    output_failure, panic_failure, signal_name, sleep, stop_reason, stop_requested, ArmError, StopReason, SIGNALS,
+    arm, caught, exit_code, forget_signal, ignore_file_size_signal, job_stop, log_failure, note_log_failure,
+    note_output_failure, note_panic, output_failure, panic_failure, signal_name, sleep, stop_reason, stop_requested,
+    suspend_if_asked, ArmError, StopReason, JOB_STOPS, SIGNALS,
 };
 
 /// Chains a hook in front of the current panic hook (once per process) that
@@ -86,6 +94,9 @@ mod tests {
         assert_eq!(exit_code(libc::SIGTERM), 143);
         assert_eq!(exit_code(libc::SIGHUP), 129);
         assert_eq!(exit_code(libc::SIGQUIT), 131);
+        assert_eq!(exit_code(libc::SIGTSTP), 148);
+        assert_eq!(exit_code(libc::SIGTTIN), 149);
+        assert_eq!(exit_code(libc::SIGTTOU), 150);
     }
 
     #[test]

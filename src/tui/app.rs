@@ -302,8 +302,8 @@ impl App {
             Event::Key(k) if k.kind != KeyEventKind::Release => {
                 let out = self.on_key(k);
                 for o in &out {
-                    if let ToWorker::Act(key, Action::Home | Action::Jog(_) | Action::MoveTo(_)) = o.msg {
-                        if !self.moved.contains(&(o.link, key)) {
+                    if let ToWorker::Act(key, action) = o.msg {
+                        if action.is_motion() && !self.moved.contains(&(o.link, key)) {
                             self.moved.push((o.link, key));
                         }
                     }

@@ -22,6 +22,7 @@ use crate::clock::{Clock, VirtualClock};
 use crate::family::Family;
 use crate::link::mem::Fault;
 use crate::link::SerialFormat;
+use crate::link::{CanLink, LinkError};
 use crate::proto::cdios::NodeId;
 use crate::proto::powercube::flags::state;
 use crate::proto::CanFrame;
@@ -50,10 +51,15 @@ struct Rig {
 impl Rig {
     /// The contract bench; every family that has a source, each on its link.
     fn new() -> Self {
+        Self::with_can(|link| link)
+    }
+
+    /// [`Rig::new`] with the dashboard's CAN link passed through `wrap`.
+    fn with_can(wrap: impl FnOnce(Box<dyn CanLink>) -> Box<dyn CanLink>) -> Self {
         let clock = VirtualClock::new();
         let shared: Arc<dyn Clock> = Arc::new(clock.clone());
         let bench = Bench::contract(Arc::clone(&shared));
-        let can = CanBus::new(Box::new(bench.bus.open()), Arc::clone(&shared));
+        let can = CanBus::new(wrap(Box::new(bench.bus.open())), Arc::clone(&shared));
         let cube: Box<dyn DeviceSource> = Box::new(CubeSource::new(
             PowerCube::over_can(Box::new(can.port(Family::PowerCube))).with_clock(Arc::clone(&shared)),
             None,
@@ -665,6 +671,104 @@ fn terminate_halts_what_the_dashboard_moved_then_quits() {
     assert!(rig.app.events.iter().any(|e| e.text.starts_with("SIGTERM: halting")), "{:?}", rig.app.events);
 }
 
+/// A jog is a motion like home and go to: the App and the worker each keep
+/// the jogged module, SIGTERM and SIGHUP halt it, and actions that move
+/// nothing (a halt, a reset, enable) are not kept.
+#[test]
+fn terminate_halts_a_jog_the_dashboard_started() {
+    for (signal, name) in [(libc::SIGTERM, "SIGTERM"), (libc::SIGHUP, "SIGHUP")] {
+        let mut rig = Rig::new();
+        rig.round();
+        rig.select(DeviceKey::Cube(5));
+        rig.keys("s");
+        rig.keys("r");
+        rig.select(DeviceKey::Cdios { node: 1, module: 0 });
+        rig.keys("e");
+        rig.select(DeviceKey::Cube(17));
+        rig.keys("]]+");
+        rig.keys("+");
+        rig.advance(Duration::from_millis(300));
+        rig.round();
+        assert_ne!(rig.cube(17).1, 0.0, "{name}: module 17 jogging");
+        assert_eq!(rig.app.moved, [(0, DeviceKey::Cube(17))], "{name}: the App keeps the jog once, and only it");
+        assert_eq!(rig.workers[0].moved(), [DeviceKey::Cube(17)], "{name}: so does the worker");
+        let outs = rig.app.handle(Event::Terminate(signal));
+        assert!(rig.app.quit);
+        let msgs: Vec<_> = outs.iter().filter(|o| o.link == 0).map(|o| o.msg.clone()).collect();
+        assert_eq!(msgs, [ToWorker::Act(DeviceKey::Cube(17), super::source::Action::Halt), ToWorker::Quit]);
+        let mut events = Vec::new();
+        assert!(rig.workers[0].handle(msgs, &mut |ev| events.push(ev)), "the worker quits after the halt");
+        let (cube, vel) = rig.cube(17);
+        assert_ne!(cube & state::HALTED, 0, "{name}: module 17 halted");
+        assert_eq!(vel, 0.0, "{name}: module 17 stands");
+        let halting = format!("{name}: halting");
+        assert!(rig.app.events.iter().any(|e| e.text.starts_with(&halting)), "{:?}", rig.app.events);
+    }
+}
+
+/// The worker's own list (what it halts when it panics) keeps a jog.
+#[test]
+fn a_worker_halts_the_jog_it_sent_on_its_own() {
+    let mut rig = Rig::new();
+    rig.round();
+    rig.select(DeviceKey::Cube(3));
+    rig.keys("s");
+    rig.select(DeviceKey::Cube(17));
+    rig.keys("]]+");
+    rig.advance(Duration::from_millis(300));
+    rig.round();
+    assert_ne!(rig.cube(17).1, 0.0, "module 17 jogging");
+    assert_eq!(rig.workers[0].halt_moved(), "halted PowerCube 17");
+    let (cube, vel) = rig.cube(17);
+    assert_ne!(cube & state::HALTED, 0, "module 17 halted");
+    assert_eq!(vel, 0.0, "module 17 stands");
+}
+
+/// The dashboard's CAN link, losing every PowerCube broadcast it sends.
+struct LoseBroadcasts {
+    inner: Box<dyn CanLink>,
+    lost: Arc<std::sync::atomic::AtomicUsize>,
+}
+
+impl CanLink for LoseBroadcasts {
+    fn send(&mut self, frame: &CanFrame) -> Result<(), LinkError> {
+        if frame.id() == crate::proto::powercube::can::BROADCAST_ID {
+            self.lost.fetch_add(1, std::sync::atomic::Ordering::SeqCst);
+            return Ok(());
+        }
+        self.inner.send(frame)
+    }
+    fn recv(&mut self, timeout: Duration) -> Result<Option<CanFrame>, LinkError> {
+        self.inner.recv(timeout)
+    }
+}
+
+/// Halt-all sends each known module its own Halt after the broadcast: a
+/// module that missed the broadcast (here every one: the link loses it) is
+/// still halted, moving or not.
+#[test]
+fn halt_all_halts_each_module_when_the_broadcast_is_lost() {
+    let lost = Arc::new(std::sync::atomic::AtomicUsize::new(0));
+    let counter = Arc::clone(&lost);
+    let mut rig = Rig::with_can(move |inner| Box::new(LoseBroadcasts { inner, lost: counter }));
+    rig.round();
+    rig.select(DeviceKey::Cube(3));
+    rig.keys("h");
+    rig.select(DeviceKey::Cube(17));
+    rig.keys("]]+");
+    rig.advance(Duration::from_millis(300));
+    rig.round();
+    assert_ne!(rig.cube(3).1, 0.0, "module 3 homing");
+    assert_ne!(rig.cube(17).1, 0.0, "module 17 jogging");
+    rig.key(KeyCode::Char(' '));
+    assert!(lost.load(std::sync::atomic::Ordering::SeqCst) > 0, "the broadcast Halt was sent, and lost");
+    for m in [3, 5, 17] {
+        let (cube, vel) = rig.cube(m);
+        assert_ne!(cube & state::HALTED, 0, "module {m} halted");
+        assert_eq!(vel, 0.0, "module {m} stands");
+    }
+}
+
 /// The CAN sources of the contract bench on a fresh link of its bus.
 fn can_sources(bus: &crate::link::mem::MemBus, clock: &Arc<dyn Clock>) -> Vec<Box<dyn DeviceSource>> {
     let can = CanBus::new(Box::new(bus.open()), Arc::clone(clock));
@@ -867,6 +971,12 @@ impl Live {
     /// move, and returns whether both did. A dashboard that does not end on
     /// the hit is told `q` after 5 s, so a regression fails instead of hangs.
     fn run(&self, hit: impl FnOnce(&Self) + Send) -> (anyhow::Result<()>, bool) {
+        self.run_moving_17_with("g0.5\n", hit)
+    }
+
+    /// [`Live::run`], module 17 sent moving by the keys `keys17` (a newline
+    /// presses Enter) instead of a go to 0.5.
+    fn run_moving_17_with(&self, keys17: &str, hit: impl FnOnce(&Self) + Send) -> (anyhow::Result<()>, bool) {
         let plans = vec![
             super::LinkPlan {
                 name: "can A".into(),
@@ -889,7 +999,8 @@ impl Live {
                 };
                 // Discovery first; then module 17 to 0.5, module 3 to 1.0.
                 std::thread::sleep(Duration::from_millis(500));
-                for code in "g0.5".chars().map(KeyCode::Char).chain([KeyCode::Enter, KeyCode::Down]) {
+                let keys17 = keys17.chars().map(|c| if c == '\n' { KeyCode::Enter } else { KeyCode::Char(c) });
+                for code in keys17.chain([KeyCode::Down]) {
                     press(code);
                 }
                 for code in "g1.0".chars().map(KeyCode::Char).chain([KeyCode::Enter]) {
@@ -963,6 +1074,22 @@ fn a_panic_in_a_draw_halts_what_the_dashboard_moved() {
 fn a_worker_panic_halts_what_the_dashboard_moved() {
     let live = Live::new();
     let (r, moving) = live.run(|l| l.worker_panics.store(true, std::sync::atomic::Ordering::SeqCst));
+    assert!(moving, "both modules were moving");
+    let e = r.expect_err("a worker panic ends the dashboard");
+    assert_eq!(
+        e.to_string(),
+        "the worker of link 0 panicked (injected worker panic; halted PowerCube 17): halted what the dashboard \
+         moved and quit"
+    );
+    live.assert_both_halted();
+}
+
+/// The same with a jog as module 17's motion: the worker halts the jog.
+#[test]
+fn a_worker_panic_halts_a_jog_the_dashboard_started() {
+    let live = Live::new();
+    let (r, moving) =
+        live.run_moving_17_with("]]+", |l| l.worker_panics.store(true, std::sync::atomic::Ordering::SeqCst));
     assert!(moving, "both modules were moving");
     let e = r.expect_err("a worker panic ends the dashboard");
     assert_eq!(

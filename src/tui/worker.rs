@@ -178,8 +178,7 @@ impl LinkWorker {
                 ToWorker::Rescan => out(self.discover()),
                 ToWorker::HaltAll => unreachable!("handled first"),
                 ToWorker::Act(dev, action) => {
-                    if matches!(action, Action::Home | Action::Jog(_) | Action::MoveTo(_)) && !self.moved.contains(&dev)
-                    {
+                    if action.is_motion() && !self.moved.contains(&dev) {
                         self.moved.push(dev);
                     }
                     let what = action.name();
