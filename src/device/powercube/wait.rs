@@ -101,7 +101,10 @@ impl Cubes {
                     timeout: spec.timeout,
                 }));
             }
-            clock.sleep_or_wake(spec.poll);
+            // Refreshes the watchdog meanwhile when a supervised motion
+            // keeps it. A link that fails here fails the next poll, which
+            // halts first.
+            let _ = self.session().pause(spec.poll);
         }
     }
 

@@ -1,0 +1,297 @@
+//! The dead-man backstop through the real binary against `axisctl sim`
+//! serving PowerCube modules on an slcan pty: a waited motion keeps the
+//! module watchdog refreshed (the broadcast `100#0700` in `--log`), so a
+//! process killed mid-motion leaves the module halted by its watchdog, and a
+//! motion that ends by itself leaves no COMM_ERROR behind.
+
+mod common;
+
+use std::io::{BufRead, BufReader};
+use std::path::Path;
+use std::process::{Child, Command, Stdio};
+use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
+
+use common::{bin, run, wait_bounded, Run};
+
+/// `axisctl sim --powercube WHERE` at `chrt -f 30` where the system allows
+/// it (as `scripts/watchdog-jitter.sh` runs it): the simulator stands in
+/// for the modules' own controllers, which no load on the host delays; a
+/// simulator starved by a busy test machine would see refreshes late that
+/// were sent on time. Stopped on drop.
+struct Sim {
+    child: Child,
+    link: String,
+}
+
+impl Sim {
+    fn start(args: &[&str], _links: usize) -> Self {
+        let fifo = Command::new("chrt").args(["-f", "30", "true"]).status().is_ok_and(|s| s.success());
+        let mut cmd = if fifo {
+            let mut c = Command::new("chrt");
+            c.args(["-f", "30", env!("CARGO_BIN_EXE_axisctl")]);
+            c
+        } else {
+            Command::new(env!("CARGO_BIN_EXE_axisctl"))
+        };
+        cmd.env_remove("AXISCTL_LINK").env("NO_COLOR", "1").env("AXISCTL_TIMEOUT", "400");
+        let mut child = cmd.arg("sim").args(args).stdout(Stdio::piped()).spawn().expect("start axisctl sim");
+        let mut line = String::new();
+        BufReader::new(child.stdout.take().unwrap()).read_line(&mut line).unwrap();
+        let v: serde_json::Value = serde_json::from_str(&line).expect("sim prints JSON lines");
+        Self { child, link: v["link"].as_str().unwrap().to_string() }
+    }
+
+    fn link(&self, _family: &str) -> &str {
+        &self.link
+    }
+}
+
+impl Drop for Sim {
+    fn drop(&mut self) {
+        unsafe {
+            libc::kill(self.child.id() as i32, libc::SIGTERM);
+        }
+        let _ = self.child.wait();
+    }
+}
+
+const COMM_ERROR: u64 = 0x20;
+const HALTED: u64 = 0x4;
+const MOTION: u64 = 0x800;
+const WATCHDOG_ENABLE: u64 = 0x0100_0000;
+
+/// One line of the `--log` file: when, and the frame (`0A3#0A3C...`).
+fn frames(log: &Path) -> Vec<(f64, String)> {
+    let text = std::fs::read_to_string(log).unwrap_or_default();
+    text.lines()
+        .filter_map(|l| {
+            let (ts, rest) = l.strip_prefix('(')?.split_once(')')?;
+            let frame = rest.split_whitespace().nth(1)?;
+            Some((ts.parse().ok()?, frame.to_string()))
+        })
+        .collect()
+}
+
+/// When each watchdog refresh went out.
+fn refreshes(log: &Path) -> Vec<f64> {
+    frames(log).into_iter().filter(|(_, f)| f == "100#0700").map(|(t, _)| t).collect()
+}
+
+/// Module 3's ActPos answers (`0A3#0A3C` + float): when, and where.
+fn positions(log: &Path) -> Vec<(f64, f32)> {
+    frames(log)
+        .into_iter()
+        .filter_map(|(t, f)| {
+            let hex = f.strip_prefix("0A3#0A3C")?;
+            let bytes: Vec<u8> = (0..4).map(|i| u8::from_str_radix(&hex[2 * i..2 * i + 2], 16).unwrap()).collect();
+            Some((t, f32::from_le_bytes(bytes.try_into().unwrap())))
+        })
+        .collect()
+}
+
+fn max_gap(times: &[f64]) -> f64 {
+    times.windows(2).map(|w| w[1] - w[0]).fold(0.0, f64::max)
+}
+
+fn ok(r: Run) -> serde_json::Value {
+    assert_eq!(r.code, 0, "{}", r.stderr);
+    r.json()
+}
+
+fn state(link: &str) -> u64 {
+    ok(run(&["--link", link, "--json", "state", "-m", "3"]))["state"]["raw"].as_u64().unwrap()
+}
+
+fn act_pos(link: &str) -> f64 {
+    let v = ok(run(&["--link", link, "--json", "get-param", "-m", "3", "ActPos"]));
+    v["params"]["ActPos"]["value"].as_f64().unwrap_or_else(|| panic!("{v}"))
+}
+
+fn config(link: &str) -> u64 {
+    ok(run(&["--link", link, "--json", "get-config", "-m", "3"]))["config"]["raw"].as_u64().unwrap()
+}
+
+/// `move-ramp --wait --deadman` killed with SIGKILL while the module
+/// cruises at 0.2 rad/s: nothing halts it but its watchdog, which the dead
+/// process no longer refreshes. A second process finds COMM_ERROR and
+/// HALTED and the position no longer changing; the instant it stopped is
+/// worked out from the positions the module reported (its last ActPos
+/// answer before the kill, the position it stands at, and the speed) and
+/// must lie within 100 ms of the kill.
+#[test]
+fn sigkill_mid_motion_leaves_the_module_halted_by_its_watchdog() {
+    let s = Sim::start(&["--powercube", "pty-slcan"], 1);
+    let link = s.link("powercube").to_string();
+    let dir = tempfile::tempdir().unwrap();
+    let log = dir.path().join("traffic.log");
+    let vel = 0.2;
+    let child = bin()
+        .args(["--link", &link, "--log", log.to_str().unwrap(), "move-ramp", "-m", "3", "3.0", "--vel", "0.2"])
+        .args(["--acc", "3", "--wait", "--deadman"])
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    // Moving at full speed (the ramp up lasts 67 ms): ActPos past 0.1 rad.
+    let deadline = Instant::now() + Duration::from_secs(30);
+    while !positions(&log).iter().any(|(_, p)| *p > 0.1) {
+        assert!(Instant::now() < deadline, "never saw module 3 move: {:?}", frames(&log));
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    unsafe {
+        libc::kill(child.id() as i32, libc::SIGKILL);
+    }
+    let killed = SystemTime::now().duration_since(UNIX_EPOCH).unwrap().as_secs_f64();
+    let ended = wait_bounded(child, 15, &["move-ramp"]);
+    assert_eq!(ended.signal, Some(libc::SIGKILL), "{}", ended.stderr);
+
+    // The module trips 50 ms after the last refresh, which may still be
+    // ahead when the first read arrives.
+    let deadline = Instant::now() + Duration::from_secs(5);
+    let raw = loop {
+        let raw = state(&link);
+        if raw & COMM_ERROR != 0 || Instant::now() > deadline {
+            break raw;
+        }
+    };
+    assert_eq!(raw & (COMM_ERROR | HALTED | MOTION), COMM_ERROR | HALTED, "state {raw:#x}");
+    let stood = act_pos(&link);
+    let again = act_pos(&link);
+    assert_eq!(stood, again, "the module still moves");
+
+    let refreshed = refreshes(&log);
+    let (t_pos, p) = *positions(&log).last().unwrap();
+    let stopped = t_pos + (stood - f64::from(p)) / vel;
+    let last_refresh = *refreshed.last().unwrap();
+    eprintln!(
+        "refreshes {} (longest gap {:.1} ms); SIGKILL {:.1} ms after the last refresh; module stopped {:.1} ms \
+         after the SIGKILL, {:.1} ms after the last refresh",
+        refreshed.len(),
+        max_gap(&refreshed) * 1e3,
+        (killed - last_refresh) * 1e3,
+        (stopped - killed) * 1e3,
+        (stopped - last_refresh) * 1e3
+    );
+    assert!(stopped - killed <= 0.100, "stopped {:.1} ms after the kill", (stopped - killed) * 1e3);
+    assert!(stood < 1.0, "it went on for seconds: stands at {stood}");
+    // The watchdog stays on: it was the only thing left to stop the module.
+    assert_ne!(config(&link) & WATCHDOG_ENABLE, 0);
+}
+
+/// A waited move with the watchdog switched on for it ends by itself with
+/// exit 0 and no COMM_ERROR: the wait refreshed it, at most 50 ms apart.
+/// Afterwards the watchdog is off again, as it was found, so the module
+/// does not trip once refreshes stop.
+#[test]
+fn a_waited_move_with_the_watchdog_on_ends_without_comm_error_and_leaves_it_off() {
+    let s = Sim::start(&["--powercube", "pty-slcan"], 1);
+    let link = s.link("powercube");
+    assert_eq!(config(link) & WATCHDOG_ENABLE, 0);
+    let dir = tempfile::tempdir().unwrap();
+    let log = dir.path().join("traffic.log");
+    let r = run(&["--link", link, "--log", log.to_str().unwrap(), "--json", "move-ramp", "-m", "3", "0.5"]);
+    assert_eq!(r.code, 0, "{}", r.stderr);
+    let before = refreshes(&log).len();
+    assert_eq!(before, 0, "no refresh for a motion that is not waited for");
+    let r = run(&[
+        "--link",
+        link,
+        "--log",
+        log.to_str().unwrap(),
+        "--trace",
+        "--json",
+        "move-ramp",
+        "-m",
+        "3",
+        "-0.5",
+        "--vel",
+        "1",
+        "--wait",
+        "--deadman",
+    ]);
+    let stderr = r.stderr.clone();
+    let doc = ok(r);
+    assert_eq!(doc["done"], true, "{doc}");
+    let raw = doc["state"]["raw"].as_u64().unwrap();
+    assert_eq!(raw & COMM_ERROR, 0, "state at the end {raw:#x}");
+    assert!(stderr.contains("watchdog refresh every 20 ms from here"), "{stderr}");
+    let refreshed = refreshes(&log);
+    let gap = max_gap(&refreshed);
+    eprintln!("{} refreshes, longest gap {:.1} ms", refreshed.len(), gap * 1e3);
+    assert!(refreshed.len() >= 20, "{} refreshes over a 1 s ramp", refreshed.len());
+    assert!(gap < 0.050, "longest gap between refreshes {:.1} ms", gap * 1e3);
+    assert_eq!(config(link) & WATCHDOG_ENABLE, 0, "switched off again");
+    // Well past the watchdog's 50 ms since the last refresh: no trip.
+    let last = *refreshed.last().unwrap();
+    let now = || SystemTime::now().duration_since(UNIX_EPOCH).unwrap().as_secs_f64();
+    if now() < last + 0.2 {
+        std::thread::sleep(Duration::from_secs_f64(last + 0.2 - now()));
+    }
+    assert_eq!(state(link) & (COMM_ERROR | HALTED), 0);
+}
+
+/// `home --wait --deadman`: the same backstop for homing.
+#[test]
+fn home_wait_with_the_deadman_refreshes_until_homed_and_switches_it_off() {
+    let s = Sim::start(&["--powercube", "pty-slcan"], 1);
+    let link = s.link("powercube");
+    let dir = tempfile::tempdir().unwrap();
+    let log = dir.path().join("traffic.log");
+    let r = run(&["--link", link, "--log", log.to_str().unwrap(), "--json", "home", "-m", "3", "--wait", "--deadman"]);
+    let doc = ok(r);
+    assert_eq!(doc["state"]["raw"].as_u64().unwrap() & COMM_ERROR, 0, "{doc}");
+    let refreshed = refreshes(&log);
+    assert!(refreshed.len() >= 40, "homing takes about 1.7 s: {} refreshes", refreshed.len());
+    assert!(max_gap(&refreshed) < 0.050, "longest gap {:.1} ms", max_gap(&refreshed) * 1e3);
+    assert_eq!(config(link) & WATCHDOG_ENABLE, 0, "switched off again");
+}
+
+/// `move-ramp --sync --wait --deadman` on two modules in sync mode.
+#[test]
+fn a_synchronized_waited_move_with_the_deadman_switches_both_watchdogs_and_back() {
+    let s = Sim::start(&["--powercube", "pty-slcan"], 1);
+    let link = s.link("powercube");
+    for m in ["3", "5"] {
+        let r = run(&["--link", link, "set-config", "-m", m, "+sync-motion"]);
+        assert_eq!(r.code, 0, "{}", r.stderr);
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let log = dir.path().join("traffic.log");
+    let args = ["--link", link, "--log", log.to_str().unwrap(), "--json", "move-ramp", "-m", "3,5", "--sync"];
+    let r = run(&[&args[..], &["0.5", "-0.5", "--wait", "--deadman"]].concat());
+    let doc = ok(r);
+    for d in doc["devices"].as_array().unwrap() {
+        assert_eq!(d["state"]["raw"].as_u64().unwrap() & COMM_ERROR, 0, "{d}");
+    }
+    // Both toggles in one burst, then the refreshes.
+    let sent: Vec<String> = frames(&log).into_iter().map(|(_, f)| f).collect();
+    let first_refresh = sent.iter().position(|f| f == "100#0700").expect("refreshed");
+    let toggles: Vec<usize> =
+        sent.iter().enumerate().filter(|(_, f)| *f == "0E3#07" || *f == "0E5#07").map(|(i, _)| i).collect();
+    assert_eq!(toggles.len(), 2, "one 0x07 each, never again: {sent:?}");
+    assert!(toggles.iter().all(|i| *i < first_refresh), "{sent:?}");
+    assert!(max_gap(&refreshes(&log)) < 0.050);
+    for m in ["3", "5"] {
+        let c = ok(run(&["--link", link, "--json", "get-config", "-m", m]))["config"]["raw"].as_u64().unwrap();
+        assert_eq!(c & WATCHDOG_ENABLE, 0, "module {m} switched off again");
+    }
+}
+
+/// `--deadman` needs a wait (clap) and a CAN link; refused with exit 2
+/// before anything is sent.
+#[test]
+fn deadman_without_wait_or_on_rs232_is_refused_before_sending() {
+    let r = run(&["--link", "sim", "move-ramp", "-m", "3", "0.5", "--deadman"]);
+    assert_eq!(r.code, 2, "{}", r.stderr);
+    assert!(r.stderr.contains("--wait"), "{}", r.stderr);
+    let s = Sim::start(&["--powercube", "pty-serial"], 1);
+    let link = s.link("powercube");
+    let dir = tempfile::tempdir().unwrap();
+    let log = dir.path().join("traffic.log");
+    let r =
+        run(&["--link", link, "--log", log.to_str().unwrap(), "move-ramp", "-m", "3", "0.5", "--wait", "--deadman"]);
+    assert_eq!(r.code, 2, "{}", r.stderr);
+    assert!(r.stderr.contains("--deadman: the watchdog is a CAN feature"), "{}", r.stderr);
+    let text = std::fs::read_to_string(&log).unwrap_or_default();
+    assert!(!text.contains(" tx "), "sent: {text}");
+}
