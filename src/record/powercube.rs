@@ -127,3 +127,6 @@ impl Sampler for CubeSampler {
         }
     }
 }
+
+#[cfg(test)]
+mod tests;
