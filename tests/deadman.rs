@@ -433,3 +433,42 @@ fn stopped_wait() -> Result<(), String> {
     assert_eq!(raw & (COMM_ERROR | MOTION), COMM_ERROR, "halted by the watchdog: {raw:#x}");
     Ok(())
 }
+
+/// Without `--deadman`, a wait refreshes a watchdog that is on already:
+/// `watchdog on` and a waited `move-ramp` in one batch (one process, so the
+/// watchdog switched online is kept alive from the start of the move). The
+/// move ends with exit 0 and no COMM_ERROR; the watchdog is left on, so
+/// once the batch is over nothing refreshes it and the module trips.
+#[test]
+fn a_wait_refreshes_a_watchdog_that_is_on_and_leaves_it_on() {
+    attempts(auto_refresh);
+}
+
+fn auto_refresh() -> Result<(), String> {
+    let s = Sim::start(&["--powercube", "pty-slcan"], 1);
+    let link = s.link("powercube");
+    let dir = tempfile::tempdir().unwrap();
+    let log = dir.path().join("traffic.log");
+    let lines = "watchdog on -m 3\nmove-ramp -m 3 0.5 --wait\n";
+    let r = common::run_with_stdin(&["--link", link, "--log", log.to_str().unwrap(), "batch"], lines);
+    let sent = frames(&log);
+    let online = sent.iter().find(|(_, f)| f == "0E3#07").expect("0x07 sent").0;
+    let first = refreshes(&log).first().copied();
+    if r.code == 5 && first.is_some_and(|t| t - online >= 0.050) {
+        // Between the two lines nothing refreshes: a host too slow to get
+        // from the one to the other within 50 ms tripped the module first.
+        return Err(format!("the move's first refresh came {:?} s after 0x07", first.map(|t| t - online)));
+    }
+    spoiled(&log, r.code == 5, "the waited move")?;
+    assert_eq!(r.code, 0, "{}{}", r.stdout, r.stderr);
+    assert!(r.stdout.contains("move-ramp done"), "{}", r.stdout);
+    let refreshed = refreshes(&log);
+    assert!(refreshed.len() >= 20, "{} refreshes", refreshed.len());
+    assert!(max_gap(&refreshed) < 0.050);
+    assert_ne!(config(link) & WATCHDOG_ENABLE, 0, "left on");
+    let deadline = Instant::now() + Duration::from_secs(5);
+    while state(link) & COMM_ERROR == 0 {
+        assert!(Instant::now() < deadline, "the watchdog left on never tripped");
+    }
+    Ok(())
+}
