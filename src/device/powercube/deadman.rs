@@ -76,11 +76,16 @@ impl Cubes {
             }
         }
         let mut armed = Armed::default();
+        // The toggles first: a refresh of ours must not reach a module
+        // between its flag and its 0x07 (see `switch_on`). A watchdog that
+        // was on already is kept alive by whoever switched it on until then,
+        // or has tripped, and the module was refused as not ready.
         let on = (|| {
-            if enabled {
+            self.switch_on(&off, &mut armed)?;
+            if enabled && !self.pc.refreshing() {
                 self.pc.start_refresh(REFRESH_EVERY)?;
             }
-            self.switch_on(&off, &mut armed)
+            Ok(())
         })();
         if let Err(e) = on {
             // Best effort: the error that stopped the motion is the one to tell.
@@ -94,7 +99,7 @@ impl Cubes {
 
     /// The flags first, then every 0x07 in one burst, and the refresh from
     /// right after it: the acknowledges may be slow, the watchdogs are
-    /// online from the moment each 0x07 arrives. The refreshes leave behind
+    /// online from the moment each 0x07 arrives. Our refreshes leave behind
     /// the 0x07s, so each toggle finds its watchdog offline, as it must
     /// (a refresh reaching a module whose flag is set may well switch its
     /// watchdog online: the manual calls it "activated automatically by
