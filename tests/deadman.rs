@@ -94,8 +94,9 @@ fn max_gap(times: &[f64]) -> f64 {
 }
 
 /// Whether the bench rather than the tool was too slow during `log`: the
-/// simulated modules answer at once, so an answer more than 50 ms after
-/// the request it answers means the pty between them was starved by the
+/// simulated modules answer within a millisecond or two, so an answer more
+/// than 25 ms after the request it answers means the pty between them (or
+/// the simulator) was starved by the
 /// load on the host (its kernel side runs at ordinary priority, whatever
 /// the two processes run at). The refreshes it carried then reached the
 /// simulated module late as well, and its watchdog tripped on them.
@@ -104,32 +105,47 @@ fn bench_starved(log: &Path) -> bool {
     for (t, f) in frames(log) {
         if f.starts_with("0C") || f.starts_with("0E") {
             asked.get_or_insert(t);
-        } else if f.starts_with("0A") && asked.take().is_some_and(|a| t - a > 0.050) {
+        } else if f.starts_with("0A") && asked.take().is_some_and(|a| t - a > 0.025) {
             return true;
         }
     }
     false
 }
 
-/// A module that tripped (`tripped`) during an attempt whose own
-/// refreshes in `log` were all less than 50 ms apart, on a starved bench:
-/// the attempt proves nothing either way and is run again. Any other trip
-/// fails the test.
+/// A module that tripped (`tripped`) during an attempt on an overloaded
+/// host: the tool was not run for 50 ms or more (a gap of that size between
+/// two refreshes in `log`; the refresh cadence itself is tested on virtual
+/// time, `device::powercube::deadman::tests`), or the bench was starved.
+/// Such an attempt proves nothing either way and is run again. A trip with
+/// every refresh in time on a bench answering in time fails the test.
 fn spoiled(log: &Path, tripped: bool, what: &str) -> Result<(), String> {
     if !tripped {
         return Ok(());
     }
-    let gap = max_gap(&refreshes(log));
-    assert!(gap < 0.050, "{what}: the tool left {:.1} ms between two refreshes", gap * 1e3);
+    let sent = refreshes(log);
+    assert!(!sent.is_empty(), "{what}: the module tripped and no refresh was sent");
+    let gap = max_gap(&sent);
+    if gap >= 0.050 {
+        return Err(format!("{what}: the tool was not run for {:.1} ms (an overloaded host)", gap * 1e3));
+    }
     assert!(bench_starved(log), "{what}: the module tripped, refreshed in time, on a bench answering in time");
     Err(format!("{what}: the module tripped on a starved bench (longest refresh gap sent {:.1} ms)", gap * 1e3))
 }
 
-/// Runs `attempt` (each on a new simulator) until one is not spoiled by a
-/// starved bench; at most 5 times.
+/// The tests of this file one at a time: each runs a simulator at real-time
+/// priority and a tool that raises its own, which on a small machine would
+/// otherwise take turns starving each other.
+fn one_at_a_time() -> std::sync::MutexGuard<'static, ()> {
+    static SERIAL: std::sync::Mutex<()> = std::sync::Mutex::new(());
+    SERIAL.lock().unwrap_or_else(|e| e.into_inner())
+}
+
+/// Runs `attempt` (each on a new simulator) until one is not spoiled by an
+/// overloaded host; at most 8 times.
 fn attempts<T>(mut attempt: impl FnMut() -> Result<T, String>) -> T {
+    let _serial = one_at_a_time();
     let mut spoilt = Vec::new();
-    for _ in 0..5 {
+    for _ in 0..8 {
         match attempt() {
             Ok(t) => return t,
             Err(e) => {
@@ -138,7 +154,7 @@ fn attempts<T>(mut attempt: impl FnMut() -> Result<T, String>) -> T {
             }
         }
     }
-    panic!("every attempt ran on a starved bench: {spoilt:?}");
+    panic!("every attempt ran on an overloaded host: {spoilt:?}");
 }
 
 fn ok(r: Run) -> serde_json::Value {
@@ -273,7 +289,7 @@ fn waited_move() -> Result<(), String> {
         "--wait",
         "--deadman",
     ]);
-    spoiled(&log, r.code == 5 && r.stdout.contains("STATE_COMM_ERROR"), "the waited move")?;
+    spoiled(&log, r.code == 5 && r.stderr.contains("STATE_COMM_ERROR"), "the waited move")?;
     let stderr = r.stderr.clone();
     let doc = ok(r);
     assert_eq!(doc["done"], true, "{doc}");
@@ -308,7 +324,7 @@ fn home_wait() -> Result<(), String> {
     let dir = tempfile::tempdir().unwrap();
     let log = dir.path().join("traffic.log");
     let r = run(&["--link", link, "--log", log.to_str().unwrap(), "--json", "home", "-m", "3", "--wait", "--deadman"]);
-    spoiled(&log, r.code == 5 && r.stdout.contains("STATE_COMM_ERROR"), "the waited homing")?;
+    spoiled(&log, r.code == 5 && r.stderr.contains("STATE_COMM_ERROR"), "the waited homing")?;
     let doc = ok(r);
     assert_eq!(doc["state"]["raw"].as_u64().unwrap() & COMM_ERROR, 0, "{doc}");
     let refreshed = refreshes(&log);
@@ -335,7 +351,7 @@ fn synchronized_move() -> Result<(), String> {
     let log = dir.path().join("traffic.log");
     let args = ["--link", link, "--log", log.to_str().unwrap(), "--json", "move-ramp", "-m", "3,5", "--sync"];
     let r = run(&[&args[..], &["0.5", "-0.5", "--wait", "--deadman"]].concat());
-    spoiled(&log, r.code == 5 && r.stdout.contains("STATE_COMM_ERROR"), "the synchronized move")?;
+    spoiled(&log, r.code == 5 && r.stderr.contains("STATE_COMM_ERROR"), "the synchronized move")?;
     let doc = ok(r);
     for d in doc["devices"].as_array().unwrap() {
         assert_eq!(d["state"]["raw"].as_u64().unwrap() & COMM_ERROR, 0, "{d}");
@@ -359,6 +375,7 @@ fn synchronized_move() -> Result<(), String> {
 /// before anything is sent.
 #[test]
 fn deadman_without_wait_or_on_rs232_is_refused_before_sending() {
+    let _serial = one_at_a_time();
     let r = run(&["--link", "sim", "move-ramp", "-m", "3", "0.5", "--deadman"]);
     assert_eq!(r.code, 2, "{}", r.stderr);
     assert!(r.stderr.contains("--wait"), "{}", r.stderr);
