@@ -215,7 +215,11 @@ fn sigkill_mid_motion() -> Result<(), String> {
     }
     let killed = SystemTime::now().duration_since(UNIX_EPOCH).unwrap().as_secs_f64();
     let ended = wait_bounded(child, 15, &["move-ramp"]);
-    assert_eq!(ended.signal, Some(libc::SIGKILL), "{}", ended.stderr);
+    if ended.signal.is_none() {
+        // It ended by itself just before the kill.
+        spoiled(&log, ended.code == 5, "just before the kill")?;
+    }
+    assert_eq!(ended.signal, Some(libc::SIGKILL), "exit {}", ended.code);
 
     // The module trips 50 ms after the last refresh, which may still be
     // ahead when the first read arrives.
