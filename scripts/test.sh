@@ -56,4 +56,4 @@ python3 -c 'import can, serial' || { say "python-can / pyserial still missing"; 
 
 # --install-only: stop here (CI runs `cargo test` itself, as the README shows).
 [ "${1:-}" = --install-only ] && exit 0
-cargo test --all-targets "$@"
+cargo test --all-targets --no-fail-fast "$@"

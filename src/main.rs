@@ -12,12 +12,23 @@ mod output;
 fn main() -> ExitCode {
     // First of all: a panic on any thread from here on halts a supervised motion.
     supervisor::install_panic_hook();
+    // A shell asking for completions (the script of `axisctl completions`):
+    // answered from the parser and the tables, then the process ends.
+    cli::complete::answer_shell(|| cli::command(&commands::exit::summary()));
     let cli = match cli::parse(&commands::exit::summary()) {
         Ok(cli) => cli,
         Err(e) => {
             let code = if e.use_stderr() { commands::exit::code(ErrorKind::Usage) } else { commands::exit::SUCCESS };
             if e.use_stderr() && json_requested() {
                 let _ = writeln!(std::io::stderr(), "{}", commands::error_json::usage(&e, code));
+                return ExitCode::from(code);
+            }
+            // One error style: clap's "error: ..." is said as every other
+            // error of the tool is, "axisctl: ...".
+            if e.use_stderr() {
+                let text = e.render().to_string();
+                let text = text.strip_prefix("error: ").map_or(text.clone(), |rest| format!("axisctl: {rest}"));
+                let _ = write!(std::io::stderr(), "{text}");
                 return ExitCode::from(code);
             }
             // Help and version go to stdout: a full disk fails them like any
@@ -32,6 +43,7 @@ fn main() -> ExitCode {
         }
     };
     let json = cli.global.json;
+    output::set_quiet(cli.global.quiet);
     let result = commands::run(cli);
     output::flush();
     match result {

@@ -108,9 +108,24 @@ pub fn json(value: &serde_json::Value) {
     }
 }
 
+static QUIET: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+
+/// `-q`: the command's results are not printed; errors and warnings still
+/// go to stderr, and the exit status says how it went.
+pub fn set_quiet(quiet: bool) {
+    QUIET.store(quiet, std::sync::atomic::Ordering::Relaxed);
+}
+
+fn quiet() -> bool {
+    QUIET.load(std::sync::atomic::Ordering::Relaxed)
+}
+
 /// One line on stdout that never panics: a failed write (a closed pipe,
 /// `/dev/full`) is recorded instead.
 pub fn line(args: std::fmt::Arguments) {
+    if quiet() {
+        return;
+    }
     if let Err(e) = writeln!(std::io::stdout(), "{args}") {
         note_failure(&e);
     }
@@ -118,6 +133,9 @@ pub fn line(args: std::fmt::Arguments) {
 
 /// Text on stdout without a line end, like [`line`].
 pub fn text(args: std::fmt::Arguments) {
+    if quiet() {
+        return;
+    }
     if let Err(e) = write!(std::io::stdout(), "{args}") {
         note_failure(&e);
     }

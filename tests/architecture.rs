@@ -58,10 +58,83 @@ fn rust_files(dir: &Path, out: &mut Vec<PathBuf>) {
     }
 }
 
-/// The file without its test modules: everything from a `#[cfg(test)]`
-/// line on, which is where this crate keeps them.
+/// The file without its test-only items: each `#[cfg(test)]` and the item
+/// it marks (`mod tests;`, or a `mod tests { ... }` block) are cut, and
+/// everything else is kept, wherever it stands: imports below a `mod
+/// tests;` line are checked like any other.
 fn without_tests(text: &str) -> String {
-    text.lines().take_while(|l| l.trim() != "#[cfg(test)]").collect::<Vec<_>>().join("\n")
+    let mut out = String::new();
+    let mut rest = text;
+    while let Some(at) = rest.find("#[cfg(test)]") {
+        out.push_str(&rest[..at]);
+        rest = &rest[at + "#[cfg(test)]".len()..];
+        rest = &rest[item_end(rest)..];
+    }
+    out.push_str(rest);
+    out
+}
+
+/// Where the item at the start of `text` ends: after its `;` when that
+/// comes before any `{`, else after the `}` that closes its first `{`.
+/// Braces inside strings, characters and comments do not count.
+fn item_end(text: &str) -> usize {
+    let bytes = text.as_bytes();
+    let mut depth = 0usize;
+    let mut i = 0;
+    while i < bytes.len() {
+        match bytes[i] {
+            b'/' if bytes.get(i + 1) == Some(&b'/') => {
+                i = text[i..].find('\n').map_or(bytes.len(), |n| i + n);
+                continue;
+            }
+            b'/' if bytes.get(i + 1) == Some(&b'*') => {
+                i = text[i + 2..].find("*/").map_or(bytes.len(), |n| i + 2 + n + 2);
+                continue;
+            }
+            b'r' if matches!(bytes.get(i + 1), Some(b'"' | b'#')) && !ident_before(bytes, i) => {
+                let hashes = bytes[i + 1..].iter().take_while(|&&b| b == b'#').count();
+                if bytes.get(i + 1 + hashes) == Some(&b'"') {
+                    let close = format!("\"{}", "#".repeat(hashes));
+                    let body = i + 2 + hashes;
+                    i = text[body..].find(&close).map_or(bytes.len(), |n| body + n + close.len());
+                    continue;
+                }
+            }
+            b'"' => {
+                i += 1;
+                while i < bytes.len() && bytes[i] != b'"' {
+                    i += if bytes[i] == b'\\' { 2 } else { 1 };
+                }
+            }
+            // A character literal ('{', '\'', '\u{7b}'), not a lifetime ('a).
+            b'\'' => {
+                let len = if bytes.get(i + 1) == Some(&b'\\') {
+                    text[i + 2..].find('\'').map(|n| n + 3)
+                } else {
+                    text[i + 1..].chars().next().map(|c| c.len_utf8() + 2)
+                };
+                if let Some(len) = len.filter(|&l| bytes.get(i + l - 1) == Some(&b'\'')) {
+                    i += len;
+                    continue;
+                }
+            }
+            b';' if depth == 0 => return i + 1,
+            b'{' => depth += 1,
+            b'}' => {
+                depth = depth.saturating_sub(1);
+                if depth == 0 {
+                    return i + 1;
+                }
+            }
+            _ => {}
+        }
+        i += 1;
+    }
+    bytes.len()
+}
+
+fn ident_before(bytes: &[u8], i: usize) -> bool {
+    i > 0 && (bytes[i - 1].is_ascii_alphanumeric() || bytes[i - 1] == b'_')
 }
 
 /// `a::{b, c::{d, e}}` -> `a::b`, `a::c::d`, `a::c::e`.
@@ -322,4 +395,14 @@ fn the_rules_catch_what_they_forbid() {
     assert_eq!(cycles(&edges).len(), 1);
     let edges = BTreeMap::from([(a, BTreeSet::from([b]))]);
     assert!(cycles(&edges).is_empty());
+    // Test items are cut wherever they stand, and only they: an import
+    // below `mod tests;` is still seen, braces in strings and characters
+    // do not end a test module early.
+    let text = "use crate::a;\n#[cfg(test)]\nmod tests;\nuse crate::b;\n#[cfg(test)]\nmod more {\n    \
+                const S: &str = \"}\";\n    const C: char = '}';\n    const R: &str = r#\"}\"#;\n    // }\n    \
+                use crate::c;\n    fn f<'a>(x: &'a str) -> &'a str { x }\n}\nuse crate::d;\n";
+    let kept = without_tests(text);
+    for (path, seen) in [("crate::a", true), ("crate::b", true), ("crate::c", false), ("crate::d", true)] {
+        assert_eq!(kept.contains(path), seen, "{path} in:\n{kept}");
+    }
 }

@@ -432,3 +432,15 @@ fn an_error_reply_to_another_command_does_not_fail_this_one() {
     let e = r.unwrap_err().to_string();
     assert!(e.contains("MOTOR_NOT_ENABLED") && !e.contains("no module"), "{e}");
 }
+
+/// Stops are idempotent: on the fresh bench every motor stands, and a stop
+/// of it succeeds and says so (`cdios-stop ... && halt --all` goes on).
+#[test]
+fn a_stop_of_a_motor_at_rest_exits_0_and_says_it_was_at_rest() {
+    let r = common::run(&["--link", "sim", "--json", "cdios-stop", "-m", "0"]);
+    assert_eq!(r.code, 0, "{}", r.stderr);
+    assert_eq!(r.json()["already_stopped"], true, "{}", r.stdout);
+    let r = common::run(&["--link", "sim", "cdios-stop", "-m", "1", "--option", "fast"]);
+    assert_eq!(r.code, 0, "{}", r.stderr);
+    assert!(r.stdout.contains("the motor was at rest already"), "{}", r.stdout);
+}

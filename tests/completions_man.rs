@@ -25,15 +25,17 @@ fn complete_bash(words: &[&str]) -> Vec<String> {
     let dir = tempfile::tempdir().unwrap();
     let script = dir.path().join("axisctl.bash");
     std::fs::write(&script, axisctl(&["completions", "bash"]).stdout).unwrap();
-    let words = words.join(" ");
+    // An empty word (the cursor after a space) is kept as one.
+    let words = words.iter().map(|w| format!("'{w}'")).collect::<Vec<_>>().join(" ");
     let program = format!(
         r#"source '{}'
-complete -p axisctl | grep -q -- '-F _axisctl' || {{ echo 'not registered' >&2; exit 3; }}
+complete -p axisctl | grep -q -- '-F _clap_complete_axisctl' || {{ echo 'not registered' >&2; exit 3; }}
 COMP_WORDS=(axisctl {words})
 COMP_CWORD=$(( ${{#COMP_WORDS[@]}} - 1 ))
 COMP_LINE="${{COMP_WORDS[*]}}"
 COMP_POINT=${{#COMP_LINE}}
-_axisctl axisctl "${{COMP_WORDS[COMP_CWORD]}}" "${{COMP_WORDS[COMP_CWORD-1]}}"
+COMP_TYPE=9
+_clap_complete_axisctl axisctl "${{COMP_WORDS[COMP_CWORD]}}" "${{COMP_WORDS[COMP_CWORD-1]}}"
 printf '%s\n' "${{COMPREPLY[@]}}""#,
         script.display()
     );
@@ -57,11 +59,43 @@ fn bash_completes_the_options_of_a_subcommand() {
     assert!(got.iter().any(|c| c == "--wait"), "{got:?}");
 }
 
+/// The main usage: a global option's value before the subcommand is no
+/// subcommand (`sim` is one too), and values come from the tables.
 #[test]
-fn every_shell_gets_a_script_naming_the_commands() {
+fn bash_completes_after_the_link_with_options_parameters_and_commands() {
+    let got = complete_bash(&["--link", "sim", "move-ramp", "--"]);
+    assert!(got.iter().any(|c| c == "--vel"), "{got:?}");
+    assert!(!got.iter().any(|c| c == "--wire-speed"), "the sim subcommand's flags: {got:?}");
+    let got = complete_bash(&["--link", "sim", "get-param", "-m", "3", "Act"]);
+    assert!(got.iter().any(|c| c == "ActPos") && got.iter().all(|c| c.starts_with("Act")), "{got:?}");
+    let got = complete_bash(&["--link", "sim", ""]);
+    assert!(got.iter().any(|c| c == "move-ramp") && got.iter().any(|c| c == "pac-move"), "{got:?}");
+    let got = complete_bash(&["decode", "cube-"]);
+    assert_eq!(got, ["cube-state"]);
+    let got = complete_bash(&["--link", "si"]);
+    assert_eq!(got, ["sim"]);
+    let got = complete_bash(&["--link", "sim", "set-config", "-m", "3", "+brake-p"]);
+    assert_eq!(got, ["+brake-present"]);
+    let got = complete_bash(&["--link", "sim", "record", "-m", "17", "ActP"]);
+    assert!(got.iter().any(|c| c == "ActPos"), "{got:?}");
+}
+
+#[test]
+fn every_shell_gets_a_script_that_asks_this_binary() {
+    let exe = env!("CARGO_BIN_EXE_axisctl");
     for shell in ["bash", "zsh", "fish", "elvish", "powershell"] {
         let r = axisctl(&["completions", shell]);
-        assert!(r.stdout.contains("pac-axis") && r.stdout.contains("cdios-goto"), "{shell}: {}", r.stdout);
+        assert!(r.stdout.contains(exe) && r.stdout.contains("AXISCTL_COMPLETE"), "{shell}: {}", r.stdout);
+    }
+    // fish and powershell complete the last word: asked as their scripts ask.
+    for shell in ["fish", "powershell"] {
+        let out = common::bin()
+            .env("AXISCTL_COMPLETE", shell)
+            .args(["--", "axisctl", "--link", "sim", "pac-a"])
+            .output()
+            .unwrap();
+        let text = String::from_utf8_lossy(&out.stdout);
+        assert!(out.status.success() && text.lines().any(|l| l.starts_with("pac-axis\t")), "{shell}: {text}");
     }
     let r = common::run(&["completions", "tcsh"]);
     assert_eq!(r.code, 2, "{}", r.stderr);

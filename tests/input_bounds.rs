@@ -38,9 +38,33 @@ fn a_wait_that_cannot_be_timed_is_refused_before_the_move() {
         refused_unsent(&["pac-move", "2", "100", "--wait", "--wait-timeout", t]);
         refused_unsent(&["cdios-goto", "-m", "0", "100", "--wait", "--wait-timeout", t]);
     }
+    for t in ["0", "0.0", "-0", "1e-9"] {
+        refused_unsent(&["move-ramp", "-m", "17", "0.1", "--wait", "--wait-timeout", t]);
+        refused_unsent(&["home", "-m", "17", "--wait", "--wait-timeout", t]);
+        refused_unsent(&["pac-move", "2", "100", "--wait", "--wait-timeout", t]);
+        refused_unsent(&["pac-ref", "2", "--wait", "--wait-timeout", t]);
+        let err = refused_unsent(&["cdios-goto", "-m", "0", "100", "--wait", "--wait-timeout", t]);
+        assert!(err.contains("is outside 0.001 to 86400 s"), "{err}");
+    }
     for p in ["0", "18446744073709551615"] {
         refused_unsent(&["move-ramp", "-m", "17", "0.1", "--wait", "--poll", p]);
     }
+}
+
+/// A step in no time is a jump: refused, for every form of the step.
+#[test]
+fn a_step_in_no_time_is_refused_before_the_move() {
+    for args in [
+        &["move-step", "-m", "17", "0.1", "--time", "0"][..],
+        &["move-step", "-m", "17", "0.1", "--time", "0", "--force"],
+        &["move-step", "-m", "17", "100", "--time", "0", "--ticks", "--relative"],
+    ] {
+        let err = refused_unsent(args);
+        assert!(err.contains("\"0\" is not a number from 1 to 65535 ms"), "{args:?}: {err}");
+    }
+    refused_unsent(&["move-step", "-m", "17", "0.1", "--time", "65536"]);
+    let r = run(&["--link", "sim", "move-step", "-m", "17", "0.1", "--time", "1"]);
+    assert_eq!(r.code, 0, "{}", r.stderr);
 }
 
 #[test]

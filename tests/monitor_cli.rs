@@ -101,3 +101,59 @@ fn an_undecodable_frame_is_a_decode_error_not_an_error() {
     assert_eq!(line["decode_error"], "unknown command id 0xff", "{line}");
     assert!(line.get("error").is_none(), "{line}");
 }
+
+/// `--from-log -` reads standard input, as candump's tools chain; a log is
+/// streamed, so a line that never ends is refused at its bound, not read
+/// into memory.
+#[test]
+fn a_log_on_standard_input_is_replayed_and_a_line_without_end_is_refused() {
+    let log = "(1700000000.000000) can0 0E3#01\n(1700000000.000100) can0 0A3#01\n";
+    let r = common::run_with_stdin(&["--json", "monitor", "--from-log", "-"], log);
+    assert_eq!(r.code, 0, "{}", r.stderr);
+    assert_eq!(r.stdout.lines().count(), 2, "{}", r.stdout);
+    // The tool stops reading at the bound, so the input is a file, not a
+    // pipe whose writer would see EPIPE.
+    let endless = tempfile::NamedTempFile::new().unwrap();
+    std::fs::write(endless.path(), "(".repeat(1 << 20)).unwrap();
+    let out = common::bin()
+        .args(["monitor", "--from-log", "-"])
+        .stdin(std::fs::File::open(endless.path()).unwrap())
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{stderr}");
+    assert!(stderr.contains("standard input:1: line longer than 4096 bytes"), "{stderr}");
+}
+
+/// The in-process bench has nobody else on its bus: the monitor says so
+/// instead of waiting without a word.
+#[test]
+fn monitoring_the_in_process_bench_says_nothing_will_show() {
+    let r = run(&["--link", "sim", "monitor", "--for", "0.05"]);
+    assert_eq!(r.code, 0, "{}", r.stderr);
+    assert!(r.stderr.contains("the in-process bench has no other client"), "{}", r.stderr);
+}
+
+/// `--timestamps` counts the time column as candump's -t a|d|z does.
+#[test]
+fn timestamps_absolute_delta_and_zero() {
+    let log = tempfile::NamedTempFile::new().unwrap();
+    std::fs::write(
+        log.path(),
+        "(1700000000.250000) can0 0E3#01\n(1700000000.750000) can0 0A3#01\n(1700000001.000000) can0 0E3#01\n",
+    )
+    .unwrap();
+    let p = log.path().to_str().unwrap();
+    let column = |how: &str| -> Vec<String> {
+        let r = run(&["monitor", "--from-log", p, "--timestamps", how]);
+        assert_eq!(r.code, 0, "{}", r.stderr);
+        r.stdout.lines().map(|l| l.split_whitespace().next().unwrap().to_string()).collect()
+    };
+    assert_eq!(column("absolute"), ["1700000000.250000", "1700000000.750000", "1700000001.000000"]);
+    assert_eq!(column("delta"), ["0.000000", "0.500000", "0.250000"]);
+    assert_eq!(column("zero"), ["0.000000", "0.500000", "0.750000"]);
+    // A filter that is none is refused before anything is read.
+    let r = run(&["monitor", "--from-log", p, "--filter", "0E0"]);
+    assert_eq!(r.code, 2, "{}", r.stderr);
+    assert!(r.stderr.contains("write ID:MASK"), "{}", r.stderr);
+}

@@ -52,6 +52,7 @@ fn misspelled_names_get_did_you_mean_before_anything_opens() {
     for (args, want) in [
         (&["get-param", "-m", "3", "ActPoss", "CubeState"][..], "did you mean one of ActPos, ActPos_?"),
         (&["set-param", "-m", "3", "MaxVell", "0.1"], "did you mean MaxVel?"),
+        (&["record", "-m", "3", "ActCur", "--count", "1"], "did you mean Cur?"),
         (&["set-config", "-m", "3", "+brake-presnt"], "did you mean brake-present?"),
         (&["set-config", "-m", "3", "-CONFIGID_MOD_BRAKE_PRESNT"], "did you mean CONFIGID_MOD_BRAKE_PRESENT?"),
         (&["cdios-config", "-m", "0", "speeds.maximum_sped=5000"], "did you mean speeds.maximum_speed?"),

@@ -53,3 +53,36 @@ fn python_can_reads_our_log_files_frame_for_frame() {
     assert!(ours.len() > 100, "get-param --all logs every read: {}", ours.len());
     assert_eq!(theirs, ours);
 }
+
+/// `monitor --filter ID:MASK` passes what python-can's own CAN filters (the
+/// SocketCAN can_id / can_mask semantics) pass, frame for frame, on a log of
+/// PowerCube and Cdios traffic.
+#[test]
+fn monitor_filters_pass_what_python_cans_filters_pass() {
+    let log = tempfile::Builder::new().suffix(".log").tempfile().unwrap();
+    let p = log.path().to_str().unwrap();
+    for args in [
+        &["home", "-m", "17"][..],
+        &["get-param", "-m", "3,5", "ActPos"],
+        &["halt", "--all"],
+        &["cdios-status", "-m", "0"],
+    ] {
+        let mut full = vec!["--link", "sim", "--log", p];
+        full.extend_from_slice(args);
+        assert_eq!(common::run(&full).code, 0, "{args:?}");
+    }
+    for filters in [&["0E0:7E0"][..], &["0A0:7E0", "100:7FF"], &["181:7FF", "201:7FF"], &["0C3:7FF"], &["000:000"]] {
+        let mut args = vec!["monitor", "--from-log", p, "--candump"];
+        for f in filters {
+            args.extend(["--filter", f]);
+        }
+        let r = common::run(&args);
+        assert_eq!(r.code, 0, "{}", r.stderr);
+        let ours: Vec<String> = r.stdout.lines().map(|l| l.split_whitespace().nth(2).unwrap().to_string()).collect();
+        let mut script_args = vec![p];
+        script_args.extend_from_slice(filters);
+        let theirs: Vec<String> = python("filter_log.py", &script_args).lines().map(String::from).collect();
+        assert!(!theirs.is_empty(), "{filters:?} passes something");
+        assert_eq!(ours, theirs, "{filters:?}");
+    }
+}

@@ -380,18 +380,37 @@ fn a_full_disk_never_lets_the_move_start() {
     assert!(!frames(&log).iter().any(|f| f.starts_with("0F1#0B")), "a motion went out: {:?}", frames(&log));
 }
 
+/// `axisctl ARGS` against a served simulator, with an answer timeout far
+/// above any answer a loaded machine delays (no timeout is checked here: a
+/// late answer must not fail the test), under a deadline.
+fn run_served(args: &[&str]) -> Run {
+    let mut all = vec!["--timeout", "5000"];
+    all.extend_from_slice(args);
+    let child = common::bin().args(&all).stdout(Stdio::piped()).stderr(Stdio::piped()).spawn().unwrap();
+    common::wait_bounded(child, 120, &all).run()
+}
+
+// The recordings are counted (--count), not timed (--for): their samples
+// are due every 50 ms (--rate 20; one that comes late is followed by the
+// overdue ones at once), so the last is taken at least 1.95 s after the
+// first, however slow the machine. The motion starts after the first
+// sample; only an answer more than a second and a half late could leave
+// it no time to show in the last.
 #[test]
 fn served_pac_and_cdios_moves_are_recorded_on_the_same_link() {
     let sim = Sim::start(&[], 3);
     let pac = sim.link("pac");
-    assert_eq!(run(&["--link", pac, "pac-online"]).code, 0);
-    assert_eq!(run(&["--link", pac, "pac-no-ref", "2"]).code, 0);
-    let r = run(&[
-        "--link", pac, "--json", "record", "--axis", "2", "position", "speed", "--for", "1.5s", "--", "pac-move", "2",
-        "250",
+    for args in [&["pac-online"][..], &["pac-no-ref", "2"]] {
+        let r = run_served(&[&["--link", pac][..], args].concat());
+        assert_eq!(r.code, 0, "{args:?}: {}", r.stderr);
+    }
+    let r = run_served(&[
+        "--link", pac, "--json", "record", "--axis", "2", "position", "speed", "--rate", "20", "--count", "40", "--",
+        "pac-move", "2", "250",
     ]);
     assert_eq!(r.code, 0, "{}", r.stderr);
     let lines = checked_lines(&r);
+    assert_eq!(lines.len(), 40, "{}", r.stdout);
     let pos = |l: &Value| l["devices"][0]["values"]["position"]["value"].as_f64().unwrap();
     assert_eq!(lines[0]["devices"][0]["axis"], 2);
     assert_eq!(lines[0]["devices"][0]["values"]["position"]["unit"], "AE");
@@ -399,8 +418,9 @@ fn served_pac_and_cdios_moves_are_recorded_on_the_same_link() {
     assert!(r.stderr.contains("axis 2 at t = "), "{}", r.stderr);
 
     let cdios = sim.link("cdios");
-    assert_eq!(run(&["--link", cdios, "cdios-enable", "-m", "0"]).code, 0);
-    let r = run(&[
+    let r = run_served(&["--link", cdios, "cdios-enable", "-m", "0"]);
+    assert_eq!(r.code, 0, "{}", r.stderr);
+    let r = run_served(&[
         "--link",
         cdios,
         "--json",
@@ -411,8 +431,10 @@ fn served_pac_and_cdios_moves_are_recorded_on_the_same_link() {
         "0",
         "position",
         "speed",
-        "--for",
-        "1s",
+        "--rate",
+        "20",
+        "--count",
+        "40",
         "--",
         "cdios-goto",
         "-m",
@@ -421,6 +443,7 @@ fn served_pac_and_cdios_moves_are_recorded_on_the_same_link() {
     ]);
     assert_eq!(r.code, 0, "{}", r.stderr);
     let lines = checked_lines(&r);
+    assert_eq!(lines.len(), 40, "{}", r.stdout);
     let pos = |l: &Value| l["devices"][0]["values"]["position"]["value"].as_f64().unwrap();
     assert_eq!(lines[0]["devices"][0]["node"], 1);
     assert_eq!(lines[0]["devices"][0]["values"]["speed"]["unit"], "rpm");

@@ -132,7 +132,8 @@ fn argument_errors_are_json_objects_under_json() {
     // Without --json (and after `--`, where it is a value) the error stays text.
     let r = run(&["--link", "sim", "state", "-m", "0"]);
     assert_eq!(r.code, 2);
-    assert!(r.stderr.starts_with("error:"), "{}", r.stderr);
+    // In the tool's one error style, as every other error.
+    assert!(r.stderr.starts_with("axisctl: invalid value '0' for '--module"), "{}", r.stderr);
 }
 
 // docs/json.md shows errors as the binary prints them: each block after an
@@ -153,4 +154,43 @@ fn documented_errors_are_real_output() {
         checked += 1;
     }
     assert!(checked >= 3, "only {checked} documented errors");
+}
+
+// The environment's link matters only to commands that talk to a device: an
+// offline command runs whatever AXISCTL_LINK holds, and a command that needs
+// the link says which variable held the bad value.
+#[test]
+fn a_bad_axisctl_link_fails_only_commands_that_use_a_link_and_is_named() {
+    let offline: &[&[&str]] =
+        &[&["decode", "cube-state", "1"], &["params"], &["flags", "brake"], &["completions", "bash"], &["man"]];
+    for args in offline {
+        let r = common::bin().env("AXISCTL_LINK", "bogus").args(*args).output().unwrap();
+        assert_eq!(r.status.code(), Some(0), "{args:?}: {}", String::from_utf8_lossy(&r.stderr));
+    }
+    let r = common::bin().env("AXISCTL_LINK", "bogus").args(["--json", "state", "-m", "3"]).output().unwrap();
+    assert_eq!(r.status.code(), Some(2));
+    let doc: Value = serde_json::from_slice(&r.stderr).unwrap();
+    let message = doc["error"]["message"].as_str().unwrap();
+    assert!(message.starts_with("AXISCTL_LINK: bad link \"bogus\""), "{doc}");
+    let r = common::bin().args(["--link", "bogus", "state", "-m", "3"]).output().unwrap();
+    assert_eq!(r.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&r.stderr).contains("--link: bad link \"bogus\""));
+}
+
+// -q prints no results (the exit status says how it went; errors still go to
+// stderr); -v / --verbose is --trace, not a misspelled --version.
+#[test]
+fn quiet_prints_no_results_and_verbose_is_the_trace() {
+    let r = run(&["--link", "sim", "-q", "state", "-m", "3"]);
+    assert_eq!((r.code, r.stdout.as_str()), (0, ""), "{}", r.stderr);
+    let r = run(&["--link", "sim", "-q", "state", "-m", "9"]);
+    assert_eq!((r.code, r.stdout.as_str()), (4, ""));
+    assert!(r.stderr.starts_with("axisctl: "), "the error is still said: {}", r.stderr);
+    assert_eq!(run(&["--link", "sim", "-q", "--json", "state", "-m", "3"]).code, 2, "-q and --json conflict");
+    for flag in ["-v", "--verbose"] {
+        let r = run(&["--link", "sim", flag, "state", "-m", "3"]);
+        assert_eq!(r.code, 0, "{}", r.stderr);
+        assert!(r.stderr.contains("-> 0C3#0A27 GetExtended CubeState to module 3"), "{flag}: {}", r.stderr);
+        assert!(r.stdout.contains("CubeState"), "{flag}: {}", r.stdout);
+    }
 }

@@ -160,6 +160,13 @@ fn the_sims_trace_decodes_powercube_rs232_both_ways() {
     let lines = untimed(&log_lines(&sim_log));
     assert!(lines.iter().any(|l| l.starts_with("serial0 tx 02 04 62 0A 3C AC 03")), "{lines:?}");
     assert!(lines.iter().any(|l| l.starts_with("serial0 rx 02 08 66 0A 3C")), "{lines:?}");
+    // A broadcast (module address 0) carries [cmd, param]: the modules carry
+    // it out, and the trace names it as such, not as a malformed command.
+    let r = run(&["--link", &link, "halt", "--all"]);
+    assert_eq!(r.code, 0, "{}", r.stderr);
+    let halt = format!("{link} -> 02 04 10 82 10 82 00 08 03 Halt to all");
+    let trace = sim.trace_with(&[&halt]);
+    assert!(trace.lines().any(|l| l == halt), "{trace}");
 }
 
 /// Without `--trace` and `--log` the simulator says nothing about its traffic.

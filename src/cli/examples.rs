@@ -32,27 +32,24 @@ pub const EXAMPLES: &[(&str, &[&str])] = &[
             "--link sim get-param -m 17 --all",
         ],
     ),
-    ("set-param", &["--link sim set-param -m 17 MaxVel 0.1", "--link sim set-param -m 3 ActPos -0.25"]),
+    ("set-param", &["--link sim set-param -m 17 MaxVel 0.1", "--link sim set-param -m 3 MinPos -0.25"]),
     ("get-config", &["--link sim get-config -m 17"]),
     (
         "set-config",
-        &[
-            "--link sim set-config -m 17 +brake-present -sync-motion",
-            "--link sim set-config -m 17 --raw 0x00000001 --force",
-        ],
+        &["--link sim set-config -m 17 +brake-present -sync-motion", "--link sim set-config -m 17 -brake-present"],
     ),
     ("dio", &["--link sim dio -m 17", "--link sim dio -m 17 --out 0b0101"]),
     (
         "watchdog",
         &[
             "--link sim watchdog on -m 17",
-            "--link sim watchdog keepalive --interval 20",
+            "--link sim watchdog keepalive --interval 20 --for 2",
             "--link sim watchdog off -m 17",
         ],
     ),
     ("watchdog on", &["--link sim watchdog on -m 17"]),
     ("watchdog off", &["--link sim watchdog off -m 17"]),
-    ("watchdog keepalive", &["--link sim watchdog keepalive --interval 20 --for 10"]),
+    ("watchdog keepalive", &["--link sim watchdog keepalive --interval 20 --for 2"]),
     (
         "decode",
         &["decode cube-state 0x0800000b", "--json decode config 0x00000001", "decode pac-ext-axis-status 0x0003"],
@@ -67,7 +64,7 @@ pub const EXAMPLES: &[(&str, &[&str])] = &[
         ],
     ),
     ("monitor", &["--link slcan:/dev/ttyACM0 monitor -m 3,5", "monitor --from-log bus.log --family powercube --stats"]),
-    ("cdios-identify", &["--link sim cdios-identify", "--link sim cdios-identify --node 2"]),
+    ("cdios-identify", &["--link sim cdios-identify", "--link sim --json cdios-identify --node 1"]),
     ("cdios-status", &["--link sim cdios-status -m 0", "--link sim --json cdios-status -m all --node 1"]),
     (
         "cdios-position",
@@ -98,7 +95,7 @@ pub const EXAMPLES: &[(&str, &[&str])] = &[
     ("cdios-analog", &["--link sim cdios-analog -m 0", "--link sim cdios-analog -m 0 --output 1 --set -2500"]),
     ("cdios-events", &["--link sim cdios-events -m 0", "--link sim cdios-events -m 0 --mask GOTO_ACTIVE,ENABLED"]),
     ("cdios-store", &["--link sim cdios-store -m 0"]),
-    ("cdios-watch", &["--link sim cdios-watch -m 0 --for 5", "--link sim --json cdios-watch -m 0 --count 10"]),
+    ("cdios-watch", &["--link sim cdios-watch -m 0 --for 5", "--link sim --json cdios-watch -m 0 --for 2"]),
     (
         "batch",
         &[

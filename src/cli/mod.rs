@@ -4,6 +4,7 @@
 pub mod backup;
 pub mod batch;
 pub mod cdios;
+pub mod complete;
 pub mod dashboard;
 pub mod examples;
 pub mod ids;
@@ -44,8 +45,11 @@ pub const MAX_RETRIES: u32 = 10;
 #[command(next_help_heading = "Global options")]
 pub struct Global {
     /// The link: socketcan:IFACE, slcan:TTY[?bitrate=N], serial:TTY[?baud=N&format=F] or sim
-    #[arg(long, global = true, env = "AXISCTL_LINK", value_name = "URI")]
+    #[arg(long, global = true, env = "AXISCTL_LINK", value_name = "URI", add = complete::links())]
     pub link: Option<String>,
+    /// The link came from `AXISCTL_LINK`, not `--link`: an error about it names the variable.
+    #[arg(skip)]
+    pub link_from_env: bool,
     /// Machine output: one JSON document on stdout (JSON Lines for streams)
     #[arg(long, global = true)]
     pub json: bool,
@@ -54,8 +58,11 @@ pub struct Global {
           value_parser = ids::number(1, MAX_TIMEOUT_MS, "ms"))]
     pub timeout: Option<u64>,
     /// Print every frame sent and received, decoded, on stderr
-    #[arg(long, global = true)]
+    #[arg(long, short = 'v', visible_alias = "verbose", global = true)]
     pub trace: bool,
+    /// Print no results, only errors and warnings (on stderr); the exit status says how it went
+    #[arg(long, short = 'q', global = true, conflicts_with = "json")]
+    pub quiet: bool,
     /// Append every CAN frame in candump -l format (serial traffic as hex lines) to FILE
     #[arg(long, global = true, value_name = "FILE")]
     pub log: Option<PathBuf>,
@@ -75,6 +82,7 @@ pub enum Command {
     /// Decode a raw word offline (decode --help lists the kinds)
     Decode {
         /// What the value is (the kinds are listed below)
+        #[arg(add = complete::decode_kinds())]
         kind: String,
         /// The raw value (decimal, 0x hex or 0b binary; hex bytes for profibus-image)
         value: String,
@@ -112,18 +120,17 @@ pub enum Command {
     /// Draw a recording of `record` as an SVG chart with units
     Plot(record::PlotArgs),
     /// Print a shell completion script: bash, zsh, fish, elvish or powershell
-    #[command(
-        after_help = "Examples:\n  axisctl completions bash > ~/.local/share/bash-completion/completions/axisctl\n  \
+    #[command(after_help = "Examples:\n  \
+                            axisctl completions bash > ~/.local/share/bash-completion/completions/axisctl   # mkdir -p the directory first\n  \
                             axisctl completions zsh > ~/.zfunc/_axisctl\n  \
-                            axisctl completions fish > ~/.config/fish/completions/axisctl.fish"
-    )]
+                            axisctl completions fish > ~/.config/fish/completions/axisctl.fish")]
     Completions {
         /// The shell the script is for
         shell: clap_complete::Shell,
     },
     /// Print the man page (roff), or with --dir write one page per subcommand
     #[command(after_help = "Examples:\n  axisctl man | man -l -\n  \
-                            axisctl man --dir ~/.local/share/man/man1   # then: man axisctl-pac-move")]
+                            axisctl man --dir ~/.local/share/man/man1   # then: man -l ~/.local/share/man/man1/axisctl-pac-move.1")]
     Man {
         /// Write axisctl.1 and axisctl-COMMAND.1 for every subcommand into this directory
         #[arg(long, value_name = "DIR")]
@@ -190,5 +197,7 @@ fn finish(cmd: clap::Command, path: &str) -> clap::Command {
 pub fn parse(exit_codes: &str) -> Result<Cli, clap::Error> {
     let mut cmd = command(exit_codes);
     let matches = cmd.try_get_matches_from_mut(std::env::args_os()).map_err(|e| suggest::subcommand(e, &cmd))?;
-    Cli::from_arg_matches(&matches).map_err(|e| e.with_cmd(&cmd))
+    let mut cli = Cli::from_arg_matches(&matches).map_err(|e| e.with_cmd(&cmd))?;
+    cli.global.link_from_env = matches.value_source("link") == Some(clap::parser::ValueSource::EnvVariable);
+    Ok(cli)
 }

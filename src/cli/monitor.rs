@@ -6,7 +6,7 @@ use clap::Args;
 
 use super::ids::{self, IdList};
 use axisctl::family::{IdRange, CDIOS_MODULE, POWERCUBE_MODULE};
-use axisctl::monitor::FamilyFilter;
+use axisctl::monitor::{FamilyFilter, IdFilter};
 
 /// A module id of any family on the bus.
 const ANY_MODULE: IdRange = IdRange { min: CDIOS_MODULE.min, max: POWERCUBE_MODULE.max, ..POWERCUBE_MODULE };
@@ -22,6 +22,12 @@ pub struct MonitorArgs {
     /// Only these CAN ids, hex (e.g. 0F1; repeatable)
     #[arg(long, value_name = "HEX")]
     pub id: Vec<String>,
+    /// Only frames passing ID:MASK (or not ID~MASK), hex, as candump's filters; several: any passes
+    #[arg(long, value_name = "ID:MASK", value_delimiter = ',', value_parser = clap::value_parser!(IdFilter))]
+    pub filter: Vec<IdFilter>,
+    /// Time column: absolute (seconds since 1970), delta (since the frame before) or zero (since the first), as candump -t a|d|z
+    #[arg(long, value_name = "WHEN", default_value = "absolute")]
+    pub timestamps: Timestamps,
     /// Stop after this many shown frames
     #[arg(long, value_name = "N")]
     pub count: Option<u64>,
@@ -34,7 +40,16 @@ pub struct MonitorArgs {
     /// Print candump -L lines instead of decoded ones
     #[arg(long)]
     pub candump: bool,
-    /// Decode a candump log file instead of listening on a link
+    /// Decode a candump log file instead of listening on a link (- reads standard input)
     #[arg(long, value_name = "FILE")]
     pub from_log: Option<PathBuf>,
+}
+
+/// How the human time column counts (JSON keeps `timestamp` absolute and
+/// adds nothing: a script subtracts).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum Timestamps {
+    Absolute,
+    Delta,
+    Zero,
 }

@@ -31,7 +31,7 @@ pub struct PacWait {
     /// Wait until the axis stands still, showing the position live (Ctrl-C stops the axis)
     #[arg(long)]
     pub wait: bool,
-    /// Give up waiting after this many seconds (the axis is stopped)
+    /// Give up waiting after this many seconds, 0.001 to 86400 (the axis is stopped, exit 7)
     #[arg(long, value_name = "S", default_value = super::wait::DEFAULT_WAIT_TIMEOUT, value_parser = super::wait::wait_timeout,
           requires = "wait")]
     pub wait_timeout: std::time::Duration,

@@ -122,8 +122,8 @@ pub enum PowerCubeCommand {
         /// Target position (rad or m; encoder ticks with --ticks)
         #[arg(allow_negative_numbers = true)]
         pos: f64,
-        /// Time to reach the position, ms
-        #[arg(long, value_name = "MS")]
+        /// Time to reach the position, 1 to 65535 ms (the step's UInt16)
+        #[arg(long, value_name = "MS", value_parser = ids::number(1u16, u16::MAX, "ms"))]
         time: u16,
         /// Values are encoder ticks
         #[arg(long)]
@@ -165,7 +165,7 @@ pub enum PowerCubeCommand {
         #[command(flatten)]
         module: ModulesArg,
         /// Parameters by manual name (ActPos, case-insensitive) or id (60, 0x3c); `axisctl params` lists them
-        #[arg(value_name = "NAME|ID", required_unless_present = "all")]
+        #[arg(value_name = "NAME|ID", required_unless_present = "all", add = super::complete::params())]
         params: Vec<String>,
         /// Every readable parameter
         #[arg(long, conflicts_with = "params")]
@@ -176,7 +176,7 @@ pub enum PowerCubeCommand {
         #[command(flatten)]
         module: ModuleArg,
         /// The parameter by manual name (case-insensitive) or id; `axisctl params` lists them
-        #[arg(value_name = "NAME|ID")]
+        #[arg(value_name = "NAME|ID", add = super::complete::params())]
         param: String,
         /// The new value, in the parameter's unit
         #[arg(allow_negative_numbers = true)]
@@ -192,7 +192,8 @@ pub enum PowerCubeCommand {
         #[command(flatten)]
         module: ModuleArg,
         /// Flags to set (+) or clear (-), by manual name or short form; `axisctl flags config` lists them
-        #[arg(value_name = "+FLAG|-FLAG", allow_hyphen_values = true, required_unless_present = "raw")]
+        #[arg(value_name = "+FLAG|-FLAG", allow_hyphen_values = true, required_unless_present = "raw",
+              add = super::complete::config_changes())]
         changes: Vec<String>,
         /// Write the whole word (needs --force: it may clear any safety flag)
         #[arg(long, value_name = "0xHEX", conflicts_with = "changes")]

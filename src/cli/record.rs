@@ -27,9 +27,9 @@ pub struct RecordArgs {
     /// Cdios node id (1..127): record the Cdios 6168 modules given with -m on it
     #[arg(long, value_name = "N")]
     pub node: Option<u8>,
-    /// The values: PowerCube parameter names (ActPos ActVel ActCur; `axisctl params powercube`);
+    /// The values: PowerCube parameter names (ActPos ActVel Cur; `axisctl params powercube`);
     /// PA-CONTROL position, speed, status; Cdios position, setpoint, speed, rpm-error
-    #[arg(value_name = "VALUE", required = true)]
+    #[arg(value_name = "VALUE", required = true, add = super::complete::record_values())]
     pub values: Vec<String>,
     /// Samples per second (default: as fast as the link allows)
     #[arg(long, value_name = "HZ")]

@@ -56,7 +56,7 @@ pub fn run(ctx: &Ctx, cmd: CdiosCommand) -> anyhow::Result<()> {
                 StopOptionArg::ReleaseEmergency => StopOption::ReleaseEmergency,
                 StopOptionArg::ClearHold => StopOption::ClearHold,
             };
-            stop(ctx, target, &[device::stop_command(option, latched)])
+            stop(ctx, target, option, latched)
         }
         CdiosCommand::Enable { target, release_emergency } => {
             simple(ctx, target, "cdios-enable", &device::enable_commands(release_emergency))
@@ -309,16 +309,15 @@ fn simple(ctx: &Ctx, t: ModuleTarget, what: &str, cmds: &[Command]) -> anyhow::R
 
 /// cdios-stop, also from another terminal: a link held by another axisctl
 /// process (a `--wait`, the dashboard) is released by it first.
-fn stop(ctx: &Ctx, t: ModuleTarget, cmds: &[Command]) -> anyhow::Result<()> {
+/// A motor already at rest is the state asked for (exit 0, `already_stopped`).
+fn stop(ctx: &Ctx, t: ModuleTarget, option: StopOption, latched: bool) -> anyhow::Result<()> {
     let m = module_id(&t);
-    device::check(cmds, m)?;
+    device::check(&[device::stop_command(option, latched)], m)?;
     let (session, takeover) = super::takeover::open(ctx, |o, spec, opts| o.cdios(spec, opts))?;
     let mut s = node(session, &t.node, ctx);
-    let (confirmed, already) = match s.send(m, cmds) {
-        Ok(confirmed) => (confirmed, false),
-        // The holder has just stopped the motor itself, and the node refuses
-        // to stop a motor that is not running: the state asked for.
-        Err(e) if takeover.is_some() && device::refused_as_not_running(&e) => (true, true),
+    let (confirmed, already) = match s.stop(m, option, latched) {
+        Ok(device::Stopped::FastStop { confirmed }) => (confirmed, false),
+        Ok(device::Stopped::NotRunning) => (true, true),
         Err(e) => return Err(super::takeover::failed(e, takeover.as_ref())),
     };
     let mut extra = json!({});
@@ -328,12 +327,15 @@ fn stop(ctx: &Ctx, t: ModuleTarget, cmds: &[Command]) -> anyhow::Result<()> {
         }
         extra["holder"] = h.json();
     }
-    if already {
-        extra["already_stopped"] = json!(true);
-        if !ctx.json {
-            say!("node {} module {m}: its holder had already stopped the motor (MOTOR_NOT_RUNNING)", s.id());
-            return Ok(());
-        }
+    extra["already_stopped"] = json!(already);
+    if already && !ctx.json {
+        let who = if takeover.is_some() {
+            "its holder had already stopped the motor"
+        } else {
+            "the motor was at rest already"
+        };
+        say!("node {} module {m}: {who} (nothing to stop)", s.id());
+        return Ok(());
     }
     report_sent(ctx, s.id(), m, "cdios-stop", confirmed, extra);
     Ok(())

@@ -80,7 +80,7 @@ fn fits(spec: &LinkSpec, f: Family) -> Result<(), String> {
 }
 
 fn assign(ctx: &Ctx, args: &DashboardArgs) -> anyhow::Result<Assignment> {
-    let global = ctx.link.clone();
+    let global = ctx.given_link()?.cloned();
     if let Some(g @ LinkSpec::Serial { .. }) = &global {
         if Family::ALL.iter().all(|f| link_option(args, *f).1.is_none() || !f.link_kind().rs232()) {
             let opts: Vec<_> = Family::ALL

@@ -12,6 +12,7 @@ const CODES: &[(ErrorKind, u8, &str)] = &[
     (ErrorKind::Timeout, 4, "timeout"),
     (ErrorKind::Device, 5, "device fault or refusal"),
     (ErrorKind::Malformed, 6, "malformed answer"),
+    (ErrorKind::WaitTimeout, 7, "wait timed out (device stopped)"),
     (ErrorKind::Interrupted, 130, "interrupted"),
 ];
 
@@ -63,16 +64,18 @@ mod tests {
             ErrorKind::Timeout,
             ErrorKind::Device,
             ErrorKind::Malformed,
+            ErrorKind::WaitTimeout,
             ErrorKind::Interrupted,
         ];
         let mut codes: Vec<_> = kinds.iter().map(|k| code(*k)).collect();
-        assert_eq!(codes, [1, 2, 3, 4, 5, 6, 130]);
+        assert_eq!(codes, [1, 2, 3, 4, 5, 6, 7, 130]);
         codes.dedup();
         assert_eq!(codes.len(), kinds.len());
         assert_eq!(
             summary(),
             "Exit codes: 0 ok, 1 other failure, 2 usage / out of range (nothing sent), 3 link, 4 timeout, \
-             5 device fault or refusal, 6 malformed answer, 130 interrupted"
+             5 device fault or refusal, 6 malformed answer, \
+             7 wait timed out (device stopped), 130 interrupted"
         );
     }
 }

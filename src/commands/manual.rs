@@ -11,9 +11,18 @@ fn parser() -> clap::Command {
     crate::cli::command(&super::exit::summary())
 }
 
+/// The shell's registration of dynamic completion: the script calls this
+/// binary (by its full path, so it works off the PATH too) with
+/// `AXISCTL_COMPLETE=SHELL` and the words typed, and shows what it answers.
 pub fn completions(shell: clap_complete::Shell) -> anyhow::Result<()> {
+    let shells = clap_complete::env::Shells::builtins();
+    let name = shell.to_string();
+    let completer = shells.completer(&name).with_context(|| format!("no completion for {name}"))?;
+    let exe = std::env::current_exe().context("finding this binary for the completion script")?;
     let mut script = Vec::new();
-    clap_complete::generate(shell, &mut parser(), "axisctl", &mut script);
+    completer
+        .write_registration(crate::cli::complete::VAR, "axisctl", "axisctl", &exe.to_string_lossy(), &mut script)
+        .context("writing the completion script")?;
     output::text(format_args!("{}", String::from_utf8_lossy(&script)));
     Ok(())
 }

@@ -172,7 +172,12 @@ pub fn hint(err: &anyhow::Error) -> Option<String> {
 
 /// What every command gets: the resolved global options.
 pub struct Ctx {
-    pub link: Option<LinkSpec>,
+    /// `--link` or `AXISCTL_LINK`, parsed when a command asks for it
+    /// ([`Ctx::link`]): an offline command never does, so a bad value in the
+    /// environment does not fail it.
+    link: Result<Option<LinkSpec>, link::SpecError>,
+    /// Where the link came from, for its error: `--link` or `AXISCTL_LINK`.
+    link_source: &'static str,
     /// The link as the user gave it, for the JSON envelope.
     pub link_text: String,
     pub json: bool,
@@ -190,11 +195,13 @@ pub struct Ctx {
 impl Ctx {
     fn resolve(g: &Global) -> anyhow::Result<Self> {
         crate::output::set_link(g.link.as_deref().unwrap_or_default());
-        let link = g.link.as_deref().map(str::parse::<LinkSpec>).transpose()?;
+        let link = g.link.as_deref().map(str::parse::<LinkSpec>).transpose();
+        let link_source = if g.link_from_env { "AXISCTL_LINK" } else { "--link" };
         let clock: Arc<dyn Clock> = Arc::new(SystemClock);
         let opener = Opener::new(Arc::clone(&clock)).with_log(g.log.clone()).with_wire_speed(WireSpeed::from_env());
         Ok(Self {
             link,
+            link_source,
             link_text: g.link.clone().unwrap_or_default(),
             json: g.json,
             timeout: g.timeout.map(Duration::from_millis),
@@ -208,9 +215,18 @@ impl Ctx {
     }
 
     pub fn link(&self) -> anyhow::Result<&LinkSpec> {
-        self.link.as_ref().ok_or_else(|| {
+        self.given_link()?.ok_or_else(|| {
             usage("no link given: pass --link URI or set AXISCTL_LINK (try --link sim for the simulated bench)")
         })
+    }
+
+    /// The link if one was given; an error if it does not parse, naming
+    /// where it came from.
+    pub fn given_link(&self) -> anyhow::Result<Option<&LinkSpec>> {
+        match &self.link {
+            Ok(link) => Ok(link.as_ref()),
+            Err(e) => Err(anyhow::Error::new(e.clone()).context(self.link_source)),
+        }
     }
 
     /// The link opener behind every session of the command.

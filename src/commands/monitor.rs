@@ -1,22 +1,25 @@
 //! `axisctl monitor`: every frame on a CAN link (or in a candump log),
 //! decoded, filtered, counted. Never sends anything.
 
+use std::io::BufRead;
 use std::io::Write;
 use std::time::{Duration, SystemTime, UNIX_EPOCH};
 
 use axisctl::family::Family;
-use axisctl::monitor::{describe, FamilyFilter, FrameInfo, Stats};
+use axisctl::monitor::{describe, passes_any, FamilyFilter, FrameInfo, IdFilter, Stats};
 use axisctl::proto::candump::{format_candump_line, parse_candump_line};
 use axisctl::proto::CanFrame;
 use serde_json::json;
 
 use super::{arm_interrupt, interrupted, usage, Ctx};
+use crate::cli::monitor::Timestamps;
 use crate::cli::MonitorArgs;
 
 struct Filter {
     families: Vec<FamilyFilter>,
     modules: Vec<u8>,
     ids: Vec<u32>,
+    masks: Vec<IdFilter>,
 }
 
 impl Filter {
@@ -34,6 +37,7 @@ impl Filter {
             families: a.family.clone(),
             modules: a.module.iter().flat_map(|l| l.0.iter().copied()).collect(),
             ids,
+            masks: a.filter.clone(),
         })
     }
 
@@ -41,12 +45,17 @@ impl Filter {
         (self.families.is_empty() || self.families.iter().any(|f| f.pass(i)))
             && (self.modules.is_empty() || i.module.is_some_and(|m| self.modules.contains(&m)))
             && (self.ids.is_empty() || self.ids.contains(&f.id()))
+            && passes_any(&self.masks, f)
     }
 }
 
 struct Printer<'a> {
     ctx: &'a Ctx,
     candump: bool,
+    timestamps: Timestamps,
+    /// The stamp of the first frame shown and of the one before, for `--timestamps zero|delta`.
+    first: Option<f64>,
+    last: Option<f64>,
     iface: String,
     /// The link listened on, for the envelope; `None` for a log replay.
     link: Option<&'a str>,
@@ -86,7 +95,13 @@ impl Printer<'_> {
                 None if i.kind == "error" => self.ctx.style.error(&i.summary),
                 None => i.summary.clone(),
             };
-            writeln!(self.out, "{ts:17.6}  {:<24} {fam:<9} {:<9} {who:<17} {text}", f.to_string(), i.kind)?;
+            let shown = match self.timestamps {
+                Timestamps::Absolute => ts,
+                Timestamps::Zero => ts - *self.first.get_or_insert(ts),
+                Timestamps::Delta => ts - self.last.unwrap_or(ts),
+            };
+            self.last = Some(ts);
+            writeln!(self.out, "{shown:17.6}  {:<24} {fam:<9} {:<9} {who:<17} {text}", f.to_string(), i.kind)?;
         }
         self.out.flush()
     }
@@ -104,9 +119,18 @@ pub fn run(ctx: &Ctx, a: &MonitorArgs) -> anyhow::Result<()> {
     let mut stats = Stats::default();
     let mut shown = 0u64;
     let limit = a.count.unwrap_or(u64::MAX);
-    let iface = ctx.link.as_ref().map_or_else(|| "can0".to_string(), axisctl::link::log::log_iface);
+    let iface = ctx.given_link().ok().flatten().map_or_else(|| "can0".to_string(), axisctl::link::log::log_iface);
     let link = a.from_log.is_none().then_some(ctx.link_text.as_str());
-    let mut p = Printer { ctx, candump: a.candump, iface, link, out: std::io::stdout().lock() };
+    let mut p = Printer {
+        ctx,
+        candump: a.candump,
+        timestamps: a.timestamps,
+        first: None,
+        last: None,
+        iface,
+        link,
+        out: std::io::stdout().lock(),
+    };
     let mut handle = |ts: f64, f: &CanFrame, p: &mut Printer| -> anyhow::Result<bool> {
         let info = describe(f);
         if filter.pass(f, &info) {
@@ -122,16 +146,35 @@ pub fn run(ctx: &Ctx, a: &MonitorArgs) -> anyhow::Result<()> {
         Ok(shown < limit)
     };
     if let Some(path) = &a.from_log {
-        let text = std::fs::read_to_string(path).map_err(|e| usage(format!("cannot read {}: {e}", path.display())))?;
-        for (n, line) in text.lines().enumerate().filter(|(_, l)| !l.trim().is_empty()) {
-            let (ts, iface, frame) =
-                parse_candump_line(line).map_err(|e| usage(format!("{}:{}: {e}", path.display(), n + 1)))?;
+        // Streamed line by line (a log may be larger than memory; `-` is a
+        // pipe from candump -L or a decompressor), each line bounded.
+        let name = if path.as_os_str() == "-" { "standard input".to_string() } else { path.display().to_string() };
+        let input: Box<dyn BufRead> = if path.as_os_str() == "-" {
+            Box::new(std::io::stdin().lock())
+        } else {
+            let file = std::fs::File::open(path).map_err(|e| usage(format!("cannot read {name}: {e}")))?;
+            Box::new(std::io::BufReader::new(file))
+        };
+        let mut lines = BoundedLines { input, line: Vec::new(), n: 0 };
+        loop {
+            let n = lines.n + 1;
+            let Some(line) = lines.next_line().map_err(|e| usage(format!("{name}:{n}: {e}")))? else { break };
+            if line.trim().is_empty() {
+                continue;
+            }
+            let (ts, iface, frame) = parse_candump_line(line).map_err(|e| usage(format!("{name}:{n}: {e}")))?;
             p.iface = iface;
             if !handle(ts, &frame, &mut p)? {
                 break;
             }
         }
     } else {
+        if matches!(ctx.link()?, axisctl::link::LinkSpec::Sim) && !ctx.json {
+            crate::output::err_line(format_args!(
+                "axisctl: monitor: the in-process bench has no other client, so nothing will show; \
+                 serve it with `axisctl sim` and monitor the link it prints (Ctrl-C ends)"
+            ));
+        }
         arm_interrupt()?;
         let mut link = ctx.can_link()?;
         let start = std::time::Instant::now();
@@ -158,4 +201,33 @@ pub fn run(ctx: &Ctx, a: &MonitorArgs) -> anyhow::Result<()> {
         }
     }
     Ok(())
+}
+
+/// The longest candump line: `(seconds.micros) iface ID#` and 8 data bytes
+/// (64 for CAN FD) need far less; a longer one is no candump line.
+const MAX_LOG_LINE: usize = 4096;
+
+/// Lines of a candump log, each at most [`MAX_LOG_LINE`] bytes, counted.
+struct BoundedLines {
+    input: Box<dyn BufRead>,
+    line: Vec<u8>,
+    n: usize,
+}
+
+impl BoundedLines {
+    fn next_line(&mut self) -> std::io::Result<Option<&str>> {
+        use std::io::Read;
+        self.line.clear();
+        self.n += 1;
+        let read = (&mut self.input).take(MAX_LOG_LINE as u64 + 1).read_until(b'\n', &mut self.line)?;
+        if read == 0 {
+            return Ok(None);
+        }
+        if self.line.len() > MAX_LOG_LINE {
+            return Err(std::io::Error::other(format!("line longer than {MAX_LOG_LINE} bytes: not a candump log")));
+        }
+        std::str::from_utf8(&self.line)
+            .map(|l| Some(l.trim_end_matches(['\n', '\r'])))
+            .map_err(|_| std::io::Error::other("not text: not a candump log"))
+    }
 }

@@ -38,7 +38,14 @@ pub fn check_powercube_param(text: &str) -> anyhow::Result<()> {
     if cube_table::resolve_param(text).is_some() {
         return Ok(());
     }
-    let hint = did_you_mean(text, cube_table::PARAMS.iter().map(|p| p.name));
+    // "ActCur" for Cur: most measured values start with Act, so the prefix
+    // is easily added to one that has none; spelling distance would offer
+    // an unrelated Act* name (ActC0) instead.
+    let unprefixed = text.get(..3).filter(|p| p.eq_ignore_ascii_case("act")).and_then(|_| text.get(3..));
+    let hint = match unprefixed.and_then(cube_table::param_by_name) {
+        Some(def) => format!(" (did you mean {}?)", def.name),
+        None => did_you_mean(text, cube_table::PARAMS.iter().map(|p| p.name)),
+    };
     Err(usage(format!("unknown parameter {text:?}{hint}; `axisctl params powercube` lists them")))
 }
 

@@ -12,6 +12,7 @@
 
 use axisctl::link::log::{Direction, TrafficLog};
 use axisctl::proto::pac::{self, printable, AckDecoder, CommandDecoder};
+use axisctl::proto::powercube::can::Broadcast;
 use axisctl::proto::powercube::rs232::{self, Decoder};
 use axisctl::proto::CanFrame;
 use axisctl::sim::serve::{Tap, Traffic, Way};
@@ -147,6 +148,9 @@ fn powercube_line(way: Way, r: Result<rs232::Rs232Frame, axisctl::proto::DecodeE
     let mut bytes = Vec::new();
     f.encode(&mut bytes);
     let what = match way {
+        // A broadcast carries `[cmd, param]` (specs README), which is no
+        // module command: decoded as one, every broadcast would be "too long".
+        Way::FromClient if f.is_broadcast() => Broadcast::decode(f.payload.as_slice()).map(|b| format!("{b} to all")),
         Way::FromClient => f.request().map(|req| format!("{req} to module {}", f.module)),
         Way::ToClient => f.response().map(|resp| format!("{} from module {}", describe_ack(&resp).0, f.module)),
     };

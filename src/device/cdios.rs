@@ -126,10 +126,10 @@ pub fn refused_as_not_running(e: &Error) -> bool {
         if r.general == 0 && r.unknown_bits.is_empty() && r.errors.iter().map(|b| b.name).eq(["MOTOR_NOT_RUNNING"]))
 }
 
-/// How a module took a halt-all.
+/// How a module took a stop or a halt-all.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Stopped {
-    /// The fast stop was confirmed (`false`: sent, confirmations are off).
+    /// The stop was taken and confirmed (`false`: sent, confirmations are off).
     FastStop { confirmed: bool },
     /// The module refused the stop because its motor is not running.
     NotRunning,
@@ -397,6 +397,26 @@ impl Node {
             }
         }
         Err(last.expect("at least one attempt"))
+    }
+
+    /// A stop that a person or a script asked for (`cdios-stop`): a motor
+    /// already at rest is the state asked for, so when the node refuses the
+    /// stop and its status says the motor does not run, that is
+    /// [`Stopped::NotRunning`], not a failure. Any other refusal, or one
+    /// whose status cannot be read, stays an error: the motor may move.
+    /// Options that do not stop a motor (release the emergency stop, clear a
+    /// hold) are sent as they are: their refusal is an answer to keep.
+    pub fn stop(&mut self, m: ModuleId, option: StopOption, latched: bool) -> Result<Stopped, Error> {
+        let stops =
+            matches!(option, StopOption::FastStop | StopOption::DecelerateAndStop | StopOption::DecelerateToMinimum);
+        match self.send(m, &[stop_command(option, latched)]) {
+            Ok(confirmed) => Ok(Stopped::FastStop { confirmed }),
+            Err(e @ Error::Session(SessionError::Device { .. })) if stops => match self.s.read_status(self.node, m) {
+                Ok(st) if st.status[0] & RUNNING == 0 => Ok(Stopped::NotRunning),
+                _ => Err(e),
+            },
+            Err(e) => Err(e),
+        }
     }
 
     /// Whether the motor of `m` runs (status 1, bits 0 and 1).

@@ -62,12 +62,32 @@ fn os_error(e: serialport::Error, path: &str) -> io::Error {
         serialport::ErrorKind::InvalidInput => io::ErrorKind::InvalidInput,
         serialport::ErrorKind::Unknown => io::ErrorKind::Other,
     };
+    // serialport keeps nix's text for ENOTTY ("Not a typewriter"), not libc's.
+    let not_a_tty = |text: &str| {
+        text == "Not a typewriter" || io::Error::from_raw_os_error(libc::ENOTTY).to_string().starts_with(text)
+    };
     let text = if e.kind() == serialport::ErrorKind::NoDevice {
         format!("{} (device busy: {})", e.description, lock::describe(path))
+    } else if not_a_tty(&e.description) {
+        // ENOTTY's own text, "Not a typewriter", names neither the cause nor the fix.
+        format!("not a serial port ({}); a link needs a terminal device such as /dev/ttyUSB0, /dev/ttyACM0 or a pty that `axisctl sim` prints", what_it_is(path))
     } else {
         e.description
     };
     io::Error::new(kind, text)
+}
+
+/// What a path that is no terminal is, said to people.
+fn what_it_is(path: &str) -> &'static str {
+    use std::os::unix::fs::FileTypeExt;
+    match std::fs::metadata(path).map(|m| m.file_type()) {
+        Ok(t) if t.is_file() => "a regular file",
+        Ok(t) if t.is_dir() => "a directory",
+        Ok(t) if t.is_fifo() => "a pipe",
+        Ok(t) if t.is_socket() => "a socket",
+        Ok(t) if t.is_char_device() => "a character device without terminal settings",
+        _ => "no terminal",
+    }
 }
 
 impl ByteLink for SerialLink {
@@ -252,5 +272,11 @@ mod tests {
         let path = file.path().to_str().unwrap();
         let err = SerialLink::open(path, 9600, SerialFormat::F8N1).unwrap_err();
         assert!(matches!(&err, LinkError::Open { path: p, .. } if p == path), "{err:?}");
+        assert!(
+            err.to_string().contains("not a serial port (a regular file); a link needs a terminal device"),
+            "{err}"
+        );
+        let err = SerialLink::open("/dev/null", 9600, SerialFormat::F8N1).unwrap_err();
+        assert!(err.to_string().contains("not a serial port (a character device without terminal settings)"), "{err}");
     }
 }

@@ -2,11 +2,19 @@
 //!
 //! Opening first re-synchronises ([`RESYNC`]: a few CRs end a half line left by a
 //! client that died mid-write, and the reply to `V` marks where stale replies
-//! end), then runs `C` (ignore the answer: closing a closed channel is an error on
-//! Lawicel adapters), `S<n>`, `O`. Adapters differ in what they acknowledge
-//! (see [`crate::proto::slcan`]): the answer to `C` tells which kind this is. An
-//! adapter that answers nothing within [`PROBE`] (CANable 1.x firmware) is driven
-//! without waiting for acknowledges; one that answers gets its BEL errors checked.
+//! end), then runs `C` (its answer is only evidence of the adapter's kind:
+//! closing a closed channel is an error on Lawicel adapters), `S<n>`, `O`.
+//! Adapters differ in what they acknowledge (see [`crate::proto::slcan`]): one
+//! that answers none of them (CANable 1.x firmware) is driven without waiting
+//! for acknowledges; one that answers gets its BEL errors checked.
+//!
+//! Each setup command is followed by `V`, which every firmware answers: the
+//! replies before that `V` line are the command's, so an acknowledge is never
+//! taken for another command's. Line noise at the open (a stray byte, a BEL
+//! that no command caused, a byte glued to a reply) shows as a line that is
+//! not a reply, or as more than one reply to a command: the whole handshake
+//! is then run again from `C`, up to [`SETUP_ATTEMPTS`] times, and only a
+//! clean run's BEL fails the open.
 
 use std::collections::VecDeque;
 use std::time::{Duration, Instant};
@@ -19,8 +27,11 @@ use crate::proto::CanFrame;
 /// How long to wait for the answer to the first command before deciding the
 /// adapter never acknowledges. USB adapters answer within a few milliseconds.
 pub const PROBE: Duration = Duration::from_millis(100);
-/// How long an acknowledging adapter may take to answer a setup command.
+/// How long an adapter may take to answer a setup command and the `V` after it.
 pub const SETUP_REPLY: Duration = Duration::from_millis(500);
+/// How often the handshake runs when line noise garbles it; the last run's
+/// replies are taken as they are.
+pub const SETUP_ATTEMPTS: u32 = 3;
 /// Serial settings for the tty; USB CDC adapters ignore them.
 pub const TTY_BAUD: u32 = 115_200;
 /// Transmits awaiting their acknowledge, at most; older ones are forgotten.
@@ -71,23 +82,78 @@ impl<B: ByteLink> SlcanLink<B> {
             out: Vec::new(),
         };
         link.io.clear_input()?;
-        link.resync()?;
-        link.command(Command::Close)?;
-        link.acks = link.wait_reply(PROBE)?.is_some();
-        link.command(set_bitrate)?;
-        if link.acks && link.wait_reply(SETUP_REPLY)? == Some(false) {
-            return Err(LinkError::Adapter(format!(
-                "adapter rejected bitrate {bitrate} bit/s ({})",
-                String::from_utf8_lossy(&set_bitrate.to_bytes()).trim_end()
-            )));
-        }
-        link.command(Command::Open)?;
-        if link.acks && link.wait_reply(SETUP_REPLY)? == Some(false) {
-            return Err(LinkError::Adapter(
-                "adapter refused to open the CAN channel (O); is it in use by another program, e.g. slcand?".into(),
-            ));
-        }
+        link.handshake(set_bitrate)?;
         Ok(link)
+    }
+
+    /// `C`, `S<n>`, `O`, each answered before the `V` sent after it; run
+    /// again from a resync while line noise garbles a reply. An adapter
+    /// whose `V` answer the resync never saw (noise on that line, or no `V`
+    /// at all) is resynced again; on the last attempt the commands are
+    /// taken by their first reply, without `V`.
+    fn handshake(&mut self, set_bitrate: Command) -> Result<(), LinkError> {
+        for attempt in 1..=SETUP_ATTEMPTS {
+            let last = attempt == SETUP_ATTEMPTS;
+            let errors = self.decode_errors;
+            let marked = self.resync()?;
+            if !marked && !last {
+                continue;
+            }
+            let close = self.ask(Command::Close, marked, PROBE)?;
+            // Without V, an adapter silent to C is not waited for again.
+            let wait = if close.answered() { SETUP_REPLY } else { Duration::ZERO };
+            let bitrate = self.ask(set_bitrate, marked, wait)?;
+            let open = self.ask(Command::Open, marked, wait)?;
+            let noisy = self.decode_errors > errors || [&close, &bitrate, &open].iter().any(|r| r.noisy());
+            if noisy && !last {
+                continue;
+            }
+            self.acks = [&close, &bitrate, &open].iter().any(|r| r.answered());
+            if self.acks && bitrate.refused() {
+                return Err(LinkError::Adapter(format!(
+                    "adapter rejected bitrate {} bit/s ({})",
+                    self.bitrate,
+                    String::from_utf8_lossy(&set_bitrate.to_bytes()).trim_end()
+                )));
+            }
+            if self.acks && open.refused() {
+                return Err(LinkError::Adapter(
+                    "adapter refused to open the CAN channel (O); is it in use by another program, e.g. slcand?".into(),
+                ));
+            }
+            break;
+        }
+        Ok(())
+    }
+
+    /// Sends a setup command and, with `marked`, `V`, and sorts what comes
+    /// back: until the `V` line (at most [`SETUP_REPLY`]), or without
+    /// `marked` until the first reply (at most `wait`). Frames are stale
+    /// traffic from before the channel was (re)opened, dropped.
+    fn ask(&mut self, cmd: Command, marked: bool, wait: Duration) -> Result<SetupReply, LinkError> {
+        let mut bytes = cmd.to_bytes();
+        if marked {
+            bytes.extend_from_slice(&Command::Version.to_bytes());
+        }
+        self.io.write_all(&bytes)?;
+        let deadline = Instant::now() + if marked { SETUP_REPLY } else { wait };
+        let mut r = SetupReply::default();
+        while let Some(ev) = self.next_event(deadline)? {
+            match ev {
+                SlcanEvent::Ack | SlcanEvent::TransmitAck { .. } => r.oks += 1,
+                SlcanEvent::Error => {
+                    self.adapter_errors += 1;
+                    r.bels += 1;
+                }
+                SlcanEvent::Other(line) if line.starts_with('V') => break,
+                SlcanEvent::Other(_) => r.stray += 1,
+                _ => {}
+            }
+            if !marked && r.answered() {
+                break;
+            }
+        }
+        Ok(r)
     }
 
     pub fn bitrate(&self) -> u32 {
@@ -110,19 +176,19 @@ impl<B: ByteLink> SlcanLink<B> {
     }
 
     /// Ends whatever half line the adapter holds and skips every reply up to the
-    /// answer to `V`. Without it, a `C` glued to a dead client's half line is
-    /// rejected, the channel stays open and `S<n>` is refused. An adapter that
-    /// does not answer `V` costs [`PROBE`], and its stale replies (if any) are
-    /// left for the setup, as before.
-    fn resync(&mut self) -> Result<(), LinkError> {
+    /// answer to `V`; whether that answer came. Without it, a `C` glued to a
+    /// dead client's half line is rejected, the channel stays open and `S<n>`
+    /// is refused. An adapter that does not answer `V` costs [`PROBE`], and its
+    /// stale replies (if any) are left for the setup, as before.
+    fn resync(&mut self) -> Result<bool, LinkError> {
         self.io.write_all(RESYNC)?;
         let deadline = Instant::now() + PROBE;
         while let Some(ev) = self.next_event(deadline)? {
             if matches!(&ev, SlcanEvent::Other(line) if line.starts_with('V')) {
-                break;
+                return Ok(true);
             }
         }
-        Ok(())
+        Ok(false)
     }
 
     fn command(&mut self, cmd: Command) -> Result<(), LinkError> {
@@ -171,6 +237,33 @@ impl<B: ByteLink> SlcanLink<B> {
             }
         }
         Ok(None)
+    }
+}
+
+/// What came back for one setup command, up to the `V` line after it.
+#[derive(Debug, Default)]
+struct SetupReply {
+    oks: u32,
+    bels: u32,
+    /// Lines that are no reply: noise, or noise glued to a reply.
+    stray: u32,
+}
+
+impl SetupReply {
+    /// One command has one reply (or none, on a silent adapter): anything
+    /// more, or a line that is none, is noise. A missing `V` line alone is
+    /// not: an adapter that does not answer `V` is slow to open, not noisy.
+    fn noisy(&self) -> bool {
+        self.stray > 0 || self.oks + self.bels > 1
+    }
+
+    fn answered(&self) -> bool {
+        self.oks + self.bels > 0
+    }
+
+    /// A BEL and no OK: the adapter said no.
+    fn refused(&self) -> bool {
+        self.bels > 0 && self.oks == 0
     }
 }
 
@@ -236,7 +329,7 @@ impl<B: ByteLink> Drop for SlcanLink<B> {
 
 #[cfg(test)]
 mod tests {
-    use std::sync::atomic::{AtomicBool, Ordering};
+    use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
     use std::sync::{mpsc, Arc};
     use std::thread;
 
@@ -251,16 +344,32 @@ mod tests {
         handle: Option<thread::JoinHandle<Adapter>>,
         seen: mpsc::Receiver<CanFrame>,
         path: String,
+        /// Bytes the adapter wrote to the host so far, noise included.
+        written: Arc<AtomicUsize>,
+    }
+
+    /// Line noise: `bytes` written to the host before the adapter's byte
+    /// number `at` (counted from 0 over everything it writes).
+    #[derive(Clone, Copy)]
+    struct Noise {
+        at: usize,
+        bytes: &'static [u8],
     }
 
     impl Server {
         fn start(style: AckStyle, respond: fn(&CanFrame) -> Vec<CanFrame>) -> Self {
+            Self::start_noisy(style, respond, None)
+        }
+
+        fn start_noisy(style: AckStyle, respond: fn(&CanFrame) -> Vec<CanFrame>, noise: Option<Noise>) -> Self {
             let (master, path) = open_pair().unwrap();
             let stop = Arc::new(AtomicBool::new(false));
+            let written = Arc::new(AtomicUsize::new(0));
             let (tx, seen) = mpsc::channel();
-            let flag = stop.clone();
-            let handle = thread::spawn(move || serve(master, Adapter::new(style), &flag, &tx, respond));
-            Self { stop, handle: Some(handle), seen, path }
+            let (flag, count) = (stop.clone(), written.clone());
+            let handle =
+                thread::spawn(move || serve(master, Adapter::new(style), (&flag, &count), &tx, respond, noise));
+            Self { stop, handle: Some(handle), seen, path, written }
         }
 
         fn stop(mut self) -> Adapter {
@@ -272,11 +381,13 @@ mod tests {
     fn serve(
         mut io: PtyMaster,
         mut adapter: Adapter,
-        stop: &AtomicBool,
+        (stop, written): (&AtomicBool, &AtomicUsize),
         seen: &mpsc::Sender<CanFrame>,
         respond: fn(&CanFrame) -> Vec<CanFrame>,
+        mut noise: Option<Noise>,
     ) -> Adapter {
         let mut buf = [0u8; 256];
+        let mut sent = 0;
         while !stop.load(Ordering::Relaxed) {
             let n = io.read(&mut buf, Duration::from_millis(10)).unwrap();
             adapter.handle_host_bytes(&buf[..n]);
@@ -286,7 +397,15 @@ mod tests {
                     adapter.bus_frame(&answer);
                 }
             }
-            if let Some(out) = adapter.poll_output() {
+            if let Some(mut out) = adapter.poll_output() {
+                if let Some(n) = noise.filter(|n| n.at < sent + out.len()) {
+                    let i = n.at - sent;
+                    out.splice(i..i, n.bytes.iter().copied());
+                    noise = None;
+                }
+                // Counted before the host can read them.
+                sent += out.len();
+                written.store(sent, Ordering::Relaxed);
                 io.write_all(&out).unwrap();
             }
         }
@@ -339,6 +458,73 @@ mod tests {
     #[test]
     fn exchanges_frames_with_a_silent_adapter() {
         exchange_for(AckStyle::Silent);
+    }
+
+    /// Line noise from the adapter while the link opens: a stray BEL, a
+    /// byte, a byte no line takes, a stray CR, a NUL and BEL, garbage with a
+    /// CR. Each lands once at every byte of a clean open's replies (its
+    /// resync, and each command's reply and `V`), 30 opens in all; every
+    /// open works and the link then exchanges frames.
+    #[test]
+    fn line_noise_at_the_open_does_not_fail_it() {
+        const NOISE: [&[u8]; 6] = [b"\x07", b"x", b"\xff", b"\r", b"\x00\x07", b"#\xfe\r"];
+        let clean = Server::start(AckStyle::Lawicel, ack_on_a0);
+        let link = open(&clean.path, 500_000).unwrap();
+        // Every reply of the open has been read once open returns.
+        let setup_len = clean.written.load(Ordering::Relaxed);
+        assert!(setup_len > 20, "resync, C, S and O each answered: {setup_len} bytes");
+        drop(link);
+        clean.stop();
+        for run in 0..30 {
+            let noise = Noise { at: run % setup_len, bytes: NOISE[run % NOISE.len()] };
+            let what = format!("run {run}: {:?} before reply byte {}", String::from_utf8_lossy(noise.bytes), noise.at);
+            let server = Server::start_noisy(AckStyle::Lawicel, ack_on_a0, Some(noise));
+            let mut link = open(&server.path, 500_000).unwrap_or_else(|e| panic!("{what}: {e}"));
+            assert!(link.adapter_acks(), "{what}");
+            assert!(server.written.load(Ordering::Relaxed) >= setup_len + noise.bytes.len(), "{what}: noise sent");
+            let home = CanFrame::new(0x0F1, &[0x01]).unwrap();
+            link.send(&home).unwrap();
+            assert_eq!(
+                link.recv(Duration::from_secs(5)).unwrap(),
+                Some(CanFrame::new(0x0B1, &[0x01]).unwrap()),
+                "{what}"
+            );
+            drop(link);
+            assert_eq!(server.stop().bitrate(), 500_000, "{what}");
+        }
+    }
+
+    /// Noise scripted into single replies: a BEL no command caused (before
+    /// `S`'s OK) and a byte glued to `O`'s OK. Each makes the handshake run
+    /// again; a clean run opens.
+    #[test]
+    fn a_garbled_handshake_runs_again_and_opens() {
+        let clean = [&b"V1013\r"[..], b"\rV1013\r", b"\rV1013\r", b"\rV1013\r"];
+        for (i, garbled) in [(2, &b"\x07\rV1013\r"[..]), (3, b"x\rV1013\r")] {
+            let mut replies: Vec<&'static [u8]> = vec![b"V1013\r", b"\x07V1013\r", b"\rV1013\r", b"\rV1013\r"];
+            replies[i] = garbled;
+            replies.extend_from_slice(&clean);
+            let link = SlcanLink::new(scripted(&replies), 1_000_000).unwrap();
+            assert!(link.adapter_acks());
+            assert!(link.io.replies.is_empty(), "the handshake ran twice");
+        }
+        // A BEL alone in a clean run is the adapter's answer, not noise.
+        let refusing = [&b"V1013\r"[..], b"\x07V1013\r", b"\rV1013\r", b"\x07V1013\r"];
+        let err = SlcanLink::new(scripted(&refusing), 1_000_000).unwrap_err();
+        assert!(matches!(&err, LinkError::Adapter(m) if m.contains("open")), "{err}");
+    }
+
+    /// An adapter that rejects `V` (BEL) is resynced up to three times, then
+    /// set up by the first reply to each command, as without `V` at all.
+    #[test]
+    fn an_adapter_without_v_opens_by_the_first_replies() {
+        let t0 = Instant::now();
+        let link = SlcanLink::new(scripted(&[b"\x07", b"\x07", b"\x07", b"\r", b"\r", b"\r"]), 1_000_000).unwrap();
+        assert!(link.adapter_acks());
+        assert!(link.io.replies.is_empty(), "three resyncs, then C, S8 and O");
+        assert!(t0.elapsed() < Duration::from_secs(1), "{:?}", t0.elapsed());
+        let err = SlcanLink::new(scripted(&[b"\x07", b"\x07", b"\x07", b"\r", b"\x07"]), 125_000).unwrap_err();
+        assert!(matches!(&err, LinkError::Adapter(m) if m.contains("125000")), "{err}");
     }
 
     #[test]
@@ -421,9 +607,10 @@ mod tests {
 
     #[test]
     fn bel_on_open_is_an_adapter_error() {
-        let err = SlcanLink::new(scripted(&[b"V1013\r", b"\x07", b"\r", b"\x07"]), 1_000_000).unwrap_err();
+        let err = SlcanLink::new(scripted(&[b"V1013\r", b"\x07V1013\r", b"\rV1013\r", b"\x07V1013\r"]), 1_000_000)
+            .unwrap_err();
         assert!(matches!(&err, LinkError::Adapter(m) if m.contains("open")), "{err}");
-        let err = SlcanLink::new(scripted(&[b"V1013\r", b"\r", b"\x07"]), 125_000).unwrap_err();
+        let err = SlcanLink::new(scripted(&[b"V1013\r", b"\rV1013\r", b"\x07V1013\r"]), 125_000).unwrap_err();
         assert!(matches!(&err, LinkError::Adapter(m) if m.contains("125000") && m.contains("S4")), "{err}");
         assert!(matches!(SlcanLink::new(scripted(&[]), 42), Err(LinkError::Adapter(_))));
     }
@@ -431,7 +618,7 @@ mod tests {
     #[test]
     fn stale_frames_during_setup_are_dropped_and_bel_after_transmit_is_reported() {
         let mut link = SlcanLink::new(
-            scripted(&[b"\x07\r\x07V1013\r", b"t0B1101\r\x07", b"\r", b"t0B1102\r\r", b"\x07"]),
+            scripted(&[b"\x07\r\x07V1013\r", b"t0B1101\r\x07V1013\r", b"\rV1013\r", b"t0B1102\r\rV1013\r", b"\x07"]),
             1_000_000,
         )
         .unwrap();
@@ -444,7 +631,8 @@ mod tests {
 
     #[test]
     fn garbage_between_frames_is_counted_and_skipped() {
-        let mut link = SlcanLink::new(scripted(&[b"V1013\r", b"\r", b"\r", b"\r"]), 1_000_000).unwrap();
+        let mut link =
+            SlcanLink::new(scripted(&[b"V1013\r", b"\rV1013\r", b"\rV1013\r", b"\rV1013\r"]), 1_000_000).unwrap();
         link.io.incoming.extend_from_slice(b"t0B\r\xff\xff\rt0B1103\r");
         assert_eq!(link.recv(Duration::from_millis(10)).unwrap(), Some(CanFrame::new(0x0B1, &[3]).unwrap()));
         assert_eq!(link.decode_errors(), 2);

@@ -22,13 +22,27 @@ impl SocketCanLink {
     /// Opens a raw socket on `iface`. A missing interface, or a kernel without CAN
     /// support, is [`LinkError::Open`] naming the interface and the OS reason.
     pub fn open(iface: &str) -> Result<Self, LinkError> {
-        let socket = CanSocket::open(iface).map_err(|source| LinkError::Open { path: iface.into(), source })?;
+        let socket =
+            CanSocket::open(iface).map_err(|source| LinkError::Open { path: iface.into(), source: explain(source) })?;
         Ok(Self { socket, iface: iface.into() })
     }
 
     pub fn iface(&self) -> &str {
         &self.iface
     }
+}
+
+/// The OS reasons whose own text ("Address family not supported by
+/// protocol", "No such device") names neither the cause nor the fix.
+fn explain(e: std::io::Error) -> std::io::Error {
+    let why = match e.raw_os_error() {
+        Some(libc::EAFNOSUPPORT) => {
+            "this kernel has no SocketCAN (load it: modprobe can_raw), or use an slcan adapter (--link slcan:/dev/ttyACM0)"
+        }
+        Some(libc::ENODEV) => "no such CAN interface (`ip -brief link show type can` lists them)",
+        _ => return e,
+    };
+    std::io::Error::new(e.kind(), format!("{why}: {e}"))
 }
 
 /// Our frame as a socketcan data frame.
@@ -108,7 +122,9 @@ mod tests {
         let err = SocketCanLink::open("axisnocan0").unwrap_err();
         let LinkError::Open { path, source } = &err else { panic!("{err:?}") };
         assert_eq!(path, "axisnocan0");
-        assert!(source.raw_os_error().is_some(), "an OS reason: {source:?}");
+        let text = source.to_string();
+        assert!(text.contains("os error"), "the OS reason: {source:?}");
+        assert!(text.contains("modprobe can_raw") || text.contains("ip -brief link"), "the fix: {source:?}");
         assert!(err.to_string().starts_with("cannot open axisnocan0: "), "{err}");
     }
 

@@ -151,6 +151,7 @@ impl std::str::FromStr for LinkSpec {
                 }
                 Ok(Self::Serial { path: path.into(), baud, format })
             }
+            "sim" => Err(SpecError(format!("{uri:?}: the simulated bench takes no path or options: --link sim"))),
             _ => Err(SpecError(format!("{uri:?}: unknown link type {scheme:?} (socketcan, slcan, serial or sim)"))),
         }
     }
@@ -217,5 +218,11 @@ mod tests {
         ] {
             assert!(bad.parse::<LinkSpec>().is_err(), "{bad}");
         }
+    }
+
+    #[test]
+    fn a_sim_with_a_path_is_told_how_sim_is_written() {
+        let e = "sim:x".parse::<LinkSpec>().unwrap_err();
+        assert_eq!(e.to_string(), "bad link \"sim:x\": the simulated bench takes no path or options: --link sim");
     }
 }

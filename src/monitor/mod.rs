@@ -6,6 +6,9 @@
 
 use std::collections::BTreeMap;
 
+mod filter;
+pub use filter::{passes_any, FilterError, IdFilter};
+
 use serde::Serialize;
 use serde_json::json;
 

@@ -26,6 +26,9 @@ pub enum ErrorKind {
     Usage,
     Link,
     Timeout,
+    /// A wait for the end of a motion ran out while the device answered:
+    /// it was still busy, and was stopped.
+    WaitTimeout,
     Device,
     Malformed,
     Interrupted,
@@ -38,6 +41,7 @@ impl ErrorKind {
             Self::Usage => "usage",
             Self::Link => "link",
             Self::Timeout => "timeout",
+            Self::WaitTimeout => "wait_timeout",
             Self::Device => "device",
             Self::Malformed => "malformed",
             Self::Interrupted => "interrupted",
@@ -53,6 +57,11 @@ pub enum SessionError {
     Link(#[from] LinkError),
     #[error("no answer from {target} to {what} within {} ms", timeout.as_millis())]
     Timeout { target: String, what: String, timeout: Duration },
+    /// A wait for the end of a motion ran out, every poll answered: the
+    /// device is busy, not gone, unlike [`Self::Timeout`]. Boxed: rare, and
+    /// larger than a `Result` should carry.
+    #[error("{0}")]
+    WaitExpired(Box<WaitExpired>),
     #[error("malformed answer from {target}: {source}")]
     Malformed { target: String, source: DecodeError },
     #[error("{target} refused {what}: {refusal}")]
@@ -60,11 +69,37 @@ pub enum SessionError {
     Device { target: String, what: String, refusal: Box<Refusal> },
 }
 
+/// What a wait that ran out was waiting for, and how the stop that ends it
+/// went (`stopped`; `None`: nothing was stopped).
+#[derive(Debug, thiserror::Error)]
+#[error(
+    "wait timed out after {} s: {target} was still {what} (it answered every poll){}",
+    timeout.as_secs_f64(),
+    stopped.as_ref().map(|s| format!("; {s}")).unwrap_or_default()
+)]
+pub struct WaitExpired {
+    pub target: String,
+    pub what: String,
+    pub timeout: Duration,
+    pub stopped: Option<String>,
+}
+
 impl SessionError {
+    /// A wait for `target` that ran out while it was still `what`.
+    pub fn wait_expired(
+        target: impl Into<String>,
+        what: impl Into<String>,
+        timeout: Duration,
+        stopped: Option<String>,
+    ) -> Self {
+        Self::WaitExpired(Box::new(WaitExpired { target: target.into(), what: what.into(), timeout, stopped }))
+    }
+
     pub fn kind(&self) -> ErrorKind {
         match self {
             Self::Link(_) => ErrorKind::Link,
             Self::Timeout { .. } => ErrorKind::Timeout,
+            Self::WaitExpired(_) => ErrorKind::WaitTimeout,
             Self::Malformed { .. } => ErrorKind::Malformed,
             Self::Device { .. } => ErrorKind::Device,
         }

@@ -383,12 +383,8 @@ impl Pac {
             }
             if elapsed >= self.busy_timeout {
                 self.busy = Some(t);
-                return Err(SessionError::Timeout {
-                    target: TARGET.into(),
-                    what: format!("the end of {cmd} (still BE = 0)"),
-                    timeout: self.busy_timeout,
-                }
-                .into());
+                let what = format!("running {cmd}, BE = 0");
+                return Err(SessionError::wait_expired(TARGET, what, self.busy_timeout, None).into());
             }
             self.core.clock.sleep(self.poll_interval);
             ack = match self.send_poll(&mut t) {
@@ -769,7 +765,8 @@ mod tests {
         pac.set_check_rule(CheckRule::WithEtx);
         pac.set_busy_timeout(Duration::from_millis(500));
         let err = pac.transact(&Command::new(0x0A84, 3, Par2::Int(0))).unwrap_err();
-        assert_eq!(err.kind(), crate::session::ErrorKind::Timeout, "{err:?}");
+        assert_eq!(err.kind(), crate::session::ErrorKind::WaitTimeout, "{err:?}");
+        assert!(err.to_string().starts_with("wait timed out after 0.5 s: PA-CONTROL was still running 0A84"), "{err}");
         assert_eq!(written(&s)[0], b"\x01\x020A84;3;0;0\x03118\x04");
         assert!(pac.busy_command().is_some(), "the reference drive is still running");
     }

@@ -70,7 +70,7 @@ impl Pipeline {
     /// Plans the groups of `lines` (the batch's lines, in order); none
     /// unless the link is CAN for the PowerCube family.
     pub fn new(ctx: &Ctx, lines: &[(usize, String, Line)]) -> Self {
-        let can = ctx.link.as_ref().is_some_and(|spec| Opener::is_can(spec, Family::PowerCube));
+        let can = ctx.given_link().ok().flatten().is_some_and(|spec| Opener::is_can(spec, Family::PowerCube));
         let plans: Vec<Option<PipelinedRead>> =
             lines.iter().map(|(_, _, line)| if can { plan(line) } else { None }).collect();
         let sizes: Vec<Option<usize>> = plans.iter().map(|p| p.as_ref().map(|p| p.requests().len())).collect();

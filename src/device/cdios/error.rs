@@ -45,7 +45,7 @@ pub enum Error {
 }
 
 /// `node 1 module 0 stopped (fast stop)`, or the failure in capitals.
-fn stop_note(node: NodeId, m: ModuleId, failed: Option<&str>) -> String {
+pub(super) fn stop_note(node: NodeId, m: ModuleId, failed: Option<&str>) -> String {
     match failed {
         None => format!("node {node} module {m} stopped (fast stop)"),
         Some(e) => format!("STOP OF NODE {node} MODULE {m} FAILED: {e}"),

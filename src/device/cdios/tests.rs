@@ -267,7 +267,18 @@ fn a_wait_on_a_motor_never_seen_running_away_from_its_setpoint_times_out() {
     let spec = WaitSpec { timeout: Duration::from_secs(2), ..wait_spec() };
     let mut looks = 0;
     let e = r.node.wait(id(0), Goal::Goto, spec, &|| false, &mut |_, _| looks += 1).unwrap_err();
-    assert!(matches!(e, Error::Session(SessionError::Timeout { .. })), "{e:?}");
+    assert!(matches!(e, Error::Session(SessionError::WaitExpired(_))), "{e:?}");
+    assert_eq!(e.kind(), crate::session::ErrorKind::WaitTimeout);
+    // The motor is disabled as well as at rest: its refusal of the stop is
+    // said in full.
+    let text = e.to_string();
+    assert!(
+        text.starts_with(
+            "wait timed out after 2 s: node 1 module 0 was still running the goto (it answered every poll); \
+             STOP OF NODE 1 MODULE 0 FAILED: node 1 module 0 refused stop"
+        ),
+        "{text}"
+    );
     assert!(looks > 1, "{looks} looks");
     assert!(!r.motor(0).0);
 }
@@ -393,4 +404,29 @@ fn a_node_that_never_answers_is_sent_no_motion() {
     assert!(matches!(e, Error::Session(SessionError::Timeout { .. })), "{e:?}");
     let gotos = lock(&r.sent).iter().filter(|f| f.data().first() == Some(&0x23)).count();
     assert_eq!(gotos, 0, "{:?}", sent_frames(&r));
+}
+
+/// `cdios-stop` is idempotent: a motor at rest is the state asked for.
+#[test]
+fn a_stop_of_a_motor_at_rest_is_no_failure_but_a_refusal_that_stops_nothing_is() {
+    let mut r = rig();
+    r.long_goto(0);
+    assert_eq!(
+        r.node.stop(id(0), StopOption::DecelerateAndStop, false).unwrap(),
+        Stopped::FastStop { confirmed: true }
+    );
+    r.clock.advance(Duration::from_secs(2));
+    assert!(!r.motor(0).0, "the stop was carried out");
+    for option in [StopOption::FastStop, StopOption::DecelerateAndStop, StopOption::DecelerateToMinimum] {
+        lock(&r.sent).clear();
+        assert_eq!(r.node.stop(id(0), option, false).unwrap(), Stopped::NotRunning, "{option:?}");
+        // The refusal alone is not taken for a motor at rest: its status says so.
+        let sent = lock(&r.sent).clone();
+        assert_eq!(sent.len(), 2, "the stop, then the status read: {sent:?}");
+    }
+    // A disabled motor at rest refuses to clear a hold: that is an answer to
+    // keep, not a stopped motor.
+    r.node.send(id(1), &[stop_command(StopOption::Disable, false)]).unwrap();
+    let e = r.node.stop(id(1), StopOption::ClearHold, false).unwrap_err();
+    assert!(e.refusal().is_some(), "{e:?}");
 }

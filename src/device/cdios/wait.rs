@@ -6,6 +6,7 @@
 use std::sync::Arc;
 use std::time::Duration;
 
+use super::error::stop_note;
 use super::{Error, Node};
 use crate::proto::cdios::{Address, Command, ModuleId, PositionSource, ServoPart, StatusReport};
 use crate::session::SessionError;
@@ -121,12 +122,19 @@ impl Node {
                 return Ok(WaitEnd { position: pos, status: r, elapsed, target: near.map(|n| n.0) });
             }
             if elapsed >= spec.timeout {
-                let _ = self.stop_retrying(m, spec.stop_attempts);
-                return Err(Error::Session(SessionError::Timeout {
-                    target: format!("node {node} module {m}"),
-                    what: format!("the end of the {what} (motor stopped)"),
-                    timeout: spec.timeout,
-                }));
+                // A motor that came to rest short of the goal refuses the
+                // stop as not running: the standstill wanted, no failure.
+                let stopped = match self.halt_motor(m, spec.stop_attempts) {
+                    Ok(true) => stop_note(node, m, None),
+                    Ok(false) => format!("node {node} module {m} at rest, nothing to stop"),
+                    Err(e) => stop_note(node, m, Some(&e.to_string())),
+                };
+                return Err(Error::Session(SessionError::wait_expired(
+                    format!("node {node} module {m}"),
+                    format!("running the {what}"),
+                    spec.timeout,
+                    Some(stopped),
+                )));
             }
             // Events are read while waiting, in slices short enough that a
             // stop request acts well within a wire round trip.

@@ -149,15 +149,13 @@ impl Controller {
                 }
             }
             if now.elapsed >= limit {
-                let what = match self.halt_axis(axis).result {
-                    Ok(p) => format!("the end of the move (axis stopped at {p})"),
-                    Err(e) => format!("the end of the move (STOP FAILED: {e})"),
-                };
-                return Err(Error::Session(SessionError::Timeout {
-                    target: format!("PA-CONTROL axis {axis}"),
-                    what,
-                    timeout: limit,
-                }));
+                let stopped = Some(self.halt_axis(axis).to_string());
+                return Err(Error::Session(SessionError::wait_expired(
+                    format!("PA-CONTROL axis {axis}"),
+                    "moving",
+                    limit,
+                    stopped,
+                )));
             }
             clock.sleep_or_wake(poll);
         }
@@ -202,6 +200,12 @@ impl Controller {
         match (self.pac.transact_with(cmd, observe), axis) {
             (Ok(done), _) => Ok(done),
             (Err(PacError::Abandoned { .. }), Some(axis)) => Err(Error::Interrupted(self.halt_axis(axis))),
+            // Still running when the wait ran out: stopped, and said so in
+            // the timeout's own words.
+            (Err(PacError::Session(SessionError::WaitExpired(mut expired))), Some(axis)) => {
+                expired.stopped = Some(self.halt_axis(axis).to_string());
+                Err(Error::Session(SessionError::WaitExpired(expired)))
+            }
             // Running (BE = 0 seen), or its acknowledge lost or garbled: the
             // axis may be moving. A refusal (QUIT) moved nothing.
             (Err(e @ PacError::Session(_)), Some(axis))

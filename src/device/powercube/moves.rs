@@ -70,7 +70,11 @@ impl Move {
                 }
                 Wire { value, vel: vel_v, acc: acc_v }
             }
-            Self::Step { pos, .. } => Wire { value: mv(pos, "target position")?, vel: None, acc: None },
+            Self::Step { pos, time_ms } => {
+                // A step in no time is a jump the module cannot make.
+                limits::check_positive("step time (ms)", f64::from(time_ms))?;
+                Wire { value: mv(pos, "target position")?, vel: None, acc: None }
+            }
             Self::Vel(v) => Wire { value: mv(v, "velocity")?, vel: None, acc: None },
             Self::Cur(a) => Wire { value: MotionValue::Float(limits::float32("current", a)?), vel: None, acc: None },
         })

@@ -76,6 +76,8 @@ fn values_that_do_not_fit_the_wire_send_nothing_at_all() {
         (Move::Ramp { pos: 1.5, vel: None, acc: None }, true),
         (Move::Ramp { pos: 0.5, vel: Some(0.0), acc: None }, false),
         (Move::Step { pos: f64::NAN, time_ms: 10 }, false),
+        (Move::Step { pos: 0.1, time_ms: 0 }, false),
+        (Move::Step { pos: 100.0, time_ms: 0 }, true),
         (Move::Vel(3e9), true),
         (Move::Cur(f64::INFINITY), false),
     ] {

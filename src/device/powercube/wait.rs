@@ -5,6 +5,7 @@
 use std::sync::Arc;
 use std::time::Duration;
 
+use super::error::halt_note;
 use super::{param, Cubes, Error};
 use crate::proto::powercube::flags::{state, CUBE_STATE};
 use crate::proto::powercube::table::ids;
@@ -94,12 +95,13 @@ impl Cubes {
                 return Ok(WaitEnd { module: m, position: pos, cube, elapsed });
             }
             if elapsed >= spec.timeout {
-                let halted = self.halt_retrying(m, spec.halt_attempts).is_ok();
-                return Err(Error::Session(SessionError::Timeout {
-                    target: format!("module {m}"),
-                    what: format!("the end of {what} ({})", if halted { "module halted" } else { "HALT FAILED" }),
-                    timeout: spec.timeout,
-                }));
+                let halt_failed = self.halt_retrying(m, spec.halt_attempts).err().map(|e| e.to_string());
+                return Err(Error::Session(SessionError::wait_expired(
+                    format!("module {m}"),
+                    what,
+                    spec.timeout,
+                    Some(halt_note(m, halt_failed.as_deref())),
+                )));
             }
             // Refreshes the watchdog meanwhile when a supervised motion
             // keeps it. A link that fails here fails the next poll, which

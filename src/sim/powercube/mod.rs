@@ -47,8 +47,10 @@
 //! - **Parameters.** GetExtended of a parameter the table marks write-only
 //!   (TargetPos/Vel/Acc) or not readable (DefA0) answers the current value;
 //!   an id outside the table gets no answer. SetExtended of a read-only
-//!   parameter, or with data that does not decode as the parameter's type,
-//!   or a non-finite float, is acknowledged and changes nothing. Writes are
+//!   parameter gets no answer either (as an unknown one: an acknowledge
+//!   would tell the client a write took that did not); with data that does
+//!   not decode as the parameter's type, or a non-finite float, it is
+//!   acknowledged and changes nothing. Writes are
 //!   limited (manual 12): MinPos/MaxPos to DefMinPos..DefMaxPos (and MinPos
 //!   <= MaxPos), MaxVel/MaxAcc/MaxCur/MaxDeltaPos to their Def values,
 //!   TargetVel/TargetAcc to MaxVel/MaxAcc (magnitude), target positions to
@@ -234,6 +236,11 @@ impl PowerCubeBus {
                 Some(d) if !table::firmware_has(module.spec().version, *param) => {
                     format!(" (firmware {} has no {})", table::version_text(module.spec().version), d.name)
                 }
+                Some(_) => String::new(),
+            },
+            (Request::SetExtended { param, .. }, Some(_)) => match table::param(*param) {
+                None => " (no such parameter)".to_string(),
+                Some(d) if !d.access.writable() => format!(" ({} is read-only)", d.name),
                 Some(_) => String::new(),
             },
             _ => String::new(),

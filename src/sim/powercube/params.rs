@@ -187,15 +187,15 @@ impl Module {
         IDLE_BUS_CURRENT_A + 0.5 * self.motor_current().abs()
     }
 
-    /// SetExtended: `false` if the parameter is unknown (no acknowledge).
-    /// Read-only parameters and data that does not decode as the
-    /// parameter's type are acknowledged but change nothing. Values are
+    /// SetExtended: `false` if the parameter is unknown or read-only (no
+    /// acknowledge). Data that does not decode as the parameter's type is
+    /// acknowledged but changes nothing. Values are
     /// limited as manual 12 says: limits to the ROM range, targets to the
     /// limits. Non-finite floats are ignored.
     pub(super) fn set_extended(&mut self, param: u8, data: &[u8]) -> bool {
         let Some(def) = table::param(param) else { return false };
         if !def.access.writable() {
-            return true;
+            return false;
         }
         let Ok(value) = Value::decode(def.ty, data) else { return true };
         let Some(x) = value.as_f64().filter(|x| x.is_finite()) else { return true };

@@ -301,10 +301,11 @@ fn targets_are_limited() {
     b.wait(60.0);
     assert_eq!(b.state(17), state::HOME_OK | state::RAMP_END);
     assert_eq!(b.pos(17), 1.0);
-    // Read-only parameters are acknowledged and unchanged.
-    b.set(17, ids::DEF_MAX_VEL, Value::Float(9.0));
+    // Read-only parameters are not acknowledged, and unchanged.
+    for (param, value) in [(ids::DEF_MAX_VEL, 9.0), (ids::ACT_POS, 0.3)] {
+        assert_eq!(b.req(17, Request::set(param, Value::Float(value))), None, "{param:#x}");
+    }
     assert_eq!(b.getf(17, ids::DEF_MAX_VEL), f64::from(0.1f32));
-    b.set(17, ids::ACT_POS, Value::Float(0.3));
     assert_eq!(b.pos(17), 1.0);
     // LINEAR is hardware.
     b.set(17, ids::CONFIG, Value::UInt32(0));
@@ -1056,7 +1057,14 @@ mod vendor_library {
         assert!(b.can("0E3#10").is_empty());
         assert!(b.can(&format!("0D1#0A{:02X}", ids::ACT_F_TEMP)).is_empty());
         assert!(!b.can("0C3#0A27").is_empty());
-        let traced = TRACED.with(|t| t.take());
+        assert!(b.can(&format!("0E3#08{:02X}00000000", ids::ACT_POS)).is_empty());
+        let mut traced = TRACED.with(|t| t.take());
+        let read_only = traced.pop().unwrap_or_default();
+        assert!(
+            read_only.starts_with("module 3: SetExtended ActPos")
+                && read_only.ends_with("not answered (ActPos is read-only)"),
+            "{read_only}"
+        );
         assert_eq!(
             traced,
             [

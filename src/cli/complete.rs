@@ -1,0 +1,190 @@
+//! Dynamic shell completion: the shell asks the binary itself
+//! (`AXISCTL_COMPLETE=bash axisctl -- WORDS...`), which parses the words
+//! with the real parser, so a global option's value (`--link sim`) is never
+//! taken for a subcommand, and values are completed from the protocol
+//! tables: parameter names, Config flags, decode kinds, record values,
+//! link forms.
+
+use std::ffi::{OsStr, OsString};
+
+use clap_complete::engine::{ArgValueCompleter, CompletionCandidate};
+
+use axisctl::family::Family;
+use axisctl::proto::powercube::{flags as cube_flags, table as cube_table};
+use axisctl::record::{CdiosValue, PacValue};
+
+/// The variable that asks the binary for completions (in the registration
+/// script `axisctl completions SHELL` prints).
+pub const VAR: &str = "AXISCTL_COMPLETE";
+
+/// Answers a shell's completion request (the variable [`VAR`] is set) and
+/// ends the process; returns at once otherwise.
+///
+/// clap_complete's engine takes an option's value for a subcommand when it
+/// is spelled like one (`axisctl --link sim move-ramp --<Tab>` completed the
+/// `sim` subcommand's flags): the words before the cursor are given to it
+/// with each value joined to its option (`--link=sim`), one word that is
+/// never a subcommand.
+pub fn answer_shell(command: impl Fn() -> clap::Command) {
+    if std::env::var_os(VAR).is_none_or(|v| v.is_empty() || v == "0") {
+        return;
+    }
+    let cmd = command();
+    let mut args: Vec<OsString> = std::env::args_os().collect();
+    let index: Option<usize> = std::env::var(INDEX).ok().and_then(|i| i.parse().ok());
+    if let Some(words) = args.iter().position(|a| a == "--").map(|i| i + 1) {
+        let cursor = index.map_or(args.len() - 1, |i| words + i);
+        let joined = join_option_values(&cmd, &mut args, words, cursor);
+        if let Some(i) = index {
+            // SAFETY (edition 2021: safe): one thread, before anything else runs.
+            std::env::set_var(INDEX, (i - joined).to_string());
+        }
+    }
+    let current_dir = std::env::current_dir().ok();
+    match clap_complete::CompleteEnv::with_factory(|| cmd.clone()).var(VAR).try_complete(args, current_dir.as_deref()) {
+        Ok(true) => std::process::exit(0),
+        Ok(false) => {}
+        Err(e) => e.exit(),
+    }
+}
+
+/// Where bash's script says the cursor is, among the words.
+const INDEX: &str = "_CLAP_COMPLETE_INDEX";
+
+/// Joins `--opt VALUE` into `--opt=VALUE` in `args[from..cursor]` for the
+/// top-level options that take a value; how many words went.
+fn join_option_values(cmd: &clap::Command, args: &mut Vec<OsString>, from: usize, mut cursor: usize) -> usize {
+    let takes_value: Vec<&str> =
+        cmd.get_arguments().filter(|a| a.get_action().takes_values()).filter_map(|a| a.get_long()).collect();
+    let mut joined = 0;
+    let mut i = from;
+    while i + 1 < cursor {
+        let long = args[i].to_str().and_then(|a| a.strip_prefix("--")).filter(|l| takes_value.contains(l));
+        if long.is_some() {
+            let mut word = args[i].clone();
+            word.push("=");
+            word.push(&args[i + 1]);
+            args[i] = word;
+            args.remove(i + 1);
+            cursor -= 1;
+            joined += 1;
+        }
+        i += 1;
+    }
+    joined
+}
+
+/// The names of `names` that start with what is typed, case-insensitively
+/// (parameter names are matched so by the commands too).
+fn starting_with<'a>(current: &OsStr, names: impl IntoIterator<Item = &'a str>) -> Vec<CompletionCandidate> {
+    let typed = current.to_string_lossy().to_ascii_lowercase();
+    let mut out: Vec<&str> = names.into_iter().filter(|n| n.to_ascii_lowercase().starts_with(&typed)).collect();
+    out.dedup();
+    out.into_iter().map(CompletionCandidate::new).collect()
+}
+
+/// PowerCube parameter names (`get-param`, `set-param`).
+pub fn params() -> ArgValueCompleter {
+    ArgValueCompleter::new(|current: &OsStr| starting_with(current, cube_table::PARAMS.iter().map(|p| p.name)))
+}
+
+/// What `record` samples: PowerCube parameters, PA-CONTROL and Cdios values.
+pub fn record_values() -> ArgValueCompleter {
+    ArgValueCompleter::new(|current: &OsStr| {
+        let names = cube_table::PARAMS
+            .iter()
+            .map(|p| p.name)
+            .chain(PacValue::ALL.map(PacValue::name))
+            .chain(CdiosValue::ALL.map(CdiosValue::name));
+        starting_with(current, names)
+    })
+}
+
+/// `+FLAG` / `-FLAG` of `set-config`, manual and short names.
+pub fn config_changes() -> ArgValueCompleter {
+    ArgValueCompleter::new(|current: &OsStr| {
+        let typed = current.to_string_lossy();
+        let sign = if typed.starts_with('-') { "-" } else { "+" };
+        let names = cube_flags::CONFIG.flags.iter().flat_map(|f| f.short.into_iter().chain(std::iter::once(f.name)));
+        let signed: Vec<String> = names.map(|n| format!("{sign}{n}")).collect();
+        starting_with(current, signed.iter().map(String::as_str))
+    })
+}
+
+/// The kinds `decode` takes.
+pub fn decode_kinds() -> ArgValueCompleter {
+    ArgValueCompleter::new(|current: &OsStr| starting_with(current, Family::all_decode_kinds()))
+}
+
+/// `--link`: `sim`, the forms with the serial ports and CAN interfaces of
+/// this machine.
+pub fn links() -> ArgValueCompleter {
+    ArgValueCompleter::new(|current: &OsStr| {
+        let mut forms = vec!["sim".to_string()];
+        for tty in ttys() {
+            forms.push(format!("slcan:{tty}"));
+            forms.push(format!("serial:{tty}"));
+        }
+        forms.extend(can_interfaces().into_iter().map(|i| format!("socketcan:{i}")));
+        starting_with(current, forms.iter().map(String::as_str))
+    })
+}
+
+/// USB serial adapters and the serial ports that exist.
+fn ttys() -> Vec<String> {
+    let mut out: Vec<String> = std::fs::read_dir("/dev")
+        .into_iter()
+        .flatten()
+        .flatten()
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .filter(|n| n.starts_with("ttyUSB") || n.starts_with("ttyACM"))
+        .map(|n| format!("/dev/{n}"))
+        .collect();
+    out.sort();
+    out
+}
+
+/// Network interfaces of type CAN (280, ARPHRD_CAN).
+fn can_interfaces() -> Vec<String> {
+    let mut out: Vec<String> = std::fs::read_dir("/sys/class/net")
+        .into_iter()
+        .flatten()
+        .flatten()
+        .filter(|e| std::fs::read_to_string(e.path().join("type")).is_ok_and(|t| t.trim() == "280"))
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .collect();
+    out.sort();
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn names(c: &ArgValueCompleter, typed: &str) -> Vec<String> {
+        c.complete(OsStr::new(typed)).iter().map(|c| c.get_value().to_string_lossy().into_owned()).collect()
+    }
+
+    #[test]
+    fn a_global_options_value_is_joined_to_it_before_the_cursor_only() {
+        let cmd = super::super::command("");
+        let words = |w: &[&str]| w.iter().map(OsString::from).collect::<Vec<_>>();
+        let mut args = words(&["axisctl", "--", "axisctl", "--link", "sim", "--json", "move-ramp", "--"]);
+        assert_eq!(join_option_values(&cmd, &mut args, 2, 7), 1);
+        assert_eq!(args, words(&["axisctl", "--", "axisctl", "--link=sim", "--json", "move-ramp", "--"]));
+        // The value being typed stays a word of its own, to be completed.
+        let mut args = words(&["axisctl", "--", "axisctl", "--link", "si"]);
+        assert_eq!(join_option_values(&cmd, &mut args, 2, 4), 0);
+    }
+
+    #[test]
+    fn values_come_from_the_tables() {
+        let act = names(&params(), "actp");
+        assert!(act.contains(&"ActPos".to_string()) && act.iter().all(|n| n.starts_with("ActP")), "{act:?}");
+        assert!(names(&record_values(), "rpm").contains(&"rpm-error".to_string()));
+        assert!(names(&decode_kinds(), "cube").contains(&"cube-state".to_string()));
+        assert!(names(&config_changes(), "-brake").contains(&"-brake-present".to_string()));
+        assert!(names(&config_changes(), "+CONFIGID_MOD_BRAKE").contains(&"+CONFIGID_MOD_BRAKE_PRESENT".to_string()));
+        assert_eq!(names(&links(), "si"), ["sim"]);
+    }
+}
