@@ -222,7 +222,8 @@ fn cdios_lost_goto_answer_under_wait_stops_the_motor_and_says_so() {
 /// it is halted and the message says so.
 #[test]
 fn a_lost_home_acknowledge_under_wait_halts_and_says_so() {
-    let s = Sim::start(&["--powercube", "pty-slcan", "--fault", "drop=1,count=1"], 1);
+    // The first answer is Config's (is the watchdog on?), the second Home's.
+    let s = Sim::start(&["--powercube", "pty-slcan", "--fault", "drop=1,skip=1,count=1"], 1);
     let link = s.link("powercube");
     let r = run_bounded(&["--link", link, "--timeout", "1000", "home", "-m", "3", "--wait"]);
     assert_eq!(r.code, 4, "{}", r.stderr);
@@ -243,7 +244,8 @@ fn module_state(link: &str, m: &str) -> u64 {
 /// 17 is never sent a Home.
 #[test]
 fn a_lost_home_acknowledge_of_home_all_under_wait_halts_the_modules_homed_so_far() {
-    let s = Sim::start(&["--powercube", "pty-slcan", "--fault", "drop=1,skip=4,count=1"], 1);
+    // Three presence answers, three Configs (is the watchdog on?), Home to 3, Home to 5.
+    let s = Sim::start(&["--powercube", "pty-slcan", "--fault", "drop=1,skip=7,count=1"], 1);
     let link = s.link("powercube");
     let r = run_bounded(&["--link", link, "--trace", "--timeout", "1000", "home", "--all", "--wait"]);
     assert_eq!(r.code, 4, "{}", r.stderr);
@@ -318,7 +320,8 @@ fn sigint_during_home_all_wait_halts_every_module_of_the_home() {
 /// homed so far are halted.
 #[test]
 fn sigint_while_home_all_sends_its_homes_sends_no_more_and_halts_those_sent() {
-    let s = Sim::start(&["--powercube", "pty-slcan", "--fault", "delay=1500ms,skip=4,count=1"], 1);
+    // Three presence answers, three Configs, Home to 3, then Home to 5's.
+    let s = Sim::start(&["--powercube", "pty-slcan", "--fault", "delay=1500ms,skip=7,count=1"], 1);
     let link = s.link("powercube");
     let args = ["--link", link, "--timeout", "3000", "home", "--all", "--wait"];
     let r = signal_when(&args, "Home to module 5", Duration::from_millis(100), libc::SIGINT);

@@ -69,6 +69,9 @@ pub enum PowerCubeCommand {
         target: Target,
         #[command(flatten)]
         wait: WaitArgs,
+        /// With --wait (CAN): switch the watchdog on for this motion if it is off, refresh it while waiting, switch it off afterwards; if this process dies, the module halts within 50 ms
+        #[arg(long, requires = "wait")]
+        deadman: bool,
     },
     /// Clear the error state
     Reset {
@@ -108,6 +111,9 @@ pub enum PowerCubeCommand {
         sync: bool,
         #[command(flatten)]
         wait: WaitArgs,
+        /// With --wait (CAN): switch the watchdog on for this motion if it is off, refresh it while waiting, switch it off afterwards; if this process dies, the module halts within 50 ms
+        #[arg(long, requires = "wait")]
+        deadman: bool,
     },
     /// Step motion: reach a position in a given time
     MoveStep {

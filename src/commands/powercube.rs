@@ -4,7 +4,8 @@
 use std::time::Duration;
 
 use axisctl::device::powercube::{
-    self as device, param, version_text, ConfigChange, Cubes, Error, Goal, Move, Simple, SyncRamp, WaitEnd, WaitSpec,
+    self as device, param, version_text, ConfigChange, Cubes, Deadman, Error, Goal, Move, Simple, SyncRamp, WaitEnd,
+    WaitSpec,
 };
 use axisctl::family::Family;
 use axisctl::proto::powercube::flags::{self, FlagWord};
@@ -28,10 +29,11 @@ pub fn run(ctx: &Ctx, cmd: Command) -> anyhow::Result<()> {
         Command::Scan { ids } => scan(ctx, &ids),
         Command::Info(m) => read_each(ctx, &m.module, info),
         Command::State(m) => read_each(ctx, &m.module, show_state),
-        Command::Home { target, wait } => home(ctx, target, wait),
+        Command::Home { target, wait, deadman } => home(ctx, target, wait, policy(deadman)),
         Command::Reset { target } => simple(ctx, target, Simple::Reset),
         Command::Halt { target } => halt(ctx, target),
-        Command::MoveRamp { modules, pos, vel, acc, ticks, relative, force, sync, wait } => {
+        Command::MoveRamp { modules, pos, vel, acc, ticks, relative, force, sync, wait, deadman } => {
+            let deadman = policy(deadman);
             let ms: Vec<ModuleId> = modules.0.iter().map(|id| module(*id)).collect();
             if ms.len() > 1 {
                 // A failure of a synchronized move is the group's, not the
@@ -39,8 +41,8 @@ pub fn run(ctx: &Ctx, cmd: Command) -> anyhow::Result<()> {
                 output::forget_target();
             }
             match (&ms[..], &pos[..]) {
-                _ if sync => move_ramp_sync(ctx, &ms, &pos, (vel, acc), ticks, force, wait),
-                ([m], [p]) => move_ramp(ctx, *m, target(*p, relative), vel, acc, ticks, force, wait),
+                _ if sync => move_ramp_sync(ctx, &ms, &pos, (vel, acc), ticks, force, (wait, deadman)),
+                ([m], [p]) => move_ramp(ctx, *m, target(*p, relative), vel, acc, ticks, force, (wait, deadman)),
                 _ => Err(usage("several modules or positions move only together: add --sync; nothing was sent")),
             }
         }
@@ -61,6 +63,32 @@ pub fn run(ctx: &Ctx, cmd: Command) -> anyhow::Result<()> {
         }
         Command::Dio { module: m, out } => dio(ctx, module(m.module), out.as_deref()),
         Command::Watchdog { action } => watchdog(ctx, action),
+    }
+}
+
+/// `--deadman` arms the watchdog for the motion; without it the motion's
+/// wait refreshes a watchdog that is on already.
+fn policy(deadman: bool) -> Deadman {
+    if deadman {
+        Deadman::Arm
+    } else {
+        Deadman::Auto
+    }
+}
+
+/// The result of a supervised motion once its dead-man backstop is
+/// released (watchdogs switched on for it switched off, the refresh
+/// stopped). The motion's own error comes first: a failure to release is
+/// then only said.
+fn released<T>(cubes: &mut Cubes, r: anyhow::Result<T>) -> anyhow::Result<T> {
+    match (r, cubes.release_deadman()) {
+        (Ok(t), Ok(())) => Ok(t),
+        (Ok(_), Err(e)) => Err(e.into()),
+        (Err(e), Err(left)) => {
+            output::err_line(format_args!("{left}"));
+            Err(e)
+        }
+        (Err(e), Ok(())) => Err(e),
     }
 }
 
@@ -353,15 +381,21 @@ fn report_sent(ctx: &Ctx, target: Target, what: &str, holder: Option<&super::tak
     }
 }
 
-fn home(ctx: &Ctx, target: Target, wait: WaitArgs) -> anyhow::Result<()> {
+fn home(ctx: &Ctx, target: Target, wait: WaitArgs, deadman: Deadman) -> anyhow::Result<()> {
     let mut cubes = cubes(ctx)?;
     if !wait.wait {
         cubes.simple(target.module.map(module), Simple::Home)?;
         report_sent(ctx, target, "home", None);
         return Ok(());
     }
+    cubes.set_deadman(deadman)?;
     // Supervised from before the first byte: a signal now halts.
     super::arm_interrupt()?;
+    let r = home_waited(ctx, &mut cubes, target, wait);
+    released(&mut cubes, r)
+}
+
+fn home_waited(ctx: &Ctx, cubes: &mut Cubes, target: Target, wait: WaitArgs) -> anyhow::Result<()> {
     let attempts = 1 + ctx.retry.read_retries;
     let modules = match target.module.map(module) {
         Some(m) => {
@@ -379,13 +413,14 @@ fn home(ctx: &Ctx, target: Target, wait: WaitArgs) -> anyhow::Result<()> {
             present
         }
     };
+    refresh_ahead(cubes);
     let goals: Vec<(ModuleId, Goal)> = modules.iter().map(|m| (*m, Goal::Homed)).collect();
     let results = waiting(ctx, &wait, |t, show| {
         let spec = WaitSpec { poll: t.poll, timeout: t.timeout, halt_attempts: t.stop_attempts };
         let progress =
             &mut |m, pos: f32, cube| show(format!("module {m} homing: pos {pos:.4}  {}", state_summary(ctx, cube)));
         let waited = supervisor::guard(
-            &mut cubes,
+            &mut *cubes,
             |c| c.wait_each(&goals, spec, &interrupted, progress),
             |c| {
                 c.halt_each(&modules, spec.halt_attempts);
@@ -393,7 +428,7 @@ fn home(ctx: &Ctx, target: Target, wait: WaitArgs) -> anyhow::Result<()> {
         );
         waited.map_err(|e| super::stopped_by_output(e.into()))
     })?;
-    print_wait_results(ctx, &mut cubes, "home", &results)
+    print_wait_results(ctx, cubes, "home", &results)
 }
 
 /// The device's wait, with the spinner and Ctrl-C (which halts the module).
@@ -457,35 +492,38 @@ fn print_wait_results(ctx: &Ctx, cubes: &mut Cubes, what: &str, results: &[WaitE
 /// Checks and sends a move; the checks that need no module come before the
 /// link is opened. A move to be waited for must start on its own.
 /// Checks the motion, opens the link and sends it.
-fn send_move(ctx: &Ctx, m: ModuleId, mv: Move, ticks: bool, force: bool, wait: bool) -> anyhow::Result<Cubes> {
+fn send_move(ctx: &Ctx, m: ModuleId, mv: Move, ticks: bool, force: bool) -> anyhow::Result<Cubes> {
     mv.check(ticks)?;
     let mut cubes = cubes(ctx)?;
-    send_on(ctx, &mut cubes, m, mv, ticks, force, wait)?;
+    send_on(ctx, &mut cubes, m, mv, ticks, force, false)?;
     Ok(cubes)
 }
 
 /// A ramp or step to `target`: a relative one is resolved on the open link
 /// (a read, before anything moves), then `to` builds the motion for the
-/// absolute position. Returns the open modules and that position.
+/// absolute position. Returns that position.
 fn send_move_to(
     ctx: &Ctx,
-    m: ModuleId,
-    target: device::Target,
+    cubes: &mut Cubes,
+    (m, target): (ModuleId, device::Target),
     to: impl Fn(f64) -> Move,
     ticks: bool,
     force: bool,
     wait: bool,
-) -> anyhow::Result<(Cubes, f64)> {
-    if let device::Target::To(p) = target {
-        // The checks that need no module, before the link opens.
-        to(p).check(ticks)?;
-    }
-    let mut cubes = cubes(ctx)?;
+) -> anyhow::Result<f64> {
     let pos = cubes.resolve(m, target, ticks)?;
     let mv = to(pos);
     mv.check(ticks)?;
-    send_on(ctx, &mut cubes, m, mv, ticks, force, wait)?;
-    Ok((cubes, pos))
+    send_on(ctx, cubes, m, mv, ticks, force, wait)?;
+    Ok(pos)
+}
+
+/// The checks of a motion to `target` that need no module, before the link opens.
+fn check_target(target: device::Target, to: impl Fn(f64) -> Move, ticks: bool) -> anyhow::Result<()> {
+    if let device::Target::To(p) = target {
+        to(p).check(ticks)?;
+    }
+    Ok(())
 }
 
 fn send_on(
@@ -501,7 +539,9 @@ fn send_on(
         // Supervised from before the motion byte leaves; without a wait the
         // motion is one-shot and unsupervised once acknowledged.
         super::arm_interrupt()?;
-        cubes.move_supervised(m, mv, ticks, force, 1 + ctx.retry.read_retries)
+        let moved = cubes.move_supervised(m, mv, ticks, force, 1 + ctx.retry.read_retries);
+        refresh_ahead(cubes);
+        moved
     } else {
         cubes.move_module(m, mv, ticks, force)
     }?;
@@ -520,17 +560,22 @@ fn move_ramp(
     acc: Option<f64>,
     ticks: bool,
     force: bool,
-    wait: WaitArgs,
+    (wait, deadman): (WaitArgs, Deadman),
 ) -> anyhow::Result<()> {
     let ramp = |pos| Move::Ramp { pos, vel, acc };
-    let (mut cubes, pos) = send_move_to(ctx, m, target, ramp, ticks, force, wait.wait)?;
+    check_target(target, ramp, ticks)?;
+    let mut cubes = cubes(ctx)?;
     if !wait.wait {
+        let pos = send_move_to(ctx, &mut cubes, (m, target), ramp, ticks, force, false)?;
         if ctx.json {
             output::json(&doc(ctx, m, json!({"command": "move-ramp", "target": pos, "acknowledged": true})));
         }
         return Ok(());
     }
-    let end = wait_for(ctx, &mut cubes, m, wait, Goal::RampEnd { target: pos, ticks })?;
+    cubes.set_deadman(deadman)?;
+    let r = send_move_to(ctx, &mut cubes, (m, target), ramp, ticks, force, true)
+        .and_then(|pos| wait_for(ctx, &mut cubes, m, wait, Goal::RampEnd { target: pos, ticks }));
+    let end = released(&mut cubes, r)?;
     print_wait_results(ctx, &mut cubes, "move-ramp", &[end])
 }
 
@@ -543,44 +588,57 @@ fn move_ramp_sync(
     (vel, acc): (Option<f64>, Option<f64>),
     ticks: bool,
     force: bool,
-    wait: WaitArgs,
+    (wait, deadman): (WaitArgs, Deadman),
 ) -> anyhow::Result<()> {
     let plan = SyncRamp::new(ms, pos, vel, acc, ticks)?;
     let mut cubes = cubes(ctx)?;
     if wait.wait {
+        cubes.set_deadman(deadman)?;
         super::arm_interrupt()?;
+        let r = move_ramp_sync_waited(ctx, &mut cubes, &plan, ticks, force, wait);
+        return released(&mut cubes, r);
     }
-    let attempts = 1 + ctx.retry.read_retries;
-    let started = if wait.wait {
-        cubes
-            .move_sync_supervised(&plan, force, attempts, &interrupted)
-            .map_err(|e| super::stopped_by_output(e.into()))?
-    } else {
-        cubes.move_sync(&plan, force, attempts)?
-    };
+    let started = cubes.move_sync(&plan, force, 1 + ctx.retry.read_retries)?;
+    say_started(ctx, &started);
+    if ctx.json {
+        let list: Vec<_> = started
+            .iter()
+            .map(|(m, moved)| doc(ctx, *m, json!({"target": moved.target, "acknowledged": true})))
+            .collect();
+        output::json(&json!({"command": "move-ramp", "sync": true, "devices": list, "broadcast": "StartMotion"}));
+    }
+    Ok(())
+}
+
+fn say_started(ctx: &Ctx, started: &[(ModuleId, device::Moved)]) {
     if !ctx.json {
-        for (m, moved) in &started {
+        for (m, moved) in started {
             say!("module {m}: {} acknowledged", moved.described);
         }
         say!("StartMotion broadcast to all modules");
     }
-    if !wait.wait {
-        if ctx.json {
-            let list: Vec<_> = started
-                .iter()
-                .map(|(m, moved)| doc(ctx, *m, json!({"target": moved.target, "acknowledged": true})))
-                .collect();
-            output::json(&json!({"command": "move-ramp", "sync": true, "devices": list, "broadcast": "StartMotion"}));
-        }
-        return Ok(());
-    }
+}
+
+fn move_ramp_sync_waited(
+    ctx: &Ctx,
+    cubes: &mut Cubes,
+    plan: &SyncRamp,
+    ticks: bool,
+    force: bool,
+    wait: WaitArgs,
+) -> anyhow::Result<()> {
+    let started = cubes
+        .move_sync_supervised(plan, force, 1 + ctx.retry.read_retries, &interrupted)
+        .map_err(|e| super::stopped_by_output(e.into()))?;
+    say_started(ctx, &started);
+    refresh_ahead(cubes);
     let ends = waiting(ctx, &wait, |t, show| {
         let spec = WaitSpec { poll: t.poll, timeout: t.timeout, halt_attempts: t.stop_attempts };
         let progress =
             &mut |m, pos: f32, cube| show(format!("module {m} moving: pos {pos:.4}  {}", state_summary(ctx, cube)));
         let modules: Vec<ModuleId> = started.iter().map(|(m, _)| *m).collect();
         let waited = supervisor::guard(
-            &mut cubes,
+            &mut *cubes,
             |c| c.wait_sync(&started, ticks, spec, &interrupted, progress),
             |c| {
                 for m in &modules {
@@ -590,7 +648,7 @@ fn move_ramp_sync(
         );
         waited.map_err(|e| super::stopped_by_output(e.into()))
     })?;
-    print_wait_results(ctx, &mut cubes, "move-ramp", &ends)
+    print_wait_results(ctx, cubes, "move-ramp", &ends)
 }
 
 fn move_step(
@@ -601,7 +659,9 @@ fn move_step(
     ticks: bool,
     force: bool,
 ) -> anyhow::Result<()> {
-    let (_, pos) = send_move_to(ctx, m, target, |pos| Move::Step { pos, time_ms: time }, ticks, force, false)?;
+    let step = |pos| Move::Step { pos, time_ms: time };
+    check_target(target, step, ticks)?;
+    let pos = send_move_to(ctx, &mut cubes(ctx)?, (m, target), step, ticks, force, false)?;
     if ctx.json {
         output::json(&doc(
             ctx,
@@ -613,7 +673,7 @@ fn move_step(
 }
 
 fn move_vel(ctx: &Ctx, m: ModuleId, vel: f64, ticks: bool, force: bool) -> anyhow::Result<()> {
-    send_move(ctx, m, Move::Vel(vel), ticks, force, false)?;
+    send_move(ctx, m, Move::Vel(vel), ticks, force)?;
     if ctx.json {
         output::json(&doc(ctx, m, json!({"command": "move-vel", "velocity": vel, "acknowledged": true})));
     }
@@ -621,7 +681,7 @@ fn move_vel(ctx: &Ctx, m: ModuleId, vel: f64, ticks: bool, force: bool) -> anyho
 }
 
 fn move_cur(ctx: &Ctx, m: ModuleId, amps: f64, force: bool) -> anyhow::Result<()> {
-    send_move(ctx, m, Move::Cur(amps), false, force, false)?;
+    send_move(ctx, m, Move::Cur(amps), false, force)?;
     if ctx.json {
         output::json(&doc(ctx, m, json!({"command": "move-cur", "current": amps, "acknowledged": true})));
     }
@@ -903,6 +963,15 @@ fn keepalive(ctx: &Ctx, pc: &mut PowerCube, interval_ms: u64, duration: Option<f
         );
     }
     Ok(())
+}
+
+/// A wait that keeps the module watchdog refreshed runs ahead of ordinary
+/// work, as the keep-alive does: on a loaded host a refresh late by more
+/// than the watchdog's 50 ms halts the module (docs/safety.md § 13).
+pub(super) fn refresh_ahead(cubes: &Cubes) {
+    if cubes.deadman_refreshing() {
+        raise_priority();
+    }
 }
 
 /// Puts the keep-alive thread ahead of ordinary work where the system allows

@@ -296,6 +296,12 @@ fn go<S: HaltMotion>(
     if let Some(h) = &halted {
         output::err_line(format_args!("{} {h}", m.device()));
     }
+    if let Err(left) = s.release() {
+        output::err_line(format_args!("{left}"));
+        if matches!(ended, Ok(End::Done)) {
+            return Err(anyhow::anyhow!(left));
+        }
+    }
     match (ended, why) {
         (Err(e), _) => Err(device_error(e).context(format!("recording failed{said}"))),
         (Ok(End::Stopped), Some(why @ (supervisor::StopReason::Output(_) | supervisor::StopReason::Panic(_)))) => {
@@ -329,6 +335,7 @@ fn start_cube(s: &mut CubeSampler, m: &Motion, attempts: u32) -> Result<String, 
         };
     }
     let moved = cubes.move_supervised(module, mv, ticks, force, attempts)?;
+    super::powercube::refresh_ahead(cubes);
     Ok(format!("{} acknowledged", moved.described))
 }
 

@@ -6,6 +6,7 @@
 //! Every check that decides whether a frame may go out is made here, before
 //! it goes out; the CLI and the dashboard only word the outcome.
 
+mod deadman;
 mod error;
 mod moves;
 mod sync;
@@ -27,6 +28,7 @@ use crate::session::powercube::{decode_get, PowerCube};
 use crate::session::SessionError;
 
 pub use crate::proto::powercube::table::version_text;
+pub use deadman::{Deadman, REFRESH_EVERY};
 pub use error::Error;
 pub use moves::{Move, Moved, Target};
 pub use sync::{Loaded, SyncRamp};
@@ -260,11 +262,14 @@ pub struct Cubes {
     pc: PowerCube,
     /// DefCubeVersion per module id, read once when a read needs it.
     versions: BTreeMap<u8, u16>,
+    /// The watchdog policy of supervised motions, and what the current one armed.
+    deadman: Deadman,
+    armed: Option<deadman::Armed>,
 }
 
 impl Cubes {
     pub fn new(pc: PowerCube) -> Self {
-        Self { pc, versions: BTreeMap::new() }
+        Self { pc, versions: BTreeMap::new(), deadman: Deadman::default(), armed: None }
     }
 
     /// The module's firmware version (DefCubeVersion), read once.
@@ -507,11 +512,13 @@ impl Cubes {
 
     /// Home to one module under supervision: a Home without its
     /// acknowledge may still have been taken, so the module is halted before
-    /// the error is returned.
+    /// the error is returned. Config is read first, for the dead-man
+    /// backstop (is the watchdog on?).
     pub fn home_supervised(&mut self, m: ModuleId, halt_attempts: u32) -> Result<(), Error> {
         if supervisor::stop_requested() {
             return Err(Error::InterruptedBefore { what: format!("Home to module {m}"), halted: Vec::new() });
         }
+        self.arm_deadman(&[(m, None)])?;
         match self.pc.transact(m, &Simple::Home.request()) {
             Ok(_) => Ok(()),
             Err(source) => {
@@ -533,6 +540,8 @@ impl Cubes {
         halt_attempts: u32,
         interrupted: &dyn Fn() -> bool,
     ) -> Result<(), Error> {
+        let unread: Vec<_> = modules.iter().map(|m| (*m, None)).collect();
+        self.arm_deadman(&unread)?;
         for (i, &m) in modules.iter().enumerate() {
             if interrupted() {
                 let halted = self.halt_each(&modules[..i], halt_attempts);

@@ -45,6 +45,12 @@ pub trait HaltMotion: Sampler {
     /// in capitals (`HALT FAILED: ...`). `attempts`: how often a halt whose
     /// acknowledge is lost is sent.
     fn halt(&mut self, at: Address, attempts: u32) -> Result<String, String>;
+
+    /// After the halt: what the family set up to supervise the motion is
+    /// undone (a PowerCube's dead-man backstop); the failure, said.
+    fn release(&mut self) -> Result<(), String> {
+        Ok(())
+    }
 }
 
 /// Halts the motion at `at` when `when` says so; what was done, `None` when
@@ -85,6 +91,10 @@ impl HaltMotion for CubeSampler {
             Ok(()) => Ok("halted".into()),
             Err(e) => Err(format!("HALT FAILED: {e}")),
         }
+    }
+
+    fn release(&mut self) -> Result<(), String> {
+        self.cubes().release_deadman().map_err(|e| e.to_string())
     }
 }
 

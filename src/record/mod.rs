@@ -116,6 +116,12 @@ pub trait Sampler {
     fn read_at(&self) -> Option<Instant> {
         None
     }
+    /// Waits `d` between two samples (woken early by a caught signal); a
+    /// sampler whose link must stay busy meanwhile (a PowerCube watchdog
+    /// kept alive for a recorded motion) does that here.
+    fn pause(&mut self, clock: &dyn Clock, d: Duration) {
+        clock.sleep_or_wake(d);
+    }
     /// The recording is over: requests sent ahead will not be collected.
     /// Nothing is waited for (a halt may have to go out next).
     fn finish(&mut self) {}
@@ -198,7 +204,7 @@ fn samples<S: Sampler + ?Sized>(
             if due > now {
                 let wait = due - now;
                 // Woken early by a signal: the loop checks `stop` again.
-                clock.sleep_or_wake(wait);
+                sampler.pause(clock, wait);
                 continue;
             }
         }

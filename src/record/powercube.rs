@@ -4,9 +4,10 @@
 //! one is collected: the bus carries it while the current answers cross the
 //! link to the host and the host turns around, instead of falling idle.
 
-use std::time::Instant;
+use std::time::{Duration, Instant};
 
 use super::{Address, Channel, RecordError, Sampler};
+use crate::clock::Clock;
 use crate::device::powercube::{is_linear, Cubes, Error};
 use crate::proto::powercube::table::{self, ids, ParamDef};
 use crate::proto::powercube::{ModuleId, Request};
@@ -110,9 +111,22 @@ impl Sampler for CubeSampler {
         }
     }
 
+    /// A motion's watchdog refresh goes on while the recording waits.
+    fn pause(&mut self, clock: &dyn Clock, d: Duration) {
+        if self.cubes.deadman_refreshing() {
+            // A link that fails here fails the next sample, which halts.
+            let _ = self.cubes.session().pause(d);
+        } else {
+            clock.sleep_or_wake(d);
+        }
+    }
+
     fn finish(&mut self) {
         if let Some(b) = self.next.take() {
             self.cubes.session().abandon(b);
         }
     }
 }
+
+#[cfg(test)]
+mod tests;

@@ -31,6 +31,11 @@ use crate::proto::powercube::table::ParamDef;
 use crate::proto::powercube::{frame::Value, ModuleId, Request, Response};
 use crate::proto::{CanFrame, DecodeError};
 
+mod refresh;
+
+pub use refresh::RefreshStats;
+use refresh::{Refresh, Refreshing};
+
 /// Default CAN answer timeout (the vendor library's).
 pub const CAN_TIMEOUT: Duration = Duration::from_millis(100);
 /// Default RS232 timeout before wire time is added (the vendor library's).
@@ -55,6 +60,8 @@ pub struct PowerCube {
     in_flight: VecDeque<InFlight>,
     /// The id the next burst gets.
     next_burst: u64,
+    /// The watchdog refresh while a supervised motion lasts (CAN only).
+    refresh: Option<Refresh>,
 }
 
 /// A CAN burst sent and not collected yet.
@@ -131,6 +138,7 @@ impl PowerCube {
             frames: Vec::new(),
             in_flight: VecDeque::new(),
             next_burst: 0,
+            refresh: None,
         }
     }
 
@@ -237,11 +245,12 @@ impl PowerCube {
         };
         let core = &mut self.core;
         let in_flight = &mut self.in_flight;
+        let mut link = Refreshing::new(&mut **link, self.refresh.as_mut());
         let now = core.now();
         in_flight.retain(|b| !(b.abandoned && (b.exchange.pending() == 0 || now >= b.deadline)));
         // Frames queued before the request cannot answer it, but may answer
         // a burst still in flight.
-        core.drain(&mut **link, |core, frame| {
+        core.drain(&mut link, |core, frame| {
             let note = match route(in_flight, &frame, core.now()) {
                 Routed::Settled(_) => "ack (to a burst in flight)",
                 Routed::Abandoned => "ignored (answers an abandoned burst)",
@@ -257,7 +266,7 @@ impl PowerCube {
             core.trace(|| TraceEvent::Sent(format!("{frame:<22} {r} to module {m}")));
         }
         let sent = core.now();
-        let deadline = core.send_burst(&mut **link, &frames);
+        let deadline = core.send_burst(&mut link, &frames);
         self.frames = frames;
         self.in_flight.push_back(InFlight { id, exchange, deadline: deadline?, first_answer: None, abandoned: false });
         Ok(Burst { id, sent, done: None })
@@ -274,8 +283,9 @@ impl PowerCube {
         let at = self.index_of(burst.id);
         let (deadline, pending) = (self.in_flight[at].deadline, self.in_flight[at].exchange.pending());
         let Transport::Can(link) = &mut self.transport else { unreachable!("only a CAN burst is collected later") };
+        let mut link = Refreshing::new(&mut **link, self.refresh.as_mut());
         let in_flight = &mut self.in_flight;
-        let received = self.core.collect(&mut **link, deadline, pending, |core, frame| {
+        let received = self.core.collect(&mut link, deadline, pending, |core, frame| {
             let routed = route(in_flight, &frame, core.now());
             let note = match routed {
                 Routed::Settled(id) if id == burst.id => "ack",
@@ -393,7 +403,7 @@ impl PowerCube {
         match &mut self.transport {
             Transport::Can(link) => {
                 let frame = b.frame();
-                link.send(&frame)?;
+                Refreshing::new(&mut **link, self.refresh.as_mut()).send(&frame)?;
                 self.core.trace(|| TraceEvent::Sent(format!("{frame:<22} broadcast {b}")));
             }
             Transport::Rs232 { link, .. } => {
@@ -416,6 +426,64 @@ impl PowerCube {
     /// Writes a parameter; the caller has checked type and access.
     pub fn set(&mut self, module: ModuleId, param: &ParamDef, value: Value) -> Result<(), SessionError> {
         self.transact(module, &Request::set(param.id, value)).map(|_| ())
+    }
+}
+
+impl PowerCube {
+    /// Keeps the module watchdog refreshed from now on (CAN only; false on
+    /// RS232, where nothing is sent): the broadcast `[0x07, 0]` goes out at
+    /// once and then every `every` at the latest, from every send, every
+    /// wait for an answer and [`Self::pause`], until [`Self::stop_refresh`].
+    pub fn start_refresh(&mut self, every: Duration) -> Result<bool, SessionError> {
+        let Transport::Can(link) = &mut self.transport else { return Ok(false) };
+        let mut r = Refresh::new(Arc::clone(&self.core.clock), every);
+        r.tick(&mut **link)?;
+        let ms = every.as_secs_f64() * 1e3;
+        self.core.trace(|| TraceEvent::Note(format!("watchdog refresh every {ms:.0} ms from here")));
+        self.refresh = Some(r);
+        Ok(true)
+    }
+
+    /// Stops the refresh; an online watchdog trips 50 ms after the last one.
+    pub fn stop_refresh(&mut self) -> Option<RefreshStats> {
+        let st = self.refresh.take()?.stats();
+        let gap = st.max_gap.as_secs_f64() * 1e3;
+        self.core.trace(|| {
+            TraceEvent::Note(format!(
+                "watchdog refresh stopped after {} refreshes, longest gap {gap:.1} ms",
+                st.refreshes
+            ))
+        });
+        Some(st)
+    }
+
+    /// Whether [`Self::start_refresh`] is in force.
+    pub fn refreshing(&self) -> bool {
+        self.refresh.is_some()
+    }
+
+    /// Sleeps `d` (woken early by a caught signal, as
+    /// [`Clock::sleep_or_wake`](crate::clock::Clock::sleep_or_wake)),
+    /// refreshing the watchdog meanwhile when that is in force: the pause
+    /// between two polls of a wait.
+    pub fn pause(&mut self, d: Duration) -> Result<(), SessionError> {
+        let clock = Arc::clone(&self.core.clock);
+        let end = clock.now() + d;
+        loop {
+            let now = clock.now();
+            if now >= end {
+                return Ok(());
+            }
+            let (Some(r), Transport::Can(link)) = (self.refresh.as_mut(), &mut self.transport) else {
+                clock.sleep_or_wake(end - now);
+                return Ok(());
+            };
+            r.tick(&mut **link)?;
+            clock.sleep_or_wake(end.min(r.next()).saturating_duration_since(clock.now()));
+            if crate::clock::stop::stop_requested() {
+                return Ok(());
+            }
+        }
     }
 }
 

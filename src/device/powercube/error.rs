@@ -115,6 +115,18 @@ pub enum Error {
     /// a script must not take for success.
     #[error("no PowerCube module answered on ids {ids}")]
     NoneAnswered { ids: String },
+    /// The watchdog that `--deadman` switched on for a motion could not be
+    /// switched off again (`source`): it halts the module 50 ms after the
+    /// last refresh.
+    #[error(
+        "the watchdog of module {module}, switched on for this motion, could not be switched off again ({source}); \
+         it halts the module 50 ms after the last refresh: run `axisctl watchdog off -m {module}`, then reset"
+    )]
+    WatchdogLeftOn {
+        module: ModuleId,
+        #[source]
+        source: Box<Error>,
+    },
     /// A parameter answered with another type than the table's.
     #[error("{param} answered {got}, expected UInt32")]
     UnexpectedType { param: &'static str, got: String },
@@ -164,7 +176,9 @@ impl Error {
 
     pub fn kind(&self) -> ErrorKind {
         match self {
-            Self::SyncAborted { source, .. } | Self::OthersHalted { source, .. } => source.kind(),
+            Self::SyncAborted { source, .. }
+            | Self::OthersHalted { source, .. }
+            | Self::WatchdogLeftOn { source, .. } => source.kind(),
             Self::Limit(_) | Self::Refused(_) | Self::SyncMode { .. } | Self::NotSyncMode { .. } => ErrorKind::Usage,
             Self::Session(e)
             | Self::Motion { source: e, .. }

@@ -170,8 +170,9 @@ impl Cubes {
         force: bool,
         halt_attempts: u32,
     ) -> Result<Moved, Error> {
-        self.ensure_starts_alone(m)?;
+        let config_word = self.starting_config(m)?;
         let wire = self.checked(m, mv, ticks, force)?;
+        self.arm_deadman(&[(m, config_word)])?;
         match self.send_move(m, mv, ticks, wire, &supervisor::stop_requested) {
             Err(Error::Motion { what, module, source }) => {
                 let halt_failed = self.halt_retrying(module, halt_attempts).err().map(|e| e.to_string());
@@ -184,10 +185,20 @@ impl Cubes {
     /// Refuses a module that holds motion commands for the start broadcast
     /// (CONFIGID_MOD_SYNC_MOTION; the manual: valid only for CAN-Bus).
     pub fn ensure_starts_alone(&mut self, m: ModuleId) -> Result<(), Error> {
-        if self.session().is_can() && self.get_u32(m, ids::CONFIG)? & config::SYNC_MOTION != 0 {
+        self.starting_config(m).map(|_| ())
+    }
+
+    /// [`Self::ensure_starts_alone`], with the Config word it read (CAN
+    /// only: `None` on RS232, where nothing is read).
+    fn starting_config(&mut self, m: ModuleId) -> Result<Option<u32>, Error> {
+        if !self.session().is_can() {
+            return Ok(None);
+        }
+        let word = self.get_u32(m, ids::CONFIG)?;
+        if word & config::SYNC_MOTION != 0 {
             return Err(Error::SyncMode { module: m });
         }
-        Ok(())
+        Ok(Some(word))
     }
 
     /// Every check of [`Self::move_module`], nothing sent but reads.

@@ -71,6 +71,18 @@ impl Cubes {
     /// are halted, each up to `halt_attempts` times, which drops what they
     /// hold: no later broadcast may start half a synchronized move.
     pub fn load_sync(&mut self, s: &SyncRamp, force: bool, halt_attempts: u32) -> Result<Loaded, Error> {
+        self.load_sync_armed(s, force, halt_attempts, false)
+    }
+
+    /// [`Self::load_sync`]; with `supervised`, the dead-man backstop is
+    /// armed between the checks and the first target.
+    fn load_sync_armed(
+        &mut self,
+        s: &SyncRamp,
+        force: bool,
+        halt_attempts: u32,
+        supervised: bool,
+    ) -> Result<Loaded, Error> {
         s.check()?;
         if !self.session().is_can() {
             return Err(Error::Refused(
@@ -80,13 +92,19 @@ impl Cubes {
             ));
         }
         let mut wires: Vec<(ModuleId, Move, Wire)> = Vec::new();
+        let mut configs = Vec::new();
         for &(m, pos) in &s.targets {
-            if self.get_u32(m, ids::CONFIG)? & config::SYNC_MOTION == 0 {
+            let word = self.get_u32(m, ids::CONFIG)?;
+            if word & config::SYNC_MOTION == 0 {
                 return Err(Error::NotSyncMode { module: m });
             }
+            configs.push((m, Some(word)));
             let mv = s.ramp(pos);
             let wire = self.checked(m, mv, s.ticks, force)?;
             wires.push((m, mv, wire));
+        }
+        if supervised {
+            self.arm_deadman(&configs)?;
         }
         let mut moved = Vec::new();
         for (m, mv, wire) in wires {
@@ -119,7 +137,7 @@ impl Cubes {
         halt_attempts: u32,
         interrupted: &dyn Fn() -> bool,
     ) -> Result<Vec<(ModuleId, Moved)>, Error> {
-        let loaded = self.load_sync(s, force, halt_attempts)?;
+        let loaded = self.load_sync_armed(s, force, halt_attempts, true)?;
         if interrupted() {
             let modules: Vec<ModuleId> = loaded.moved.iter().map(|(m, _)| *m).collect();
             let halted = self.halt_each(&modules, halt_attempts);

@@ -103,7 +103,10 @@ impl Cubes {
                     Some(halt_note(m, halt_failed.as_deref())),
                 )));
             }
-            clock.sleep_or_wake(spec.poll);
+            // Refreshes the watchdog meanwhile when a supervised motion
+            // keeps it. A link that fails here fails the next poll, which
+            // halts first.
+            let _ = self.session().pause(spec.poll);
         }
     }
 

@@ -110,7 +110,12 @@
 //!   Online, a module not refreshed by the broadcast `[0x07, 0]` within 50 ms
 //!   stops at exactly last refresh + 50 ms with COMM_ERROR | ERROR | HALTED.
 //!   Recovery: switch it offline and Reset, or refresh again and Reset.
-//!   Clearing WATCHDOG_ENABLE takes it offline.
+//!   Clearing WATCHDOG_ENABLE takes it offline. A refresh does not bring an
+//!   offline watchdog online (the Config table's "activated automatically
+//!   by the first life sign" is not modelled: section 13 switches it with
+//!   0x07), and the trip is the instant of last refresh + 50 ms as the
+//!   simulator receives it: frames a loaded host delivers late to it count
+//!   from when they arrive.
 //! - **Brake.** With BRAKE_PRESENT, BRAKEACTIVE is set from a halt (or an
 //!   error stop, or power on with BRAKE_AT_POWERON) until the next motion.
 //!   DefBrakeTimeOut is reported, not waited for.
