@@ -48,8 +48,11 @@ impl Rig {
 struct Fake {
     status: u16,
     silent: Vec<u16>,
-    /// Codes answered with BE = 0 (still running); polls are never answered.
+    /// Codes answered with BE = 0 (still running); polls are never answered
+    /// unless `refuse_polls`.
     running: Vec<u16>,
+    /// Polls are answered with QUIT 0x14 (inadmissible).
+    refuse_polls: bool,
     seen: Arc<Mutex<Vec<u16>>>,
     decoder: CommandDecoder,
 }
@@ -58,7 +61,20 @@ impl ByteDevice for Fake {
     fn on_bytes(&mut self, _now: Instant, bytes: &[u8], out: &mut Vec<u8>) {
         self.decoder.push(bytes);
         while let Some(Ok(req)) = self.decoder.next() {
-            let Request::Command { command, .. } = req else { continue };
+            let Request::Command { command, .. } = req else {
+                if self.refuse_polls {
+                    let ack = Ack {
+                        quit: 0x14,
+                        be: true,
+                        status: self.status,
+                        error: 0,
+                        q_par: Par2::Int(0),
+                        check_rule: CheckRule::Strict,
+                    };
+                    out.extend(ack.encode().unwrap());
+                }
+                continue;
+            };
             self.seen.lock().unwrap().push(command.code);
             if !self.silent.contains(&command.code) {
                 let ack = Ack {
@@ -84,12 +100,17 @@ fn fake(status: u16, silent: &[u16]) -> (Controller, Arc<Mutex<Vec<u16>>>) {
 }
 
 fn fake_running(status: u16, silent: &[u16], running: &[u16]) -> (Controller, Arc<Mutex<Vec<u16>>>) {
+    fake_with(status, silent, running, false)
+}
+
+fn fake_with(status: u16, silent: &[u16], running: &[u16], refuse_polls: bool) -> (Controller, Arc<Mutex<Vec<u16>>>) {
     let clock = VirtualClock::new();
     let seen = Arc::new(Mutex::new(Vec::new()));
     let dev = Fake {
         status,
         silent: silent.to_vec(),
         running: running.to_vec(),
+        refuse_polls,
         seen: Arc::clone(&seen),
         decoder: CommandDecoder::new(),
     };
@@ -476,4 +497,16 @@ fn a_followed_motion_that_loses_its_answers_is_stopped_and_a_refused_one_is_not(
     ctl.online().unwrap();
     let e = ctl.follow(&Command::new(0x0A84, 9, Par2::Int(0)), &mut |_| true).unwrap_err();
     assert!(matches!(e, Error::Session(SessionError::Device { .. })), "axis 9 is unknown: {e:?}");
+}
+
+// Issue 22: a reference drive whose poll is refused (the controller is
+// still busy with it, or the answer belongs to something else) has not
+// been seen to end: its axis is stopped and the refusal reported with it.
+#[test]
+fn a_followed_motion_whose_poll_is_refused_is_stopped() {
+    let (mut ctl, seen) = fake_with(31, &[], &[0x0A84], true);
+    let e = ctl.follow(&Command::new(0x0A84, 2, Par2::Int(0)), &mut |_| true).unwrap_err();
+    assert!(matches!(e, Error::Stopped { .. }), "{e:?}");
+    assert!(matches!(e.refusal(), Some(crate::proto::Refusal::PaControl(r)) if r.quit == 0x14), "{e:?}");
+    assert_eq!(codes(&seen), [0x0A84, 0x0A93]);
 }
