@@ -19,7 +19,10 @@
 //!   is sent (the retry of a read, a stop, a poll) the session waits for
 //!   every owed answer and drops it, up to [`MAX_LATE`] after the timeout;
 //!   one later than that is taken as lost. The session also waits for them
-//!   when it is dropped, so the next client does not inherit them.
+//!   when it is dropped, so the next client does not inherit them. Since a
+//!   late answer holds the line anyway, a poll's answer (and, under
+//!   [`Pac::patiently`], every answer of a stop) is awaited up to
+//!   [`MAX_LATE`] beyond the timeout and taken.
 //! - While an acknowledge says BE = 0 the session polls with a lone EOT every
 //!   [`Pac::set_poll_interval`] until BE = 1 or the overall busy timeout
 //!   ([`Pac::set_busy_timeout`], generous by default: moves and reference
@@ -134,6 +137,8 @@ pub struct Pac {
     /// they are waited for ([`Pac::await_owed`]).
     owed: u32,
     owed_until: Option<Instant>,
+    /// Answers are awaited [`MAX_LATE`] longer ([`Pac::patiently`]).
+    patient: bool,
 }
 
 /// What the session knows about answers to older exchanges on the line.
@@ -189,6 +194,7 @@ impl Pac {
             line: Line::Unchecked,
             owed: 0,
             owed_until: None,
+            patient: false,
         }
     }
 
@@ -245,6 +251,17 @@ impl Pac {
         })
     }
 
+    /// Runs `f` with every answer awaited up to [`MAX_LATE`] beyond the
+    /// answer timeout: for the stop of last resort, whose answer, were it
+    /// late, would hold the line that long anyway ([`Pac::settle`]), and
+    /// which is better taken than given up on a slow line.
+    pub fn patiently<T>(&mut self, f: impl FnOnce(&mut Self) -> T) -> T {
+        let was = std::mem::replace(&mut self.patient, true);
+        let out = f(self);
+        self.patient = was;
+        out
+    }
+
     /// Sends `cmd` and waits until it is finished (BE = 1), polling while
     /// BE = 0. Reads are retried; nothing else is.
     pub fn transact(&mut self, cmd: &Command) -> Result<Done, PacError> {
@@ -278,7 +295,14 @@ impl Pac {
     /// Polls the unfinished command once (EOT) and returns the fresh acknowledge.
     pub fn poll(&mut self) -> Result<Step, PacError> {
         let Some(mut t) = self.busy.take() else { return Err(PacError::NotBusy) };
-        let ack = self.send_poll(&mut t)?;
+        let ack = match self.send_poll(&mut t) {
+            Ok(ack) => ack,
+            Err(e) => {
+                // Unanswered, the command still runs as far as anyone knows.
+                self.busy = Some(t);
+                return Err(e);
+            }
+        };
         let step = self.handle(&mut t, ack)?;
         if let Step::NeedPoll { .. } = step {
             self.busy = Some(t);
@@ -474,7 +498,11 @@ impl Pac {
     /// wait goes on; the line is then settled before the next request.
     fn await_ack(&mut self, t: &Transaction) -> Result<Ack, PacError> {
         let cmd = t.command();
-        let timeout = self.answer_timeout(24);
+        // A poll's answer is awaited patiently, too: given up, it would
+        // hold the line that long all the same, and the running command
+        // would have to be stopped for want of it.
+        let patient = self.patient || t.polls() > 0;
+        let timeout = self.answer_timeout(24) + if patient { MAX_LATE } else { Duration::ZERO };
         let Self { link, core, decoder, line, owed, owed_until, .. } = self;
         let deadline = core.now() + timeout;
         let ack = core.read_until(&mut **link, deadline, |core, chunk, _| {
@@ -824,26 +852,35 @@ mod tests {
         read_1910(pac)
     }
 
-    // A poll of a running 0A87 times out; its late answer ("in position",
-    // BE = 1) must not be taken for the answer to the stop that follows.
+    // The first answer of a running 0A87 comes late, after its timeout: the
+    // stop that follows waits for it and takes its own answer, not that one.
     #[test]
-    fn a_late_poll_answer_is_not_taken_for_the_stops() {
-        let replies = vec![
-            Some(ack(0, false, 31, Par2::Float(0.0), CheckRule::Strict)),
-            None,
-            Some(ack(0, true, 31, Par2::Float(13.5), CheckRule::Strict)),
-        ];
+    fn a_late_answer_is_not_taken_for_the_stops() {
+        let replies = vec![None, Some(ack(0, true, 31, Par2::Float(13.5), CheckRule::Strict))];
         // Answers take 80 ms: the late one would come first.
         let (mut pac, s, clock) = session_with_latency(replies, Duration::from_millis(80));
         let mv = Command::new(0x0A87, 1, Par2::Float(100.0));
+        s.arrive(clock.now() + Duration::from_millis(150), ack(0, false, 31, Par2::Float(0.0), CheckRule::Strict));
         let err = pac.transact(&mv).unwrap_err();
         assert!(matches!(err, PacError::Session(SessionError::Timeout { .. })), "{err:?}");
-        assert_eq!(pac.busy_command(), Some(&mv), "still running as far as anyone knows");
-        // The poll's answer comes 60 ms after its timeout.
-        s.arrive(clock.now() + Duration::from_millis(60), ack(0, true, 31, Par2::Float(100.0), CheckRule::Strict));
         let done = pac.abandon_and_stop(&Command::new(0x0A93, 1, Par2::Float(0.0))).unwrap();
         assert_eq!(done.ack.q_par, Par2::Float(13.5), "the stop's own answer");
-        assert_eq!(written(&s).len(), 3);
+        assert_eq!(written(&s).len(), 2);
+    }
+
+    // A poll's answer is awaited up to MAX_LATE beyond the timeout: taken
+    // late rather than given up, which would leave a move to be stopped.
+    #[test]
+    fn a_late_poll_answer_is_the_polls_own() {
+        let replies = vec![Some(ack(0, false, 31, Par2::Float(0.0), CheckRule::Strict)), None];
+        let (mut pac, s, clock) = session(replies);
+        let mv = Command::new(0x0A87, 1, Par2::Float(100.0));
+        let at = clock.now() + DEFAULT_POLL_INTERVAL + pac.answer_timeout(24) + Duration::from_millis(500);
+        s.arrive(at, ack(0, true, 31, Par2::Float(100.0), CheckRule::Strict));
+        let done = pac.transact(&mv).unwrap();
+        assert_eq!((done.ack.q_par, done.polls), (Par2::Float(100.0), 1));
+        assert_eq!(written(&s).len(), 2);
+        assert!(pac.busy_command().is_none());
     }
 
     // An owed answer that never comes (lost) holds the next request back
@@ -889,6 +926,37 @@ mod tests {
         let (mut pac, _, _) = session(vec![Some(ack(0x14, true, 31, Par2::Float(0.0), CheckRule::Strict))]);
         assert!(pac.transact(&mv).is_err());
         assert_eq!(pac.busy_command(), None);
+    }
+
+    // The stop of last resort takes an answer up to MAX_LATE beyond the
+    // timeout (it would hold the line that long anyway); a late poll
+    // answer, too. Outside `patiently` the same answer is a timeout.
+    #[test]
+    fn patiently_takes_answers_up_to_max_late_beyond_the_timeout() {
+        let replies = vec![
+            Some(ack(0, false, 31, Par2::Float(12.0), CheckRule::Strict)),
+            Some(ack(0, true, 31, Par2::Float(13.5), CheckRule::Strict)),
+        ];
+        let late = Duration::from_millis(600);
+        let (mut pac, s, _) = session_with_latency(replies.clone(), late);
+        let stop = Command::new(0x0A93, 1, Par2::Float(0.0));
+        let done = pac.patiently(|p| p.transact(&stop)).unwrap();
+        assert_eq!((done.ack.q_par, done.polls), (Par2::Float(13.5), 1));
+        assert_eq!(written(&s).len(), 2);
+        let (mut pac, _, _) = session_with_latency(replies, late);
+        let err = pac.transact(&stop).unwrap_err();
+        assert_eq!(err.kind(), crate::session::ErrorKind::Timeout, "{err:?}");
+        assert!(!pac.patient, "patience ends with the call");
+    }
+
+    // A single poll that goes unanswered leaves the command unfinished.
+    #[test]
+    fn an_unanswered_poll_leaves_the_command_unfinished() {
+        let (mut pac, _, _) = session(vec![Some(ack(0, false, 31, Par2::Int(0), CheckRule::Strict)), None]);
+        let r = Command::new(0x0A84, 2, Par2::Int(0));
+        assert!(matches!(pac.start(&r).unwrap(), Step::NeedPoll { .. }));
+        assert!(pac.poll().is_err());
+        assert_eq!(pac.busy_command(), Some(&r));
     }
 
     #[test]

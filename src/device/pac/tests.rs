@@ -510,3 +510,26 @@ fn a_followed_motion_whose_poll_is_refused_is_stopped() {
     assert!(matches!(e.refusal(), Some(crate::proto::Refusal::PaControl(r)) if r.quit == 0x14), "{e:?}");
     assert_eq!(codes(&seen), [0x0A84, 0x0A93]);
 }
+
+// Issue 22: on a line whose every answer comes 200 ms late (twice the
+// answer timeout) the stop of last resort still stops the axis and polls
+// the stop to its end, so the controller is not left busy with it.
+#[test]
+fn a_halt_on_a_line_of_late_answers_stops_the_axis_and_ends_the_stop() {
+    use crate::sim::fault::{ByteFaults, ByteProtocol, FaultyByteDevice, Injector};
+    let rig = Rig::new(2);
+    let inj = Arc::new(Mutex::new(Injector::new(Default::default(), 1)));
+    let dev = FaultyByteDevice::new(Arc::clone(&rig.sim), ByteFaults::new(Arc::clone(&inj), ByteProtocol::Pac));
+    let clock: Arc<dyn Clock> = Arc::new(rig.clock.clone());
+    let link = MemByteLink::new(Box::new(dev), Arc::clone(&clock));
+    let mut ctl = Controller::new(Pac::new(Box::new(link), 9600, SerialFormat::F7N1).with_clock(clock));
+    online(&mut ctl, 1);
+    ctl.start_move(1, 900.0, false, true).unwrap();
+    rig.run(Duration::from_millis(300));
+    assert_eq!(rig.sim().axis_status(1), Some(1), "moving");
+    *inj.lock().unwrap() = Injector::new("delay=200ms".parse().unwrap(), 1);
+    let halted = ctl.halt_axis(1);
+    assert!(halted.result.is_ok(), "{halted}");
+    assert_eq!(rig.sim().busy(), None, "the stop was polled to its end");
+    assert_ne!(rig.sim().axis_status(1), Some(1));
+}
