@@ -250,6 +250,9 @@ fn targets_are_finite_and_inside_the_traverse_area() {
     assert!(check_target(2, 5e9, None).is_ok(), "no area known: the controller checks");
     let e = check_target(2, f64::NAN, None).unwrap_err();
     assert_eq!(e.to_string(), "target position NaN is not a finite number; nothing was sent");
+    assert!(check_target(2, 0.0, area).is_ok(), "the minimum itself is inside");
+    let e = check_target(2, -0.5, area).unwrap_err();
+    assert!(matches!(e, Error::OutsideTraverseArea { axis: 2, .. }), "below the minimum: {e:?}");
     let e = check_target(2, 1000.5, area).unwrap_err();
     assert_eq!(
         e.to_string(),
@@ -267,6 +270,8 @@ fn a_move_outside_the_traverse_area_is_not_sent() {
     assert!(matches!(e, Error::OutsideTraverseArea { axis: 1, .. }), "{e:?}");
     let e = ctl.start_move(1, 99_999.0, true, true).unwrap_err();
     assert!(matches!(e, Error::OutsideTraverseArea { .. }), "relative, too: {e:?}");
+    let e = ctl.start_move(1, -10.0, false, true).unwrap_err();
+    assert!(matches!(e, Error::OutsideTraverseArea { axis: 1, .. }), "below the minimum: {e:?}");
     rig.run(Duration::from_millis(500));
     assert_eq!(rig.sim().axis_speed(1), Some(0.0));
     // Unchecked, the controller refuses it itself (QUIT 0x41).
