@@ -22,7 +22,9 @@
 //!   when it is dropped, so the next client does not inherit them. Since a
 //!   late answer holds the line anyway, a poll's answer (and, under
 //!   [`Pac::patiently`], every answer of a stop) is awaited up to
-//!   [`MAX_LATE`] beyond the timeout and taken.
+//!   [`MAX_LATE`] beyond the timeout and taken. A line on which nothing at
+//!   all came for that long is silent, not late: until a byte comes, its
+//!   timeouts are not waited out (a halt-all must reach the other devices).
 //! - While an acknowledge says BE = 0 the session polls with a lone EOT every
 //!   [`Pac::set_poll_interval`] until BE = 1 or the overall busy timeout
 //!   ([`Pac::set_busy_timeout`], generous by default: moves and reference
@@ -139,6 +141,11 @@ pub struct Pac {
     owed_until: Option<Instant>,
     /// Answers are awaited [`MAX_LATE`] longer ([`Pac::patiently`]).
     patient: bool,
+    /// Nothing at all came for an answer timeout plus [`MAX_LATE`]: the
+    /// controller does not answer (unplugged, off), it is not late. Until a
+    /// byte comes, timeouts are not waited out: a halt of other devices
+    /// after this one's must not wait for answers that never come.
+    silent: bool,
 }
 
 /// What the session knows about answers to older exchanges on the line.
@@ -159,7 +166,7 @@ const MAX_SETTLE: Duration = Duration::from_secs(1);
 
 /// How long after its timeout an answer is still waited for before the
 /// next request: one later than this is taken as lost.
-pub const MAX_LATE: Duration = Duration::from_secs(1);
+pub const MAX_LATE: Duration = Duration::from_millis(500);
 
 /// Every read code is 1xxx (get / send, manual 5.1); writes and actions are 0xxx.
 pub fn is_read(code: u16) -> bool {
@@ -195,6 +202,7 @@ impl Pac {
             owed: 0,
             owed_until: None,
             patient: false,
+            silent: false,
         }
     }
 
@@ -397,7 +405,9 @@ impl Pac {
         }
         let Self { link, core, decoder, .. } = self;
         let mut late = 0u32;
+        let mut heard = 0usize;
         core.read_until(&mut **link, until, |core, chunk, _| {
+            heard += chunk.len();
             decoder.push(chunk);
             while let Some(item) = decoder.next() {
                 match item {
@@ -414,6 +424,7 @@ impl Pac {
         })
         .map_err(SessionError::from)?;
         if late < owed {
+            self.silent = heard == 0;
             let lost = owed - late;
             self.core.trace(|| {
                 TraceEvent::Note(format!("{lost} answer(s) owed to a timed-out request not seen: taken as lost"))
@@ -501,11 +512,12 @@ impl Pac {
         // A poll's answer is awaited patiently, too: given up, it would
         // hold the line that long all the same, and the running command
         // would have to be stopped for want of it.
-        let patient = self.patient || t.polls() > 0;
+        let patient = (self.patient || t.polls() > 0) && !self.silent;
         let timeout = self.answer_timeout(24) + if patient { MAX_LATE } else { Duration::ZERO };
-        let Self { link, core, decoder, line, owed, owed_until, .. } = self;
+        let Self { link, core, decoder, line, owed, owed_until, silent, .. } = self;
         let deadline = core.now() + timeout;
         let ack = core.read_until(&mut **link, deadline, |core, chunk, _| {
+            *silent &= chunk.is_empty();
             decoder.push(chunk);
             while let Some(item) = decoder.next() {
                 match item {
@@ -538,8 +550,10 @@ impl Pac {
                 if n > 0 {
                     core.trace(|| TraceEvent::Note(format!("{n} byte(s) of an incomplete frame at the timeout")));
                 }
-                *owed += 1;
-                *owed_until = Some(core.now() + MAX_LATE);
+                if !*silent {
+                    *owed += 1;
+                    *owed_until = Some(core.now() + MAX_LATE);
+                }
                 Err(SessionError::Timeout { target: TARGET.into(), what: cmd.to_string(), timeout }.into())
             }
         }
@@ -896,6 +910,32 @@ mod tests {
         assert_eq!(written(&s).len(), 2);
     }
 
+    // A controller that does not answer at all is silent, not late: after
+    // the first owed answer is given up, later timeouts are not waited out
+    // (nor a stop's answers awaited longer) until a byte comes.
+    #[test]
+    fn a_silent_line_is_not_waited_out_twice() {
+        let (mut pac, s, clock) = session(vec![None, None, None, None]);
+        pac.set_retry(RetryPolicy { read_retries: 1 });
+        let timeout = pac.answer_timeout(24);
+        let t0 = clock.now();
+        assert!(pac.transact(&Command::new(0x1910, 1, Par2::Int(0))).is_err());
+        assert_eq!(written(&s).len(), 2, "sent twice");
+        assert_eq!(clock.now() - t0, timeout * 2 + MAX_LATE, "one wait for the first owed answer");
+        let t1 = clock.now();
+        let stop = Command::new(0x0A93, 1, Par2::Float(0.0));
+        assert!(pac.patiently(|p| p.transact(&stop)).is_err());
+        assert!(pac.transact(&stop).is_err());
+        assert_eq!(clock.now() - t1, timeout * 2, "no more waits for what does not come");
+        assert_eq!(written(&s).len(), 4);
+        // A byte heard ends it: the next timeout is waited out again.
+        s.replies.lock().unwrap().push_back(Some(b"x".to_vec()));
+        s.replies.lock().unwrap().push_back(Some(ack(0, true, 31, Par2::Int(7), CheckRule::Strict)));
+        let t2 = clock.now();
+        assert_eq!(read_1910(&mut pac), Par2::Int(7));
+        assert_eq!(clock.now() - t2, timeout + MAX_LATE, "the retry waited for the owed answer");
+    }
+
     // A session ended with an answer owed waits for it, so the next client
     // on the line does not take it for its own.
     #[test]
@@ -937,7 +977,7 @@ mod tests {
             Some(ack(0, false, 31, Par2::Float(12.0), CheckRule::Strict)),
             Some(ack(0, true, 31, Par2::Float(13.5), CheckRule::Strict)),
         ];
-        let late = Duration::from_millis(600);
+        let late = Duration::from_millis(400);
         let (mut pac, s, _) = session_with_latency(replies.clone(), late);
         let stop = Command::new(0x0A93, 1, Par2::Float(0.0));
         let done = pac.patiently(|p| p.transact(&stop)).unwrap();
