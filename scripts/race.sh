@@ -5,9 +5,13 @@
 # left moving, wrong exits, and the time from the signal to the halt frame
 # (median and worst, from the wall-clock stamps of --log) and to the exit.
 # It runs a copy of the binaries, so a rebuild meanwhile changes nothing.
+# Then the PA-CONTROL late-answer race: LATE_RUNS (default 120) signalled
+# runs each of pac-move --wait, pac-ref --wait and record -- pac-move on a
+# simulator that answers 30 % of the requests 200 ms late.
 # Usage: scripts/race.sh [RUNS] [SEED]; PROFILE=release for a release build,
-# AXISCTL_RACE_ONLY=pac (or powercube, cdios) for one family. A failure
-# prints each wrong run.
+# AXISCTL_RACE_ONLY=pac (or powercube, cdios) for one family, RACE_TEST=late
+# (or signals_and_output) for one of the two races. A failure prints each
+# wrong run.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 runs="${1:-200}"
@@ -21,6 +25,7 @@ snap=$(mktemp -d)
 trap 'rm -rf "$snap"' EXIT
 cp "target/$profile/axisctl" "$snap/axisctl"
 cp "$exe" "$snap/race"
-export AXISCTL_BIN="$snap/axisctl" AXISCTL_RACE_RUNS="$runs" AXISCTL_RACE_SEED="$seed"
-echo "race: $runs runs per family, seed $seed, $profile build, $(nproc) cores, load $(cut -d' ' -f1-3 /proc/loadavg)"
-"$snap/race" --nocapture 2>&1 | grep -E '^race |^  wrong: |^    |test result|FAILED'
+late="${LATE_RUNS:-120}"
+export AXISCTL_BIN="$snap/axisctl" AXISCTL_RACE_RUNS="$runs" AXISCTL_RACE_SEED="$seed" AXISCTL_RACE_LATE_RUNS="$late"
+echo "race: $runs runs per family, $late late-answer runs per PA-CONTROL command, seed $seed, $profile build, $(nproc) cores, load $(cut -d' ' -f1-3 /proc/loadavg)"
+"$snap/race" ${RACE_TEST:-} --nocapture 2>&1 | grep -E '^race |^  wrong: |^    |test result|FAILED'

@@ -234,8 +234,10 @@ impl Rig {
         }
     }
 
-    /// Runs `op`, checks it took at most `attempts` timeouts (plus slack),
-    /// and returns its result and the (reads, motions) it sent.
+    /// Runs `op`, checks it took at most `attempts` timeouts (plus slack;
+    /// on the PA-CONTROL each attempt may first wait up to `MAX_LATE` for
+    /// the answer a timed-out one still owes), and returns its result and
+    /// the (reads, motions) it sent.
     fn timed(
         &mut self,
         attempts: u32,
@@ -245,7 +247,8 @@ impl Rig {
         let t0 = self.clock.now();
         let r = op(self);
         let took = self.clock.now() - t0;
-        let bound = self.timeout() * attempts + Duration::from_millis(60);
+        let owed = if self.family == Family::Pac { axisctl::session::pac::MAX_LATE } else { Duration::ZERO };
+        let bound = (self.timeout() + owed) * attempts + Duration::from_millis(60);
         assert!(took <= bound, "{:?}: took {took:?} > {bound:?}", self.family);
         let after = self.sent();
         (r, (after.0 - before.0, after.1 - before.1))

@@ -181,10 +181,13 @@ fn move_outside_the_traverse_area_is_refused_unsent() {
         }),
         Request::Poll => None,
     });
-    let out = run(&["--link", &r.link(), "pac-move", "1", "1000.5"]);
-    assert_eq!(out.code, 2, "{}", out.stderr);
-    assert!(out.stderr.contains("traverse area 0 to 1000"), "{}", out.stderr);
-    assert!(!r.codes().contains(&0x0A94));
+    // Above the maximum and below the minimum alike.
+    for target in ["1000.5", "-0.5"] {
+        let out = run(&["--link", &r.link(), "pac-move", "1", target]);
+        assert_eq!(out.code, 2, "{target}: {}", out.stderr);
+        assert!(out.stderr.contains("traverse area 0 to 1000"), "{target}: {}", out.stderr);
+        assert!(!r.codes().contains(&0x0A94), "{target}");
+    }
 }
 
 fn wait_for(child: &mut Child, secs: u64) -> std::process::Output {

@@ -447,3 +447,223 @@ fn signals_and_output_failures_at_random_instants_never_leave_a_device_moving() 
     let _ = std::fs::remove_dir_all(&dir);
     assert!(failed.is_empty(), "{failed:#?}");
 }
+
+// ---- PA-CONTROL answers later than the timeout (issue 22) ----
+//
+// The simulator delays 30 % of its answers by 200 ms, twice the clients'
+// answer timeout: every such answer arrives after its exchange gave up. A
+// signal comes at a random instant of `pac-move --wait`, `pac-ref --wait`
+// or `record -- pac-move`; after each run the harness asks the simulator
+// (with a timeout the delay never outlasts) whether the axis moves, whether
+// the controller is still busy with a start-and-wait command (a fresh
+// command is refused, QUIT 0x14), and whether a final report the run
+// printed ("in position" at P, referenced at P) is what the axis shows.
+// `AXISCTL_RACE_LATE_RUNS` sets the signalled runs per command (default 4,
+// what CI runs; `scripts/race.sh` runs 120).
+
+/// One command raced on the delayed simulator.
+struct LateRace {
+    name: &'static str,
+    /// The run's arguments after `--link L`, for run `i`.
+    args: fn(u64) -> Vec<&'static str>,
+    /// Brings the axis where the run starts (run `i`), with a timeout the
+    /// delay never outlasts.
+    prepare: fn(u64) -> Vec<&'static [&'static str]>,
+    window_ms: u64,
+}
+
+const LATE_TIMEOUT: &str = "97";
+
+const LATE_RACES: [LateRace; 3] = [
+    LateRace {
+        name: "pac-move --wait",
+        // No --force: the traverse area is read before the move, as in the issue.
+        args: |i| {
+            vec!["--timeout", LATE_TIMEOUT, "--json", "pac-move", "2", if i % 2 == 0 { "900" } else { "100" }, "--wait"]
+        },
+        prepare: |_| vec![],
+        window_ms: 2000,
+    },
+    LateRace {
+        name: "pac-ref --wait",
+        args: |_| vec!["--timeout", LATE_TIMEOUT, "--json", "pac-ref", "2", "--wait"],
+        // 40 AE from the reference switch: a drive of about a second.
+        prepare: |_| vec![&["--timeout", "2000", "pac-move", "2", "40", "--force", "--wait"]],
+        window_ms: 1500,
+    },
+    LateRace {
+        name: "record -- pac-move",
+        args: |i| {
+            let target = if i % 2 == 0 { "900" } else { "100" };
+            vec![
+                "--timeout",
+                LATE_TIMEOUT,
+                "--json",
+                "record",
+                "--axis",
+                "2",
+                "position",
+                "--for",
+                "1s",
+                "--",
+                "pac-move",
+                "2",
+                target,
+            ]
+        },
+        prepare: |_| vec![],
+        window_ms: 2000,
+    },
+];
+
+/// What the simulator says about axis 2, asked with a timeout the delay
+/// never outlasts: `Err` with the refusal text when the controller is busy.
+fn pac_axis_2(link: &str) -> Result<(u64, f64), String> {
+    let out = bin()
+        .args(["--link", link, "--timeout", "600", "--json", "pac-axis", "2"])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .output()
+        .unwrap();
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap_or_default();
+    match (v["axis_status"].as_u64(), v["position"]["value"].as_f64()) {
+        (Some(s), Some(p)) if out.status.success() => Ok((s, p)),
+        _ => Err(format!("{:?}: {}", out.status.code(), String::from_utf8_lossy(&out.stderr).trim())),
+    }
+}
+
+#[derive(Debug, Default)]
+struct LateTally {
+    runs: u64,
+    moving_after_exit: u64,
+    wrong_in_position: u64,
+    busy_after_exit: u64,
+    /// Exit code (or `-N` for death by signal N) and how often.
+    exits: std::collections::BTreeMap<i32, u64>,
+    late_answers_dropped: u64,
+    wrong: Vec<String>,
+}
+
+impl LateTally {
+    fn summary(&self, name: &str) -> String {
+        let exits: Vec<String> = self.exits.iter().map(|(c, n)| format!("{n} x {c}")).collect();
+        format!(
+            "race late {name}: {} signalled runs, {} moving after exit, {} wrong final reports, {} controllers left busy; \
+             {} late answers dropped; exits: {}",
+            self.runs,
+            self.moving_after_exit,
+            self.wrong_in_position,
+            self.busy_after_exit,
+            self.late_answers_dropped,
+            exits.join(", "),
+        )
+    }
+}
+
+fn race_late(r: &LateRace, runs: u64, seed: u64) -> LateTally {
+    let sim = Sim::start(&["--pac", "pty-serial", "--fault", "delay=200ms@0.3", "--fault-seed", &seed.to_string()], 1);
+    let link = sim.link("pac").to_string();
+    let quiet_on = |args: &[&str]| {
+        let mut all = vec!["--link", link.as_str()];
+        all.extend_from_slice(args);
+        quiet(&all)
+    };
+    for args in [&["--timeout", "2000", "pac-online"][..], &["--timeout", "2000", "pac-no-ref", "2"]] {
+        assert_eq!(quiet_on(args).0, 0, "{}: {args:?}", r.name);
+    }
+    let mut rng = Rng(seed | 1);
+    let mut t = LateTally::default();
+    for i in 0..runs {
+        if let Some(args) = (r.prepare)(i).into_iter().find(|args| quiet_on(args).0 != 0) {
+            // Left busy or moving by the run before (counted there).
+            t.wrong.push(format!("{}: run {i}: {args:?} failed", r.name));
+            quiet_on(&["--timeout", "2000", "pac-stop-axis", "2", "--wait"]);
+            continue;
+        }
+        let sig = SIGNALS[rng.below(4) as usize];
+        let after = Duration::from_millis(rng.below(r.window_ms));
+        let mut cmd = bin();
+        cmd.arg("--link").arg(&link).arg("--trace").args((r.args)(i));
+        let mut child = cmd.stdout(Stdio::piped()).stderr(Stdio::piped()).spawn().unwrap();
+        let what = format!("{}: run {i} (signal {sig} after {after:?})", r.name);
+        std::thread::sleep(after);
+        unsafe { libc::kill(child.id() as i32, sig) };
+        let (mut out, mut err) = (child.stdout.take().unwrap(), child.stderr.take().unwrap());
+        let reader = std::thread::spawn(move || {
+            let mut s = String::new();
+            let _ = std::io::Read::read_to_string(&mut err, &mut s);
+            s
+        });
+        let mut stdout = String::new();
+        let _ = std::io::Read::read_to_string(&mut out, &mut stdout);
+        let status = wait_bounded(&mut child, &what);
+        let trace = reader.join().unwrap();
+        t.runs += 1;
+        use std::os::unix::process::ExitStatusExt;
+        let code = status.code().unwrap_or_else(|| -status.signal().unwrap_or(0));
+        *t.exits.entry(code).or_default() += 1;
+        t.late_answers_dropped += trace.matches("dropped a late answer").count() as u64;
+        let fail = |t: &mut LateTally, why: String| {
+            let tail: Vec<&str> = trace.lines().rev().take(12).collect();
+            let tail: Vec<&str> = tail.into_iter().rev().collect();
+            t.wrong.push(format!("{what}: {why}\n  exit {code}, stdout {}\n  {}", stdout.trim(), tail.join("\n  ")));
+        };
+        let now = match pac_axis_2(&link) {
+            Ok(v) => Some(v),
+            Err(e) if e.contains("0x14") => {
+                t.busy_after_exit += 1;
+                fail(&mut t, format!("the controller is left busy: {e}"));
+                // Free it for the next run: a stop ends the wait (polled).
+                quiet_on(&["--timeout", "2000", "pac-stop-axis", "2", "--wait"]);
+                pac_axis_2(&link).ok()
+            }
+            Err(e) => panic!("{what}: cannot read axis 2 afterwards: {e}"),
+        };
+        let Some((status_now, position_now)) = now else { continue };
+        if status_now == 1 {
+            t.moving_after_exit += 1;
+            fail(&mut t, format!("the axis still moves (at {position_now})"));
+            quiet_on(&["--timeout", "2000", "pac-stop-axis", "2", "--wait"]);
+        }
+        // A final report (exit 0) must be what the axis shows: it stands,
+        // where the report says (pac-move: at the target, in position).
+        if code == 0 && !r.name.starts_with("record") {
+            let v: serde_json::Value = serde_json::from_str(stdout.trim()).unwrap_or_default();
+            let said = v["position"]["value"].as_f64();
+            let in_position = v["axis_status"].as_u64().is_none_or(|s| s == 0);
+            let at_target = v["target"].as_f64().is_none_or(|target| said.is_some_and(|p| (p - target).abs() < 1e-3));
+            let agrees = said.is_some_and(|p| (p - position_now).abs() < 1e-3);
+            if !(in_position && at_target && agrees && status_now == 0) {
+                t.wrong_in_position += 1;
+                fail(&mut t, format!("reported {stdout:?}, the axis shows status {status_now} at {position_now}"));
+            }
+        }
+    }
+    t
+}
+
+#[test]
+fn late_pac_answers_never_leave_an_axis_moving_a_controller_busy_or_a_wrong_report() {
+    let runs = env_u64("AXISCTL_RACE_LATE_RUNS", 4);
+    let seed = env_u64("AXISCTL_RACE_SEED", 0x5eed);
+    let only = std::env::var("AXISCTL_RACE_ONLY").ok();
+    if only.as_deref().is_some_and(|o| o != "pac") {
+        return;
+    }
+    let handles: Vec<_> = (0..LATE_RACES.len())
+        .map(|i| std::thread::spawn(move || race_late(&LATE_RACES[i], runs, seed + 100 * i as u64)))
+        .collect();
+    let mut failed = Vec::new();
+    for (i, h) in handles.into_iter().enumerate() {
+        let t = h.join().unwrap();
+        let name = LATE_RACES[i].name;
+        eprintln!("{}", t.summary(name));
+        for w in &t.wrong {
+            eprintln!("  wrong: {}", w.trim_end().replace('\n', "\n    "));
+        }
+        if !t.wrong.is_empty() {
+            failed.push(format!("{name}: {} wrong", t.wrong.len()));
+        }
+    }
+    assert!(failed.is_empty(), "{failed:#?}");
+}

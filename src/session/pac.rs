@@ -10,9 +10,21 @@
 //!   fall quiet for an answer timeout, dropping what arrives: a one-shot
 //!   command on a clean line costs no wait. After a skipped stale
 //!   acknowledge the session always waits for quiet before the next request,
-//!   so a late answer cannot shift every later exchange by one. A timeout
-//!   does not make the line suspect: waiting there would let the late
-//!   answer of one try be taken for the answer of the next.
+//!   so a late answer cannot shift every later exchange by one.
+//! - A request (or poll) that timed out is still owed its answer: a slow
+//!   controller or line delivers it late, and taken by the next request it
+//!   would shift every later exchange by one (a late 190B taken for the end
+//!   of 0A84, a late "in position" for this poll's). Its type cannot tell it
+//!   apart when both are integers or both floats, so before anything else
+//!   is sent (the retry of a read, a stop, a poll) the session waits for
+//!   every owed answer and drops it, up to [`MAX_LATE`] after the timeout;
+//!   one later than that is taken as lost. The session also waits for them
+//!   when it is dropped, so the next client does not inherit them. Since a
+//!   late answer holds the line anyway, a poll's answer (and, under
+//!   [`Pac::patiently`], every answer of a stop) is awaited up to
+//!   [`MAX_LATE`] beyond the timeout and taken. A line on which nothing at
+//!   all came for that long is silent, not late: until a byte comes, its
+//!   timeouts are not waited out (a halt-all must reach the other devices).
 //! - While an acknowledge says BE = 0 the session polls with a lone EOT every
 //!   [`Pac::set_poll_interval`] until BE = 1 or the overall busy timeout
 //!   ([`Pac::set_busy_timeout`], generous by default: moves and reference
@@ -35,7 +47,7 @@
 //!   acknowledges are accepted under either rule and the trace says which.
 
 use std::ops::ControlFlow;
-use std::time::Duration;
+use std::time::{Duration, Instant};
 
 use super::core::{core_setters, with_read_retries, Core, Retryable};
 use super::{SessionError, TraceEvent};
@@ -123,6 +135,17 @@ pub struct Pac {
     last_check: Option<CheckRule>,
     /// What is known about older answers still on the line ([`Pac::settle`]).
     line: Line,
+    /// Answers owed to requests and polls that timed out, and until when
+    /// they are waited for ([`Pac::await_owed`]).
+    owed: u32,
+    owed_until: Option<Instant>,
+    /// Answers are awaited [`MAX_LATE`] longer ([`Pac::patiently`]).
+    patient: bool,
+    /// Nothing at all came for an answer timeout plus [`MAX_LATE`]: the
+    /// controller does not answer (unplugged, off), it is not late. Until a
+    /// byte comes, timeouts are not waited out: a halt of other devices
+    /// after this one's must not wait for answers that never come.
+    silent: bool,
 }
 
 /// What the session knows about answers to older exchanges on the line.
@@ -140,6 +163,10 @@ enum Line {
 /// Longest wait for a quiet line: a line that never falls quiet is not
 /// waited out for ever, the answer check still guards the exchange.
 const MAX_SETTLE: Duration = Duration::from_secs(1);
+
+/// How long after its timeout an answer is still waited for before the
+/// next request: one later than this is taken as lost.
+pub const MAX_LATE: Duration = Duration::from_millis(500);
 
 /// Every read code is 1xxx (get / send, manual 5.1); writes and actions are 0xxx.
 pub fn is_read(code: u16) -> bool {
@@ -172,6 +199,10 @@ impl Pac {
             last_quit: None,
             last_check: None,
             line: Line::Unchecked,
+            owed: 0,
+            owed_until: None,
+            patient: false,
+            silent: false,
         }
     }
 
@@ -228,6 +259,17 @@ impl Pac {
         })
     }
 
+    /// Runs `f` with every answer awaited up to [`MAX_LATE`] beyond the
+    /// answer timeout: for the stop of last resort, whose answer, were it
+    /// late, would hold the line that long anyway ([`Pac::settle`]), and
+    /// which is better taken than given up on a slow line.
+    pub fn patiently<T>(&mut self, f: impl FnOnce(&mut Self) -> T) -> T {
+        let was = std::mem::replace(&mut self.patient, true);
+        let out = f(self);
+        self.patient = was;
+        out
+    }
+
     /// Sends `cmd` and waits until it is finished (BE = 1), polling while
     /// BE = 0. Reads are retried; nothing else is.
     pub fn transact(&mut self, cmd: &Command) -> Result<Done, PacError> {
@@ -261,7 +303,14 @@ impl Pac {
     /// Polls the unfinished command once (EOT) and returns the fresh acknowledge.
     pub fn poll(&mut self) -> Result<Step, PacError> {
         let Some(mut t) = self.busy.take() else { return Err(PacError::NotBusy) };
-        let ack = self.send_poll(&mut t)?;
+        let ack = match self.send_poll(&mut t) {
+            Ok(ack) => ack,
+            Err(e) => {
+                // Unanswered, the command still runs as far as anyone knows.
+                self.busy = Some(t);
+                return Err(e);
+            }
+        };
         let step = self.handle(&mut t, ack)?;
         if let Step::NeedPoll { .. } = step {
             self.busy = Some(t);
@@ -291,9 +340,9 @@ impl Pac {
         }
         let t = Transaction::with_options(*cmd, self.options).poll_interval(self.poll_interval);
         let bytes = t.request().map_err(|e| PacError::Encode(e.to_string()))?;
-        self.core.trace(|| TraceEvent::Sent(format!("{}  {cmd}", printable(&bytes))));
         // Half-duplex: anything still buffered belongs to an older exchange.
         self.settle()?;
+        self.core.trace(|| TraceEvent::Sent(format!("{}  {cmd}", printable(&bytes))));
         self.link.clear_input().map_err(SessionError::from)?;
         self.decoder.clear();
         self.link.write_all(&bytes).map_err(SessionError::from)?;
@@ -303,8 +352,8 @@ impl Pac {
     fn send_poll(&mut self, t: &mut Transaction) -> Result<Ack, PacError> {
         let bytes = t.poll();
         let polls = t.polls();
-        self.core.trace(|| TraceEvent::Sent(format!("{}  poll {polls}", printable(&bytes))));
         self.settle()?;
+        self.core.trace(|| TraceEvent::Sent(format!("{}  poll {polls}", printable(&bytes))));
         self.link.clear_input().map_err(SessionError::from)?;
         self.decoder.clear();
         self.link.write_all(&bytes).map_err(SessionError::from)?;
@@ -316,6 +365,7 @@ impl Pac {
     /// answer still on its way is not yet in the buffer that clearing the
     /// input empties. A new session waits only if input is already pending.
     fn settle(&mut self) -> Result<(), PacError> {
+        self.await_owed()?;
         let mut dropped = 0usize;
         match self.line {
             Line::Quiet => return Ok(()),
@@ -345,6 +395,46 @@ impl Pac {
         Ok(())
     }
 
+    /// Reads and drops the answers owed to requests that timed out, until
+    /// all have come or [`MAX_LATE`] after the last timeout. A garbled frame
+    /// counts as one: it was an answer.
+    fn await_owed(&mut self) -> Result<(), PacError> {
+        let (owed, Some(until)) = (self.owed, self.owed_until) else { return Ok(()) };
+        if owed == 0 {
+            return Ok(());
+        }
+        let Self { link, core, decoder, .. } = self;
+        let mut late = 0u32;
+        let mut heard = 0usize;
+        core.read_until(&mut **link, until, |core, chunk, _| {
+            heard += chunk.len();
+            decoder.push(chunk);
+            while let Some(item) = decoder.next() {
+                match item {
+                    Err(FrameError::Garbage { .. }) => continue,
+                    Ok(ack) => core.trace(|| TraceEvent::Note(format!("dropped a late answer: {ack}"))),
+                    Err(e) => core.trace(|| TraceEvent::Note(format!("dropped a late answer: bad frame: {e}"))),
+                }
+                late += 1;
+                if late >= owed {
+                    return ControlFlow::Break(());
+                }
+            }
+            ControlFlow::Continue(())
+        })
+        .map_err(SessionError::from)?;
+        if late < owed {
+            self.silent = heard == 0;
+            let lost = owed - late;
+            self.core.trace(|| {
+                TraceEvent::Note(format!("{lost} answer(s) owed to a timed-out request not seen: taken as lost"))
+            });
+        }
+        self.owed = 0;
+        self.owed_until = None;
+        Ok(())
+    }
+
     fn handle(&mut self, t: &mut Transaction, ack: Ack) -> Result<Step, PacError> {
         self.last_status = Some(ack.status);
         self.last_quit = Some(ack.quit);
@@ -367,7 +457,17 @@ impl Pac {
         let mut t = self.begin(cmd)?;
         let mut ack = self.await_ack(&t)?;
         loop {
-            let step = self.handle(&mut t, ack)?;
+            let running = t.is_busy().then(|| t.clone());
+            let step = match self.handle(&mut t, ack) {
+                Ok(step) => step,
+                Err(e) => {
+                    // A poll refused: the command was running a poll ago
+                    // and nothing says it ended, so it stays unfinished here
+                    // (only polls or a stop follow; a follower stops it).
+                    self.busy = running;
+                    return Err(e);
+                }
+            };
             let elapsed = self.core.clock.now() - start;
             let last = match step {
                 Step::Done(ack) => {
@@ -405,10 +505,15 @@ impl Pac {
     /// wait goes on; the line is then settled before the next request.
     fn await_ack(&mut self, t: &Transaction) -> Result<Ack, PacError> {
         let cmd = t.command();
-        let timeout = self.answer_timeout(24);
-        let Self { link, core, decoder, line, .. } = self;
+        // A poll's answer is awaited patiently, too: given up, it would
+        // hold the line that long all the same, and the running command
+        // would have to be stopped for want of it.
+        let patient = (self.patient || t.polls() > 0) && !self.silent;
+        let timeout = self.answer_timeout(24) + if patient { MAX_LATE } else { Duration::ZERO };
+        let Self { link, core, decoder, line, owed, owed_until, silent, .. } = self;
         let deadline = core.now() + timeout;
         let ack = core.read_until(&mut **link, deadline, |core, chunk, _| {
+            *silent &= chunk.is_empty();
             decoder.push(chunk);
             while let Some(item) = decoder.next() {
                 match item {
@@ -441,9 +546,20 @@ impl Pac {
                 if n > 0 {
                     core.trace(|| TraceEvent::Note(format!("{n} byte(s) of an incomplete frame at the timeout")));
                 }
+                if !*silent {
+                    *owed += 1;
+                    *owed_until = Some(core.now() + MAX_LATE);
+                }
                 Err(SessionError::Timeout { target: TARGET.into(), what: cmd.to_string(), timeout }.into())
             }
         }
+    }
+}
+
+impl Drop for Pac {
+    /// The next client on this line would take the owed answers for its own.
+    fn drop(&mut self) {
+        let _ = self.await_owed();
     }
 }
 
@@ -724,6 +840,159 @@ mod tests {
         assert_eq!(read_1910(&mut pac), Par2::Int(7));
         s.arrive(clock.now() + Duration::from_millis(3), ack(0, true, 31, Par2::Int(99), CheckRule::Strict));
         assert_eq!(read_1910(&mut pac), Par2::Int(8));
+    }
+
+    // Issue 22: a 1910 read answered 150 ms late, after its 97 ms timeout.
+    // The retry must not take that late answer (the same type as its own)
+    // for its own: it waits for it, drops it, then sends.
+    #[test]
+    fn a_late_answer_is_dropped_before_the_retry_not_taken_by_it() {
+        let replies = vec![None, Some(ack(0, true, 31, Par2::Int(7), CheckRule::Strict))];
+        let (mut pac, s, clock) = session(replies);
+        let t0 = clock.now();
+        s.arrive(t0 + Duration::from_millis(150), ack(0, true, 31, Par2::Int(99), CheckRule::Strict));
+        assert_eq!(read_1910(&mut pac), Par2::Int(7));
+        assert_eq!(written(&s).len(), 2);
+        assert!(clock.now() - t0 >= Duration::from_millis(150), "the retry went out after the late answer");
+        assert_eq!(read_1910_of(&mut pac, Some(8), &s), Par2::Int(8), "and nothing is left over for the next one");
+    }
+
+    fn read_1910_of(pac: &mut Pac, value: Option<i64>, s: &Script) -> Par2 {
+        s.replies.lock().unwrap().push_back(value.map(|v| ack(0, true, 31, Par2::Int(v), CheckRule::Strict)));
+        read_1910(pac)
+    }
+
+    // The first answer of a running 0A87 comes late, after its timeout: the
+    // stop that follows waits for it and takes its own answer, not that one.
+    #[test]
+    fn a_late_answer_is_not_taken_for_the_stops() {
+        let replies = vec![None, Some(ack(0, true, 31, Par2::Float(13.5), CheckRule::Strict))];
+        // Answers take 80 ms: the late one would come first.
+        let (mut pac, s, clock) = session_with_latency(replies, Duration::from_millis(80));
+        let mv = Command::new(0x0A87, 1, Par2::Float(100.0));
+        s.arrive(clock.now() + Duration::from_millis(150), ack(0, false, 31, Par2::Float(0.0), CheckRule::Strict));
+        let err = pac.transact(&mv).unwrap_err();
+        assert!(matches!(err, PacError::Session(SessionError::Timeout { .. })), "{err:?}");
+        let done = pac.abandon_and_stop(&Command::new(0x0A93, 1, Par2::Float(0.0))).unwrap();
+        assert_eq!(done.ack.q_par, Par2::Float(13.5), "the stop's own answer");
+        assert_eq!(written(&s).len(), 2);
+    }
+
+    // A poll's answer is awaited up to MAX_LATE beyond the timeout: taken
+    // late rather than given up, which would leave a move to be stopped.
+    #[test]
+    fn a_late_poll_answer_is_the_polls_own() {
+        let replies = vec![Some(ack(0, false, 31, Par2::Float(0.0), CheckRule::Strict)), None];
+        let (mut pac, s, clock) = session(replies);
+        let mv = Command::new(0x0A87, 1, Par2::Float(100.0));
+        let at = clock.now() + DEFAULT_POLL_INTERVAL + pac.answer_timeout(24) + Duration::from_millis(500);
+        s.arrive(at, ack(0, true, 31, Par2::Float(100.0), CheckRule::Strict));
+        let done = pac.transact(&mv).unwrap();
+        assert_eq!((done.ack.q_par, done.polls), (Par2::Float(100.0), 1));
+        assert_eq!(written(&s).len(), 2);
+        assert!(pac.busy_command().is_none());
+    }
+
+    // An owed answer that never comes (lost) holds the next request back
+    // for at most MAX_LATE.
+    #[test]
+    fn a_lost_answer_holds_the_next_request_back_for_at_most_max_late() {
+        let (mut pac, s, clock) = session(vec![None, Some(ack(0, true, 31, Par2::Int(7), CheckRule::Strict))]);
+        pac.set_retry(RetryPolicy { read_retries: 1 });
+        let t0 = clock.now();
+        assert_eq!(read_1910(&mut pac), Par2::Int(7));
+        let timeout = pac.answer_timeout(24);
+        assert_eq!(clock.now() - t0, timeout + MAX_LATE);
+        assert_eq!(written(&s).len(), 2);
+    }
+
+    // A controller that does not answer at all is silent, not late: after
+    // the first owed answer is given up, later timeouts are not waited out
+    // (nor a stop's answers awaited longer) until a byte comes.
+    #[test]
+    fn a_silent_line_is_not_waited_out_twice() {
+        let (mut pac, s, clock) = session(vec![None, None, None, None]);
+        pac.set_retry(RetryPolicy { read_retries: 1 });
+        let timeout = pac.answer_timeout(24);
+        let t0 = clock.now();
+        assert!(pac.transact(&Command::new(0x1910, 1, Par2::Int(0))).is_err());
+        assert_eq!(written(&s).len(), 2, "sent twice");
+        assert_eq!(clock.now() - t0, timeout * 2 + MAX_LATE, "one wait for the first owed answer");
+        let t1 = clock.now();
+        let stop = Command::new(0x0A93, 1, Par2::Float(0.0));
+        assert!(pac.patiently(|p| p.transact(&stop)).is_err());
+        assert!(pac.transact(&stop).is_err());
+        assert_eq!(clock.now() - t1, timeout * 2, "no more waits for what does not come");
+        assert_eq!(written(&s).len(), 4);
+        // A byte heard ends it: the next timeout is waited out again.
+        s.replies.lock().unwrap().push_back(Some(b"x".to_vec()));
+        s.replies.lock().unwrap().push_back(Some(ack(0, true, 31, Par2::Int(7), CheckRule::Strict)));
+        let t2 = clock.now();
+        assert_eq!(read_1910(&mut pac), Par2::Int(7));
+        assert_eq!(clock.now() - t2, timeout + MAX_LATE, "the retry waited for the owed answer");
+    }
+
+    // A session ended with an answer owed waits for it, so the next client
+    // on the line does not take it for its own.
+    #[test]
+    fn a_session_dropped_with_an_answer_owed_waits_for_it() {
+        let (mut pac, s, clock) = session(vec![None]);
+        pac.set_retry(RetryPolicy { read_retries: 0 });
+        s.arrive(clock.now() + Duration::from_millis(150), ack(0, true, 31, Par2::Int(99), CheckRule::Strict));
+        assert!(pac.transact(&Command::new(0x1910, 1, Par2::Int(0))).is_err());
+        drop(pac);
+        assert!(s.arriving.lock().unwrap().is_empty(), "read off the line");
+        assert!(s.pending.lock().unwrap().is_empty());
+    }
+
+    // A poll refused while a command runs: nothing says it ended, so it
+    // stays the unfinished command (only polls or a stop may follow).
+    #[test]
+    fn a_refused_poll_leaves_the_command_unfinished() {
+        let replies = vec![
+            Some(ack(0, false, 31, Par2::Float(0.0), CheckRule::Strict)),
+            Some(ack(0x14, true, 31, Par2::Float(0.0), CheckRule::Strict)),
+        ];
+        let (mut pac, _, _) = session(replies);
+        let mv = Command::new(0x0A87, 1, Par2::Float(100.0));
+        let err = pac.transact(&mv).unwrap_err();
+        assert_eq!(err.kind(), crate::session::ErrorKind::Device, "{err:?}");
+        assert_eq!(pac.busy_command(), Some(&mv));
+        // Refused at once, it never ran.
+        let (mut pac, _, _) = session(vec![Some(ack(0x14, true, 31, Par2::Float(0.0), CheckRule::Strict))]);
+        assert!(pac.transact(&mv).is_err());
+        assert_eq!(pac.busy_command(), None);
+    }
+
+    // The stop of last resort takes an answer up to MAX_LATE beyond the
+    // timeout (it would hold the line that long anyway); a late poll
+    // answer, too. Outside `patiently` the same answer is a timeout.
+    #[test]
+    fn patiently_takes_answers_up_to_max_late_beyond_the_timeout() {
+        let replies = vec![
+            Some(ack(0, false, 31, Par2::Float(12.0), CheckRule::Strict)),
+            Some(ack(0, true, 31, Par2::Float(13.5), CheckRule::Strict)),
+        ];
+        let late = Duration::from_millis(400);
+        let (mut pac, s, _) = session_with_latency(replies.clone(), late);
+        let stop = Command::new(0x0A93, 1, Par2::Float(0.0));
+        let done = pac.patiently(|p| p.transact(&stop)).unwrap();
+        assert_eq!((done.ack.q_par, done.polls), (Par2::Float(13.5), 1));
+        assert_eq!(written(&s).len(), 2);
+        let (mut pac, _, _) = session_with_latency(replies, late);
+        let err = pac.transact(&stop).unwrap_err();
+        assert_eq!(err.kind(), crate::session::ErrorKind::Timeout, "{err:?}");
+        assert!(!pac.patient, "patience ends with the call");
+    }
+
+    // A single poll that goes unanswered leaves the command unfinished.
+    #[test]
+    fn an_unanswered_poll_leaves_the_command_unfinished() {
+        let (mut pac, _, _) = session(vec![Some(ack(0, false, 31, Par2::Int(0), CheckRule::Strict)), None]);
+        let r = Command::new(0x0A84, 2, Par2::Int(0));
+        assert!(matches!(pac.start(&r).unwrap(), Step::NeedPoll { .. }));
+        assert!(pac.poll().is_err());
+        assert_eq!(pac.busy_command(), Some(&r));
     }
 
     #[test]

@@ -224,13 +224,16 @@ impl Controller {
 
     /// Stops an axis now (0A93, polled to standstill), giving up an
     /// unfinished command first; sent again when no acknowledge comes
-    /// (stopping twice is harmless). Not validated: 0A93 is the stop of
-    /// last resort and the controller's QUIT says if it was pointless.
+    /// (stopping twice is harmless). Its answers are awaited patiently
+    /// ([`Pac::patiently`](crate::session::pac::Pac::patiently)): on a slow
+    /// line a late one is taken, not given up on. Not validated: 0A93 is
+    /// the stop of last resort and the controller's QUIT says if it was
+    /// pointless.
     pub fn halt_axis(&mut self, axis: u8) -> Halted {
         let stop = Command::new(0x0A93, axis.into(), Par2::Float(0.0));
         let mut last = String::new();
         for _ in 0..3 {
-            match self.pac.abandon_and_stop(&stop) {
+            match self.pac.patiently(|pac| pac.abandon_and_stop(&stop)) {
                 Ok(done) => return Halted { axis, result: Ok(done.ack.q_par.as_f64()) },
                 Err(e @ PacError::Session(SessionError::Timeout { .. } | SessionError::Malformed { .. })) => {
                     last = e.to_string()

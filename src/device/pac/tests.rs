@@ -48,8 +48,11 @@ impl Rig {
 struct Fake {
     status: u16,
     silent: Vec<u16>,
-    /// Codes answered with BE = 0 (still running); polls are never answered.
+    /// Codes answered with BE = 0 (still running); polls are never answered
+    /// unless `refuse_polls`.
     running: Vec<u16>,
+    /// Polls are answered with QUIT 0x14 (inadmissible).
+    refuse_polls: bool,
     seen: Arc<Mutex<Vec<u16>>>,
     decoder: CommandDecoder,
 }
@@ -58,7 +61,20 @@ impl ByteDevice for Fake {
     fn on_bytes(&mut self, _now: Instant, bytes: &[u8], out: &mut Vec<u8>) {
         self.decoder.push(bytes);
         while let Some(Ok(req)) = self.decoder.next() {
-            let Request::Command { command, .. } = req else { continue };
+            let Request::Command { command, .. } = req else {
+                if self.refuse_polls {
+                    let ack = Ack {
+                        quit: 0x14,
+                        be: true,
+                        status: self.status,
+                        error: 0,
+                        q_par: Par2::Int(0),
+                        check_rule: CheckRule::Strict,
+                    };
+                    out.extend(ack.encode().unwrap());
+                }
+                continue;
+            };
             self.seen.lock().unwrap().push(command.code);
             if !self.silent.contains(&command.code) {
                 let ack = Ack {
@@ -84,12 +100,17 @@ fn fake(status: u16, silent: &[u16]) -> (Controller, Arc<Mutex<Vec<u16>>>) {
 }
 
 fn fake_running(status: u16, silent: &[u16], running: &[u16]) -> (Controller, Arc<Mutex<Vec<u16>>>) {
+    fake_with(status, silent, running, false)
+}
+
+fn fake_with(status: u16, silent: &[u16], running: &[u16], refuse_polls: bool) -> (Controller, Arc<Mutex<Vec<u16>>>) {
     let clock = VirtualClock::new();
     let seen = Arc::new(Mutex::new(Vec::new()));
     let dev = Fake {
         status,
         silent: silent.to_vec(),
         running: running.to_vec(),
+        refuse_polls,
         seen: Arc::clone(&seen),
         decoder: CommandDecoder::new(),
     };
@@ -229,6 +250,9 @@ fn targets_are_finite_and_inside_the_traverse_area() {
     assert!(check_target(2, 5e9, None).is_ok(), "no area known: the controller checks");
     let e = check_target(2, f64::NAN, None).unwrap_err();
     assert_eq!(e.to_string(), "target position NaN is not a finite number; nothing was sent");
+    assert!(check_target(2, 0.0, area).is_ok(), "the minimum itself is inside");
+    let e = check_target(2, -0.5, area).unwrap_err();
+    assert!(matches!(e, Error::OutsideTraverseArea { axis: 2, .. }), "below the minimum: {e:?}");
     let e = check_target(2, 1000.5, area).unwrap_err();
     assert_eq!(
         e.to_string(),
@@ -246,6 +270,8 @@ fn a_move_outside_the_traverse_area_is_not_sent() {
     assert!(matches!(e, Error::OutsideTraverseArea { axis: 1, .. }), "{e:?}");
     let e = ctl.start_move(1, 99_999.0, true, true).unwrap_err();
     assert!(matches!(e, Error::OutsideTraverseArea { .. }), "relative, too: {e:?}");
+    let e = ctl.start_move(1, -10.0, false, true).unwrap_err();
+    assert!(matches!(e, Error::OutsideTraverseArea { axis: 1, .. }), "below the minimum: {e:?}");
     rig.run(Duration::from_millis(500));
     assert_eq!(rig.sim().axis_speed(1), Some(0.0));
     // Unchecked, the controller refuses it itself (QUIT 0x41).
@@ -476,4 +502,39 @@ fn a_followed_motion_that_loses_its_answers_is_stopped_and_a_refused_one_is_not(
     ctl.online().unwrap();
     let e = ctl.follow(&Command::new(0x0A84, 9, Par2::Int(0)), &mut |_| true).unwrap_err();
     assert!(matches!(e, Error::Session(SessionError::Device { .. })), "axis 9 is unknown: {e:?}");
+}
+
+// Issue 22: a reference drive whose poll is refused (the controller is
+// still busy with it, or the answer belongs to something else) has not
+// been seen to end: its axis is stopped and the refusal reported with it.
+#[test]
+fn a_followed_motion_whose_poll_is_refused_is_stopped() {
+    let (mut ctl, seen) = fake_with(31, &[], &[0x0A84], true);
+    let e = ctl.follow(&Command::new(0x0A84, 2, Par2::Int(0)), &mut |_| true).unwrap_err();
+    assert!(matches!(e, Error::Stopped { .. }), "{e:?}");
+    assert!(matches!(e.refusal(), Some(crate::proto::Refusal::PaControl(r)) if r.quit == 0x14), "{e:?}");
+    assert_eq!(codes(&seen), [0x0A84, 0x0A93]);
+}
+
+// Issue 22: on a line whose every answer comes 200 ms late (twice the
+// answer timeout) the stop of last resort still stops the axis and polls
+// the stop to its end, so the controller is not left busy with it.
+#[test]
+fn a_halt_on_a_line_of_late_answers_stops_the_axis_and_ends_the_stop() {
+    use crate::sim::fault::{ByteFaults, ByteProtocol, FaultyByteDevice, Injector};
+    let rig = Rig::new(2);
+    let inj = Arc::new(Mutex::new(Injector::new(Default::default(), 1)));
+    let dev = FaultyByteDevice::new(Arc::clone(&rig.sim), ByteFaults::new(Arc::clone(&inj), ByteProtocol::Pac));
+    let clock: Arc<dyn Clock> = Arc::new(rig.clock.clone());
+    let link = MemByteLink::new(Box::new(dev), Arc::clone(&clock));
+    let mut ctl = Controller::new(Pac::new(Box::new(link), 9600, SerialFormat::F7N1).with_clock(clock));
+    online(&mut ctl, 1);
+    ctl.start_move(1, 900.0, false, true).unwrap();
+    rig.run(Duration::from_millis(300));
+    assert_eq!(rig.sim().axis_status(1), Some(1), "moving");
+    *inj.lock().unwrap() = Injector::new("delay=200ms".parse().unwrap(), 1);
+    let halted = ctl.halt_axis(1);
+    assert!(halted.result.is_ok(), "{halted}");
+    assert_eq!(rig.sim().busy(), None, "the stop was polled to its end");
+    assert_ne!(rig.sim().axis_status(1), Some(1));
 }
