@@ -216,9 +216,10 @@ fn a_signal_stops_pipelined_reads_after_the_line_that_was_shown() {
         .stderr(Stdio::piped())
         .spawn()
         .unwrap();
+    // Written beside the run: the batch reads its lines as it runs them.
     let mut stdin = child.stdin.take().unwrap();
-    stdin.write_all(script(&["get-param -m 3 ActPos"; 20_000]).as_bytes()).unwrap();
-    drop(stdin);
+    let text = script(&["get-param -m 3 ActPos"; 20_000]);
+    std::thread::spawn(move || drop(stdin.write_all(text.as_bytes())));
     let mut out = std::io::BufReader::new(child.stdout.take().unwrap());
     let mut shown = 0;
     let mut line = String::new();

@@ -287,10 +287,8 @@ fn save(ctx: &Ctx, select: &Selection, out: Option<&Path>) -> anyhow::Result<()>
 /// Reads and parses a backup (`-` is stdin): exit 2 before anything opens
 /// when it is not one this axisctl reads.
 fn read_file(path: &Path) -> anyhow::Result<Document> {
-    let name = path.display().to_string();
-    let text = if name == "-" { std::io::read_to_string(std::io::stdin()) } else { std::fs::read_to_string(path) }
-        .map_err(|e| usage(format!("cannot read {name}: {e}")))?;
-    Ok(backup::parse(&name, &text)?)
+    let text = super::input::read_text(path, super::input::BACKUP, "a backup")?;
+    Ok(backup::parse(&path.display().to_string(), &text)?)
 }
 
 /// The live bench in the shape of `file`: each of its devices read at its
