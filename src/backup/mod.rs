@@ -11,6 +11,7 @@
 
 pub mod cdios;
 mod diff;
+mod keys;
 pub mod pac;
 pub mod powercube;
 
@@ -158,6 +159,8 @@ pub enum ParseError {
     NotJson(String, String),
     #[error("{0} is no axisctl backup: {1}")]
     NotBackup(String, String),
+    #[error("{0} is ambiguous: {1}; nothing was sent")]
+    DuplicateKey(String, String),
     #[error("{0} was written by a newer axisctl (schema {1:?}; this one reads {SCHEMA}); nothing was sent")]
     Newer(String, String),
 }
@@ -174,6 +177,7 @@ impl ParseError {
 pub fn parse(name: &str, text: &str) -> Result<Document, ParseError> {
     let value: serde_json::Value =
         serde_json::from_str(text).map_err(|e| ParseError::NotJson(name.into(), e.to_string()))?;
+    serde_json::from_str::<keys::UniqueKeys>(text).map_err(|e| ParseError::DuplicateKey(name.into(), e.to_string()))?;
     let schema = value
         .get("schema")
         .and_then(serde_json::Value::as_str)
