@@ -71,6 +71,49 @@ fn assert_same_as_one_shots(link: &str) {
     assert_eq!(got[4]["result"]["devices"][1]["module"], 17, "in id order");
 }
 
+/// Groups that start after line 1 (issue 22, item 9): lines 2 to 5 and 7
+/// to 8, each read answering with another value (MaxVel, MaxAcc, MinPos of
+/// three modules), so that a line shown from another line's answers, or a
+/// group's answers counted from line 1, prints a value its one-shot does
+/// not.
+const LATER: [&str; 8] = [
+    "info -m 3",
+    "get-param -m 17 MaxVel",
+    "get-param -m 3 MaxAcc",
+    "state -m 5",
+    "get-param -m 5 MaxVel MinPos",
+    "get-config -m 3",
+    "get-param -m 3 MaxVel",
+    "get-param -m 17 MaxAcc ActPos",
+];
+
+#[test]
+fn groups_that_start_after_line_1_show_each_line_from_its_own_answers() {
+    for link in ["sim", "sim-served"] {
+        let sim = (link == "sim-served").then(|| Sim::start(&["--powercube", "pty-slcan"], 1));
+        let link = sim.as_ref().map_or("sim", |s| s.link("powercube"));
+        let r = run_with_stdin(&["--link", link, "batch", "-"], &script(&LATER));
+        assert_eq!(r.code, 0, "{}", r.stderr);
+        let alone: String = LATER.iter().map(|l| one_shot(&["--link", link], l).stdout).collect();
+        assert_eq!(r.stdout, alone);
+        let r = run_with_stdin(&["--link", link, "--json", "batch", "-"], &script(&LATER));
+        let got = json_lines(&r.stdout);
+        assert_eq!(got.len(), LATER.len(), "{}", r.stdout);
+        for (i, (line, g)) in LATER.iter().zip(&got).enumerate() {
+            let want =
+                json!({"line": i + 1, "command": line, "result": one_shot(&["--link", link, "--json"], line).json()});
+            assert_eq!(g, &want, "line {}", i + 1);
+        }
+        let values: Vec<&Value> = [(1, "MaxVel"), (2, "MaxAcc"), (6, "MaxVel"), (7, "MaxAcc")]
+            .iter()
+            .map(|(i, p)| &got[*i]["result"]["params"][*p]["value"])
+            .collect();
+        let mut distinct = values.clone();
+        distinct.dedup();
+        assert_eq!(distinct.len(), values.len(), "the reads answer with different values: {values:?}");
+    }
+}
+
 #[test]
 fn pipelined_lines_print_what_the_one_shots_print() {
     assert_same_as_one_shots("sim");
