@@ -217,9 +217,8 @@ impl<'a> Live<'a> {
 }
 
 /// Why the writes stop, as each value not written says it.
-fn stop_text() -> String {
-    let why = supervisor::stop_reason().map_or_else(|| "a stop".to_string(), |r| r.to_string());
-    format!("the restore stopped on {why}")
+fn stop_text(sig: i32) -> String {
+    format!("the restore stopped on {}", supervisor::signal_name(sig))
 }
 
 fn cdios_module(at: Address) -> anyhow::Result<CdiosModule> {
@@ -488,7 +487,9 @@ fn restore(ctx: &Ctx, path: &Path, opts: Options) -> anyhow::Result<()> {
     // reached, or a signal. Every value not reached is reported as not written.
     let mut ended: Option<anyhow::Error> = None;
     if !opts.dry_run {
-        let signal = || supervisor::stop_requested().then(stop_text);
+        // Only a signal: a closed output does not stop a restore (it says
+        // less, but what it writes is the same).
+        let signal = || supervisor::caught().map(stop_text);
         for (wanted, _) in &devices {
             if let Err(e) = live.ensure_at_rest(wanted.address()) {
                 ended = Some(e);
@@ -514,8 +515,8 @@ fn restore(ctx: &Ctx, path: &Path, opts: Options) -> anyhow::Result<()> {
         }
         output::forget_target();
     }
-    if ended.is_none() && supervisor::stop_requested() {
-        ended = Some(Interrupted(format!(": {}", stop_text())).into());
+    if let (None, Some(sig)) = (&ended, supervisor::caught()) {
+        ended = Some(Interrupted(format!(": {}", stop_text(sig))).into());
     }
     let failed_any = results.iter().flat_map(|(_, rs)| rs).any(|r| r.outcome == backup::Outcome::Failed);
     // The EEPROM store is its own step, after every write went through.

@@ -3,11 +3,14 @@
 //! dispatch as a one-shot command; `shell` is the same engine at a
 //! terminal. Consecutive reads on a CAN link go out pipelined ([`pipeline`]).
 //!
-//! Every line is parsed before the first runs, so a typo on line 40 sends
-//! nothing. The signals belong to the motion supervisor from the start: a
-//! Ctrl-C ends the batch after the line that runs (a supervised wait halts
-//! its device at once), and every device a motion line addressed is halted,
-//! also one still moving from a line without `--wait`.
+//! Every line of a window ([`WINDOW`] lines) is parsed before the first
+//! runs, so a typo on line 40 sends nothing; a longer batch streams window
+//! by window, its memory bounded. The signals belong to the motion
+//! supervisor from the start: a Ctrl-C ends the batch after the line that
+//! runs (a supervised wait halts its device at once), and every device a
+//! motion line addressed is halted, also one still moving from a line
+//! without `--wait`. A batch that stops on a failure halts them the same
+//! way: the lines that would have stopped them will not run.
 
 mod pipeline;
 
