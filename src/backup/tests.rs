@@ -375,3 +375,48 @@ fn a_device_not_reached_has_every_value_it_would_write_not_written() {
     assert_eq!(get("MaxAcc").outcome, Outcome::Unchanged);
     assert_eq!(summary(&res)[5].1, 1);
 }
+
+/// Module 0 of the contract node on a fresh simulated bench, and its node.
+fn cdios_rig() -> (crate::device::cdios::Node, Bench) {
+    use crate::device::cdios::Node;
+    use crate::proto::cdios::NodeId;
+    use crate::session::cdios::Cdios;
+    let clock: Arc<dyn Clock> = Arc::new(VirtualClock::new());
+    let bench = Bench::contract(Arc::clone(&clock));
+    let s = Cdios::new(Box::new(bench.bus.open())).with_clock(clock);
+    (Node::new(s, NodeId::new(1).unwrap(), crate::session::RetryPolicy::default()), bench)
+}
+
+// A Cdios restore asks before each write (a servo selector, the event
+// setup, the outputs): once told to stop, the rest is not written and says
+// why, and the module keeps what it held.
+#[test]
+fn a_cdios_restore_told_to_stop_writes_nothing_more() {
+    let m = crate::proto::cdios::ModuleId::new(0).unwrap();
+    for stop_at in [1, 2, 3] {
+        let (mut node, _bench) = cdios_rig();
+        let live = cdios::capture(&mut node, m, 0, 0, "sim").unwrap();
+        let mut file = live.clone();
+        set(&mut file, "speeds.maximum_speed", 6000.into());
+        set(&mut file, "events.mask3", 128.into());
+        set(&mut file, "outputs.digital", 5.into());
+        let asked = std::cell::Cell::new(0);
+        let stop = || {
+            asked.set(asked.get() + 1);
+            (asked.get() >= stop_at).then(|| "stopped by SIGINT".to_string())
+        };
+        let res = cdios::restore(&mut node, m, &file, &live, &BTreeSet::new(), &stop).unwrap();
+        let outcome = |n: &str| res.iter().find(|v| v.name == n).unwrap().outcome;
+        let names = ["speeds.maximum_speed", "events.mask3", "outputs.digital"];
+        for (i, name) in names.iter().enumerate() {
+            let want = if i + 1 < stop_at { Outcome::Written } else { Outcome::NotWritten };
+            assert_eq!(outcome(name), want, "stop at ask {stop_at}: {name}");
+        }
+        assert_eq!(asked.get(), stop_at, "asked once per write until told to stop");
+        let after = cdios::capture(&mut node, m, 0, 0, "sim").unwrap();
+        for (i, name) in names.iter().enumerate() {
+            let held = if i + 1 < stop_at { &file } else { &live };
+            assert_eq!(after.settings[*name].value, held.settings[*name].value, "stop at {stop_at}: {name}");
+        }
+    }
+}
