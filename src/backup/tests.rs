@@ -388,18 +388,19 @@ fn cdios_rig() -> (crate::device::cdios::Node, Bench) {
 }
 
 // A Cdios restore asks before each write (a servo selector, the event
-// setup, the outputs): once told to stop, the rest is not written and says
+// setup, the digital outputs, an analog output): once told to stop, the rest is not written and says
 // why, and the module keeps what it held.
 #[test]
 fn a_cdios_restore_told_to_stop_writes_nothing_more() {
     let m = crate::proto::cdios::ModuleId::new(0).unwrap();
-    for stop_at in [1, 2, 3] {
+    for stop_at in [1, 2, 3, 4] {
         let (mut node, _bench) = cdios_rig();
         let live = cdios::capture(&mut node, m, 0, 0, "sim").unwrap();
         let mut file = live.clone();
         set(&mut file, "speeds.maximum_speed", 6000.into());
         set(&mut file, "events.mask3", 128.into());
         set(&mut file, "outputs.digital", 5.into());
+        set(&mut file, "outputs.analog2", 2500.into());
         let asked = std::cell::Cell::new(0);
         let stop = || {
             asked.set(asked.get() + 1);
@@ -407,7 +408,7 @@ fn a_cdios_restore_told_to_stop_writes_nothing_more() {
         };
         let res = cdios::restore(&mut node, m, &file, &live, &BTreeSet::new(), &stop).unwrap();
         let outcome = |n: &str| res.iter().find(|v| v.name == n).unwrap().outcome;
-        let names = ["speeds.maximum_speed", "events.mask3", "outputs.digital"];
+        let names = ["speeds.maximum_speed", "events.mask3", "outputs.digital", "outputs.analog2"];
         for (i, name) in names.iter().enumerate() {
             let want = if i + 1 < stop_at { Outcome::Written } else { Outcome::NotWritten };
             assert_eq!(outcome(name), want, "stop at ask {stop_at}: {name}");
