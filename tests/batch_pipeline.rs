@@ -141,6 +141,20 @@ fn sent(frames: &[String]) -> Vec<String> {
     frames.iter().filter(|f| !is_answer(f)).cloned().collect()
 }
 
+// The group sent ahead is the one read next: its burst is not sent again
+// on a new session (a mutant of that match sent the second group twice).
+#[test]
+fn a_group_sent_ahead_is_not_sent_again() {
+    let dir = tempfile::tempdir().unwrap();
+    // 20 lines of two requests: a group of 16 (32 requests), then one of 4.
+    let lines = ["get-param -m 3 ActPos"; 20];
+    let log = dir.path().join("batch.log");
+    let r = run_with_stdin(&["--link", "sim", "--log", log.to_str().unwrap(), "batch", "-"], &script(&lines));
+    assert_eq!(r.code, 0, "{}", r.stderr);
+    assert_eq!(r.stdout.matches("ActPos ").count(), 20, "{}", r.stdout);
+    assert_eq!(sent(&frames(&log)).len(), 40, "each line's two requests, once");
+}
+
 #[test]
 fn a_group_s_requests_leave_before_its_first_answer_and_each_line_sends_its_one_shot_frames() {
     let dir = tempfile::tempdir().unwrap();
