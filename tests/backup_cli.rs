@@ -786,3 +786,218 @@ fn a_backup_piped_into_diff_on_stdin() {
     assert_eq!(v["left"], "-");
     assert_eq!(v["differs"], false, "{v}");
 }
+
+// ---- A restore that stops on the way (issue 22, item 6) ----
+
+/// The six settings changed in each PowerCube module of a backup of the
+/// served modules 3, 5 and 17: 18 values to write.
+const CHANGED: [&str; 6] = ["MaxVel", "MaxAcc", "ActC0", "ActDamp", "ActA0", "ActSyncTime"];
+
+/// A backup of the served modules with [`CHANGED`] changed, and the live values.
+fn eighteen_changes(sim: &Sim, dir: &tempfile::TempDir) -> (PathBuf, Value) {
+    let saved = path(dir, "saved.json");
+    let link = sim.link("powercube");
+    ok(&run(&["--link", link, "backup", "--family", "powercube", "--out", s(&saved)]), "backup");
+    let live = read_json(&saved);
+    let mut doc = live.clone();
+    for m in [3, 5, 17] {
+        let d = device(&mut doc, "powercube", "module", m);
+        for name in CHANGED {
+            let v = &mut d["settings"][name]["value"];
+            *v = match name {
+                "MaxVel" | "MaxAcc" => (v.as_f64().unwrap() * 0.5).into(),
+                _ => (v.as_i64().unwrap() + 1).into(),
+            };
+        }
+    }
+    let file = path(dir, "changed.json");
+    write_json(&file, &doc);
+    (file, live)
+}
+
+/// The value each module holds now, read by another process.
+fn held(link: &str, m: u64, name: &str) -> Value {
+    let r = run(&["--link", link, "--json", "get-param", "-m", &m.to_string(), name]);
+    ok(&r, "get-param");
+    r.json()["params"][name]["value"].clone()
+}
+
+/// Starts `args` with --trace and, once a sent frame's trace line contains
+/// `trigger`, calls `then`; the run's end, bounded.
+fn when_sent(args: &[&str], trigger: &str, then: impl FnOnce(u32)) -> common::Ended {
+    use std::io::{BufRead, BufReader};
+    let mut child = common::bin()
+        .arg("--trace")
+        .args(args)
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut err = BufReader::new(child.stderr.take().unwrap()).lines();
+    let mut seen = String::new();
+    loop {
+        let line = err.next().unwrap_or_else(|| panic!("ended before {trigger}:\n{seen}")).unwrap();
+        seen.push_str(&line);
+        seen.push('\n');
+        if line.starts_with("-> ") && line.contains(trigger) {
+            break;
+        }
+    }
+    then(child.id());
+    let rest = std::thread::spawn(move || err.map_while(Result::ok).map(|l| l + "\n").collect::<String>());
+    let mut ended = common::wait_bounded(child, 30, args);
+    ended.stderr = seen + &rest.join().unwrap() + &ended.stderr;
+    ended
+}
+
+/// Each value's outcome in the report of one module.
+fn module_outcomes(report: &Value, m: u64) -> Vec<(String, String)> {
+    outcomes(report, "powercube", "module", m)
+}
+
+// SIGTERM (an emergency halt from another terminal) right after the first
+// write to module 5: the restore ends after the value being written, with
+// exit 143 and the report of every value: module 3 written, module 5 in
+// part, module 17 not written, human and --json (error.report); the
+// modules hold what the report says.
+#[test]
+fn a_signal_during_a_restore_reports_what_was_written_and_what_was_not() {
+    for json in [true, false] {
+        // Each answer 40 ms late: the 18 writes and their read-backs take
+        // well over a second, so the signal lands before module 17.
+        let sim = Sim::start(&["--fault", "delay=40ms"], 3);
+        let dir = tmp();
+        let (file, live) = eighteen_changes(&sim, &dir);
+        let link = sim.link("powercube");
+        let mut args = vec!["--link", link, "--timeout", "500", "restore", s(&file)];
+        if json {
+            args.insert(0, "--json");
+        }
+        // 0E5#0848: the SetExtended of MaxVel, the first write to module 5.
+        let ended = when_sent(&args, "0E5#0848", |pid| unsafe {
+            libc::kill(pid as i32, libc::SIGTERM);
+        });
+        assert_eq!(ended.code, 143, "{}", ended.stderr);
+        let not_written = || CHANGED.map(|n| (n.to_string(), "not_written".to_string()));
+        if json {
+            assert_eq!(ended.stdout, "", "stdout stays empty on a failure");
+            let err: Value =
+                ended.stderr.lines().rfind(|l| l.starts_with('{')).map(|l| serde_json::from_str(l).unwrap()).unwrap();
+            valid("error", &err["error"]);
+            assert_eq!(err["error"]["kind"], "interrupted", "{err}");
+            let report = &err["error"]["report"];
+            valid("restore_report", report);
+            let three = module_outcomes(report, 3);
+            assert_eq!(three.len(), 6, "{three:?}");
+            assert!(three.iter().all(|(_, o)| o == "written"), "{three:?}");
+            let five = module_outcomes(report, 5);
+            assert_eq!(five.iter().find(|(n, _)| n == "MaxVel").unwrap().1, "written", "{five:?}");
+            assert!(five.iter().any(|(_, o)| o == "not_written"), "{five:?}");
+            let mut seventeen = module_outcomes(report, 17);
+            seventeen.sort();
+            let mut want = not_written().to_vec();
+            want.sort();
+            assert_eq!(seventeen, want);
+            assert_eq!(
+                report["summary"]["not_written"].as_u64().unwrap(),
+                6 + five.iter().filter(|(_, o)| o == "not_written").count() as u64
+            );
+        } else {
+            for name in CHANGED {
+                let line = format!("powercube module 17: {name} = ");
+                let said = ended
+                    .stdout
+                    .lines()
+                    .find(|l| l.starts_with(&line))
+                    .unwrap_or_else(|| panic!("{line}: {}", ended.stdout));
+                assert!(said.ends_with(": not written (the restore stopped on SIGTERM)"), "{said}");
+            }
+            assert!(ended.stdout.contains("powercube module 3: ActSyncTime = 1: written (was 0)"), "{}", ended.stdout);
+            assert!(ended.stdout.contains(" not written\n"), "the counts: {}", ended.stdout);
+            assert!(
+                ended.stderr.ends_with("axisctl: interrupted: the restore stopped on SIGTERM\n"),
+                "{}",
+                ended.stderr
+            );
+        }
+        let mut doc = live.clone();
+        let before = device(&mut doc, "powercube", "module", 17)["settings"]["MaxVel"]["value"].clone();
+        assert_eq!(held(link, 17, "MaxVel"), before, "module 17 was not written");
+        assert_ne!(held(link, 3, "MaxVel"), device(&mut doc, "powercube", "module", 3)["settings"]["MaxVel"]["value"]);
+    }
+}
+
+// The link lost after the first write to module 5: the restore says what
+// it wrote before, what failed and what it did not reach (exit 3), and the
+// --json error carries the report.
+#[test]
+fn a_link_lost_during_a_restore_reports_what_was_written_and_what_was_not() {
+    let mut sim = Sim::start(&["--fault", "delay=40ms"], 3);
+    let dir = tmp();
+    let (file, _) = eighteen_changes(&sim, &dir);
+    let link = sim.link("powercube").to_string();
+    let args = ["--json", "--link", &link, "--timeout", "500", "restore", s(&file)];
+    let ended = when_sent(&args, "0E5#0848", |_| sim.unplug());
+    assert_eq!(ended.code, 3, "{}", ended.stderr);
+    let err: Value =
+        ended.stderr.lines().rfind(|l| l.starts_with('{')).map(|l| serde_json::from_str(l).unwrap()).unwrap();
+    valid("error", &err["error"]);
+    assert_eq!(err["error"]["kind"], "link", "{err}");
+    let report = &err["error"]["report"];
+    valid("restore_report", report);
+    assert!(module_outcomes(report, 3).iter().all(|(_, o)| o == "written"));
+    let five = module_outcomes(report, 5);
+    assert!(five.iter().all(|(_, o)| o == "failed" || o == "not_written" || o == "written"), "{five:?}");
+    let seventeen = module_outcomes(report, 17);
+    assert_eq!(seventeen.len(), 6, "{seventeen:?}");
+    assert!(seventeen.iter().all(|(_, o)| o == "not_written"), "{seventeen:?}");
+}
+
+// Issue 22, item 9: a restore writes nothing to a Cdios module whose motor
+// runs, and says so value by value (the report goes with the error), nor
+// to a PA-CONTROL outside home position. The traces show no write.
+#[test]
+fn a_restore_to_a_running_cdios_motor_or_a_pac_outside_home_position_writes_nothing() {
+    let sim = Sim::start(&[], 3);
+    let dir = tmp();
+    let (cdios, pac) = (sim.link("cdios"), sim.link("pac"));
+    let saved = path(&dir, "cdios.json");
+    ok(&run(&["--link", cdios, "backup", "--family", "cdios", "--out", s(&saved)]), "backup");
+    let mut doc = read_json(&saved);
+    device(&mut doc, "cdios", "module", 0)["settings"]["speeds.maximum_speed"]["value"] = 6000.into();
+    let changed = path(&dir, "cdios-changed.json");
+    write_json(&changed, &doc);
+    ok(&run(&["--link", cdios, "cdios-enable", "-m", "0"]), "enable");
+    ok(&run(&["--link", cdios, "cdios-start", "-m", "0", "--option", "to-speed", "--speed", "1200"]), "start");
+    // --skip-invalid: analog output #1 of an enabled motor is a problem of its own.
+    let r = run(&["--link", cdios, "--json", "--trace", "restore", s(&changed), "--skip-invalid"]);
+    assert_eq!(r.code, 2, "{}", r.stderr);
+    assert_eq!(cdios_writes(&r.stderr), Vec::<String>::new(), "nothing written to a running motor");
+    let err: Value = serde_json::from_str(r.stderr.lines().find(|l| l.starts_with('{')).unwrap()).unwrap();
+    valid("error", &err["error"]);
+    assert!(err["error"]["message"].as_str().unwrap().contains("module 0 reports RUNNING_FORWARD"), "{err}");
+    let report = &err["error"]["report"];
+    valid("restore_report", report);
+    assert_eq!(
+        outcomes(report, "cdios", "module", 0),
+        [("outputs.analog1".into(), "skipped".into()), ("speeds.maximum_speed".into(), "not_written".into())]
+    );
+    assert_eq!(report["summary"]["written"], 0);
+    ok(&run(&["--link", cdios, "cdios-stop", "-m", "0", "--option", "fast"]), "stop");
+
+    let saved = path(&dir, "pac.json");
+    ok(&run(&["--link", pac, "backup", "--family", "pac", "--out", s(&saved)]), "backup");
+    let mut doc = read_json(&saved);
+    device(&mut doc, "pac", "axis", 2)["settings"]["traverse-speed"]["value"] = 1500.0.into();
+    let changed = path(&dir, "pac-changed.json");
+    write_json(&changed, &doc);
+    ok(&run(&["--link", pac, "pac-online"]), "online");
+    let log = path(&dir, "pac.log");
+    let r = run(&["--link", pac, "--log", s(&log), "restore", s(&changed)]);
+    assert_eq!(r.code, 2, "{}", r.stderr);
+    assert!(r.stderr.contains("in home position only"), "{}", r.stderr);
+    assert!(r.stderr.contains("nothing was written"), "{}", r.stderr);
+    assert_eq!(pac_writes(&log), 0, "no parameter written outside home position");
+    ok(&run(&["--link", pac, "pac-offline"]), "offline");
+    ok(&run(&["--link", pac, "restore", s(&changed)]), "in home position it writes");
+}

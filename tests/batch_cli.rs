@@ -246,7 +246,7 @@ fn start_on(link: &str, text: &str, marker: &str, n: usize) -> (Child, Vec<Strin
         .stderr(Stdio::piped())
         .spawn()
         .unwrap();
-    child.stdin.take().unwrap().write_all(text.as_bytes()).unwrap();
+    feed(&mut child, text);
     let mut out = BufReader::new(child.stdout.take().unwrap()).lines();
     let mut seen = Vec::new();
     while seen.iter().filter(|l: &&String| l.contains(marker)).count() < n {
@@ -255,6 +255,12 @@ fn start_on(link: &str, text: &str, marker: &str, n: usize) -> (Child, Vec<Strin
     // The rest is read on, as a terminal would: a closed pipe is a stop of its own.
     std::thread::spawn(move || out.for_each(drop));
     (child, seen)
+}
+
+/// Writes the batch's input beside it: the batch reads it as it runs.
+fn feed(child: &mut Child, text: &str) {
+    let (mut input, text) = (child.stdin.take().unwrap(), text.to_string());
+    std::thread::spawn(move || drop(input.write_all(text.as_bytes())));
 }
 
 fn state(sim: &Sim, m: &str) -> Value {
@@ -379,7 +385,7 @@ fn a_halt_that_cannot_reach_its_device_says_why_and_the_others_still_go_out() {
         .stderr(Stdio::piped())
         .spawn()
         .unwrap();
-    child.stdin.take().unwrap().write_all(text.as_bytes()).unwrap();
+    feed(&mut child, &text);
     let mut out = BufReader::new(child.stdout.take().unwrap()).lines();
     while !out.next().expect("batch output").unwrap().contains("0A94 started") {}
     std::thread::spawn(move || out.for_each(drop));
@@ -395,4 +401,100 @@ fn a_halt_that_cannot_reach_its_device_says_why_and_the_others_still_go_out() {
     assert!(err.contains(&failed), "{err}");
     let at = comes_to_rest(sim.link("pac"), &["pac-axis", "2"], "/position/value");
     assert!(at.as_f64().unwrap() < 9000.0, "axis 2 was stopped on its way: {at} ({err})");
+}
+
+fn flags(s: &Value) -> Vec<String> {
+    s["flags"].as_array().unwrap().iter().map(|f| f.as_str().unwrap().to_string()).collect()
+}
+
+// Issue 22, item 3: a batch that stops on a failed line (a read that times
+// out, a target out of range found when its line runs) halts what its
+// earlier lines moved, since the `halt` further down will not run. The
+// state is read after the batch has ended: module 3 stands, halted.
+#[test]
+fn a_failed_line_halts_what_the_earlier_lines_moved() {
+    let sim = Sim::start(&[], 3);
+    let v = batch_line_schema();
+    for (failing, code) in [("get-param -m 9 ActPos", 4), ("move-ramp -m 3 99", 2)] {
+        let text = format!("reset -m 3\nmove-vel -m 3 0.2\n{failing}\nhalt -m 3\n");
+        let r = run_with_stdin(&["--link", sim.link("powercube"), "--timeout", "50", "batch", "-"], &text);
+        assert_eq!(r.code, code, "{failing}: {}", r.stderr);
+        assert!(r.stderr.ends_with("axisctl: stopped after line 3 failed; halted: `halt -m 3`\n"), "{}", r.stderr);
+        let s = state(&sim, "3");
+        assert!(flags(&s).contains(&"STATE_HALTED".into()), "{failing}: {s}");
+        assert!(!flags(&s).contains(&"STATE_MOTION".into()), "{failing}: {s}");
+
+        let r = run_with_stdin(&["--link", sim.link("powercube"), "--json", "--timeout", "50", "batch", "-"], &text);
+        assert_eq!(r.code, code, "{}", r.stderr);
+        let got = lines(&r.stdout);
+        got.iter().for_each(|l| assert_valid(&v, l));
+        assert_eq!(got.len(), 4, "{}", r.stdout);
+        assert_eq!(got[3], serde_json::json!({"line": 3, "command": null, "halted": [{"stop": "halt -m 3"}]}));
+        assert!(!flags(&state(&sim, "3")).contains(&"STATE_MOTION".into()));
+    }
+}
+
+// --keep-going runs on past a failure and halts nothing: the last message
+// (and JSON line) names what may still move, and the exit code is the
+// first failure's.
+#[test]
+fn keep_going_halts_nothing_and_names_what_may_still_move() {
+    let sim = Sim::start(&[], 3);
+    let text = "reset -m 3\nmove-vel -m 3 0.2\nget-param -m 9 ActPos\nstate -m 3\n";
+    let args = ["--link", sim.link("powercube"), "--timeout", "50", "batch", "--keep-going", "-"];
+    let r = run_with_stdin(&args, text);
+    assert_eq!(r.code, 4, "{}", r.stderr);
+    assert!(
+        r.stderr.ends_with(
+            "axisctl: --keep-going ran every line past a failure; not halted, may still move: `halt -m 3`\n"
+        ),
+        "{}",
+        r.stderr
+    );
+    assert!(flags(&state(&sim, "3")).contains(&"STATE_MOTION".into()), "left moving, as the batch said");
+
+    let r = run_with_stdin(&[&args[..4], &["--json"], &args[4..]].concat(), text);
+    let got = lines(&r.stdout);
+    got.iter().for_each(|l| assert_valid(&batch_line_schema(), l));
+    assert_eq!(got.last().unwrap(), &serde_json::json!({"line": 4, "command": null, "may_move": ["halt -m 3"]}));
+    // A batch without a failure says nothing of what it left moving.
+    let r = run_with_stdin(&args, "move-vel -m 5 0.1\n");
+    assert_eq!((r.code, r.stderr.as_str()), (0, ""));
+}
+
+// A batch longer than one window (10 000 lines) is parsed and run a window
+// at a time: the first window runs before the second is read; a bad line in
+// the second stops the batch before any of its lines, and what the first
+// moved is halted.
+#[test]
+fn a_long_batch_runs_by_windows_and_a_bad_line_in_a_later_one_halts_the_earlier_moves() {
+    let sim = Sim::start(&[], 3);
+    let text = format!("reset -m 3\nmove-vel -m 3 0.2\n{}no-such-command\nhalt -m 5\n", "# pad\n".repeat(9_998));
+    let r = run_with_stdin(&["--link", sim.link("powercube"), "batch", "-"], &text);
+    assert_eq!(r.code, 2, "{}", r.stderr);
+    assert!(r.stdout.contains("FVEL_MODE 0.2 acknowledged"), "the first window ran: {}", r.stdout);
+    assert!(r.stderr.contains("axisctl: line 10001 (no-such-command): "), "{}", r.stderr);
+    assert!(
+        r.stderr.ends_with(
+            "axisctl: lines after 2 were not run: fix the lines above\naxisctl: stopped after line 2 failed; halted: `halt -m 3`\n"
+        ),
+        "{}",
+        r.stderr
+    );
+    assert!(!flags(&state(&sim, "3")).contains(&"STATE_MOTION".into()));
+}
+
+// A line longer than 64 KiB (an endless line from a pipe) is refused as
+// bad input when it is read, with nothing of its window run.
+#[test]
+fn a_line_past_the_line_limit_is_refused_and_nothing_of_its_window_runs() {
+    let text = format!("halt -m 17\nstate -m 17 {}\n", "x".repeat(70_000));
+    let r = run_with_stdin(&["--link", "sim", "--trace", "batch", "-"], &text);
+    assert_eq!(r.code, 2, "{}", r.stderr);
+    assert!(
+        r.stderr.contains("standard input: line 2 is longer than 64 KiB, the most a batch line may be; it was not run"),
+        "{}",
+        r.stderr
+    );
+    assert!(!r.stderr.lines().any(|l| l.starts_with("->")), "line 1 was not run either: {}", r.stderr);
 }

@@ -71,6 +71,49 @@ fn assert_same_as_one_shots(link: &str) {
     assert_eq!(got[4]["result"]["devices"][1]["module"], 17, "in id order");
 }
 
+/// Groups that start after line 1 (issue 22, item 9): lines 2 to 5 and 7
+/// to 8, each read answering with another value (MaxVel, MaxAcc, MinPos of
+/// three modules), so that a line shown from another line's answers, or a
+/// group's answers counted from line 1, prints a value its one-shot does
+/// not.
+const LATER: [&str; 8] = [
+    "info -m 3",
+    "get-param -m 17 MaxVel",
+    "get-param -m 3 MaxAcc",
+    "state -m 5",
+    "get-param -m 5 MaxVel MinPos",
+    "get-config -m 3",
+    "get-param -m 3 MaxVel",
+    "get-param -m 17 MaxAcc ActPos",
+];
+
+#[test]
+fn groups_that_start_after_line_1_show_each_line_from_its_own_answers() {
+    for link in ["sim", "sim-served"] {
+        let sim = (link == "sim-served").then(|| Sim::start(&["--powercube", "pty-slcan"], 1));
+        let link = sim.as_ref().map_or("sim", |s| s.link("powercube"));
+        let r = run_with_stdin(&["--link", link, "batch", "-"], &script(&LATER));
+        assert_eq!(r.code, 0, "{}", r.stderr);
+        let alone: String = LATER.iter().map(|l| one_shot(&["--link", link], l).stdout).collect();
+        assert_eq!(r.stdout, alone);
+        let r = run_with_stdin(&["--link", link, "--json", "batch", "-"], &script(&LATER));
+        let got = json_lines(&r.stdout);
+        assert_eq!(got.len(), LATER.len(), "{}", r.stdout);
+        for (i, (line, g)) in LATER.iter().zip(&got).enumerate() {
+            let want =
+                json!({"line": i + 1, "command": line, "result": one_shot(&["--link", link, "--json"], line).json()});
+            assert_eq!(g, &want, "line {}", i + 1);
+        }
+        let values: Vec<&Value> = [(1, "MaxVel"), (2, "MaxAcc"), (6, "MaxVel"), (7, "MaxAcc")]
+            .iter()
+            .map(|(i, p)| &got[*i]["result"]["params"][*p]["value"])
+            .collect();
+        let mut distinct = values.clone();
+        distinct.dedup();
+        assert_eq!(distinct.len(), values.len(), "the reads answer with different values: {values:?}");
+    }
+}
+
 #[test]
 fn pipelined_lines_print_what_the_one_shots_print() {
     assert_same_as_one_shots("sim");
@@ -96,6 +139,20 @@ fn is_answer(frame: &str) -> bool {
 
 fn sent(frames: &[String]) -> Vec<String> {
     frames.iter().filter(|f| !is_answer(f)).cloned().collect()
+}
+
+// The group sent ahead is the one read next: its burst is not sent again
+// on a new session (a mutant of that match sent the second group twice).
+#[test]
+fn a_group_sent_ahead_is_not_sent_again() {
+    let dir = tempfile::tempdir().unwrap();
+    // 20 lines of two requests: a group of 16 (32 requests), then one of 4.
+    let lines = ["get-param -m 3 ActPos"; 20];
+    let log = dir.path().join("batch.log");
+    let r = run_with_stdin(&["--link", "sim", "--log", log.to_str().unwrap(), "batch", "-"], &script(&lines));
+    assert_eq!(r.code, 0, "{}", r.stderr);
+    assert_eq!(r.stdout.matches("ActPos ").count(), 20, "{}", r.stdout);
+    assert_eq!(sent(&frames(&log)).len(), 40, "each line's two requests, once");
 }
 
 #[test]
@@ -216,9 +273,10 @@ fn a_signal_stops_pipelined_reads_after_the_line_that_was_shown() {
         .stderr(Stdio::piped())
         .spawn()
         .unwrap();
+    // Written beside the run: the batch reads its lines as it runs them.
     let mut stdin = child.stdin.take().unwrap();
-    stdin.write_all(script(&["get-param -m 3 ActPos"; 20_000]).as_bytes()).unwrap();
-    drop(stdin);
+    let text = script(&["get-param -m 3 ActPos"; 20_000]);
+    std::thread::spawn(move || drop(stdin.write_all(text.as_bytes())));
     let mut out = std::io::BufReader::new(child.stdout.take().unwrap());
     let mut shown = 0;
     let mut line = String::new();

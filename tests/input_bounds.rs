@@ -82,3 +82,89 @@ fn answer_timeouts_and_retries_stay_within_what_a_bench_can_use() {
         0
     );
 }
+
+/// Runs axisctl with `args`, standard input endless `endless` bytes when
+/// given (the writer goes on until the pipe closes), reaping it with wait4 to
+/// read its own peak memory. Returns (exit code, stderr, peak RSS in KiB,
+/// seconds).
+// Reaped by wait4, which std's wait cannot do: it would not give the rusage.
+#[allow(clippy::zombie_processes)]
+fn run_measured(args: &[&str], endless: Option<u8>) -> (i32, String, i64, f64) {
+    use std::io::{Read, Write};
+    use std::process::Stdio;
+    let start = std::time::Instant::now();
+    let mut child = common::bin()
+        .args(args)
+        .stdin(if endless.is_some() { Stdio::piped() } else { Stdio::null() })
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    if let (Some(byte), Some(mut input)) = (endless, child.stdin.take()) {
+        // Until the reader closes the pipe: an error ends the writer.
+        std::thread::spawn(move || {
+            let block = vec![byte; 1 << 16];
+            while input.write_all(&block).is_ok() {}
+        });
+    }
+    let mut err = String::new();
+    child.stderr.take().unwrap().read_to_string(&mut err).unwrap();
+    let (mut status, mut usage) = (0, unsafe { std::mem::zeroed::<libc::rusage>() });
+    let pid = unsafe { libc::wait4(child.id() as i32, &mut status, 0, &mut usage) };
+    assert_eq!(pid, child.id() as i32, "wait4");
+    let code = if libc::WIFEXITED(status) { libc::WEXITSTATUS(status) } else { -1 };
+    (code, err, usage.ru_maxrss, start.elapsed().as_secs_f64())
+}
+
+const BACKUP: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/docs/examples/module17.json");
+
+// Issue 22, item 7: an endless file or pipe given as a backup, a recording
+// or a batch line is refused at its ceiling (exit 2, nothing sent), in
+// bounded memory and at once; before, `diff /dev/zero x.json` grew by
+// about 1.4 GB/s until killed.
+#[test]
+fn endless_input_is_refused_at_its_ceiling_in_bounded_memory() {
+    for (args, endless, said) in [
+        (&["diff", "/dev/zero", BACKUP][..], None, "/dev/zero is larger than 4 MiB, the most a backup may be"),
+        (&["diff", BACKUP, "/dev/zero"], None, "/dev/zero is larger than 4 MiB"),
+        (&["--link", "sim", "--trace", "restore", "-"], Some(b'['), "standard input is larger than 4 MiB"),
+        (
+            &["plot", "/dev/zero", "--svg", "/dev/null"],
+            None,
+            "/dev/zero is larger than 32 MiB, the most a recording may be",
+        ),
+        (&["--link", "sim", "--trace", "batch", "-"], Some(b'x'), "line 1 is longer than 64 KiB"),
+    ] {
+        let (code, err, rss_kib, secs) = run_measured(args, endless);
+        assert_eq!(code, 2, "{args:?}: {err}");
+        assert!(err.contains(said), "{args:?}: {err}");
+        assert!(!err.lines().any(|l| l.starts_with("->")), "{args:?} sent frames:\n{err}");
+        // A debug build of axisctl starts at about 10 MB; the ceilings add
+        // at most 2 x 32 MiB for the recording (its bytes and their text).
+        let most = if args[0] == "plot" { 100 << 10 } else { 50 << 10 };
+        assert!(rss_kib < most, "{args:?}: peak {rss_kib} KiB");
+        eprintln!("{args:?}: exit {code}, peak RSS {rss_kib} KiB, {secs:.2} s");
+        assert!(secs < 30.0, "{args:?}: {secs:.1} s");
+    }
+}
+
+// Issue 22, item 8: a backup that gives a key twice in one object (two
+// values for one setting: JSON readers differ on which counts) is refused
+// before the link opens, by restore and by diff.
+#[test]
+fn a_backup_with_a_key_given_twice_is_refused_before_anything_is_sent() {
+    let text = std::fs::read_to_string(BACKUP).unwrap();
+    let twice = text.replacen("\"ActC0\": {", "\"ActC0\": {\"value\": 12, ", 1);
+    assert_ne!(twice, text);
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("twice.json");
+    std::fs::write(&file, &twice).unwrap();
+    let f = file.to_str().unwrap();
+    for args in [&["restore", f][..], &["restore", f, "--dry-run"], &["diff", f]] {
+        let err = refused_unsent(args);
+        assert!(err.contains(&format!("{f} is ambiguous: \"value\" is given twice in one object at line")), "{err}");
+        assert!(err.ends_with("; nothing was sent\n"), "{err}");
+    }
+    let r = run(&["diff", f, BACKUP]);
+    assert_eq!(r.code, 2, "{}", r.stderr);
+}

@@ -130,3 +130,46 @@ fn ctrl_z_at_the_prompt_halts_what_the_shell_moved_then_stops_it() {
     t.keys(&["C-d"]);
     t.wait_until("the return to bash", |s| s.matches("READY$").count() >= 3);
 }
+
+/// The state flags of module `m` on a served link, read by another process.
+fn flags(link: &str, m: &str) -> Vec<String> {
+    let r = common::run(&["--link", link, "--json", "state", "-m", m]);
+    assert_eq!(r.code, 0, "{}", r.stderr);
+    r.json()["state"]["flags"].as_array().unwrap().iter().map(|f| f.as_str().unwrap().to_string()).collect()
+}
+
+// Issue 22, item 3: Ctrl-D or `exit` with a `move-vel` of the shell still
+// running halts it and says so; `exit --keep-moving` leaves it moving and
+// says that. The module's state is read from another process afterwards,
+// on a served simulator.
+#[test]
+fn leaving_the_shell_halts_what_it_moved_unless_told_to_keep_it_moving() {
+    let sim = common::Sim::start(&[], 3);
+    let link = sim.link("powercube").to_string();
+    let state = tempfile::tempdir().unwrap();
+    for (end, said, moving) in [
+        (&["C-d"][..], "Ctrl-D ends the shell; halted: `halt -m 3`", false),
+        (&["exit", "Enter"][..], "exit ends the shell; halted: `halt -m 3`", false),
+        (&["exit --keep-moving", "Enter"][..], "exit --keep-moving; not halted, may still move: `halt -m 3`", true),
+    ] {
+        let t = terminal(state.path(), "leave");
+        t.wait_for("READY$");
+        t.keys(&[&format!("{} --link {link} shell", env!("CARGO_BIN_EXE_axisctl")), "Enter"]);
+        let prompt = format!("axisctl {link}>");
+        t.wait_until("prompt 1", |s| s.contains(&prompt));
+        t.keys(&["reset -m 3", "Enter"]);
+        t.wait_until("prompt 2", |s| s.matches(&prompt).count() >= 2);
+        t.keys(&["move-vel -m 3 0.1", "Enter"]);
+        t.wait_for("FVEL_MODE 0.1 acknowledged");
+        t.wait_until("prompt 3", |s| s.matches(&prompt).count() >= 3);
+        t.keys(end);
+        t.wait_until("the return to bash", |s| s.matches("READY$").count() >= 2);
+        t.keys(&["echo exit=$? DO''NE", "Enter"]);
+        let screen = t.wait_for("DONE");
+        assert!(screen.contains(said), "{end:?}:\n{screen}");
+        assert!(screen.contains("exit=0"), "{end:?}:\n{screen}");
+        let f = flags(&link, "3");
+        assert_eq!(f.contains(&"STATE_MOTION".to_string()), moving, "{end:?}: {f:?}");
+        assert_eq!(f.contains(&"STATE_HALTED".to_string()), !moving, "{end:?}: {f:?}");
+    }
+}

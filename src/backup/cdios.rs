@@ -31,7 +31,7 @@ use crate::family::Family;
 use crate::proto::cdios::table::{self, STATUS_FLAGS};
 use crate::proto::cdios::{AnalogOutput, ModuleId, ServoConfig, ServoPart};
 
-use super::{same_value, step, Device, Problem, Setting, Step, ValueResult};
+use super::{same_value, step, stopping, Device, Problem, Setting, Step, Stop, ValueResult};
 
 /// The identity a restore compares: the module's type.
 pub const IDENTITY: [&str; 1] = ["type"];
@@ -220,16 +220,19 @@ pub fn ensure_at_rest(node: &mut Node, m: ModuleId) -> Result<(), Error> {
 }
 
 /// Writes the file's settings that differ from the module's, in the order
-/// of the module doc, each read back; `skip` names the invalid ones.
+/// of the module doc, each read back; `skip` names the invalid ones. `stop`
+/// is asked before each write: once it says why, the rest are not written.
 pub fn restore(
     node: &mut Node,
     m: ModuleId,
     file: &Device,
     live: &Device,
     skip: &BTreeSet<String>,
+    stop: Stop<'_>,
 ) -> Result<Vec<ValueResult>, Error> {
     ensure_at_rest(node, m)?;
     let mut out = Vec::new();
+    let mut stopped = None;
     let result = |name: &str| ValueResult::against(name, &file.settings[name], live);
     // Servo configuration, one selector at a time.
     let changes = servo_changes(file, live, skip);
@@ -244,18 +247,23 @@ pub fn restore(
     for (selector, (part, assignments)) in &changes {
         let one: BTreeMap<u8, (ServoPart, Assignments)> = [(*selector, (*part, assignments.clone()))].into();
         let group = servo::group_of(*part);
-        let written = node.write_config(m, &one).and_then(|_| node.read_config(m, std::slice::from_ref(&group)));
+        // `Err`: not written, for the reason the restore stopped.
+        let written = match stopping(&mut stopped, stop) {
+            Some(why) => Err(why),
+            None => Ok(node.write_config(m, &one).and_then(|_| node.read_config(m, std::slice::from_ref(&group)))),
+        };
         for (key, _) in assignments {
             let f = servo::set_row(*part).value_fields().find(|f| f.key == *key).expect("a field of the part");
             let name = format!("{group}.{}", servo::key_of(*part, f));
             let Some(slot) = out.iter_mut().find(|r| r.name == name) else { continue };
             let r = slot.clone();
             *slot = match &written {
-                Ok(replies) => {
+                Ok(Ok(replies)) => {
                     let held = replies.iter().find(|(p, _)| p == part).and_then(|(_, rep)| rep.get(key));
                     r.read_back(held.map_or(serde_json::Value::Null, Into::into))
                 }
-                Err(e) => r.failed(e, e.kind()),
+                Ok(Err(e)) => r.failed(e, e.kind()),
+                Err(why) => r.not_written(why),
             };
         }
     }
@@ -270,6 +278,8 @@ pub fn restore(
         .collect();
     let ev_results = if ev_changed.is_empty() {
         None
+    } else if let Some(why) = stopping(&mut stopped, stop) {
+        Some(Err(why))
     } else {
         let val = |k: &str| -> Option<i64> {
             let n = format!("events.{k}");
@@ -292,7 +302,7 @@ pub fn restore(
             speed_interval: val("speed_interval").map(|v| v as u8),
             speed_on_change: val("speed_on_change").map(|v| v != 0),
         };
-        Some(node.events(m, &change))
+        Some(Ok(node.events(m, &change)))
     };
     for (i, name) in ev_names.iter().enumerate() {
         if wanted(file, name).is_none() {
@@ -305,8 +315,9 @@ pub fn restore(
             r
         } else {
             match ev_results.as_ref().expect("written when changed") {
-                Ok(ev) => r.read_back(event_values(ev)[i].into()),
-                Err(e) => r.failed(e, e.kind()),
+                Ok(Ok(ev)) => r.read_back(event_values(ev)[i].into()),
+                Ok(Err(e)) => r.failed(e, e.kind()),
+                Err(why) => r.not_written(why),
             }
         });
     }
@@ -317,6 +328,8 @@ pub fn restore(
             r.skipped("invalid (see the problems); not written")
         } else if live.settings.get(OUTPUTS).is_some_and(|l| same_value(&l.value, &v.into())) {
             r
+        } else if let Some(why) = stopping(&mut stopped, stop) {
+            r.not_written(&why)
         } else {
             match node.outputs(m, Some(v as u8), false) {
                 Ok(held) => r.read_back(held.into()),
@@ -327,6 +340,9 @@ pub fn restore(
     for (name, o) in ANALOG {
         out.extend(step(file, live, name, skip).map(|s| match s {
             Step::Done(r) => r,
+            Step::Write(_, r) if stopping(&mut stopped, stop).is_some() => {
+                r.not_written(stopped.as_deref().unwrap_or_default())
+            }
             Step::Write(s, r) => {
                 let written = integer(&s.value)
                     .ok_or_else(|| Error::Refused(format!("{} is not an integer", s.value)))

@@ -11,13 +11,14 @@
 
 pub mod cdios;
 mod diff;
+mod keys;
 pub mod pac;
 pub mod powercube;
 
 #[cfg(test)]
 mod tests;
 
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, BTreeSet};
 
 use serde::{Deserialize, Serialize};
 
@@ -158,6 +159,8 @@ pub enum ParseError {
     NotJson(String, String),
     #[error("{0} is no axisctl backup: {1}")]
     NotBackup(String, String),
+    #[error("{0} is ambiguous: {1}; nothing was sent")]
+    DuplicateKey(String, String),
     #[error("{0} was written by a newer axisctl (schema {1:?}; this one reads {SCHEMA}); nothing was sent")]
     Newer(String, String),
 }
@@ -174,6 +177,7 @@ impl ParseError {
 pub fn parse(name: &str, text: &str) -> Result<Document, ParseError> {
     let value: serde_json::Value =
         serde_json::from_str(text).map_err(|e| ParseError::NotJson(name.into(), e.to_string()))?;
+    serde_json::from_str::<keys::UniqueKeys>(text).map_err(|e| ParseError::DuplicateKey(name.into(), e.to_string()))?;
     let schema = value
         .get("schema")
         .and_then(serde_json::Value::as_str)
@@ -223,10 +227,14 @@ pub enum Outcome {
     Clamped,
     /// The write or its read-back failed.
     Failed,
+    /// Not written: the restore stopped before it (a signal, a lost link,
+    /// a device that refused), so the device holds what it held.
+    NotWritten,
 }
 
 impl Outcome {
-    pub const ALL: [Self; 5] = [Self::Written, Self::Unchanged, Self::Skipped, Self::Clamped, Self::Failed];
+    pub const ALL: [Self; 6] =
+        [Self::Written, Self::Unchanged, Self::Skipped, Self::Clamped, Self::Failed, Self::NotWritten];
 
     pub fn name(self) -> &'static str {
         match self {
@@ -235,6 +243,7 @@ impl Outcome {
             Self::Skipped => "skipped",
             Self::Clamped => "clamped",
             Self::Failed => "failed",
+            Self::NotWritten => "not_written",
         }
     }
 }
@@ -289,6 +298,12 @@ impl ValueResult {
         self
     }
 
+    pub(crate) fn not_written(mut self, why: &str) -> Self {
+        self.outcome = Outcome::NotWritten;
+        self.message = Some(why.into());
+        self
+    }
+
     /// Written and read back as `after`: clamped when the device holds
     /// another value than the file's.
     fn read_back(mut self, after: serde_json::Value) -> Self {
@@ -307,12 +322,7 @@ pub(crate) enum Step<'a> {
     Write(&'a Setting, ValueResult),
 }
 
-pub(crate) fn step<'a>(
-    file: &'a Device,
-    live: &Device,
-    name: &str,
-    skip: &std::collections::BTreeSet<String>,
-) -> Option<Step<'a>> {
+pub(crate) fn step<'a>(file: &'a Device, live: &Device, name: &str, skip: &BTreeSet<String>) -> Option<Step<'a>> {
     let s = file.settings.get(name).filter(|s| s.restore)?;
     let r = ValueResult::against(name, s, live);
     Some(if skip.contains(name) {
@@ -322,6 +332,43 @@ pub(crate) fn step<'a>(
     } else {
         Step::Write(s, r)
     })
+}
+
+/// Asked before each write of a restore: why it must stop now (a signal),
+/// or `None` to go on. The values it did not reach are reported as
+/// [`Outcome::NotWritten`] with the reason.
+pub type Stop<'a> = &'a dyn Fn() -> Option<String>;
+
+/// The result of a value that a stopped restore did not reach: unchanged
+/// when the device held the file's value already, skipped when invalid,
+/// else not written, for `why`.
+pub(crate) fn not_reached(
+    file: &Device,
+    live: &Device,
+    name: &str,
+    skip: &BTreeSet<String>,
+    why: &str,
+) -> Option<ValueResult> {
+    step(file, live, name, skip).map(|s| match s {
+        Step::Done(r) => r,
+        Step::Write(_, r) => r.not_written(why),
+    })
+}
+
+/// The reason to stop, once `stop` gave one: kept, so that every later
+/// value is not written for the same reason.
+pub(crate) fn stopping(stopped: &mut Option<String>, stop: Stop<'_>) -> Option<String> {
+    if stopped.is_none() {
+        *stopped = stop();
+    }
+    stopped.clone()
+}
+
+/// The results of a device that a restore did not write at all (it stopped
+/// before this device, or the device refused it), in the file's order of
+/// names: each value unchanged, skipped or not written.
+pub fn not_written(file: &Device, live: &Device, skip: &BTreeSet<String>, why: &str) -> Vec<ValueResult> {
+    file.restorable().filter_map(|(name, _)| not_reached(file, live, name, skip, why)).collect()
 }
 
 /// What the file alone shows wrong with a device's settings, by its
@@ -368,7 +415,7 @@ pub struct Failed {
 }
 
 /// The counts of a restore's outcomes, in [`Outcome::ALL`] order.
-pub fn summary<'a>(results: impl IntoIterator<Item = &'a ValueResult>) -> [(Outcome, usize); 5] {
+pub fn summary<'a>(results: impl IntoIterator<Item = &'a ValueResult>) -> [(Outcome, usize); 6] {
     let mut out = Outcome::ALL.map(|o| (o, 0));
     for r in results {
         if let Some(slot) = out.iter_mut().find(|(o, _)| *o == r.outcome) {

@@ -22,7 +22,7 @@ use crate::device::pac::{Controller, Error};
 use crate::family::Family;
 use crate::proto::pac::table::{self, AxisParamDef, SystemParamDef};
 
-use super::{same_value, step, Device, Problem, Setting, Step, ValueResult};
+use super::{not_reached, same_value, step, Device, Problem, Setting, Step, Stop, ValueResult};
 
 /// The identity a restore compares: the number of axes.
 pub const IDENTITY: [&str; 1] = ["axes"];
@@ -202,16 +202,24 @@ pub fn order(file: &Device, live: &Device) -> Vec<&'static str> {
 }
 
 /// Writes the file's settings that differ from the controller's, in
-/// [`order`], each read back; `skip` names the invalid ones.
+/// [`order`], each read back; `skip` names the invalid ones. `stop` is
+/// asked before each value: once it says why, the rest are not written.
 pub fn restore(
     c: &mut Controller,
     file: &Device,
     live: &Device,
     skip: &BTreeSet<String>,
+    stop: Stop<'_>,
 ) -> Result<Vec<ValueResult>, Error> {
     ensure_home(c)?;
     let mut out = Vec::new();
+    let mut stopped: Option<String> = None;
     for name in order(file, live) {
+        if let Some(why) = stopped.clone().or_else(stop) {
+            out.extend(not_reached(file, live, name, skip, &why));
+            stopped = Some(why);
+            continue;
+        }
         let (s, r) = match step(file, live, name, skip) {
             None => continue,
             Some(Step::Done(r)) => {

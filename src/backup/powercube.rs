@@ -26,7 +26,7 @@ use crate::proto::powercube::frame::Value;
 use crate::proto::powercube::table::{self, ParamDef};
 use crate::proto::powercube::ModuleId;
 
-use super::{step, Device, Outcome, Problem, Setting, Step, ValueResult};
+use super::{not_reached, step, Device, Outcome, Problem, Setting, Step, Stop, ValueResult};
 
 /// The identity a restore compares: a file of another module is refused.
 pub const IDENTITY: [&str; 2] = ["serial", "type"];
@@ -273,17 +273,25 @@ pub fn ensure_at_rest(cubes: &mut Cubes, m: ModuleId) -> Result<(), Error> {
 /// Writes the file's settings that differ from the live module, in
 /// [`order`], each read back. `skip` names the settings found invalid
 /// (`--skip-invalid`). Refused as a whole, before any write, while the
-/// module is moving.
+/// module is moving. `stop` is asked before each value: once it says why,
+/// the rest are not written.
 pub fn restore(
     cubes: &mut Cubes,
     m: ModuleId,
     file: &Device,
     live: &Device,
     skip: &BTreeSet<String>,
+    stop: Stop<'_>,
 ) -> Result<Vec<ValueResult>, Error> {
     ensure_at_rest(cubes, m)?;
     let mut out = Vec::new();
+    let mut stopped = None;
     for name in order(file, live) {
+        if let Some(why) = stopped.clone().or_else(stop) {
+            out.extend(not_reached(file, live, name, skip, &why));
+            stopped = Some(why);
+            continue;
+        }
         match step(file, live, name, skip) {
             None => {}
             Some(Step::Done(r)) => out.push(r),

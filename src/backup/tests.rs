@@ -135,7 +135,7 @@ fn capture_restore_round_trip_on_the_simulator() {
     set(&mut changed, "ActC0", 7.into());
     let live = powercube::capture(&mut r.cubes, m17(), "sim").unwrap();
     assert!(powercube::check_live(&changed, &live).is_empty());
-    let res = powercube::restore(&mut r.cubes, m17(), &changed, &live, &BTreeSet::new()).unwrap();
+    let res = powercube::restore(&mut r.cubes, m17(), &changed, &live, &BTreeSet::new(), &|| None).unwrap();
     let written: Vec<&str> = res.iter().filter(|v| v.outcome == Outcome::Written).map(|v| v.name.as_str()).collect();
     assert_eq!(written, ["MaxVel", "ActC0"]);
     let live = powercube::capture(&mut r.cubes, m17(), "sim").unwrap();
@@ -146,7 +146,7 @@ fn capture_restore_round_trip_on_the_simulator() {
         devices: vec![d.clone()],
     };
     assert_eq!(diff(&doc(&saved), &doc(&live))[0].differences.len(), 2);
-    let res = powercube::restore(&mut r.cubes, m17(), &saved, &live, &BTreeSet::new()).unwrap();
+    let res = powercube::restore(&mut r.cubes, m17(), &saved, &live, &BTreeSet::new(), &|| None).unwrap();
     assert!(res.iter().all(|v| matches!(v.outcome, Outcome::Written | Outcome::Unchanged)), "{res:?}");
     let live = powercube::capture(&mut r.cubes, m17(), "sim").unwrap();
     assert!(diff(&doc(&saved), &doc(&live))[0].differences.is_empty());
@@ -282,9 +282,142 @@ fn a_value_the_module_does_not_keep_is_reported_clamped() {
     assert_ne!(word & linear, 0);
     let mut file = live.clone();
     set(&mut file, "Config", u64::from(word & !linear).into());
-    let res = powercube::restore(&mut r.cubes, m17(), &file, &live, &BTreeSet::new()).unwrap();
+    let res = powercube::restore(&mut r.cubes, m17(), &file, &live, &BTreeSet::new(), &|| None).unwrap();
     let config = res.iter().find(|v| v.name == "Config").unwrap();
     assert_eq!(config.outcome, Outcome::Clamped, "{config:?}");
     assert_eq!(config.after, serde_json::Value::from(word));
     assert_eq!(summary(&res)[3], (Outcome::Clamped, 1));
+}
+
+// Issue 22, item 9: each limit's ROM minimum (DefMinPos for MinPos and
+// MaxPos, DefMinVel, DefMinAcc) is checked, not only the maximum; a value
+// at the minimum itself is within the range. The module here starts its
+// travel at 0.2 m, so that DefMinPos is not the 0 a missing minimum reads as.
+#[test]
+fn a_limit_below_the_modules_rom_minimum_is_refused() {
+    let mut live = cube_on_the_simulator();
+    set(&mut live, "DefMinPos", 0.2.into());
+    set(&mut live, "MinPos", 0.2.into());
+    assert!(powercube::check_live(&live, &live).is_empty());
+    for (name, rom) in
+        [("MinPos", "DefMinPos"), ("MaxPos", "DefMinPos"), ("MaxVel", "DefMinVel"), ("MaxAcc", "DefMinAcc")]
+    {
+        let min = live.settings[rom].value.as_f64().unwrap();
+        assert!(min > 0.0, "{rom} {min}");
+        let mut file = live.clone();
+        set(&mut file, name, (min * 0.5).into());
+        let problems = powercube::check_live(&file, &live);
+        let p = problems.iter().find(|p| p.name == name).unwrap_or_else(|| panic!("{name} below {rom}: {problems:?}"));
+        assert!(p.message.contains(&format!("outside the module's range {min} to ")), "{p}");
+        assert!(p.message.contains(&format!("({rom}..")), "{p}");
+        // At the minimum itself: no problem of its own (a ramp above the
+        // new MaxVel may be one of TargetVelInc's).
+        set(&mut file, name, min.into());
+        let problems = powercube::check_live(&file, &live);
+        assert!(!problems.iter().any(|p| p.name == name && p.message.contains("range")), "{name}: {problems:?}");
+    }
+}
+
+// A restore told to stop (a signal) after its first write writes nothing
+// more: every later value it would have written is `NotWritten`, with the
+// reason, and the module holds them as they were.
+#[test]
+fn a_restore_told_to_stop_writes_nothing_more_and_reports_the_rest_not_written() {
+    let mut r = rig();
+    let live = powercube::capture(&mut r.cubes, m17(), "sim").unwrap();
+    let mut file = live.clone();
+    set(&mut file, "MaxVel", 0.05.into());
+    set(&mut file, "ActC0", 7.into());
+    set(&mut file, "ActDamp", 9.into());
+    let asked = std::cell::Cell::new(0);
+    let stop = || {
+        asked.set(asked.get() + 1);
+        (asked.get() > 1).then(|| "stopped by SIGTERM".to_string())
+    };
+    let res = powercube::restore(&mut r.cubes, m17(), &file, &live, &BTreeSet::new(), &stop).unwrap();
+    let changed: Vec<(&str, Outcome)> =
+        res.iter().filter(|v| v.outcome != Outcome::Unchanged).map(|v| (v.name.as_str(), v.outcome)).collect();
+    // Config is first in the order (unchanged): the stop comes before MaxVel.
+    assert_eq!(
+        changed,
+        [("MaxVel", Outcome::NotWritten), ("ActC0", Outcome::NotWritten), ("ActDamp", Outcome::NotWritten)]
+    );
+    assert!(res
+        .iter()
+        .filter(|v| v.outcome == Outcome::NotWritten)
+        .all(|v| v.message.as_deref() == Some("stopped by SIGTERM")));
+    assert_eq!(summary(&res)[5], (Outcome::NotWritten, 3));
+    let after = powercube::capture(&mut r.cubes, m17(), "sim").unwrap();
+    for name in ["MaxVel", "ActC0", "ActDamp"] {
+        assert_eq!(after.settings[name].value, live.settings[name].value, "{name} was not written");
+    }
+    // Asked once per value until it says stop, then no more.
+    assert_eq!(asked.get(), 2);
+}
+
+// A device the restore did not reach: each value is unchanged, skipped or
+// not written, never written.
+#[test]
+fn a_device_not_reached_has_every_value_it_would_write_not_written() {
+    let live = cube_on_the_simulator();
+    let mut file = live.clone();
+    set(&mut file, "MaxVel", 0.05.into());
+    set(&mut file, "ActC0", 7.into());
+    let skip: BTreeSet<String> = ["ActC0".to_string()].into();
+    let res = not_written(&file, &live, &skip, "the link was lost");
+    assert_eq!(res.len(), file.restorable().count());
+    let get = |n: &str| res.iter().find(|v| v.name == n).unwrap();
+    assert_eq!(
+        (get("MaxVel").outcome, get("MaxVel").message.as_deref()),
+        (Outcome::NotWritten, Some("the link was lost"))
+    );
+    assert_eq!(get("ActC0").outcome, Outcome::Skipped);
+    assert_eq!(get("MaxAcc").outcome, Outcome::Unchanged);
+    assert_eq!(summary(&res)[5].1, 1);
+}
+
+/// Module 0 of the contract node on a fresh simulated bench, and its node.
+fn cdios_rig() -> (crate::device::cdios::Node, Bench) {
+    use crate::device::cdios::Node;
+    use crate::proto::cdios::NodeId;
+    use crate::session::cdios::Cdios;
+    let clock: Arc<dyn Clock> = Arc::new(VirtualClock::new());
+    let bench = Bench::contract(Arc::clone(&clock));
+    let s = Cdios::new(Box::new(bench.bus.open())).with_clock(clock);
+    (Node::new(s, NodeId::new(1).unwrap(), crate::session::RetryPolicy::default()), bench)
+}
+
+// A Cdios restore asks before each write (a servo selector, the event
+// setup, the digital outputs, an analog output): once told to stop, the rest is not written and says
+// why, and the module keeps what it held.
+#[test]
+fn a_cdios_restore_told_to_stop_writes_nothing_more() {
+    let m = crate::proto::cdios::ModuleId::new(0).unwrap();
+    for stop_at in [1, 2, 3, 4] {
+        let (mut node, _bench) = cdios_rig();
+        let live = cdios::capture(&mut node, m, 0, 0, "sim").unwrap();
+        let mut file = live.clone();
+        set(&mut file, "speeds.maximum_speed", 6000.into());
+        set(&mut file, "events.mask3", 128.into());
+        set(&mut file, "outputs.digital", 5.into());
+        set(&mut file, "outputs.analog2", 2500.into());
+        let asked = std::cell::Cell::new(0);
+        let stop = || {
+            asked.set(asked.get() + 1);
+            (asked.get() >= stop_at).then(|| "stopped by SIGINT".to_string())
+        };
+        let res = cdios::restore(&mut node, m, &file, &live, &BTreeSet::new(), &stop).unwrap();
+        let outcome = |n: &str| res.iter().find(|v| v.name == n).unwrap().outcome;
+        let names = ["speeds.maximum_speed", "events.mask3", "outputs.digital", "outputs.analog2"];
+        for (i, name) in names.iter().enumerate() {
+            let want = if i + 1 < stop_at { Outcome::Written } else { Outcome::NotWritten };
+            assert_eq!(outcome(name), want, "stop at ask {stop_at}: {name}");
+        }
+        assert_eq!(asked.get(), stop_at, "asked once per write until told to stop");
+        let after = cdios::capture(&mut node, m, 0, 0, "sim").unwrap();
+        for (i, name) in names.iter().enumerate() {
+            let held = if i + 1 < stop_at { &file } else { &live };
+            assert_eq!(after.settings[*name].value, held.settings[*name].value, "stop at {stop_at}: {name}");
+        }
+    }
 }

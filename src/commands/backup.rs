@@ -9,6 +9,7 @@ use axisctl::backup::{self, Address, Device, Difference, Document, Problem, Valu
 use axisctl::device::cdios::{Node, Slot};
 use axisctl::device::pac::Controller;
 use axisctl::device::powercube::{Cubes, Error as CubeError};
+use axisctl::device::supervisor;
 use axisctl::family::{Family, CDIOS_MODULE, POWERCUBE_MODULE};
 use axisctl::link::LinkSpec;
 use axisctl::proto::cdios::{ModuleId as CdiosModule, NodeId};
@@ -16,7 +17,7 @@ use axisctl::proto::powercube::ModuleId;
 use axisctl::session::ErrorKind;
 use serde_json::{json, Value};
 
-use super::{usage, Ctx};
+use super::{usage, Ctx, Interrupted};
 use crate::cli::backup::{BackupCommand, Selection};
 use crate::cli::ids::Devices;
 use crate::output::{self, say};
@@ -165,19 +166,25 @@ impl<'a> Live<'a> {
         })
     }
 
-    fn restore(&mut self, file: &Device, live: &Device, skip: &BTreeSet<String>) -> anyhow::Result<Vec<ValueResult>> {
+    fn restore(
+        &mut self,
+        file: &Device,
+        live: &Device,
+        skip: &BTreeSet<String>,
+        stop: backup::Stop<'_>,
+    ) -> anyhow::Result<Vec<ValueResult>> {
         let at = live.address();
         target(at);
         match at.family {
             Family::PowerCube => {
                 let m = module(at)?;
-                Ok(backup::powercube::restore(self.cubes()?, m, file, live, skip)?)
+                Ok(backup::powercube::restore(self.cubes()?, m, file, live, skip, stop)?)
             }
-            Family::Pac => Ok(backup::pac::restore(self.pac()?, file, live, skip)?),
+            Family::Pac => Ok(backup::pac::restore(self.pac()?, file, live, skip, stop)?),
             Family::Cdios => {
                 let m = cdios_module(at)?;
                 let (node, _) = self.node(at.node.unwrap_or(1))?;
-                Ok(backup::cdios::restore(node, m, file, live, skip)?)
+                Ok(backup::cdios::restore(node, m, file, live, skip, stop)?)
             }
         }
     }
@@ -207,6 +214,11 @@ impl<'a> Live<'a> {
         let (node, _) = self.node(at.node.unwrap_or(1))?;
         Ok(backup::cdios::store(node, m)?)
     }
+}
+
+/// Why the writes stop, as each value not written says it.
+fn stop_text(sig: i32) -> String {
+    format!("the restore stopped on {}", supervisor::signal_name(sig))
 }
 
 fn cdios_module(at: Address) -> anyhow::Result<CdiosModule> {
@@ -287,10 +299,8 @@ fn save(ctx: &Ctx, select: &Selection, out: Option<&Path>) -> anyhow::Result<()>
 /// Reads and parses a backup (`-` is stdin): exit 2 before anything opens
 /// when it is not one this axisctl reads.
 fn read_file(path: &Path) -> anyhow::Result<Document> {
-    let name = path.display().to_string();
-    let text = if name == "-" { std::io::read_to_string(std::io::stdin()) } else { std::fs::read_to_string(path) }
-        .map_err(|e| usage(format!("cannot read {name}: {e}")))?;
-    Ok(backup::parse(&name, &text)?)
+    let text = super::input::read_text(path, super::input::BACKUP, "a backup")?;
+    Ok(backup::parse(&path.display().to_string(), &text)?)
 }
 
 /// The live bench in the shape of `file`: each of its devices read at its
@@ -428,6 +438,10 @@ fn restore(ctx: &Ctx, path: &Path, opts: Options) -> anyhow::Result<()> {
     if !problems.is_empty() && !opts.skip_invalid {
         return Err(invalid(path, &problems, "nothing was sent"));
     }
+    // From here a signal (an emergency halt from another terminal, Ctrl-C)
+    // ends the restore after the value being written, with the report of
+    // what was written and what was not.
+    super::arm_interrupt()?;
     let mut live = Live::new(ctx);
     let mut devices = Vec::new();
     let mut mismatches = Vec::new();
@@ -469,22 +483,46 @@ fn restore(ctx: &Ctx, path: &Path, opts: Options) -> anyhow::Result<()> {
         say!("skipping {} invalid value{}:{}", problems.len(), plural(problems.len()), problems_text(&problems));
     }
     let mut results: Vec<(Address, Vec<ValueResult>)> = Vec::new();
+    // What ended the writes early: a device that refused or could not be
+    // reached, or a signal. Every value not reached is reported as not written.
+    let mut ended: Option<anyhow::Error> = None;
     if !opts.dry_run {
+        // Only a signal: a closed output does not stop a restore (it says
+        // less, but what it writes is the same).
+        let signal = || supervisor::caught().map(stop_text);
         for (wanted, _) in &devices {
-            live.ensure_at_rest(wanted.address())?;
+            if let Err(e) = live.ensure_at_rest(wanted.address()) {
+                ended = Some(e);
+                break;
+            }
         }
         for (wanted, now) in &devices {
-            let skip: BTreeSet<String> =
-                problems.iter().filter(|p| p.device == wanted.address()).map(|p| p.name.clone()).collect();
-            results.push((wanted.address(), live.restore(wanted, now, &skip)?));
+            let at = wanted.address();
+            let skip: BTreeSet<String> = problems.iter().filter(|p| p.device == at).map(|p| p.name.clone()).collect();
+            let why = match &ended {
+                Some(e) => Some(format!("the restore stopped: {}", super::error_json::message(e))),
+                None => signal(),
+            };
+            let rs = match why {
+                Some(why) => backup::not_written(wanted, now, &skip, &why),
+                None => live.restore(wanted, now, &skip, &signal).unwrap_or_else(|e| {
+                    let why = format!("the restore stopped: {at}: {}", super::error_json::message(&e));
+                    ended = Some(e);
+                    backup::not_written(wanted, now, &skip, &why)
+                }),
+            };
+            results.push((at, rs));
         }
         output::forget_target();
+    }
+    if let (None, Some(sig)) = (&ended, supervisor::caught()) {
+        ended = Some(Interrupted(format!(": {}", stop_text(sig))).into());
     }
     let failed_any = results.iter().flat_map(|(_, rs)| rs).any(|r| r.outcome == backup::Outcome::Failed);
     // The EEPROM store is its own step, after every write went through.
     let mut stored: Vec<(Address, bool)> = Vec::new();
     let mut store_error = None;
-    if opts.store && !opts.dry_run && !failed_any {
+    if opts.store && !opts.dry_run && !failed_any && ended.is_none() {
         for (wanted, _) in devices.iter().filter(|(d, _)| d.family == Family::Cdios) {
             let r = live.store(wanted.address());
             stored.push((wanted.address(), r.is_ok()));
@@ -494,8 +532,11 @@ fn restore(ctx: &Ctx, path: &Path, opts: Options) -> anyhow::Result<()> {
         }
         output::forget_target();
     }
-    let fails = store_error.is_some() || failed_any;
+    let fails = store_error.is_some() || failed_any || ended.is_some();
     report(ctx, path, &opts, &devices, &diffs, differs, &problems, &results, &stored, fails)?;
+    if let Some(e) = ended {
+        return Err(e);
+    }
     if let Some(e) = store_error {
         return Err(e.context("the EEPROM store (05h) failed"));
     }
@@ -576,7 +617,12 @@ fn report(
     for (at, rs) in results {
         for r in rs.iter().filter(|r| r.outcome != backup::Outcome::Unchanged) {
             let unit = if r.unit.is_empty() { String::new() } else { format!(" {}", r.unit) };
-            let mut line = format!("{at}: {} = {}{unit}: {}", r.name, show(&Some(r.wanted.clone())), r.outcome.name());
+            let mut line = format!(
+                "{at}: {} = {}{unit}: {}",
+                r.name,
+                show(&Some(r.wanted.clone())),
+                r.outcome.name().replace('_', " ")
+            );
             match r.outcome {
                 backup::Outcome::Clamped => {
                     line.push_str(&format!(" (the device holds {})", show(&Some(r.after.clone()))))
@@ -587,7 +633,7 @@ fn report(
             say!("{line}");
         }
     }
-    let counts: Vec<String> = summary.iter().map(|(o, n)| format!("{n} {}", o.name())).collect();
+    let counts: Vec<String> = summary.iter().map(|(o, n)| format!("{n} {}", o.name().replace('_', " "))).collect();
     say!("restore: {}", counts.join(", "));
     for (at, ok) in stored {
         if *ok {

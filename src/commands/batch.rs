@@ -3,28 +3,31 @@
 //! dispatch as a one-shot command; `shell` is the same engine at a
 //! terminal. Consecutive reads on a CAN link go out pipelined ([`pipeline`]).
 //!
-//! Every line is parsed before the first runs, so a typo on line 40 sends
-//! nothing. The signals belong to the motion supervisor from the start: a
-//! Ctrl-C ends the batch after the line that runs (a supervised wait halts
-//! its device at once), and every device a motion line addressed is halted,
-//! also one still moving from a line without `--wait`.
+//! Every line of a window ([`WINDOW`] lines) is parsed before the first
+//! runs, so a typo on line 40 sends nothing; a longer batch streams window
+//! by window, its memory bounded. The signals belong to the motion
+//! supervisor from the start: a Ctrl-C ends the batch after the line that
+//! runs (a supervised wait halts its device at once), and every device a
+//! motion line addressed is halted, also one still moving from a line
+//! without `--wait`. A batch that stops on a failure halts them the same
+//! way: the lines that would have stopped them will not run.
 
 mod pipeline;
 
-use std::io::Read;
+use std::io::{BufRead, BufReader, Read};
 
 use anyhow::Context;
 use axisctl::device::cdios::Node;
 use axisctl::device::pac::Controller;
 use axisctl::device::powercube::Cubes;
-use axisctl::device::supervisor::{self, MovedDevices, Reach};
+use axisctl::device::supervisor::{self, HaltOutcome, MovedDevices, Reach};
 use axisctl::proto::cdios::NodeId;
 use axisctl::session::ErrorKind;
 use clap::parser::ValueSource;
 use clap::FromArgMatches;
 use serde_json::json;
 
-use super::{error_json, exit, Ctx, Reported};
+use super::{error_json, exit, input, Ctx, Reported};
 use crate::cli::batch::BatchArgs;
 use crate::cli::{Cli, Command};
 use crate::output;
@@ -213,17 +216,9 @@ impl<'a> Engine<'a> {
             return None;
         }
         let why = supervisor::stop_reason().map(|r| r.to_string()).unwrap_or_else(|| "a stop".into());
-        let done: Vec<String> = self
-            .moved
-            .halt(&mut Reached(self.ctx), self.ctx.retry)
-            .into_iter()
-            .map(|h| match h.result {
-                Ok(_) => format!("`{}`", h.target),
-                Err(e) => format!("`{}` failed: {e}", h.target),
-            })
-            .collect();
+        let halts = self.halt_moved();
         let code = supervisor::caught().map_or(exit::code(ErrorKind::Other), supervisor::exit_code);
-        let halted = if done.is_empty() { "no line had moved a device".into() } else { done.join(", ") };
+        let halted = if halts.is_empty() { "no line had moved a device".into() } else { said(&halts) };
         let message = format!("stopped by {why} after line {after}; halted: {halted}");
         output::forget_target();
         if self.ctx.json {
@@ -237,6 +232,65 @@ impl<'a> Engine<'a> {
         self.first_failure.get_or_insert(code);
         Some(code)
     }
+
+    /// The run ends on a failure: what its lines moved is halted, as after
+    /// a signal. A move that a batch left running when it gave up has no
+    /// one watching it, and the lines that would have stopped it (a `halt`
+    /// further down) will not run. Says what it halted, after the failure.
+    pub fn halt_after_failure(&mut self, after: usize) {
+        if self.moved.is_empty() {
+            return;
+        }
+        let halts = self.halt_moved();
+        output::forget_target();
+        if self.ctx.json {
+            let halted: Vec<serde_json::Value> = halts
+                .iter()
+                .map(|h| match &h.result {
+                    Ok(_) => json!({"stop": h.target.to_string()}),
+                    Err(e) => json!({"stop": h.target.to_string(), "error": e}),
+                })
+                .collect();
+            output::json(&json!({"line": after, "command": null, "halted": halted}));
+        } else {
+            output::err_line(format_args!("axisctl: stopped after line {after} failed; halted: {}", said(&halts)));
+        }
+        output::flush();
+    }
+
+    /// What the lines moved may still move: said when the run ends without
+    /// halting it (`--keep-going` past a failure, `exit --keep-moving`).
+    pub fn may_still_move(&self, after: usize, why: &str) {
+        if self.moved.is_empty() {
+            return;
+        }
+        let stops: Vec<String> = self.moved.targets().iter().map(ToString::to_string).collect();
+        if self.ctx.json {
+            output::json(&json!({"line": after, "command": null, "may_move": stops}));
+        } else {
+            let list: Vec<String> = stops.iter().map(|s| format!("`{s}`")).collect();
+            output::err_line(format_args!("axisctl: {why}; not halted, may still move: {}", list.join(", ")));
+        }
+        output::flush();
+    }
+
+    /// Halts every device the lines moved, each once, and forgets them.
+    pub fn halt_moved(&mut self) -> Vec<HaltOutcome> {
+        self.moved.halt(&mut Reached(self.ctx), self.ctx.retry)
+    }
+}
+
+/// The halts as the last message says them: each by the command that stops
+/// the device by hand, with its failure if it failed.
+pub fn said(halts: &[HaltOutcome]) -> String {
+    let done: Vec<String> = halts
+        .iter()
+        .map(|h| match &h.result {
+            Ok(_) => format!("`{}`", h.target),
+            Err(e) => format!("`{}` failed: {e}", h.target),
+        })
+        .collect();
+    done.join(", ")
 }
 
 /// The devices of the halts, opened on the link the run keeps open.
@@ -260,52 +314,158 @@ impl Reach for Reached<'_> {
     }
 }
 
+/// Lines read, parsed and run at a time: a batch of up to this many lines
+/// is parsed whole before its first line runs; a longer one runs window by
+/// window, so that its memory and its time before the first line stay
+/// bounded whatever its length.
+pub const WINDOW: usize = 10_000;
+
 /// `axisctl batch [FILE|-] [--keep-going]`.
 pub fn run(ctx: &Ctx, args: &BatchArgs) -> anyhow::Result<()> {
-    let text = read_script(args.file.as_deref())?;
+    let mut script = Script::open(args.file.as_deref())?;
     let mut engine = Engine::new(ctx)?;
-    // Every line is parsed before the first runs: a bad line sends nothing.
-    let mut lines = Vec::new();
-    let mut bad = false;
-    for (i, raw) in text.lines().enumerate() {
-        let shown = shown(raw);
-        match engine.parse(raw) {
-            Ok(Some(line)) => lines.push((i + 1, shown, line)),
-            Ok(None) => {}
-            Err(e) => {
-                engine.refused(i + 1, &shown, &e);
-                bad = true;
+    let mut last = 0;
+    let ended = run_windows(ctx, args, &mut script, &mut engine, &mut last);
+    // A stop by a signal has halted already and said so.
+    if let Err(Ended::Stopped(code)) = ended {
+        return Err(Reported(code).into());
+    }
+    let failed = engine.first_failure.is_some() || ended.is_err();
+    if failed && args.keep_going && ended.is_ok() {
+        engine.may_still_move(last, "--keep-going ran every line past a failure");
+    } else if failed {
+        engine.halt_after_failure(last);
+    }
+    match (ended, engine.first_failure) {
+        (Err(Ended::Input(e)), _) => Err(e),
+        (_, Some(code)) => Err(Reported(code).into()),
+        _ => Ok(()),
+    }
+}
+
+/// Why a batch ended before its last line.
+enum Ended {
+    /// A signal (or a failed output): its code; what moved is halted.
+    Stopped(u8),
+    /// A line failed, or a window held a line that does not parse (reported).
+    Failed,
+    /// The input could not be read further.
+    Input(anyhow::Error),
+}
+
+/// Runs the script window by window; `last` follows the last line run.
+fn run_windows(
+    ctx: &Ctx,
+    args: &BatchArgs,
+    script: &mut Script,
+    engine: &mut Engine<'_>,
+    last: &mut usize,
+) -> Result<(), Ended> {
+    loop {
+        let window = script.window(WINDOW).map_err(Ended::Input)?;
+        if window.is_empty() {
+            return Ok(());
+        }
+        // Every line of the window is parsed before the first runs: a bad
+        // line sends nothing of its window.
+        let mut lines = Vec::new();
+        let mut bad = false;
+        for (n, raw) in &window {
+            let shown = shown(raw);
+            match engine.parse(raw) {
+                Ok(Some(line)) => lines.push((*n, shown, line)),
+                Ok(None) => {}
+                Err(e) => {
+                    engine.refused(*n, &shown, &e);
+                    bad = true;
+                }
+            }
+        }
+        drop(window);
+        if bad {
+            if !ctx.json {
+                match *last {
+                    0 => output::err_line(format_args!("axisctl: nothing was run: fix the lines above")),
+                    n => output::err_line(format_args!("axisctl: lines after {n} were not run: fix the lines above")),
+                }
+            }
+            return Err(Ended::Failed);
+        }
+        let mut pipeline = pipeline::Pipeline::new(ctx, &lines);
+        for (i, (n, text, line)) in lines.into_iter().enumerate() {
+            if let Some(code) = engine.stop_if_requested(*last) {
+                return Err(Ended::Stopped(code));
+            }
+            *last = n;
+            let ran = match pipeline.answered(ctx, i) {
+                Some(answered) => engine.run_answered(n, &text, answered),
+                None => engine.run(n, &text, line),
+            };
+            if let Some(code) = engine.stop_if_requested(n) {
+                return Err(Ended::Stopped(code));
+            }
+            if ran.is_err() && !args.keep_going {
+                return Err(Ended::Failed);
             }
         }
     }
-    if bad {
-        if !ctx.json {
-            output::err_line(format_args!("axisctl: nothing was run: fix the lines above"));
-        }
-        return Err(Reported(exit::code(ErrorKind::Usage)).into());
+}
+
+/// The commands, read a window of lines at a time, each line bounded.
+struct Script {
+    from: Box<dyn BufRead>,
+    name: String,
+    /// The number of the last line read.
+    read: usize,
+}
+
+impl Script {
+    fn open(file: Option<&std::path::Path>) -> anyhow::Result<Self> {
+        let stdin = || Self { from: Box::new(std::io::stdin().lock()), name: "standard input".into(), read: 0 };
+        Ok(match file {
+            None => stdin(),
+            Some(p) if p.as_os_str() == "-" => stdin(),
+            Some(p) => {
+                let f = std::fs::File::open(p)
+                    .map_err(|e| super::usage(format!("cannot read {}: {e}; nothing was run", p.display())))?;
+                Self { from: Box::new(BufReader::new(f)), name: p.display().to_string(), read: 0 }
+            }
+        })
     }
-    let mut pipeline = pipeline::Pipeline::new(ctx, &lines);
-    let mut last = 0;
-    for (i, (n, text, line)) in lines.into_iter().enumerate() {
-        if let Some(code) = engine.stop_if_requested(last) {
-            return Err(Reported(code).into());
+
+    /// The next lines, up to `max`, numbered; none at the end. A line longer
+    /// than [`input::BATCH_LINE`] or not UTF-8 is bad input.
+    fn window(&mut self, max: usize) -> anyhow::Result<Vec<(usize, String)>> {
+        let mut out = Vec::new();
+        while out.len() < max {
+            let mut bytes = Vec::new();
+            let limit = input::BATCH_LINE as u64 + 1;
+            (&mut self.from)
+                .take(limit)
+                .read_until(b'\n', &mut bytes)
+                .with_context(|| format!("reading the commands from {}", self.name))?;
+            if bytes.is_empty() {
+                break;
+            }
+            self.read += 1;
+            let n = self.read;
+            if bytes.last() == Some(&b'\n') {
+                bytes.pop();
+            } else if bytes.len() > input::BATCH_LINE {
+                return Err(super::usage(format!(
+                    "{}: line {n} is longer than {}, the most a batch line may be; it was not run",
+                    self.name,
+                    input::size(input::BATCH_LINE as u64)
+                )));
+            }
+            if bytes.last() == Some(&b'\r') {
+                bytes.pop();
+            }
+            let text = String::from_utf8(bytes)
+                .map_err(|_| super::usage(format!("{}: line {n} is not UTF-8 text; it was not run", self.name)))?;
+            out.push((n, text));
         }
-        last = n;
-        let ran = match pipeline.answered(ctx, i) {
-            Some(answered) => engine.run_answered(n, &text, answered),
-            None => engine.run(n, &text, line),
-        };
-        let failed = ran.is_err();
-        if let Some(code) = engine.stop_if_requested(n) {
-            return Err(Reported(code).into());
-        }
-        if failed && !args.keep_going {
-            break;
-        }
-    }
-    match engine.first_failure {
-        Some(code) => Err(Reported(code).into()),
-        None => Ok(()),
+        Ok(out)
     }
 }
 
@@ -315,19 +475,4 @@ pub fn shown(raw: &str) -> String {
     shlex::split(raw)
         .and_then(|words| shlex::try_join(words.iter().map(String::as_str)).ok())
         .unwrap_or_else(|| raw.trim().to_string())
-}
-
-fn read_script(file: Option<&std::path::Path>) -> anyhow::Result<String> {
-    match file {
-        None => read_stdin(),
-        Some(p) if p.as_os_str() == "-" => read_stdin(),
-        Some(p) => std::fs::read_to_string(p)
-            .map_err(|e| super::usage(format!("cannot read {}: {e}; nothing was run", p.display()))),
-    }
-}
-
-fn read_stdin() -> anyhow::Result<String> {
-    let mut text = String::new();
-    std::io::stdin().read_to_string(&mut text).context("reading the commands from standard input")?;
-    Ok(text)
 }

@@ -8,6 +8,7 @@ mod dashboard;
 mod decode;
 pub mod error_json;
 pub mod exit;
+pub mod input;
 mod manual;
 mod monitor;
 mod names;

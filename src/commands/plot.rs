@@ -2,8 +2,6 @@
 //! and/or PNG chart by `axisctl::plot`, one line per recorded value, one
 //! panel per unit.
 
-use std::io::Read;
-
 use axisctl::plot::{self, Chart, Series};
 use serde_json::{json, Value};
 
@@ -13,15 +11,7 @@ use crate::output::{self, say};
 
 pub fn run(ctx: &Ctx, args: &PlotArgs) -> anyhow::Result<()> {
     let name = args.recording.display().to_string();
-    let text = if name == "-" {
-        let mut t = String::new();
-        std::io::stdin()
-            .read_to_string(&mut t)
-            .map_err(|e| usage(format!("cannot read the recording from stdin: {e}")))?;
-        t
-    } else {
-        std::fs::read_to_string(&args.recording).map_err(|e| usage(format!("cannot read {name}: {e}")))?
-    };
+    let text = super::input::read_text(&args.recording, super::input::RECORDING, "a recording")?;
     let series = parse(&text).map_err(|e| usage(format!("{name}: {e}")))?;
     let title = args
         .title

@@ -7,7 +7,8 @@
 //! engine halts what the lines moved, as in a batch, then prompts again.
 //! Ctrl-Z, at the prompt or during a command, halts what the lines moved,
 //! then stops the shell; `fg` brings the prompt back.
-//! Ctrl-D (or `exit`) ends the shell; a failed line does not.
+//! Ctrl-D (or `exit`) ends the shell, and halts what its lines moved unless
+//! told not to (`exit --keep-moving`); a failed line does not end it.
 
 use std::borrow::Cow;
 use std::path::{Path, PathBuf};
@@ -24,9 +25,10 @@ use rustyline::validate::Validator;
 use rustyline::{Config, Editor, Helper};
 
 use super::batch::{Engine, REFUSED};
-use super::Ctx;
+use super::{exit, Ctx, Reported};
 use crate::cli::batch::ShellArgs;
 use crate::output;
+use axisctl::session::ErrorKind;
 
 pub fn run(ctx: &Ctx, args: &ShellArgs) -> anyhow::Result<()> {
     let engine = Mutex::new(Engine::new(ctx)?);
@@ -76,7 +78,7 @@ fn session(
         let text = match read {
             Ok(text) => text,
             Err(ReadlineError::Interrupted) => continue,
-            Err(ReadlineError::Eof) => break,
+            Err(ReadlineError::Eof) => return leave(&mut engine, n, "Ctrl-D", true),
             Err(e) => return Err(e.into()),
         };
         n += 1;
@@ -89,8 +91,10 @@ fn session(
         if let Some(path) = history {
             save_history(ed, path);
         }
-        if matches!(shown.as_str(), "exit" | "quit") {
-            break;
+        match shown.as_str() {
+            "exit" | "quit" => return leave(&mut engine, n, &shown, true),
+            "exit --keep-moving" | "quit --keep-moving" => return leave(&mut engine, n, &shown, false),
+            _ => {}
         }
         match engine.parse(&text) {
             Ok(Some(line)) => {
@@ -111,6 +115,27 @@ fn session(
         }
         engine.first_failure = None;
         output::flush();
+    }
+}
+
+/// The end of the shell (`how`: Ctrl-D or the line that ended it): what its
+/// lines moved is halted and said, as a stop by a signal halts it, unless
+/// `halt` is false (`exit --keep-moving`), which says what may still move.
+/// A device left moving when the operator walks away from the terminal is
+/// one nobody watches, so leaving it so must be asked for.
+fn leave(engine: &mut Engine<'_>, n: usize, how: &str, halt: bool) -> anyhow::Result<()> {
+    if !halt {
+        engine.may_still_move(n, how);
+        return Ok(());
+    }
+    let halts = engine.halt_moved();
+    if halts.is_empty() {
+        return Ok(());
+    }
+    output::err_line(format_args!("axisctl: {how} ends the shell; halted: {}", super::batch::said(&halts)));
+    output::flush();
+    if halts.iter().any(|h| h.result.is_err()) {
+        return Err(Reported(exit::code(ErrorKind::Other)).into());
     }
     Ok(())
 }

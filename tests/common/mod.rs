@@ -36,8 +36,14 @@ pub fn run_with_stdin(args: &[&str], stdin: &str) -> Run {
     use std::io::Write;
     let mut child =
         bin().args(args).stdin(Stdio::piped()).stdout(Stdio::piped()).stderr(Stdio::piped()).spawn().unwrap();
-    child.stdin.take().unwrap().write_all(stdin.as_bytes()).unwrap();
-    finished(child.wait_with_output().unwrap())
+    // Written beside the run: a batch reads its input as it runs, so a long
+    // one would fill both pipes. A command that refuses its input stops
+    // reading it, which closes the pipe: no error of the test.
+    let (mut input, text) = (child.stdin.take().unwrap(), stdin.to_string());
+    let writer = std::thread::spawn(move || drop(input.write_all(text.as_bytes())));
+    let out = child.wait_with_output().unwrap();
+    writer.join().unwrap();
+    finished(out)
 }
 
 fn finished(Output { status, stdout, stderr }: Output) -> Run {
