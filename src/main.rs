@@ -12,6 +12,9 @@ mod output;
 fn main() -> ExitCode {
     // First of all: a panic on any thread from here on halts a supervised motion.
     supervisor::install_panic_hook();
+    axisctl::link::lock::on_notice(|text| {
+        let _ = writeln!(std::io::stderr(), "axisctl: {text}");
+    });
     let cli = match cli::parse(&commands::exit::summary()) {
         Ok(cli) => cli,
         Err(e) => {
