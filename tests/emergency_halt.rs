@@ -303,15 +303,9 @@ fn a_stopped_holder_is_continued_and_halts() {
     assert!(cube_stands(&locks, link), "module 3 still moving");
 }
 
-/// A holder that cannot let go in time (its SIGTERM blocked, so it stays
-/// pending): the halt gives up after its bound with exit 3 and names it,
-/// having signalled it once.
-#[test]
-fn a_holder_that_does_not_let_go_in_time_is_exit_3_naming_it() {
-    let locks = Locks::new();
-    let s = Sim::start(&["--powercube", "pty-slcan"], 1);
-    let link = s.link("powercube");
-    let mut cmd = locks.cmd();
+/// `cmd` with SIGTERM blocked in the process it starts: a holder that is
+/// asked but cannot act on it.
+fn sigterm_blocked(mut cmd: Command) -> Command {
     // SAFETY: sigprocmask(2) between fork and exec touches nothing shared;
     // the mask is kept across exec and axisctl never unblocks it.
     unsafe {
@@ -325,7 +319,54 @@ fn a_holder_that_does_not_let_go_in_time_is_exit_3_naming_it() {
             }
         });
     }
-    let holder = Holding::spawn(cmd, &ramp_args(link), "SetMotion");
+    cmd
+}
+
+/// Whether a SIGTERM waits in the pending set of process `pid`.
+fn sigterm_pending(pid: u32) -> bool {
+    let status = std::fs::read_to_string(format!("/proc/{pid}/status")).unwrap_or_default();
+    let pending = status.lines().find_map(|l| l.strip_prefix("ShdPnd:")).unwrap_or("0");
+    u64::from_str_radix(pending.trim(), 16).unwrap_or(0) & (1 << (libc::SIGTERM - 1)) != 0
+}
+
+/// The adapter is unplugged while the halt waits for the holder to let go:
+/// the halt ends with that error, not after its 5 s as if the port were
+/// still held (only "busy" is tried again).
+#[test]
+fn a_port_that_goes_away_during_a_takeover_ends_it_with_that_error() {
+    let locks = Locks::new();
+    let mut s = Sim::start(&["--powercube", "pty-slcan"], 1);
+    let link = s.link("powercube").to_string();
+    let holder = Holding::spawn(sigterm_blocked(locks.cmd()), &ramp_args(&link), "SetMotion");
+    let pid = holder.pid();
+    let mut halt = locks.cmd();
+    let halt =
+        halt.args(["--link", &link, "halt", "--all"]).stdout(Stdio::piped()).stderr(Stdio::piped()).spawn().unwrap();
+    let deadline = Instant::now() + Duration::from_secs(20);
+    while !sigterm_pending(pid) {
+        assert!(Instant::now() < deadline, "the halt never asked the holder");
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    s.unplug();
+    let out = wait_output(halt, 20, &["halt", "--all"]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(3), "{stderr}");
+    assert!(!stderr.contains("did not release") && !stderr.contains("device busy"), "{stderr}");
+    assert!(stderr.contains(tty(&link)), "{stderr}");
+    // SAFETY: kill(2) on the holder this test started.
+    unsafe { libc::kill(pid as i32, libc::SIGKILL) };
+    holder.end(10);
+}
+
+/// A holder that cannot let go in time (its SIGTERM blocked, so it stays
+/// pending): the halt gives up after its bound with exit 3 and names it,
+/// having signalled it once.
+#[test]
+fn a_holder_that_does_not_let_go_in_time_is_exit_3_naming_it() {
+    let locks = Locks::new();
+    let s = Sim::start(&["--powercube", "pty-slcan"], 1);
+    let link = s.link("powercube");
+    let holder = Holding::spawn(sigterm_blocked(locks.cmd()), &ramp_args(link), "SetMotion");
     let pid = holder.pid();
     let t0 = Instant::now();
     let r = locks.run(&["--link", link, "halt", "--all"]);
@@ -334,11 +375,7 @@ fn a_holder_that_does_not_let_go_in_time_is_exit_3_naming_it() {
     assert!(r.stderr.contains(&format!("held by axisctl PID {pid} (")), "{}", r.stderr);
     assert!(r.stderr.contains("was sent SIGTERM but did not release it within 5 s"), "{}", r.stderr);
     assert!(took >= Duration::from_secs(5) && took < Duration::from_secs(10), "gave up after {took:?}");
-    // It was asked: the SIGTERM waits in its pending set.
-    let status = std::fs::read_to_string(format!("/proc/{pid}/status")).unwrap();
-    let pending = status.lines().find_map(|l| l.strip_prefix("ShdPnd:")).unwrap();
-    let pending = u64::from_str_radix(pending.trim(), 16).unwrap();
-    assert_ne!(pending & (1 << (libc::SIGTERM - 1)), 0, "{status}");
+    assert!(sigterm_pending(pid), "it was asked: the SIGTERM waits in its pending set");
     // SAFETY: kill(2) on the holder this test started.
     assert_eq!(unsafe { libc::kill(pid as i32, libc::SIGKILL) }, 0);
     assert_eq!(holder.end(10).0, None);
