@@ -18,6 +18,9 @@ fn main() -> ExitCode {
     // A shell asking for completions (the script of `axisctl completions`):
     // answered from the parser and the tables, then the process ends.
     cli::complete::answer_shell(|| cli::command(&commands::exit::summary()));
+    axisctl::link::lock::on_notice(|text| {
+        let _ = writeln!(std::io::stderr(), "axisctl: {text}");
+    });
     let cli = match cli::parse(&commands::exit::summary()) {
         Ok(cli) => cli,
         Err(e) => {

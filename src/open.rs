@@ -16,7 +16,7 @@ use std::time::{Duration, Instant};
 
 use crate::clock::Clock;
 use crate::family::Family;
-use crate::link::lock::{self, Holder, TerminateError, Verdict};
+use crate::link::lock::{self, Found, Holder, TerminateError, Verdict};
 use crate::link::log::{log_iface, LoggedByteLink, LoggedCanLink, TrafficLog};
 use crate::link::{self, ByteLink, CanLink, LinkError, LinkSpec, SerialFormat};
 use crate::proto::pac::CheckRule;
@@ -322,56 +322,39 @@ impl Opener {
     /// it drives and exits, and runs `open` again until the port is free, for
     /// at most [`RELEASE`]. A holder that is not axisctl is never signalled.
     /// Opening is retried, never a motion: the caller sends its halt once open.
+    ///
+    /// Within that budget the lock is read again on every try, since the port
+    /// and its lock do not change hands at once: a holder that has just opened
+    /// has not written its lock yet, one that is closing has removed it, one
+    /// that is exiting can no longer be checked, and a process that opened the
+    /// port after the holder let go is asked in its turn. Another emergency
+    /// halt holding the port is waited for, not signalled.
     pub fn take_over<T>(
         &self,
         mut open: impl FnMut(&Self) -> Result<T, OpenError>,
     ) -> Result<(T, Option<Takeover>), OpenError> {
+        lock::taking_over();
         let err = match open(self) {
             Ok(t) => return Ok((t, None)),
             Err(e) => e,
         };
         let Some(path) = err.busy_path().map(str::to_string) else { return Err(err) };
         let held = |why: String| OpenError::Held { path: path.clone(), why };
-        let holder = match lock::holder(&path) {
-            Some(Ok(h)) => h,
-            Some(Err(e)) => return Err(held(format!("{e}: the holder is unknown, nothing was signalled"))),
-            None => {
-                return Err(held("no axisctl lock names its holder (another program?); nothing was signalled".into()))
-            }
-        };
-        match holder.check() {
-            Verdict::Axisctl => {}
-            Verdict::Stale => {
-                return Err(held(format!(
-                    "its lock names PID {}, which has exited: another program holds it; nothing was signalled",
-                    holder.pid
-                )))
-            }
-            Verdict::NotAxisctl(why) => {
-                return Err(held(format!(
-                    "its lock names PID {}, which is not axisctl ({why}); it was not signalled",
-                    holder.pid
-                )))
-            }
-        }
-        let signalled = match holder.terminate() {
-            Ok(()) => true,
-            Err(TerminateError::Gone) => false,
-            Err(e) => return Err(held(format!("held by axisctl {holder}: {e}"))),
-        };
         let deadline = Instant::now() + RELEASE;
+        let mut asked = Asked::default();
         loop {
+            let why = match asked.ask(&path) {
+                Ok(why) => why,
+                Err(why) => return Err(held(why)),
+            };
+            if Instant::now() >= deadline {
+                return Err(held(why));
+            }
             std::thread::sleep(RELEASE_POLL);
             match open(self) {
-                Ok(t) => return Ok((t, Some(Takeover { path, holder, signalled }))),
+                Ok(t) => return Ok((t, asked.first)),
                 Err(e) if e.busy_path().is_none() => return Err(e),
-                Err(_) if Instant::now() < deadline => {}
-                Err(_) => {
-                    return Err(held(format!(
-                        "held by axisctl {holder}, which was sent SIGTERM but did not release it within {} s",
-                        RELEASE.as_secs()
-                    )))
-                }
+                Err(_) => {}
             }
         }
     }
@@ -409,6 +392,76 @@ impl Opener {
 
     pub fn cdios_on(&self, link: Box<dyn CanLink>, opts: &SessionOptions) -> Cdios {
         configure!(Cdios::new(link).with_clock(Arc::clone(&self.clock)), opts)
+    }
+}
+
+/// The holders [`Opener::take_over`] has asked to let go of one device.
+#[derive(Default)]
+struct Asked {
+    /// The first holder met, the one that was driving: the one reported.
+    first: Option<Takeover>,
+    /// Each signalled once: (PID, start time).
+    signalled: Vec<(u32, u64)>,
+}
+
+impl Asked {
+    /// Reads the lock of busy `path` and signals a new axisctl holder.
+    /// `Ok`: worth trying the port again, and what to say if it stays busy;
+    /// `Err`: it never will be ours (a holder that is not axisctl, a lock
+    /// that does not parse, a refused signal), nothing more is tried.
+    fn ask(&mut self, path: &str) -> Result<String, String> {
+        let holder = match lock::find(path) {
+            Found::Nothing => {
+                return Ok("no axisctl lock names its holder (another program?); nothing was signalled".into())
+            }
+            Found::Unreadable(e) => return Err(format!("{e}: the holder is unknown, nothing was signalled")),
+            Found::Holder(h, Verdict::Axisctl) => h,
+            Found::Holder(h, Verdict::Stale) => {
+                return Ok(format!(
+                    "its lock names PID {}, which has exited: another program holds it; nothing was signalled",
+                    h.pid
+                ))
+            }
+            Found::Holder(h, Verdict::Unchecked(why)) => {
+                return Ok(format!(
+                    "its lock names PID {}, which could not be checked ({why}); it was not signalled",
+                    h.pid
+                ))
+            }
+            Found::Holder(h, Verdict::NotAxisctl(why)) => {
+                return Err(format!("its lock names PID {}, which is not axisctl ({why}); it was not signalled", h.pid))
+            }
+        };
+        let waited = |h: &Holder| {
+            format!("held by axisctl {h}, which was sent SIGTERM but did not release it within {} s", RELEASE.as_secs())
+        };
+        if holder.halting {
+            return Ok(format!(
+                "held by axisctl {holder}, an emergency halt, which did not let go within {} s",
+                RELEASE.as_secs()
+            ));
+        }
+        if self.signalled.contains(&(holder.pid, holder.start)) {
+            return Ok(waited(&holder));
+        }
+        let signalled = match holder.terminate() {
+            Ok(()) => true,
+            Err(TerminateError::Gone | TerminateError::Unchecked(_)) => false,
+            Err(e) => return Err(format!("held by axisctl {holder}: {e}")),
+        };
+        if signalled {
+            self.signalled.push((holder.pid, holder.start));
+        }
+        let why = if signalled {
+            waited(&holder)
+        } else {
+            format!(
+                "its lock names PID {}, which has exited: another program holds it; nothing was signalled",
+                holder.pid
+            )
+        };
+        self.first.get_or_insert(Takeover { path: path.into(), holder, signalled });
+        Ok(why)
     }
 }
 

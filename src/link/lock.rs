@@ -9,17 +9,23 @@
 //! asks the kernel. The start time defeats PID reuse, and the executable must
 //! be axisctl, so a process that is not axisctl is never signalled.
 //!
-//! The lock lives in a per-user runtime directory (`$XDG_RUNTIME_DIR/axisctl/`,
-//! else `/tmp/axisctl-$UID/`, or [`DIR_ENV`]): there is no room "next to" a
-//! `/dev/pts/N`. Its name comes from the canonical device path, so two spellings
-//! of one adapter (a `/dev/serial/by-id/` link and its `/dev/ttyACM0`) meet.
+//! The lock lives in per-user directories (`$XDG_RUNTIME_DIR/axisctl/` and
+//! `$TMPDIR/axisctl-$UID/`, or [`DIR_ENV`]; see [`dir`] for why two, and what
+//! makes one fit): there is no room "next to" a `/dev/pts/N`. Its name comes
+//! from the canonical device path, so two spellings of one adapter (a
+//! `/dev/serial/by-id/` link and its `/dev/ttyACM0`) meet.
+
+mod dir;
 
 use std::fmt;
 use std::io::{self, Read, Write};
 use std::os::fd::OwnedFd;
-use std::os::unix::fs::{DirBuilderExt, MetadataExt, OpenOptionsExt};
+use std::os::unix::fs::{MetadataExt, OpenOptionsExt};
 use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
+
+use dir::Env;
 
 /// Overrides the lock directory (tests, or a site that wants a shared one).
 pub const DIR_ENV: &str = "AXISCTL_LOCK_DIR";
@@ -42,6 +48,9 @@ pub struct Holder {
     pub what: String,
     /// The canonical device path the lock is for.
     pub device: String,
+    /// It is an emergency halt taking the device over ([`taking_over`]): it
+    /// lets go by itself in a moment, and is never signalled.
+    pub halting: bool,
 }
 
 /// What the kernel says about the process a lock file names.
@@ -51,8 +60,11 @@ pub enum Verdict {
     Axisctl,
     /// The process is gone, or its PID now belongs to a process started later.
     Stale,
-    /// A live process that is not axisctl, or that cannot be checked: never signalled.
+    /// A live process that is not axisctl: never signalled.
     NotAxisctl(String),
+    /// `/proc` could not say (a process in the middle of exiting has no
+    /// executable any more): never signalled, but worth asking again.
+    Unchecked(String),
 }
 
 /// A lock file that does not parse.
@@ -69,18 +81,27 @@ impl Holder {
         let exe = std::fs::read_link("/proc/self/exe").ok()?;
         // args_os: an argument that is not UTF-8 must not panic here.
         let args: Vec<String> = std::env::args_os().skip(1).map(|a| a.to_string_lossy().into_owned()).collect();
-        Some(Self { pid, start, exe: without_deleted(&exe), what: one_line(&args.join(" ")), device: device.into() })
+        Some(Self {
+            pid,
+            start,
+            exe: without_deleted(&exe),
+            what: one_line(&args.join(" ")),
+            device: device.into(),
+            halting: TAKING_OVER.load(Ordering::SeqCst),
+        })
     }
 
     /// The lock file's text.
     pub fn to_text(&self) -> String {
         format!(
-            "{MAGIC}\npid {}\nstart {}\nexe {}\nwhat {}\ndevice {}\n",
+            "{MAGIC}\npid {}\nstart {}\nexe {}\nwhat {}\ndevice {}\n{}",
             self.pid,
             self.start,
             one_line(&self.exe.to_string_lossy()),
             one_line(&self.what),
-            one_line(&self.device)
+            one_line(&self.device),
+            // Only then: a reader that does not know the line ignores it.
+            if self.halting { "role halt\n" } else { "" }
         )
     }
 
@@ -91,6 +112,7 @@ impl Holder {
             return Err(BadLock("not an axisctl lock".into()));
         }
         let (mut pid, mut start, mut exe, mut what, mut device) = (None, None, None, None, None);
+        let mut halting = false;
         for line in lines {
             let (key, value) = line.split_once(' ').unwrap_or((line, ""));
             match key {
@@ -99,6 +121,7 @@ impl Holder {
                 "exe" => exe = Some(PathBuf::from(value)),
                 "what" => what = Some(value.to_string()),
                 "device" => device = Some(value.to_string()),
+                "role" => halting = value == "halt",
                 _ => {}
             }
         }
@@ -114,6 +137,7 @@ impl Holder {
             exe: exe.filter(|e| e.is_absolute()).ok_or_else(|| missing("absolute exe"))?,
             what: what.unwrap_or_default(),
             device: device.unwrap_or_default(),
+            halting,
         })
     }
 
@@ -124,7 +148,7 @@ impl Holder {
         match proc_start(self.pid) {
             Ok(Some(start)) if start == self.start => {}
             Ok(_) => return Verdict::Stale,
-            Err(e) => return Verdict::NotAxisctl(format!("cannot read /proc/{}/stat: {e}", self.pid)),
+            Err(e) => return Verdict::Unchecked(format!("cannot read /proc/{}/stat: {e}", self.pid)),
         }
         if is_zombie(self.pid) {
             return Verdict::Stale;
@@ -132,7 +156,7 @@ impl Holder {
         let exe_link = format!("/proc/{}/exe", self.pid);
         let actual = match std::fs::read_link(&exe_link) {
             Ok(p) => without_deleted(&p),
-            Err(e) => return Verdict::NotAxisctl(format!("cannot read {exe_link}: {e}")),
+            Err(e) => return Verdict::Unchecked(format!("cannot read {exe_link}: {e}")),
         };
         if actual != self.exe {
             return Verdict::NotAxisctl(format!(
@@ -169,9 +193,11 @@ impl Holder {
     }
 
     /// Sends SIGTERM, which an axisctl holder answers by halting what it
-    /// drives and exiting. The check is made again at the last moment, on a
-    /// pidfd where the kernel has them, so the signal cannot reach a process
-    /// that took over the PID in between.
+    /// drives and exiting, then SIGCONT: a holder stopped with Ctrl-Z would
+    /// otherwise keep the SIGTERM pending, and the port, for as long as it
+    /// stays stopped. The check is made again at the last moment, on a pidfd
+    /// where the kernel has them, so the signals cannot reach a process that
+    /// took over the PID in between.
     pub fn terminate(&self) -> Result<(), TerminateError> {
         if self.pid == std::process::id() {
             return Err(TerminateError::Itself);
@@ -181,19 +207,23 @@ impl Holder {
             Verdict::Axisctl => {}
             Verdict::Stale => return Err(TerminateError::Gone),
             Verdict::NotAxisctl(why) => return Err(TerminateError::NotAxisctl(why)),
+            Verdict::Unchecked(why) => return Err(TerminateError::Unchecked(why)),
         }
-        let sent = match pidfd {
-            Some(fd) => pidfd_sigterm(&fd),
+        let signal = |sig| match &pidfd {
+            Some(fd) => pidfd_signal(fd, sig),
             // SAFETY: kill(2) on a PID just checked; positive, so never a group.
-            None => match unsafe { libc::kill(self.pid as libc::pid_t, libc::SIGTERM) } {
+            None => match unsafe { libc::kill(self.pid as libc::pid_t, sig) } {
                 0 => Ok(()),
                 _ => Err(io::Error::last_os_error()),
             },
         };
-        sent.map_err(|e| match e.raw_os_error() {
+        signal(libc::SIGTERM).map_err(|e| match e.raw_os_error() {
             Some(libc::ESRCH) => TerminateError::Gone,
             _ => TerminateError::Refused(e),
-        })
+        })?;
+        // A process that was not stopped ignores it; one that is gone needs none.
+        let _ = signal(libc::SIGCONT);
+        Ok(())
     }
 }
 
@@ -217,30 +247,52 @@ pub enum TerminateError {
     Itself,
     #[error("it is not axisctl ({0}), so it was not signalled")]
     NotAxisctl(String),
+    #[error("it could not be checked ({0}), so it was not signalled")]
+    Unchecked(String),
     #[error("SIGTERM was refused: {0}")]
     Refused(io::Error),
 }
 
-/// A lock file this process holds; removed when dropped.
+/// A lock file this process holds, in each place it writes; removed when dropped.
 #[derive(Debug)]
 pub struct Lock {
-    path: PathBuf,
+    paths: Vec<PathBuf>,
     me: Holder,
 }
 
 impl Drop for Lock {
     fn drop(&mut self) {
-        // Only while it still names us: a lock is never taken from someone else.
-        if read(&self.path).is_some_and(|h| h.pid == self.me.pid && h.start == self.me.start) {
-            let _ = std::fs::remove_file(&self.path);
+        for path in &self.paths {
+            // Only while it still names us: a lock is never taken from someone else.
+            if read(path).is_some_and(|h| h.pid == self.me.pid && h.start == self.me.start) {
+                let _ = std::fs::remove_file(path);
+            }
         }
     }
 }
 
 impl Lock {
-    pub fn path(&self) -> &Path {
-        &self.path
+    /// The lock files written, the runtime directory's first.
+    pub fn paths(&self) -> &[PathBuf] {
+        &self.paths
     }
+}
+
+static TAKING_OVER: AtomicBool = AtomicBool::new(false);
+
+/// From now on this process's locks say it is an emergency halt taking a
+/// device over: another halt at the same moment waits for it to let go
+/// instead of signalling it (two halts at once must both go out). Set by
+/// [`crate::open::Opener::take_over`], which only the one-shot halts use.
+pub fn taking_over() {
+    TAKING_OVER.store(true, Ordering::SeqCst);
+}
+
+/// Where a notice about the lock directories goes (a directory that is not
+/// private and is not used): the binary prints it on stderr. Said once per
+/// directory and process; the first call sets it.
+pub fn on_notice(say: fn(&str)) {
+    let _ = dir::NOTICE.set(say);
 }
 
 /// Records this process as the holder of `device`, which it has just opened
@@ -248,13 +300,23 @@ impl Lock {
 /// is stale and is replaced. `None` when no lock could be written; the device
 /// works as before, only an emergency halt cannot find its holder.
 pub fn acquire(device: &str) -> Option<Lock> {
-    acquire_in(&lock_dir()?, device)
+    acquire_with(&Env::current(), device)
 }
 
-fn acquire_in(dir: &Path, device: &str) -> Option<Lock> {
+fn acquire_with(env: &Env, device: &str) -> Option<Lock> {
+    let dirs: Vec<PathBuf> = env.write_places().iter().filter_map(|p| p.writable(env.uid)).collect();
+    acquire_in(&dirs, device)
+}
+
+fn acquire_in(dirs: &[PathBuf], device: &str) -> Option<Lock> {
     let device = canonical(device);
-    let path = lock_path_in(dir, &device);
     let me = Holder::me(&device)?;
+    let paths: Vec<PathBuf> = dirs.iter().filter_map(|dir| write_in(dir, &device, &me)).collect();
+    (!paths.is_empty()).then_some(Lock { paths, me })
+}
+
+fn write_in(dir: &Path, device: &str, me: &Holder) -> Option<PathBuf> {
+    let path = lock_path_in(dir, device);
     // Written aside and renamed, so a reader never sees half a lock.
     let tmp = path.with_extension(format!("{}.tmp", me.pid));
     let written = std::fs::OpenOptions::new()
@@ -266,7 +328,7 @@ fn acquire_in(dir: &Path, device: &str) -> Option<Lock> {
         .and_then(|mut f| f.write_all(me.to_text().as_bytes()))
         .and_then(|_| std::fs::rename(&tmp, &path));
     match written {
-        Ok(()) => Some(Lock { path, me }),
+        Ok(()) => Some(path),
         Err(_) => {
             let _ = std::fs::remove_file(&tmp);
             None
@@ -274,30 +336,75 @@ fn acquire_in(dir: &Path, device: &str) -> Option<Lock> {
     }
 }
 
-/// The holder a lock file names for `device`: `None` without a lock file,
-/// `Some(Err)` for one that does not parse.
-pub fn holder(device: &str) -> Option<Result<Holder, BadLock>> {
-    holder_in(&lock_dir()?, device)
+/// What the lock files of a device say about its holder.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum Found {
+    /// No lock file names a holder.
+    Nothing,
+    /// A lock file that does not parse, and none that does.
+    Unreadable(BadLock),
+    /// The most telling holder named, with what the kernel says of it.
+    Holder(Holder, Verdict),
 }
 
-fn holder_in(dir: &Path, device: &str) -> Option<Result<Holder, BadLock>> {
-    let path = lock_path_in(dir, &canonical(device));
-    let text = read_text(&path).ok()?;
-    Some(Holder::parse(&text))
+/// Looks for the holder of `device` in every place a holder of this user may
+/// have written. Where several locks name someone, a live axisctl process
+/// wins, then one that is not axisctl, then one that could not be checked,
+/// then an exited one.
+pub fn find(device: &str) -> Found {
+    find_with(&Env::current(), device)
+}
+
+fn find_with(env: &Env, device: &str) -> Found {
+    let dirs: Vec<PathBuf> = env.search_places().iter().flat_map(|p| p.readable(env.uid)).collect();
+    find_in(&dirs, device)
+}
+
+fn find_in(dirs: &[PathBuf], device: &str) -> Found {
+    let device = canonical(device);
+    let mut found = Found::Nothing;
+    for dir in dirs {
+        let Ok(text) = read_text(&lock_path_in(dir, &device)) else { continue };
+        let next = match Holder::parse(&text) {
+            Ok(h) => {
+                let verdict = h.check();
+                Found::Holder(h, verdict)
+            }
+            Err(e) => Found::Unreadable(e),
+        };
+        if rank(&next) > rank(&found) {
+            found = next;
+        }
+    }
+    found
+}
+
+fn rank(found: &Found) -> u8 {
+    match found {
+        Found::Nothing => 0,
+        Found::Unreadable(_) => 1,
+        Found::Holder(_, Verdict::Stale) => 2,
+        Found::Holder(_, Verdict::Unchecked(_)) => 3,
+        Found::Holder(_, Verdict::NotAxisctl(_)) => 4,
+        Found::Holder(_, Verdict::Axisctl) => 5,
+    }
 }
 
 /// Who holds `device`, said for a "device busy" error.
 pub fn describe(device: &str) -> String {
-    match holder(device) {
-        None => "no axisctl lock names its holder: is another program using it?".into(),
-        Some(Err(e)) => format!("{e}; is another program using it?"),
-        Some(Ok(h)) => match h.check() {
-            Verdict::Axisctl => format!("held by axisctl, {h}"),
-            Verdict::Stale => {
-                format!("its lock names PID {}, which has exited: is another program using it?", h.pid)
-            }
-            Verdict::NotAxisctl(why) => format!("its lock names PID {}, which is not axisctl ({why})", h.pid),
-        },
+    match find(device) {
+        Found::Nothing => "no axisctl lock names its holder: is another program using it?".into(),
+        Found::Unreadable(e) => format!("{e}; is another program using it?"),
+        Found::Holder(h, Verdict::Axisctl) => format!("held by axisctl, {h}"),
+        Found::Holder(h, Verdict::Stale) => {
+            format!("its lock names PID {}, which has exited: is another program using it?", h.pid)
+        }
+        Found::Holder(h, Verdict::NotAxisctl(why)) => {
+            format!("its lock names PID {}, which is not axisctl ({why})", h.pid)
+        }
+        Found::Holder(h, Verdict::Unchecked(why)) => {
+            format!("its lock names PID {}, which cannot be checked ({why})", h.pid)
+        }
     }
 }
 
@@ -316,9 +423,12 @@ pub fn canonical(device: &str) -> String {
     std::fs::canonicalize(device).map(|p| p.to_string_lossy().into_owned()).unwrap_or_else(|_| device.into())
 }
 
-/// The lock file of a canonical device path: `/dev/pts/3` is `%2Fdev%2Fpts%2F3.lock`.
+/// Where this process writes the lock of a canonical device path, in its
+/// runtime directory when it has one: `/dev/pts/3` is `%2Fdev%2Fpts%2F3.lock`.
 pub fn lock_path(device: &str) -> Option<PathBuf> {
-    Some(lock_path_in(&lock_dir()?, device))
+    let env = Env::current();
+    let dir = env.write_places().iter().find_map(|p| p.writable(env.uid))?;
+    Some(lock_path_in(&dir, device))
 }
 
 /// The lock file of `device` in `dir`.
@@ -332,25 +442,6 @@ pub fn lock_path_in(dir: &Path, device: &str) -> PathBuf {
         })
         .collect();
     dir.join(format!("{name}.lock"))
-}
-
-/// The per-user lock directory, created private on first use. `None` when it
-/// cannot be made, or is not a private directory of this user (someone else
-/// could then plant a lock and have us signal their choice of process).
-pub fn lock_dir() -> Option<PathBuf> {
-    let dir = match std::env::var_os(DIR_ENV).filter(|d| !d.is_empty()) {
-        Some(d) => PathBuf::from(d),
-        None => match std::env::var_os("XDG_RUNTIME_DIR").map(PathBuf::from).filter(|d| d.is_absolute()) {
-            Some(run) => run.join("axisctl"),
-            // SAFETY: getuid cannot fail.
-            None => std::env::temp_dir().join(format!("axisctl-{}", unsafe { libc::getuid() })),
-        },
-    };
-    let _ = std::fs::DirBuilder::new().recursive(true).mode(0o700).create(&dir);
-    let meta = std::fs::symlink_metadata(&dir).ok()?;
-    // SAFETY: getuid cannot fail.
-    let private = meta.is_dir() && meta.uid() == unsafe { libc::getuid() } && meta.mode() & 0o022 == 0;
-    private.then_some(dir)
 }
 
 /// When process `pid` started (`/proc/PID/stat` field 22, clock ticks after
@@ -410,11 +501,10 @@ fn pidfd_open(_pid: u32) -> Option<OwnedFd> {
 }
 
 #[cfg(target_os = "linux")]
-fn pidfd_sigterm(fd: &OwnedFd) -> io::Result<()> {
+fn pidfd_signal(fd: &OwnedFd, sig: libc::c_int) -> io::Result<()> {
     use std::os::fd::AsRawFd;
     // SAFETY: a live pidfd; a null siginfo means "as kill(2) would".
-    let r =
-        unsafe { libc::syscall(libc::SYS_pidfd_send_signal, fd.as_raw_fd(), libc::SIGTERM, std::ptr::null::<u8>(), 0) };
+    let r = unsafe { libc::syscall(libc::SYS_pidfd_send_signal, fd.as_raw_fd(), sig, std::ptr::null::<u8>(), 0) };
     if r == 0 {
         Ok(())
     } else {
@@ -423,135 +513,9 @@ fn pidfd_sigterm(fd: &OwnedFd) -> io::Result<()> {
 }
 
 #[cfg(not(target_os = "linux"))]
-fn pidfd_sigterm(_fd: &OwnedFd) -> io::Result<()> {
+fn pidfd_signal(_fd: &OwnedFd, _sig: libc::c_int) -> io::Result<()> {
     Err(io::Error::from(io::ErrorKind::Unsupported))
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-
-    fn me() -> Holder {
-        Holder::me("/dev/pts/99").expect("/proc knows this process")
-    }
-
-    #[test]
-    fn a_lock_reads_back_as_written() {
-        let h = me();
-        assert_eq!(Holder::parse(&h.to_text()), Ok(h.clone()));
-        assert_eq!(h.pid, std::process::id());
-        assert!(h.to_text().starts_with("axisctl-lock 1\npid "), "{}", h.to_text());
-    }
-
-    #[test]
-    fn garbage_never_parses_and_never_panics() {
-        let good = me().to_text();
-        for text in [
-            "",
-            "\n\n",
-            "pid 12\nstart 3\nexe /bin/axisctl\n",
-            "axisctl-lock 1\n",
-            "axisctl-lock 1\npid\nstart\nexe\n",
-            "axisctl-lock 1\npid -5\nstart 3\nexe /bin/axisctl\n",
-            "axisctl-lock 1\npid 0\nstart 3\nexe /bin/axisctl\n",
-            "axisctl-lock 1\npid 99999999999\nstart 3\nexe /bin/axisctl\n",
-            "axisctl-lock 1\npid 12\nstart x\nexe /bin/axisctl\n",
-            "axisctl-lock 1\npid 12\nstart 3\nexe relative/axisctl\n",
-            "axisctl-lock 1\npid 12\nstart 3\n",
-            "\u{0}\u{ffff}))(( ",
-        ] {
-            assert!(Holder::parse(text).is_err(), "{text:?} parsed");
-        }
-        // Every prefix and every single-byte corruption of a real lock.
-        for cut in 0..good.len() {
-            let _ = Holder::parse(&good[..cut]);
-        }
-        let bytes = good.as_bytes();
-        for i in 0..bytes.len() {
-            for b in [0u8, b'\n', b' ', b')', 0xff] {
-                let mut v = bytes.to_vec();
-                v[i] = b;
-                let _ = Holder::parse(&String::from_utf8_lossy(&v));
-            }
-        }
-    }
-
-    #[test]
-    fn stat_fields_are_counted_after_the_last_parenthesis() {
-        let line = "42 (a) b (c)) S 1 42 42 0 -1 4194560 100 0 0 0 1 2 0 0 20 0 1 0 987654 1000 10";
-        assert_eq!(stat_field(line, 3), Some("S"));
-        assert_eq!(stat_field(line, 22), Some("987654"));
-        assert_eq!(stat_field("no parenthesis", 22), None);
-        assert_eq!(stat_field("1 (x) S", 22), None);
-        assert_eq!(stat_field("1 (x) S", 1), None);
-    }
-
-    #[test]
-    fn this_very_program_counts_as_axisctl_and_a_forged_exe_is_caught() {
-        // The test binary is not named axisctl, yet it is "this very program".
-        assert_eq!(me().check(), Verdict::Axisctl);
-        let forged = Holder { exe: PathBuf::from("/usr/local/bin/axisctl"), ..me() };
-        assert!(matches!(forged.check(), Verdict::NotAxisctl(why) if why.contains("not the /usr/local/bin/axisctl")));
-    }
-
-    #[test]
-    fn a_live_process_that_is_not_axisctl_is_never_signalled() {
-        let mut sleep = std::process::Command::new("sleep").arg("30").spawn().unwrap();
-        let pid = sleep.id();
-        let start = proc_start(pid).unwrap().unwrap();
-        let exe = without_deleted(&std::fs::read_link(format!("/proc/{pid}/exe")).unwrap());
-        // Honest (it says it runs sleep) and forged (it claims axisctl): both refused.
-        for exe in [exe, PathBuf::from("/usr/bin/axisctl")] {
-            let h = Holder { pid, start, exe, what: "60".into(), device: "/dev/x".into() };
-            assert!(matches!(h.check(), Verdict::NotAxisctl(_)), "{:?}", h.check());
-            assert!(matches!(h.terminate(), Err(TerminateError::NotAxisctl(_))));
-        }
-        assert!(sleep.try_wait().unwrap().is_none(), "sleep was signalled");
-        sleep.kill().unwrap();
-        sleep.wait().unwrap();
-    }
-
-    #[test]
-    fn a_dead_or_reused_pid_is_stale() {
-        let mut child = std::process::Command::new("true").spawn().unwrap();
-        let pid = child.id();
-        child.wait().unwrap();
-        let dead = Holder { pid, start: 1, exe: PathBuf::from("/bin/true"), what: String::new(), device: "/d".into() };
-        assert_eq!(dead.check(), Verdict::Stale);
-        assert!(dead.is_gone());
-        assert!(matches!(dead.terminate(), Err(TerminateError::Gone)));
-        let reused = Holder { start: me().start + 1, ..me() };
-        assert_eq!(reused.check(), Verdict::Stale);
-        assert!(matches!(me().terminate(), Err(TerminateError::Itself)), "never signals itself");
-    }
-
-    #[test]
-    fn lock_names_escape_the_path() {
-        let dir = Path::new("/run/user/1/axisctl");
-        assert_eq!(lock_path_in(dir, "/dev/pts/3"), dir.join("%2Fdev%2Fpts%2F3.lock"));
-        assert_ne!(lock_path_in(dir, "/dev/a%2Fb"), lock_path_in(dir, "/dev/a/b"));
-    }
-
-    #[test]
-    fn a_lock_is_written_replaces_a_stale_one_and_goes_with_its_holder() {
-        let dir = tempfile::tempdir().unwrap();
-        let device = "/dev/axisctl-lock-test";
-        let path = lock_path_in(dir.path(), device);
-        std::fs::write(&path, "garbage from a crashed run").unwrap();
-        assert!(matches!(holder_in(dir.path(), device), Some(Err(_))));
-        let lock = acquire_in(dir.path(), device).expect("written");
-        assert_eq!(lock.path(), path);
-        let h = holder_in(dir.path(), device).unwrap().unwrap();
-        assert_eq!((h.pid, h.device.as_str()), (std::process::id(), device));
-        drop(lock);
-        assert!(holder_in(dir.path(), device).is_none(), "removed on drop");
-        // A lock that names someone else by then is theirs: left alone.
-        let lock = acquire_in(dir.path(), device).unwrap();
-        let other = Holder { pid: 1, ..h };
-        std::fs::write(&path, other.to_text()).unwrap();
-        drop(lock);
-        assert_eq!(holder_in(dir.path(), device), Some(Ok(other)));
-        let leftovers: Vec<_> = std::fs::read_dir(dir.path()).unwrap().map(|e| e.unwrap().file_name()).collect();
-        assert_eq!(leftovers.len(), 1, "{leftovers:?}");
-    }
-}
+mod tests;
