@@ -26,6 +26,14 @@ fn run(args: &[&str]) -> Run {
     run_in(None, &[], args)
 }
 
+/// The document follows the published schema (each device object carries
+/// its family's envelope).
+fn valid(doc: &serde_json::Value) {
+    if let Some(e) = common::schema_errors(&common::schema("document"), doc) {
+        panic!("{doc}\nbreaks the schema:\n{e}");
+    }
+}
+
 fn ok(r: &Run, what: &str) {
     assert_eq!(r.code, 0, "{what}: {}{}", r.stdout, r.stderr);
 }
@@ -111,6 +119,7 @@ fn halt_all_stops_every_family(links: &[&str], bench: Option<&str>) {
     let r = run(&args);
     ok(&r, "halt --all");
     let doc = r.json();
+    valid(&doc);
     let steps = doc["steps"].as_array().unwrap();
     let said =
         |address: &str| steps.iter().find(|s| s["address"] == address).map(|s| (s["ok"].clone(), s["result"].clone()));
@@ -163,6 +172,7 @@ fn scan_lists_the_whole_bench_and_the_missing() {
     let r = run(&["--bench", &file, "--json", "scan"]);
     ok(&r, "scan");
     let doc = r.json();
+    valid(&doc);
     let got: Vec<(String, String, String)> = doc["devices"]
         .as_array()
         .unwrap()
@@ -196,9 +206,10 @@ fn scan_lists_the_whole_bench_and_the_missing() {
     );
     let r = run(&["--bench", &file, "--json", "scan"]);
     assert_eq!(r.code, 4, "{}{}", r.stdout, r.stderr);
+    valid(&r.json());
     assert_eq!(
         r.json()["missing"],
-        serde_json::json!([{"address": "powercube:9", "name": "wrist", "family": "powercube", "link": "sim"}])
+        serde_json::json!([{"address": "powercube:9", "name": "wrist", "family": "powercube", "link": "sim", "module": 9}])
     );
     assert!(r.stderr.contains("expected but not answering: wrist (powercube:9 on sim)"), "{}", r.stderr);
     let r = run(&["--bench", &file, "scan"]);
@@ -232,6 +243,18 @@ fn per_family_commands_take_their_family_link() {
         "{}",
         r.stderr
     );
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("b.json");
+    let r = run(&["--link", &can, "--link", &serial, "backup", "--out", out.to_str().unwrap()]);
+    assert_eq!(r.code, 2, "{}", r.stderr);
+    assert!(
+        r.stderr.contains(&format!(
+            "this command takes one link; the bench has 2: {can} (powercube, cdios), {serial} (pac)"
+        )),
+        "{}",
+        r.stderr
+    );
+    assert!(!out.exists());
     let r = run(&["--link", &can, "--link", &can, "scan"]);
     assert_eq!(r.code, 2, "{}", r.stderr);
     assert!(r.stderr.contains("is given twice"), "{}", r.stderr);
@@ -266,4 +289,28 @@ fn where_the_bench_comes_from() {
     ok(&run_in(Some(dir.path()), &[("AXISCTL_LINK", &serial)], &["pac-state"]), "AXISCTL_LINK over axisctl.toml");
     // Offline commands never read it.
     ok(&run_in(Some(dir.path()), &[], &["decode", "cube-state", "0"]), "offline");
+}
+
+/// docs/sim-bench.toml, the guide's and json.md's example, runs as written
+/// and names the devices it says.
+#[test]
+fn the_documented_bench_file_runs() {
+    let r = run(&["--bench", "docs/sim-bench.toml", "--json", "scan"]);
+    ok(&r, "scan");
+    let doc = r.json();
+    valid(&doc);
+    let named: Vec<(&str, &str)> = doc["devices"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter_map(|d| Some((d["name"].as_str()?, d["address"].as_str().unwrap())))
+        .collect();
+    assert_eq!(
+        named,
+        [("shoulder", "powercube:3"), ("elbow", "powercube:5"), ("slide", "pac:2"), ("gripper", "cdios:1/0")],
+        "{doc}"
+    );
+    let r = run(&["--bench", "docs/sim-bench.toml", "--json", "halt", "--all"]);
+    ok(&r, "halt --all");
+    valid(&r.json());
 }

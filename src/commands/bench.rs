@@ -11,7 +11,7 @@ use axisctl::device::pac::{Controller, HaltTarget};
 use axisctl::device::powercube::{Cubes, Simple};
 use axisctl::family::Family;
 use axisctl::proto::{cdios, powercube};
-use serde_json::{json, Value};
+use serde_json::{json, Map, Value};
 
 use super::takeover::{self, HolderReport};
 use super::{Ctx, NoAnswer};
@@ -116,19 +116,49 @@ pub fn scan(ctx: &Ctx, ids: &[u8]) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// The envelope of docs/json.md for a device of the bench: family, link, the
+/// one address (`null` for every device of a family on a link) and the
+/// family's own address keys.
+fn envelope(family: Family, link: &str, address: Option<Address>, node: Option<u8>) -> Map<String, Value> {
+    let mut o = Map::new();
+    o.insert("family".into(), family.name().into());
+    o.insert("link".into(), link.into());
+    o.insert("address".into(), address.map(|a| a.to_string()).into());
+    match (address, family) {
+        (Some(Address::PowerCube { module }), _) => _ = o.insert("module".into(), module.into()),
+        (None, Family::PowerCube) => _ = o.insert("module".into(), Value::Null),
+        (Some(Address::Pac { axis: Some(a) }), _) => _ = o.insert("axis".into(), a.into()),
+        (Some(Address::Cdios { node, module }), _) => {
+            o.insert("node".into(), node.into());
+            o.insert("module".into(), module.into());
+        }
+        _ => {}
+    }
+    if let (Some(n), None) = (node, address) {
+        o.insert("node".into(), n.into());
+    }
+    o
+}
+
 fn print_scan(ctx: &Ctx, bench: &Bench, seen: &[Seen], missing: &[(&str, Address, &str)]) {
     let name = |a: Address| bench.name_of(a).map(str::to_string);
     if ctx.json {
         let devices: Vec<Value> = seen
             .iter()
             .map(|s| {
-                json!({"address": s.address.to_string(), "name": name(s.address), "family": s.address.family(),
-                       "link": s.link, "detail": s.detail})
+                let mut o = envelope(s.address.family(), &s.link, Some(s.address), None);
+                o.insert("name".into(), name(s.address).into());
+                o.insert("detail".into(), s.detail.clone().into());
+                Value::Object(o)
             })
             .collect();
         let missing: Vec<Value> = missing
             .iter()
-            .map(|(n, a, l)| json!({"address": a.to_string(), "name": n, "family": a.family(), "link": l}))
+            .map(|(n, a, l)| {
+                let mut o = envelope(a.family(), l, Some(*a), None);
+                o.insert("name".into(), (*n).into());
+                Value::Object(o)
+            })
             .collect();
         output::json(&json!({"devices": devices, "missing": missing}));
         return;
@@ -147,8 +177,10 @@ fn print_scan(ctx: &Ctx, bench: &Bench, seen: &[Seen], missing: &[(&str, Address
 struct Step {
     link: String,
     family: Family,
-    /// `None`: every device of the family on the link (a broadcast).
+    /// `None`: every device of the family on the link (a broadcast), or of
+    /// the Cdios `node`.
     address: Option<Address>,
+    node: Option<u8>,
     result: Result<String, anyhow::Error>,
 }
 
@@ -159,7 +191,7 @@ pub fn halt_all(ctx: &Ctx) -> anyhow::Result<()> {
     let mut steps = Vec::new();
     let mut holders = Vec::new();
     for (link, family) in bench.pairs() {
-        let step = |address, result| Step { link: link.text.clone(), family, address, result };
+        let step = |address, result| Step { link: link.text.clone(), family, address, node: None, result };
         match family {
             Family::PowerCube => {
                 let opened = ctx.opener().take_over(|o| o.powercube(&link.spec, &opts));
@@ -211,10 +243,11 @@ pub fn halt_all(ctx: &Ctx) -> anyhow::Result<()> {
             }
             Family::Cdios => {
                 for node in cdios_nodes(link) {
+                    let on_node = |result| Step { node: Some(node.get()), ..step(None, result) };
                     let (s, t) = match ctx.opener().take_over(|o| o.cdios(&link.spec, &opts)) {
                         Ok(x) => x,
                         Err(e) => {
-                            steps.push(step(None, Err(e.into())));
+                            steps.push(on_node(Err(e.into())));
                             continue;
                         }
                     };
@@ -222,7 +255,7 @@ pub fn halt_all(ctx: &Ctx) -> anyhow::Result<()> {
                     let modules = match n.scan() {
                         Ok(m) => m,
                         Err(e) if node.get() != DEFAULT_NODE || bench.links().iter().any(|l| named_node(l, node)) => {
-                            steps.push(step(Some(Address::Cdios { node: node.get(), module: 0 }), Err(e.into())));
+                            steps.push(on_node(Err(e.into())));
                             continue;
                         }
                         // The default node, absent and not expected: nothing to stop.
@@ -254,19 +287,23 @@ fn named_node(link: &BenchLink, node: cdios::NodeId) -> bool {
 }
 
 fn print_halt(ctx: &Ctx, bench: &Bench, steps: &[Step], holders: &[HolderReport]) {
-    let address = |s: &Step| s.address.map_or_else(|| format!("{} (all)", s.family.name()), |a| a.to_string());
+    let address = |s: &Step| match (s.address, s.node) {
+        (Some(a), _) => a.to_string(),
+        (None, Some(n)) => format!("{}:{n}/*", s.family.name()),
+        (None, None) => format!("{} (all)", s.family.name()),
+    };
     if ctx.json {
         let list: Vec<Value> = steps
             .iter()
             .map(|s| {
-                let mut o = json!({"address": s.address.map(|a| a.to_string()),
-                                   "name": s.address.and_then(|a| bench.name_of(a)),
-                                   "family": s.family, "link": s.link, "ok": s.result.is_ok()});
+                let mut o = envelope(s.family, &s.link, s.address, s.node);
+                o.insert("name".into(), s.address.and_then(|a| bench.name_of(a)).into());
+                o.insert("ok".into(), s.result.is_ok().into());
                 match &s.result {
-                    Ok(what) => o["result"] = json!(what),
-                    Err(e) => o["error"] = json!(format!("{e:#}")),
-                }
-                o
+                    Ok(what) => o.insert("result".into(), what.clone().into()),
+                    Err(e) => o.insert("error".into(), format!("{e:#}").into()),
+                };
+                Value::Object(o)
             })
             .collect();
         let holders: Vec<Value> = holders.iter().map(HolderReport::json).collect();
