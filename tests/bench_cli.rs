@@ -314,3 +314,58 @@ fn the_documented_bench_file_runs() {
     ok(&r, "halt --all");
     valid(&r.json());
 }
+
+/// A port held by another axisctl process (a `pac-move --wait`) is taken
+/// over by the whole-bench `halt --all` as by `pac-stop`: the holder is
+/// asked to halt and let go, the report names it, and the axis is at rest.
+#[test]
+fn halt_all_takes_a_held_port_over() {
+    use std::io::{BufRead, BufReader};
+    use std::sync::mpsc;
+
+    let (_sim, can, serial) = served();
+    let locks = tempfile::tempdir().unwrap();
+    let lock_env = [(axisctl::link::lock::DIR_ENV, locks.path().to_str().unwrap())];
+    let pac = |args: &[&str]| {
+        let all = [&["--link", &can, "--link", &serial, "--timeout", "1000"][..], args].concat();
+        run_in(None, &lock_env, &all)
+    };
+    if pac(&["--json", "pac-state"]).json()["mode"] != "online" {
+        ok(&pac(&["pac-online"]), "pac-online");
+    }
+    ok(&pac(&["pac-no-ref", "2"]), "pac-no-ref");
+    let mut holder = common::bin()
+        .envs(lock_env)
+        .args(["--link", &serial, "--timeout", "1000", "--trace", "pac-move", "2", "9000", "--wait"])
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let (tx, rx) = mpsc::channel();
+    let err = holder.stderr.take().unwrap();
+    // Into the wait: the move's frame left and an answer came after it.
+    std::thread::spawn(move || {
+        let mut moved = false;
+        for line in BufReader::new(err).lines().map_while(Result::ok) {
+            moved |= line.starts_with("-> ") && line.contains("0A94");
+            if moved && line.starts_with("<- ") {
+                let _ = tx.send(());
+            }
+        }
+    });
+    rx.recv_timeout(Duration::from_secs(20)).expect("the move is under way");
+    let r = pac(&["--json", "halt", "--all"]);
+    let status = common::wait_bounded(holder, 20, &["pac-move"]);
+    ok(&r, "halt --all");
+    let doc = r.json();
+    valid(&doc);
+    let holders = doc["holders"].as_array().unwrap();
+    assert_eq!(holders.len(), 1, "{doc}");
+    assert_eq!((&holders[0]["signalled"], &holders[0]["exited"]), (&true.into(), &true.into()), "{doc}");
+    assert!(holders[0]["what"].as_str().unwrap().contains("pac-move 2 9000 --wait"), "{doc}");
+    assert_eq!(status.code, 143, "the holder ended on SIGTERM after its own halt: {}", status.stderr);
+    until("axis 2 at rest", || {
+        let a = pac(&["--json", "pac-axis", "2"]);
+        (a.json()["axis_status"] == 1).then_some(a.stdout)
+    });
+}

@@ -11,7 +11,7 @@ use serde::Deserialize;
 use toml::Spanned;
 
 use super::address::{self, Address};
-use super::{default_families, fits, BenchLink};
+use super::{default_families, fits, port, BenchLink};
 use crate::family::Family;
 use crate::link::LinkSpec;
 
@@ -61,7 +61,7 @@ pub(super) fn parse(text: &str, path: &Path) -> Result<Vec<BenchLink>, FileError
         let link = link.into_inner();
         let text_spec = link.spec.get_ref().trim();
         let spec: LinkSpec = text_spec.parse().map_err(|e| at(link.spec.span(), format!("spec: {e}")))?;
-        if links.iter().any(|l| l.spec == spec) {
+        if links.iter().any(|l| port(&l.spec) == port(&spec)) {
             return Err(at(link.spec.span(), format!("{text_spec} is named twice (each port is opened once)")));
         }
         let families = match &link.families {
@@ -169,6 +169,10 @@ families = ["pac"]
             ("[[link]]\nspec = \"sim\"\nfamilies = [\"robot\"]\n", "line 3: families: unknown family \"robot\""),
             ("[[link]]\nspec = \"sim\"\nfamilies = []\n", "line 3: families: empty"),
             ("[[link]]\nspec = \"sim\"\n[[link]]\nspec = \"sim\"\n", "line 4: sim is named twice"),
+            (
+                "[[link]]\nspec = \"slcan:/dev/a\"\n[[link]]\nspec = \"serial:/dev/a\"\n",
+                "line 4: serial:/dev/a is named twice",
+            ),
             (
                 "[[link]]\nspec = \"serial:/dev/a\"\ndevices = { arm = \"powercube:3\" }\n",
                 "line 3: devices: arm: powercube:3 is not of a family on serial:/dev/a",

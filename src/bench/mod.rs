@@ -64,6 +64,17 @@ pub fn default_families(spec: &LinkSpec) -> Vec<Family> {
         .collect()
 }
 
+/// The physical port behind a spec: a tty whatever is spoken over it
+/// (`slcan:` or `serial:`, any options, through a symlink), a CAN interface,
+/// or the in-process bench. Two links of a bench never share one.
+pub fn port(spec: &LinkSpec) -> String {
+    match spec {
+        LinkSpec::SocketCan { iface } => format!("socketcan:{iface}"),
+        LinkSpec::Slcan { path, .. } | LinkSpec::Serial { path, .. } => crate::link::lock::canonical(path),
+        LinkSpec::Sim => "sim".into(),
+    }
+}
+
 /// Whether `family` can be reached over `spec` at all.
 pub fn fits(spec: &LinkSpec, family: Family) -> bool {
     match spec {
@@ -119,7 +130,7 @@ impl Bench {
         for text in texts {
             let spec: LinkSpec =
                 text.parse().map_err(|error| BenchError::Spec { origin: source.to_string(), error })?;
-            if links.iter().any(|l| l.spec == spec) {
+            if links.iter().any(|l| port(&l.spec) == port(&spec)) {
                 return Err(BenchError::Duplicate { origin: source.to_string(), text: text.to_string() });
             }
             links.push(BenchLink::new(text, spec));
@@ -265,5 +276,16 @@ mod tests {
         );
         assert_eq!(specs(&[]).unwrap_err().to_string(), "--link: no link given");
         assert!(specs(&["bogus:x"]).unwrap_err().to_string().starts_with("--link: bad link"));
+        // One port, whatever is spoken over it or however it is spelt.
+        let dir = tempfile::tempdir().unwrap();
+        let tty = dir.path().join("ttyACM0");
+        std::fs::write(&tty, "").unwrap();
+        let alias = dir.path().join("by-id");
+        std::os::unix::fs::symlink(&tty, &alias).unwrap();
+        let (tty, alias) = (tty.to_str().unwrap(), alias.to_str().unwrap());
+        for other in [format!("slcan:{tty}?bitrate=500000"), format!("serial:{tty}"), format!("slcan:{alias}")] {
+            let e = specs(&[&format!("slcan:{tty}"), &other]).unwrap_err();
+            assert_eq!(e.to_string(), format!("--link: {other} is given twice (each port is opened once)"));
+        }
     }
 }
