@@ -227,7 +227,14 @@ fn scan_lists_the_whole_bench_and_the_missing() {
 #[test]
 fn per_family_commands_take_their_family_link() {
     let (_sim, can, serial) = served();
-    for args in [&["pac-state"][..], &["cdios-identify"], &["state", "-m", "3"]] {
+    // The stops open their link through the takeover path, on the family's link too.
+    for args in [
+        &["pac-state"][..],
+        &["cdios-identify"],
+        &["state", "-m", "3"],
+        &["halt", "-m", "3"],
+        &["cdios-stop", "-m", "0", "--option", "fast"],
+    ] {
         let mut all = vec!["--link", &can, "--link", &serial, "--json"];
         all.extend(args);
         let r = run(&all);
@@ -243,6 +250,9 @@ fn per_family_commands_take_their_family_link() {
         "{}",
         r.stderr
     );
+    // In home position the controller's mode check answers: it was reached on its line.
+    let r = run(&["--link", &can, "--link", &serial, "pac-stop-axis", "2"]);
+    assert!(r.stderr.contains("is not valid in home position mode"), "{}", r.stderr);
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("b.json");
     let r = run(&["--link", &can, "--link", &serial, "backup", "--out", out.to_str().unwrap()]);
