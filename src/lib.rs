@@ -20,6 +20,7 @@
 //! - `cli` and `commands` (binary side): the command line as typed, and thin subcommands.
 
 pub mod backup;
+pub mod bench;
 pub mod clock;
 pub mod device;
 pub mod family;

@@ -17,6 +17,7 @@ const LAYERS: &[(&str, &[&str])] = &[
     ("session", &["proto", "link", "clock", "family"]),
     ("sim", &["proto", "link", "clock", "family"]),
     ("open", &["proto", "link", "clock", "family", "session", "sim"]),
+    ("bench", &["link", "family"]),
     ("device", &["proto", "link", "session", "clock", "family"]),
     ("backup", &["device", "proto", "family", "session"]),
     ("monitor", &["proto", "family"]),

@@ -44,12 +44,19 @@ pub const MAX_RETRIES: u32 = 10;
 #[derive(Debug, Args)]
 #[command(next_help_heading = "Global options")]
 pub struct Global {
-    /// The link: socketcan:IFACE, slcan:TTY[?bitrate=N], serial:TTY[?baud=N&format=F] or sim
-    #[arg(long, global = true, env = "AXISCTL_LINK", value_name = "URI", add = complete::links())]
-    pub link: Option<String>,
+    /// The link: socketcan:IFACE, slcan:TTY[?bitrate=N], serial:TTY[?baud=N&format=F] or sim; once per link of a bench (AXISCTL_LINK: separated by commas or spaces)
+    #[arg(long, global = true, env = "AXISCTL_LINK", value_name = "URI", action = clap::ArgAction::Append,
+          add = complete::links())]
+    pub link: Vec<String>,
     /// The link came from `AXISCTL_LINK`, not `--link`: an error about it names the variable.
     #[arg(skip)]
     pub link_from_env: bool,
+    /// A bench file naming the links, their families and devices (TOML); else ./axisctl.toml if there is one. --link wins over it
+    #[arg(long, global = true, env = "AXISCTL_BENCH", value_name = "FILE")]
+    pub bench: Option<PathBuf>,
+    /// The bench file came from `AXISCTL_BENCH`, not `--bench`.
+    #[arg(skip)]
+    pub bench_from_env: bool,
     /// Machine output: one JSON document on stdout (JSON Lines for streams)
     #[arg(long, global = true)]
     pub json: bool,
@@ -198,6 +205,8 @@ pub fn parse(exit_codes: &str) -> Result<Cli, clap::Error> {
     let mut cmd = command(exit_codes);
     let matches = cmd.try_get_matches_from_mut(std::env::args_os()).map_err(|e| suggest::subcommand(e, &cmd))?;
     let mut cli = Cli::from_arg_matches(&matches).map_err(|e| e.with_cmd(&cmd))?;
-    cli.global.link_from_env = matches.value_source("link") == Some(clap::parser::ValueSource::EnvVariable);
+    let from_env = |id| matches.value_source(id) == Some(clap::parser::ValueSource::EnvVariable);
+    cli.global.link_from_env = from_env("link");
+    cli.global.bench_from_env = from_env("bench");
     Ok(cli)
 }

@@ -52,7 +52,7 @@ fn module_list(text: &str) -> Result<ModuleList, String> {
 
 #[derive(Debug, Subcommand)]
 pub enum PowerCubeCommand {
-    /// List the PowerCube modules present on the link
+    /// List the PowerCube modules on the link; over a bench, every device of every family
     Scan {
         /// Module addresses to probe, e.g. 1-31 or 3,5,17
         #[arg(short = 'm', long = "module", alias = "ids", value_name = "LIST", default_value = "1-31",
@@ -78,7 +78,7 @@ pub enum PowerCubeCommand {
         #[command(flatten)]
         target: Target,
     },
-    /// Stop immediately
+    /// Stop immediately; --all over a bench stops every device of every family
     Halt {
         #[command(flatten)]
         target: Target,

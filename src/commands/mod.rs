@@ -3,6 +3,7 @@
 
 mod backup;
 mod batch;
+mod bench;
 mod cdios;
 mod dashboard;
 mod decode;
@@ -26,8 +27,10 @@ use std::io::Write;
 use std::sync::Arc;
 use std::time::Duration;
 
+use axisctl::bench::{Bench, BenchError};
 use axisctl::clock::{Clock, SystemClock};
 use axisctl::device::{self, supervisor};
+use axisctl::family::Family;
 use axisctl::link::{self, LinkSpec};
 use axisctl::open::{OpenError, Opener, SessionOptions};
 use axisctl::proto::powercube::limits::LimitError;
@@ -38,7 +41,7 @@ use axisctl::session::powercube::PowerCube;
 use axisctl::session::{ErrorKind, RetryPolicy, TraceEvent};
 use axisctl::sim::bench::WireSpeed;
 
-use crate::cli::{Cli, Command, Global};
+use crate::cli::{Cli, Command, Global, PowerCubeCommand};
 use crate::output::Style;
 
 /// Bad input ([`ErrorKind::Usage`]): nothing was sent.
@@ -50,6 +53,11 @@ pub struct UsageError(pub String);
 #[derive(Debug, thiserror::Error)]
 #[error("{0}")]
 pub struct DeviceFault(pub String);
+
+/// A device that should be there did not answer ([`ErrorKind::Timeout`]).
+#[derive(Debug, thiserror::Error)]
+#[error("{0}")]
+pub struct NoAnswer(pub String);
 
 /// Ctrl-C ([`ErrorKind::Interrupted`]; a moving device was halted first).
 #[derive(Debug, thiserror::Error)]
@@ -83,11 +91,14 @@ pub fn classify(err: &anyhow::Error) -> ErrorKind {
         if cause.is::<OutputFailed>() {
             return ErrorKind::Other;
         }
-        if cause.is::<UsageError>() || cause.is::<link::SpecError>() {
+        if cause.is::<UsageError>() || cause.is::<link::SpecError>() || cause.is::<BenchError>() {
             return ErrorKind::Usage;
         }
         if cause.is::<DeviceFault>() {
             return ErrorKind::Device;
+        }
+        if cause.is::<NoAnswer>() {
+            return ErrorKind::Timeout;
         }
         if cause.is::<Interrupted>() {
             return ErrorKind::Interrupted;
@@ -173,13 +184,14 @@ pub fn hint(err: &anyhow::Error) -> Option<String> {
 
 /// What every command gets: the resolved global options.
 pub struct Ctx {
-    /// `--link` or `AXISCTL_LINK`, parsed when a command asks for it
-    /// ([`Ctx::link`]): an offline command never does, so a bad value in the
-    /// environment does not fail it.
-    link: Result<Option<LinkSpec>, link::SpecError>,
-    /// Where the link came from, for its error: `--link` or `AXISCTL_LINK`.
-    link_source: &'static str,
-    /// The link as the user gave it, for the JSON envelope.
+    /// The links of the bench (`--link`, a bench file), settled when a
+    /// command asks for a link ([`Ctx::link`]): an offline command never
+    /// does, so a bad value in the environment does not fail it.
+    bench: Result<Option<Bench>, BenchError>,
+    /// The family of the command being run, set by [`dispatch`]: the
+    /// bench's link for it is the command's link.
+    family: std::sync::Mutex<Option<Family>>,
+    /// The links as the user gave them, for the JSON envelope.
     pub link_text: String,
     pub json: bool,
     pub timeout: Option<Duration>,
@@ -193,17 +205,45 @@ pub struct Ctx {
     opener: Opener,
 }
 
+/// The bench file read when neither a link nor a bench file is given.
+pub const BENCH_FILE: &str = "axisctl.toml";
+
+/// The links of the command. A flag wins over a variable, and links over a
+/// bench file: `--link`, `--bench`, `AXISCTL_LINK`, `AXISCTL_BENCH`, then
+/// `axisctl.toml` in the working directory.
+fn bench_of(g: &Global) -> Result<Option<Bench>, BenchError> {
+    let links = || -> Result<Option<Bench>, BenchError> {
+        let source = if g.link_from_env { "AXISCTL_LINK" } else { "--link" };
+        let texts = g.link.iter().flat_map(|l| l.split(|c: char| c == ',' || c.is_whitespace()));
+        Bench::from_specs(texts.filter(|t| !t.is_empty()), source).map(Some)
+    };
+    let file = || g.bench.as_deref().map(Bench::from_file).transpose();
+    match (g.link.is_empty(), g.link_from_env, g.bench.is_some(), g.bench_from_env) {
+        (false, false, _, _) => links(),
+        (_, _, true, false) => file(),
+        (false, true, _, _) => links(),
+        (true, _, true, true) => file(),
+        _ => {
+            let default = std::path::Path::new(BENCH_FILE);
+            if default.is_file() {
+                Bench::from_file(default).map(Some)
+            } else {
+                Ok(None)
+            }
+        }
+    }
+}
+
 impl Ctx {
     fn resolve(g: &Global) -> anyhow::Result<Self> {
-        crate::output::set_link(g.link.as_deref().unwrap_or_default());
-        let link = g.link.as_deref().map(str::parse::<LinkSpec>).transpose();
-        let link_source = if g.link_from_env { "AXISCTL_LINK" } else { "--link" };
+        let link_text = g.link.join(" ");
+        crate::output::set_link(&link_text);
         let clock: Arc<dyn Clock> = Arc::new(SystemClock);
         let opener = Opener::new(Arc::clone(&clock)).with_log(g.log.clone()).with_wire_speed(WireSpeed::from_env());
         Ok(Self {
-            link,
-            link_source,
-            link_text: g.link.clone().unwrap_or_default(),
+            bench: bench_of(g),
+            family: std::sync::Mutex::new(None),
+            link_text,
             json: g.json,
             timeout: g.timeout.map(Duration::from_millis),
             trace: g.trace,
@@ -215,18 +255,51 @@ impl Ctx {
         })
     }
 
-    pub fn link(&self) -> anyhow::Result<&LinkSpec> {
-        self.given_link()?.ok_or_else(|| {
-            usage("no link given: pass --link URI or set AXISCTL_LINK (try --link sim for the simulated bench)")
+    /// The bench if links were given; an error if they do not parse, naming
+    /// where they came from.
+    pub fn given_bench(&self) -> anyhow::Result<Option<&Bench>> {
+        match &self.bench {
+            Ok(bench) => Ok(bench.as_ref()),
+            // The error a single bad link always gave: the spec's, in the context of its source.
+            Err(BenchError::Spec { origin, error }) => Err(anyhow::Error::new(error.clone()).context(origin.clone())),
+            Err(e) => Err(e.clone().into()),
+        }
+    }
+
+    /// The bench, or a usage error when no link is given.
+    pub fn bench(&self) -> anyhow::Result<&Bench> {
+        self.given_bench()?.ok_or_else(|| {
+            usage(
+                "no link given: pass --link URI, --bench FILE, set AXISCTL_LINK or AXISCTL_BENCH, or write axisctl.toml \
+                 (try --link sim for the simulated bench)",
+            )
         })
     }
 
-    /// The link if one was given; an error if it does not parse, naming
-    /// where it came from.
+    /// The command's link: the one carrying the family of the command being
+    /// run, else the bench's only link.
+    pub fn link(&self) -> anyhow::Result<&LinkSpec> {
+        let bench = self.bench()?;
+        Ok(&self.pick(bench)?.spec)
+    }
+
+    /// The link carrying `family`; a usage error naming the links when none does.
+    pub fn link_for(&self, family: Family) -> anyhow::Result<&LinkSpec> {
+        Ok(&self.bench()?.link_for(family)?.spec)
+    }
+
+    fn pick<'b>(&self, bench: &'b Bench) -> Result<&'b axisctl::bench::BenchLink, BenchError> {
+        match *self.family.lock().unwrap_or_else(|e| e.into_inner()) {
+            Some(f) => bench.link_for(f),
+            None => bench.only_link(),
+        }
+    }
+
+    /// The link if one was given (see [`Ctx::link`]).
     pub fn given_link(&self) -> anyhow::Result<Option<&LinkSpec>> {
-        match &self.link {
-            Ok(link) => Ok(link.as_ref()),
-            Err(e) => Err(anyhow::Error::new(e.clone()).context(self.link_source)),
+        match self.given_bench()? {
+            Some(bench) => Ok(Some(&self.pick(bench)?.spec)),
+            None => Ok(None),
         }
     }
 
@@ -248,17 +321,17 @@ impl Ctx {
     /// A PowerCube session on the link: CAN for socketcan / slcan / sim,
     /// RS232 for serial (the family's serial default unless the link says).
     pub fn powercube(&self) -> anyhow::Result<PowerCube> {
-        Ok(self.opener.powercube(self.link()?, &self.session_options())?)
+        Ok(self.opener.powercube(self.link_for(Family::PowerCube)?, &self.session_options())?)
     }
 
     /// A PA-CONTROL session: a `serial:` link or the simulated controller (`sim`).
     pub fn pac(&self) -> anyhow::Result<Pac> {
-        Ok(self.opener.pac(self.link()?, &self.session_options())?)
+        Ok(self.opener.pac(self.link_for(Family::Pac)?, &self.session_options())?)
     }
 
     /// A Cdios session: a CAN link or the simulated node (`sim`).
     pub fn cdios(&self) -> anyhow::Result<Cdios> {
-        Ok(self.opener.cdios(self.link()?, &self.session_options())?)
+        Ok(self.opener.cdios(self.link_for(Family::Cdios)?, &self.session_options())?)
     }
 
     /// A CAN link (the in-process bench for `sim`), logged with `--log`.
@@ -315,6 +388,15 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
 /// Runs one subcommand with the resolved options: a process's one
 /// command, or each line of `batch` and `shell`.
 pub fn dispatch(ctx: &Ctx, command: Command) -> anyhow::Result<()> {
+    *ctx.family.lock().unwrap_or_else(|e| e.into_inner()) = match &command {
+        // Whole-bench commands: every family (crate::commands::bench).
+        Command::PowerCube(PowerCubeCommand::Scan { .. }) => None,
+        Command::PowerCube(PowerCubeCommand::Halt { target }) if target.all => None,
+        Command::PowerCube(_) => Some(Family::PowerCube),
+        Command::Pac(_) => Some(Family::Pac),
+        Command::Cdios(_) => Some(Family::Cdios),
+        _ => None,
+    };
     match command {
         Command::Decode { kind, value } => decode::run(ctx, &kind, &value),
         Command::Sim(args) => sim::run(ctx, &args),

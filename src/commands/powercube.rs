@@ -206,6 +206,9 @@ fn kind_of(config_word: u32) -> &'static str {
 const SCAN_ANSWER_START: Duration = Duration::from_millis(8);
 
 fn scan(ctx: &Ctx, list: &IdList) -> anyhow::Result<()> {
+    if super::bench::whole(ctx)? {
+        return super::bench::scan(ctx, &list.to(Some));
+    }
     let ids = list.to(ModuleId::new);
     let mut cubes = cubes(ctx)?;
     let pc = cubes.session();
@@ -348,6 +351,9 @@ fn simple(ctx: &Ctx, target: Target, cmd: Simple) -> anyhow::Result<()> {
 /// Halt, also from another terminal: a module held by another axisctl
 /// process (a `--wait`, the dashboard) is released by it first.
 fn halt(ctx: &Ctx, target: Target) -> anyhow::Result<()> {
+    if target.all && super::bench::whole(ctx)? {
+        return super::bench::halt_all(ctx);
+    }
     let (pc, takeover) = super::takeover::open(ctx, |o, spec, opts| o.powercube(spec, opts))?;
     let sent = Cubes::new(pc).simple(target.module.map(module), Simple::Halt);
     sent.map_err(|e| super::takeover::failed(e, takeover.as_ref()))?;

@@ -11,7 +11,7 @@ pub fn bin() -> Command {
     // Tests check behaviour, not timing: a loaded CI machine must not turn a
     // slow simulator answer into a timeout. Tests that want the real default
     // remove the variable.
-    c.env_remove("AXISCTL_LINK").env("NO_COLOR", "1").env("AXISCTL_TIMEOUT", "400");
+    c.env_remove("AXISCTL_LINK").env_remove("AXISCTL_BENCH").env("NO_COLOR", "1").env("AXISCTL_TIMEOUT", "400");
     c
 }
 
