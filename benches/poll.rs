@@ -138,7 +138,7 @@ fn main() {
             };
             (baud, vec![source])
         }
-        LinkSpec::Sim => {
+        LinkSpec::Sim(_) => {
             // The in-process bench at wire speed: the same worker without the pty hops.
             serve::precise_timers();
             let mut bench = Bench::contract(Arc::clone(&clock));

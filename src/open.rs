@@ -18,7 +18,7 @@ use crate::clock::Clock;
 use crate::family::Family;
 use crate::link::lock::{self, Found, Holder, TerminateError, Verdict};
 use crate::link::log::{log_iface, LoggedByteLink, LoggedCanLink, TrafficLog};
-use crate::link::{self, ByteLink, CanLink, LinkError, LinkSpec, SerialFormat};
+use crate::link::{self, ByteLink, CanLink, LinkError, LinkSpec, SerialFormat, SimStart};
 use crate::proto::pac::CheckRule;
 use crate::session::cdios::Cdios;
 use crate::session::pac::Pac;
@@ -213,11 +213,13 @@ impl Opener {
     }
 
     /// The bench behind every `sim` link of this opener, built on first use.
-    pub fn bench(&self) -> Result<&Bench, OpenError> {
+    /// The first `sim` link's start state is the bench's: it is set up once.
+    pub fn bench(&self, start: SimStart) -> Result<&Bench, OpenError> {
         if let Some(b) = self.bench.get() {
             return Ok(b);
         }
         let b = self.new_bench()?;
+        b.start(self.clock.now(), start);
         Ok(self.bench.get_or_init(|| b))
     }
 
@@ -258,7 +260,7 @@ impl Opener {
 
     fn open_can(&self, spec: &LinkSpec, family: Option<Family>) -> Result<Box<dyn CanLink>, OpenError> {
         let l: Box<dyn CanLink> = match spec {
-            LinkSpec::Sim => Box::new(self.bench()?.bus.open()),
+            LinkSpec::Sim(start) => Box::new(self.bench(*start)?.bus.open()),
             LinkSpec::Serial { .. } => return Err(OpenError::NeedsCan { spec: spec.clone(), family }),
             _ => link::open_can(spec)?,
         };
@@ -300,8 +302,8 @@ impl Opener {
                 let (baud, format) = (baud.unwrap_or(default.baud), format.unwrap_or(default.format));
                 (link::open_bytes(path, baud, format)?, baud, format)
             }
-            LinkSpec::Sim if family == Family::Pac => {
-                (Box::new(self.bench()?.pac_link(Arc::clone(&self.clock))), default.baud, default.format)
+            LinkSpec::Sim(start) if family == Family::Pac => {
+                (Box::new(self.bench(*start)?.pac_link(Arc::clone(&self.clock))), default.baud, default.format)
             }
             _ => return Err(OpenError::NeedsRs232 { spec: spec.clone(), family }),
         };
@@ -565,14 +567,14 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let log = dir.path().join("traffic.log");
         let o = opener().with_log(Some(log.clone()));
-        let mut can = o.can(&LinkSpec::Sim, Some(Family::PowerCube)).unwrap();
+        let mut can = o.can(&LinkSpec::Sim(Default::default()), Some(Family::PowerCube)).unwrap();
         can.send(&"0E3#0A27".parse().unwrap()).unwrap();
-        let mut line = o.serial(&LinkSpec::Sim, Family::Pac).unwrap();
+        let mut line = o.serial(&LinkSpec::Sim(Default::default()), Family::Pac).unwrap();
         assert_eq!((line.baud, line.format), (9600, SerialFormat::F7N1));
         line.link.write_all(b"\x020100\x03").unwrap();
         let text = std::fs::read_to_string(&log).unwrap();
         assert!(text.lines().any(|l| l.ends_with(" sim0 0E3#0A27")), "{text}");
         assert!(text.lines().any(|l| l.contains(") tx 02 ")), "{text}");
-        assert!(std::ptr::eq(o.bench().unwrap(), o.bench().unwrap()));
+        assert!(std::ptr::eq(o.bench(SimStart::default()).unwrap(), o.bench(SimStart::default()).unwrap()));
     }
 }

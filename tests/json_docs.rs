@@ -213,12 +213,13 @@ fn every_help_example_under_json_follows_the_schema() {
             continue;
         }
         for words in examples {
-            let command: Vec<&str> = words.iter().map(String::as_str).skip_while(|w| w.starts_with("--")).collect();
+            let command: Vec<&str> =
+                words.iter().map(String::as_str).skip(2).skip_while(|w| w.starts_with("--")).collect();
             if text_only.iter().any(|t| command.join(" ").starts_with(t)) {
                 continue;
             }
-            let mut args = vec!["--link", "sim"];
-            args.extend(words.iter().map(String::as_str).filter(|w| *w != "--json"));
+            // `--link LINK` first, then `--json`.
+            let mut args: Vec<&str> = words.iter().map(String::as_str).filter(|w| *w != "--json").collect();
             args.insert(2, "--json");
             // Examples write files (`backup --out bench.json`): never into the checkout.
             let cwd = concat!(env!("CARGO_TARGET_TMPDIR"), "/json-docs-cwd");
@@ -252,4 +253,80 @@ fn every_help_example_under_json_follows_the_schema() {
         }
     }
     assert!(documents > 60, "only {documents} examples printed a document ({errors} errors)");
+}
+
+/// Every `--link sim` example of every `--help` page, run as written by bash
+/// (redirections, `&&` and comments included) on the binary under test, in
+/// the order the pages come: all exit 0 and end. An example that needs a
+/// state gets it from its link (`sim?pac=online`, `sim?cdios=enabled`,
+/// `sim?pac=automatic`) or from an earlier example (`backup --out bench.json`
+/// before `restore bench.json`); files of the checkout are reached as
+/// `docs/...`. The dashboard needs a terminal (tests/dashboard_tmux.rs).
+#[test]
+fn every_sim_example_of_every_help_runs_as_written_and_ends() {
+    fn pages(path: &[String], out: &mut Vec<String>) {
+        let mut args: Vec<&str> = path.iter().map(String::as_str).collect();
+        args.push("--help");
+        let help = common::run(&args).stdout;
+        let section = |name: &str| -> Vec<String> {
+            help.split(&format!("\n{name}:\n"))
+                .nth(1)
+                .map(|s| s.lines().take_while(|l| l.starts_with("  ") || l.is_empty()).map(str::to_string).collect())
+                .unwrap_or_default()
+        };
+        for line in section("Examples") {
+            let line = line.trim();
+            if line.starts_with("axisctl --link sim ") || line.starts_with("axisctl --link 'sim?") {
+                out.push(line.to_string());
+            }
+        }
+        for line in section("Commands") {
+            let Some(name) = line.split_whitespace().next().filter(|n| *n != "help") else { continue };
+            let mut sub = path.to_vec();
+            sub.push(name.to_string());
+            pages(&sub, out);
+        }
+    }
+    let mut examples = Vec::new();
+    pages(&[], &mut examples);
+    examples.dedup();
+    assert!(examples.len() > 100, "only {} examples found", examples.len());
+    let bin_dir = std::path::Path::new(env!("CARGO_BIN_EXE_axisctl")).parent().unwrap().to_path_buf();
+    let path = format!("{}:{}", bin_dir.display(), std::env::var("PATH").unwrap_or_default());
+    let cwd = tempfile::tempdir().unwrap();
+    std::os::unix::fs::symlink(concat!(env!("CARGO_MANIFEST_DIR"), "/docs"), cwd.path().join("docs")).unwrap();
+    let mut failed = Vec::new();
+    for line in examples.iter().filter(|l| !l.contains(" dashboard")) {
+        let mut child = std::process::Command::new("bash")
+            .args(["--norc", "--noprofile", "-c", line])
+            .current_dir(cwd.path())
+            .env("PATH", &path)
+            .env_remove("AXISCTL_LINK")
+            .env_remove("AXISCTL_BENCH")
+            .env("NO_COLOR", "1")
+            .env("AXISCTL_TIMEOUT", "400")
+            .stdin(std::process::Stdio::null())
+            .stdout(std::process::Stdio::null())
+            .stderr(std::process::Stdio::piped())
+            .spawn()
+            .unwrap();
+        let deadline = std::time::Instant::now() + std::time::Duration::from_secs(120);
+        while child.try_wait().unwrap().is_none() {
+            if std::time::Instant::now() > deadline {
+                let _ = child.kill();
+                break;
+            }
+            std::thread::sleep(std::time::Duration::from_millis(20));
+        }
+        let out = child.wait_with_output().unwrap();
+        if !out.status.success() {
+            let err = String::from_utf8_lossy(&out.stderr);
+            failed.push(format!(
+                "{line}: {:?} {}",
+                out.status.code(),
+                err.lines().next().unwrap_or("(ended by the deadline)")
+            ));
+        }
+    }
+    assert!(failed.is_empty(), "help examples that fail as written:\n{}", failed.join("\n"));
 }

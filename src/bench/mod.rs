@@ -57,7 +57,7 @@ pub fn default_families(spec: &LinkSpec) -> Vec<Family> {
     Family::ALL
         .into_iter()
         .filter(|f| match spec {
-            LinkSpec::Sim => true,
+            LinkSpec::Sim(_) => true,
             _ if spec.is_can() => f.link_kind().can(),
             _ => f.link_kind().rs232() && !f.link_kind().can(),
         })
@@ -71,14 +71,14 @@ pub fn port(spec: &LinkSpec) -> String {
     match spec {
         LinkSpec::SocketCan { iface } => format!("socketcan:{iface}"),
         LinkSpec::Slcan { path, .. } | LinkSpec::Serial { path, .. } => crate::link::lock::canonical(path),
-        LinkSpec::Sim => "sim".into(),
+        LinkSpec::Sim(_) => "sim".into(),
     }
 }
 
 /// Whether `family` can be reached over `spec` at all.
 pub fn fits(spec: &LinkSpec, family: Family) -> bool {
     match spec {
-        LinkSpec::Sim => true,
+        LinkSpec::Sim(_) => true,
         _ if spec.is_can() => family.link_kind().can(),
         _ => family.link_kind().rs232(),
     }

@@ -77,14 +77,20 @@ pub const EXAMPLES: &[(&str, &[&str])] = &[
     ("cdios-set-position", &["--link sim cdios-set-position -m 0 -1200"]),
     (
         "cdios-goto",
-        &["--link sim cdios-goto -m 0 5000 --wait", "--link sim cdios-goto -m 0 -1500 --relative --speed 800"],
+        &[
+            "--link 'sim?cdios=enabled' cdios-goto -m 0 5000 --wait",
+            "--link 'sim?cdios=enabled' cdios-goto -m 0 -1500 --relative --speed 800",
+        ],
     ),
-    ("cdios-traject", &["--link sim cdios-traject -m 0 0 --wait"]),
+    (
+        "cdios-traject",
+        &["--link slcan:/dev/ttyACM0 cdios-traject -m 0 0 --wait   # a traject configured with cdios-config"],
+    ),
     (
         "cdios-start",
         &[
-            "--link sim cdios-start -m 0 --option to-speed --speed 1200",
-            "--link sim cdios-start -m 0 --direction reverse --option min-speed",
+            "--link 'sim?cdios=enabled' cdios-start -m 0 --option to-speed --speed 1200",
+            "--link 'sim?cdios=enabled' cdios-start -m 0 --direction reverse --option min-speed",
         ],
     ),
     ("cdios-stop", &["--link sim cdios-stop -m 0", "--link sim cdios-stop -m 0 --option fast"]),
@@ -99,7 +105,7 @@ pub const EXAMPLES: &[(&str, &[&str])] = &[
     (
         "batch",
         &[
-            "--link sim batch commands.txt",
+            "--link sim batch docs/examples/commands.txt",
             "--link sim --json batch -",
             "--link slcan:/dev/ttyACM0 batch --keep-going commands.txt",
         ],
@@ -107,29 +113,38 @@ pub const EXAMPLES: &[(&str, &[&str])] = &[
     ("shell", &["--link sim shell", "--link socketcan:can0 shell --history /tmp/axisctl-history"]),
     ("dashboard", &["--link sim dashboard", "--link socketcan:can0 dashboard -m 3,5,17 --without pac"]),
     ("pac-online", &["--link sim pac-online"]),
-    ("pac-offline", &["--link sim pac-offline"]),
-    ("pac-stop", &["--link sim pac-stop"]),
+    ("pac-offline", &["--link 'sim?pac=online' pac-offline"]),
+    ("pac-stop", &["--link 'sim?pac=online' pac-stop"]),
     ("pac-auto-start", &["--link sim pac-auto-start"]),
-    ("pac-auto-abort", &["--link sim pac-auto-abort"]),
+    ("pac-auto-abort", &["--link 'sim?pac=automatic' pac-auto-abort"]),
     ("pac-state", &["--link sim pac-state", "--link sim --json pac-state"]),
     ("pac-error", &["--link sim pac-error"]),
     ("pac-reset-error", &["--link sim pac-reset-error"]),
     (
         "pac-move",
-        &["--link sim pac-move 2 150 --wait", "--link sim pac-move 2 -10 --relative --wait --wait-timeout 30"],
+        &[
+            "--link 'sim?pac=online' pac-move 2 150 --wait",
+            "--link 'sim?pac=online' pac-move 2 -10 --relative --wait --wait-timeout 30",
+        ],
     ),
-    ("pac-ref", &["--link sim pac-ref 2 --wait"]),
-    ("pac-no-ref", &["--link sim pac-no-ref 2"]),
-    ("pac-zero", &["--link sim pac-zero 2"]),
-    ("pac-set-pos", &["--link sim pac-set-pos 2 -12.5"]),
-    ("pac-speed", &["--link sim pac-speed 2 50", "--link sim pac-speed 1 -5"]),
-    ("pac-accel", &["--link sim pac-accel 2 100"]),
-    ("pac-stop-axis", &["--link sim pac-stop-axis 2", "--link sim pac-stop-axis 2 --wait"]),
+    ("pac-ref", &["--link 'sim?pac=online' pac-ref 2 --wait"]),
+    ("pac-no-ref", &["--link 'sim?pac=online' pac-no-ref 2"]),
+    ("pac-zero", &["--link 'sim?pac=online' pac-zero 2"]),
+    ("pac-set-pos", &["--link 'sim?pac=online' pac-set-pos 2 -12.5"]),
+    ("pac-speed", &["--link 'sim?pac=online' pac-speed 2 50", "--link 'sim?pac=online' pac-speed 1 500"]),
+    ("pac-accel", &["--link 'sim?pac=online' pac-accel 2 100"]),
+    ("pac-stop-axis", &["--link 'sim?pac=online' pac-stop-axis 2", "--link 'sim?pac=online' pac-stop-axis 2 --wait"]),
     ("pac-axis", &["--link sim pac-axis 2", "--link sim --json pac-axis 2"]),
     ("pac-axes", &["--link sim pac-axes"]),
-    ("pac-axis-power", &["--link sim pac-axis-power 2 on", "--link sim pac-axis-power 2 off"]),
-    ("pac-measure", &["--link sim pac-measure 2 on", "--link sim pac-measure 2 off"]),
-    ("pac-limit-switch", &["--link sim pac-limit-switch 2 off", "--link sim pac-limit-switch 0 on"]),
+    (
+        "pac-axis-power",
+        &["--link 'sim?pac=online' pac-axis-power 2 on", "--link 'sim?pac=online' pac-axis-power 2 off"],
+    ),
+    ("pac-measure", &["--link 'sim?pac=online' pac-measure 2 on", "--link 'sim?pac=online' pac-measure 2 off"]),
+    (
+        "pac-limit-switch",
+        &["--link 'sim?pac=online' pac-limit-switch 2 off", "--link 'sim?pac=online' pac-limit-switch 0 on"],
+    ),
     ("pac-in", &["--link sim pac-in 1", "--link sim pac-in 1 --word"]),
     ("pac-out", &["--link sim pac-out 3", "--link sim pac-out 3 1", "--link sim pac-out 1 0x00ff --word"]),
     ("pac-flag", &["--link sim pac-flag 10", "--link sim pac-flag 10 1", "--link sim pac-flag 5 --system"]),
@@ -151,6 +166,7 @@ pub const EXAMPLES: &[(&str, &[&str])] = &[
         "backup",
         &[
             "--link sim backup --out bench.json",
+            "--link sim backup --family cdios --out cdios.json",
             "--link socketcan:can0 backup -m 3,5 --out arm.json",
             "--link serial:/dev/ttyUSB0 backup --family pac --out pac.json",
         ],
@@ -171,8 +187,8 @@ pub const EXAMPLES: &[(&str, &[&str])] = &[
             "--link sim record -m 17 ActPos ActVel Cur --count 20",
             "--link sim --json record -m 17 ActPos ActVel Cur --for 3s -- move-ramp -m 17 0.1 > step.jsonl",
             "--link sim record --format csv -m 3,5 ActPos --rate 100 --for 10s > run.csv",
-            "--link sim record --axis 2 position speed --for 5s -- pac-move 2 150",
-            "--link sim record --node 1 -m 0 position speed --count 50 -- cdios-goto -m 0 5000",
+            "--link 'sim?pac=online' record --axis 2 position speed --for 5s -- pac-move 2 150",
+            "--link 'sim?cdios=enabled' record --node 1 -m 0 position speed --count 50 -- cdios-goto -m 0 5000",
         ],
     ),
     (
@@ -196,7 +212,10 @@ pub fn after_help(path: &str) -> Option<String> {
 /// pipes of an example are the shell's, not axisctl's).
 #[cfg(test)]
 fn words(line: &str) -> Vec<&str> {
-    line.split_whitespace().take_while(|w| !matches!(*w, ">" | "|")).collect()
+    line.split_whitespace()
+        .take_while(|w| !matches!(*w, ">" | "|") && !w.starts_with('#'))
+        .map(|w| w.trim_matches('\''))
+        .collect()
 }
 
 #[cfg(test)]

@@ -37,7 +37,7 @@ pub fn run(ctx: &Ctx, cmd: BackupCommand) -> anyhow::Result<()> {
 fn families(ctx: &Ctx, named: &[Family]) -> anyhow::Result<Vec<Family>> {
     let link = ctx.link()?;
     let fits = |f: Family| match link {
-        LinkSpec::Sim => true,
+        LinkSpec::Sim(_) => true,
         LinkSpec::Serial { .. } => f.link_kind().rs232(),
         _ => f.link_kind().can(),
     };

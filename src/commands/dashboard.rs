@@ -73,7 +73,7 @@ fn link_option(args: &DashboardArgs, f: Family) -> (&'static str, Option<&str>) 
 fn fits(spec: &LinkSpec, f: Family) -> Result<(), String> {
     let kind = f.link_kind();
     match spec {
-        LinkSpec::Sim => Ok(()),
+        LinkSpec::Sim(_) => Ok(()),
         LinkSpec::Serial { .. } if !kind.rs232() => Err(format!("the {f} is on CAN (socketcan:, slcan: or sim)")),
         LinkSpec::SocketCan { .. } | LinkSpec::Slcan { .. } if !kind.can() => {
             Err(format!("the {f} talks RS232 (serial:TTY or sim)"))
@@ -188,8 +188,8 @@ impl Setup {
 /// How the status bar names a link.
 fn link_name(spec: &LinkSpec, can: bool) -> String {
     match (spec, can) {
-        (LinkSpec::Sim, true) => "sim CAN".into(),
-        (LinkSpec::Sim, false) => "sim RS232".into(),
+        (LinkSpec::Sim(_), true) => "sim CAN".into(),
+        (LinkSpec::Sim(_), false) => "sim RS232".into(),
         _ => spec.to_string(),
     }
 }
@@ -214,7 +214,7 @@ fn plan(ctx: &Ctx, args: &DashboardArgs) -> anyhow::Result<Vec<LinkPlan>> {
         let sources = setup.open(opener, &ctx.clock, spec, can, &fams)?;
         // A real link is opened again from the same path when it is lost;
         // the in-process simulator cannot go away.
-        let reopen: Option<Reopen> = (*spec != LinkSpec::Sim).then(|| {
+        let reopen: Option<Reopen> = (!matches!(spec, LinkSpec::Sim(_))).then(|| {
             let (setup, opener, clock, spec) = (setup.clone(), opener.fresh(), Arc::clone(&ctx.clock), spec.clone());
             Box::new(move || setup.open(&opener, &clock, &spec, can, &fams).map_err(|e| format!("{e:#}"))) as Reopen
         });
@@ -240,7 +240,11 @@ mod tests {
         let a = resolve(&["axisctl", "--link", "sim", "dashboard"]).unwrap();
         assert_eq!(
             (a.get(Family::PowerCube).cloned(), a.get(Family::Pac).cloned(), a.get(Family::Cdios).cloned()),
-            (Some(LinkSpec::Sim), Some(LinkSpec::Sim), Some(LinkSpec::Sim))
+            (
+                Some(LinkSpec::Sim(Default::default())),
+                Some(LinkSpec::Sim(Default::default())),
+                Some(LinkSpec::Sim(Default::default()))
+            )
         );
         let a =
             resolve(&["axisctl", "--link", "socketcan:can0", "dashboard", "--pac-link", "serial:/dev/ttyS0"]).unwrap();

@@ -169,7 +169,7 @@ pub fn run(ctx: &Ctx, a: &MonitorArgs) -> anyhow::Result<()> {
             }
         }
     } else {
-        if matches!(ctx.link()?, axisctl::link::LinkSpec::Sim) && !ctx.json {
+        if matches!(ctx.link()?, axisctl::link::LinkSpec::Sim(_)) && !ctx.json {
             crate::output::err_line(format_args!(
                 "axisctl: monitor: the in-process bench has no other client, so nothing will show; \
                  serve it with `axisctl sim` and monitor the link it prints (Ctrl-C ends)"

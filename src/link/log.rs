@@ -44,7 +44,7 @@ pub fn log_iface(spec: &LinkSpec) -> String {
     match spec {
         LinkSpec::SocketCan { iface } => iface.clone(),
         LinkSpec::Slcan { .. } => "slcan0".into(),
-        LinkSpec::Sim => "sim0".into(),
+        LinkSpec::Sim(_) => "sim0".into(),
         LinkSpec::Serial { .. } => "serial0".into(),
     }
 }

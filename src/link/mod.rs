@@ -13,7 +13,7 @@ pub mod slcan;
 pub mod socketcan;
 pub mod spec;
 
-pub use spec::{LinkSpec, SerialFormat, SpecError};
+pub use spec::{LinkSpec, PacStart, SerialFormat, SimStart, SpecError};
 
 use crate::proto::CanFrame;
 
@@ -67,7 +67,7 @@ pub fn open_can(spec: &LinkSpec) -> Result<Box<dyn CanLink>, LinkError> {
         LinkSpec::Serial { path, .. } => {
             Err(unsupported(path, "a serial: link carries bytes, not CAN frames (use slcan: for a USB-CAN adapter)"))
         }
-        LinkSpec::Sim => Err(unsupported("sim", "the simulated bench is opened by the sim module, not as a device")),
+        LinkSpec::Sim(_) => Err(unsupported("sim", "the simulated bench is opened by the sim module, not as a device")),
     }
 }
 

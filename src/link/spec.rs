@@ -72,7 +72,18 @@ pub enum LinkSpec {
         baud: Option<u32>,
         format: Option<SerialFormat>,
     },
-    Sim,
+    /// The in-process bench, in the state it starts in.
+    Sim(SimStart),
+}
+
+/// How the in-process bench starts (`sim?pac=online&cdios=enabled`): what a
+/// technician would have done by hand first, so that a command that needs
+/// it can be tried on its own (each command gets a fresh bench).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Hash)]
+pub struct SimStart {
+    pub pac: PacStart,
+    /// The Cdios node started and every motor enabled.
+    pub cdios_enabled: bool,
 }
 
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
@@ -81,7 +92,7 @@ pub struct SpecError(pub String);
 
 impl LinkSpec {
     pub fn is_can(&self) -> bool {
-        matches!(self, Self::SocketCan { .. } | Self::Slcan { .. } | Self::Sim)
+        matches!(self, Self::SocketCan { .. } | Self::Slcan { .. } | Self::Sim(_))
     }
 }
 
@@ -90,7 +101,10 @@ impl std::str::FromStr for LinkSpec {
 
     fn from_str(uri: &str) -> Result<Self, SpecError> {
         if uri == "sim" {
-            return Ok(Self::Sim);
+            return Ok(Self::Sim(SimStart::default()));
+        }
+        if let Some(query) = uri.strip_prefix("sim?") {
+            return sim_start(uri, query).map(Self::Sim);
         }
         let (scheme, rest) = uri
             .split_once(':')
@@ -151,10 +165,42 @@ impl std::str::FromStr for LinkSpec {
                 }
                 Ok(Self::Serial { path: path.into(), baud, format })
             }
-            "sim" => Err(SpecError(format!("{uri:?}: the simulated bench takes no path or options: --link sim"))),
+            "sim" => Err(SpecError(format!(
+                "{uri:?}: the simulated bench takes no path: --link sim, or sim?pac=online&cdios=enabled"
+            ))),
             _ => Err(SpecError(format!("{uri:?}: unknown link type {scheme:?} (socketcan, slcan, serial or sim)"))),
         }
     }
+}
+
+/// The PA-CONTROL's mode when the in-process bench starts.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Hash)]
+pub enum PacStart {
+    /// Home position, as after power-up.
+    #[default]
+    Home,
+    /// Online mode with every axis referenced (0603, then 0A83 per axis).
+    Online,
+    /// Automatic mode started from home position (0602).
+    Automatic,
+}
+
+/// `pac=online|automatic`, `cdios=enabled`, joined with `&`.
+fn sim_start(uri: &str, query: &str) -> Result<SimStart, SpecError> {
+    let mut start = SimStart::default();
+    for pair in query.split('&') {
+        match pair {
+            "pac=online" => start.pac = PacStart::Online,
+            "pac=automatic" => start.pac = PacStart::Automatic,
+            "cdios=enabled" => start.cdios_enabled = true,
+            _ => {
+                return Err(SpecError(format!(
+                "{uri:?}: {pair:?} is no start state of the simulated bench (pac=online, pac=automatic, cdios=enabled)"
+            )))
+            }
+        }
+    }
+    Ok(start)
 }
 
 impl fmt::Display for LinkSpec {
@@ -174,7 +220,25 @@ impl fmt::Display for LinkSpec {
                 }
                 Ok(())
             }
-            Self::Sim => f.write_str("sim"),
+            Self::Sim(start) => {
+                f.write_str("sim")?;
+                let mut sep = '?';
+                match start.pac {
+                    PacStart::Home => {}
+                    PacStart::Online => {
+                        write!(f, "{sep}pac=online")?;
+                        sep = '&';
+                    }
+                    PacStart::Automatic => {
+                        write!(f, "{sep}pac=automatic")?;
+                        sep = '&';
+                    }
+                }
+                if start.cdios_enabled {
+                    write!(f, "{sep}cdios=enabled")?;
+                }
+                Ok(())
+            }
         }
     }
 }
@@ -185,7 +249,12 @@ mod tests {
 
     #[test]
     fn parses_every_form() {
-        assert_eq!("sim".parse(), Ok(LinkSpec::Sim));
+        assert_eq!("sim".parse(), Ok(LinkSpec::Sim(SimStart::default())));
+        let both = SimStart { pac: PacStart::Online, cdios_enabled: true };
+        assert_eq!("sim?pac=online&cdios=enabled".parse(), Ok(LinkSpec::Sim(both)));
+        assert_eq!(LinkSpec::Sim(both).to_string(), "sim?pac=online&cdios=enabled");
+        assert_eq!("sim?cdios=enabled".parse::<LinkSpec>().unwrap().to_string(), "sim?cdios=enabled");
+        assert_eq!("sim?pac=automatic".parse::<LinkSpec>().unwrap().to_string(), "sim?pac=automatic");
         assert_eq!("socketcan:can0".parse(), Ok(LinkSpec::SocketCan { iface: "can0".into() }));
         assert_eq!(
             "slcan:/dev/ttyACM0".parse(),
@@ -223,6 +292,11 @@ mod tests {
     #[test]
     fn a_sim_with_a_path_is_told_how_sim_is_written() {
         let e = "sim:x".parse::<LinkSpec>().unwrap_err();
-        assert_eq!(e.to_string(), "bad link \"sim:x\": the simulated bench takes no path or options: --link sim");
+        assert_eq!(
+            e.to_string(),
+            "bad link \"sim:x\": the simulated bench takes no path: --link sim, or sim?pac=online&cdios=enabled"
+        );
+        assert!("sim?pac=offline".parse::<LinkSpec>().is_err());
+        assert!("sim?".parse::<LinkSpec>().is_err());
     }
 }

@@ -228,13 +228,19 @@ pub fn subcommands_and_sim_examples(path: &[String], out: &mut Vec<(String, Vec<
             .map(|s| s.lines().take_while(|l| l.starts_with("  ") || l.is_empty()).map(str::to_string).collect())
             .unwrap_or_default()
     };
+    // `axisctl --link sim ...` and `axisctl --link 'sim?pac=online' ...`:
+    // the words after `axisctl`, the link's quotes taken off as the shell does.
     let examples = section("Examples")
         .iter()
-        .filter_map(|l| l.trim().strip_prefix("axisctl --link sim "))
+        .map(|l| l.trim())
+        .filter(|l| l.starts_with("axisctl --link sim ") || l.starts_with("axisctl --link 'sim?"))
         .map(|l| {
-            let l = l.split('#').next().unwrap_or_default();
+            let l = l.strip_prefix("axisctl ").unwrap_or(l).split('#').next().unwrap_or_default();
             // Redirections and pipes belong to the shell, not to axisctl.
-            l.split_whitespace().take_while(|w| !matches!(*w, ">" | "|" | "&&")).map(str::to_string).collect()
+            l.split_whitespace()
+                .take_while(|w| !matches!(*w, ">" | "|" | "&&"))
+                .map(|w| w.trim_matches('\'').to_string())
+                .collect()
         })
         .collect();
     if !path.is_empty() {
