@@ -11,7 +11,6 @@ mod common;
 
 use std::io::{BufRead, BufReader};
 use std::os::unix::fs::PermissionsExt;
-use std::os::unix::process::CommandExt;
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
@@ -303,30 +302,45 @@ fn a_stopped_holder_is_continued_and_halts() {
     assert!(cube_stands(&locks, link), "module 3 still moving");
 }
 
-/// `cmd` with SIGTERM blocked in the process it starts: a holder that is
-/// asked but cannot act on it.
-fn sigterm_blocked(mut cmd: Command) -> Command {
-    // SAFETY: sigprocmask(2) between fork and exec touches nothing shared;
-    // the mask is kept across exec and axisctl never unblocks it.
-    unsafe {
-        cmd.pre_exec(|| {
-            let mut set: libc::sigset_t = std::mem::zeroed();
-            libc::sigemptyset(&mut set);
-            libc::sigaddset(&mut set, libc::SIGTERM);
-            match libc::sigprocmask(libc::SIG_BLOCK, &set, std::ptr::null_mut()) {
-                0 => Ok(()),
-                _ => Err(std::io::Error::last_os_error()),
-            }
-        });
+/// A holder that is asked but cannot act on it: its `--trace` goes into a
+/// pipe of one page that nobody reads once the motion frame left, so it
+/// hangs in write(2) (a wait piped into a pager that was paused). Since
+/// arming unblocks the signals and the halt sends SIGCONT with SIGTERM, an
+/// axisctl holder that still runs always lets go; one stuck in the kernel
+/// does not. Returns the holder's PID, the child and the pipe's reader.
+fn stuck_holder(locks: &Locks, link: &str) -> (Child, std::fs::File) {
+    use std::os::fd::AsRawFd;
+    let mut child =
+        locks.cmd().arg("--trace").args(ramp_args(link)).stdout(Stdio::null()).stderr(Stdio::piped()).spawn().unwrap();
+    let err = child.stderr.take().unwrap();
+    // SAFETY: fcntl(2) on the pipe this test owns; one page is its minimum.
+    unsafe { libc::fcntl(err.as_raw_fd(), libc::F_SETPIPE_SZ, 4096) };
+    let mut reader = BufReader::new(std::fs::File::from(std::os::fd::OwnedFd::from(err)));
+    let deadline = Instant::now() + Duration::from_secs(10);
+    let mut line = String::new();
+    while !(line.starts_with("-> ") && line.contains("SetMotion")) {
+        line.clear();
+        assert!(reader.read_line(&mut line).unwrap() > 0 && Instant::now() < deadline, "the motion frame left");
     }
-    cmd
+    let pid = child.id();
+    let deadline = Instant::now() + Duration::from_secs(20);
+    while !in_syscall(pid, &[libc::SYS_write]) {
+        assert!(Instant::now() < deadline, "the holder never filled its trace pipe");
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    (child, reader.into_inner())
 }
 
-/// Whether a SIGTERM waits in the pending set of process `pid`.
-fn sigterm_pending(pid: u32) -> bool {
-    let status = std::fs::read_to_string(format!("/proc/{pid}/status")).unwrap_or_default();
-    let pending = status.lines().find_map(|l| l.strip_prefix("ShdPnd:")).unwrap_or("0");
-    u64::from_str_radix(pending.trim(), 16).unwrap_or(0) & (1 << (libc::SIGTERM - 1)) != 0
+/// Whether process `pid` waits in one of `calls` (its main thread, per /proc).
+fn in_syscall(pid: u32, calls: &[libc::c_long]) -> bool {
+    let text = std::fs::read_to_string(format!("/proc/{pid}/syscall")).unwrap_or_default();
+    text.split_whitespace().next().and_then(|n| n.parse::<libc::c_long>().ok()).is_some_and(|n| calls.contains(&n))
+}
+
+/// Ends a holder this test started.
+fn kill_and_reap(mut child: Child) {
+    let _ = child.kill();
+    let _ = child.wait();
 }
 
 /// The adapter is unplugged while the halt waits for the holder to let go:
@@ -337,15 +351,16 @@ fn a_port_that_goes_away_during_a_takeover_ends_it_with_that_error() {
     let locks = Locks::new();
     let mut s = Sim::start(&["--powercube", "pty-slcan"], 1);
     let link = s.link("powercube").to_string();
-    let holder = Holding::spawn(sigterm_blocked(locks.cmd()), &ramp_args(&link), "SetMotion");
-    let pid = holder.pid();
+    let (holder, _pipe) = stuck_holder(&locks, &link);
     let mut halt = locks.cmd();
     let halt =
         halt.args(["--link", &link, "halt", "--all"]).stdout(Stdio::piped()).stderr(Stdio::piped()).spawn().unwrap();
+    // The halt sleeps between its tries only once it found the port busy
+    // and asked the holder.
     let deadline = Instant::now() + Duration::from_secs(20);
-    while !sigterm_pending(pid) {
-        assert!(Instant::now() < deadline, "the halt never asked the holder");
-        std::thread::sleep(Duration::from_millis(5));
+    while !in_syscall(halt.id(), &[libc::SYS_nanosleep, libc::SYS_clock_nanosleep]) {
+        assert!(Instant::now() < deadline, "the halt never waited for the holder");
+        std::thread::sleep(Duration::from_millis(2));
     }
     s.unplug();
     let out = wait_output(halt, 20, &["halt", "--all"]);
@@ -353,21 +368,18 @@ fn a_port_that_goes_away_during_a_takeover_ends_it_with_that_error() {
     assert_eq!(out.status.code(), Some(3), "{stderr}");
     assert!(!stderr.contains("did not release") && !stderr.contains("device busy"), "{stderr}");
     assert!(stderr.contains(tty(&link)), "{stderr}");
-    // SAFETY: kill(2) on the holder this test started.
-    unsafe { libc::kill(pid as i32, libc::SIGKILL) };
-    holder.end(10);
+    kill_and_reap(holder);
 }
 
-/// A holder that cannot let go in time (its SIGTERM blocked, so it stays
-/// pending): the halt gives up after its bound with exit 3 and names it,
-/// having signalled it once.
+/// A holder that cannot let go in time (stuck in a write): the halt gives
+/// up after its bound with exit 3 and names it, having signalled it once.
 #[test]
 fn a_holder_that_does_not_let_go_in_time_is_exit_3_naming_it() {
     let locks = Locks::new();
     let s = Sim::start(&["--powercube", "pty-slcan"], 1);
     let link = s.link("powercube");
-    let holder = Holding::spawn(sigterm_blocked(locks.cmd()), &ramp_args(link), "SetMotion");
-    let pid = holder.pid();
+    let (holder, _pipe) = stuck_holder(&locks, link);
+    let pid = holder.id();
     let t0 = Instant::now();
     let r = locks.run(&["--link", link, "halt", "--all"]);
     let took = t0.elapsed();
@@ -375,10 +387,8 @@ fn a_holder_that_does_not_let_go_in_time_is_exit_3_naming_it() {
     assert!(r.stderr.contains(&format!("held by axisctl PID {pid} (")), "{}", r.stderr);
     assert!(r.stderr.contains("was sent SIGTERM but did not release it within 5 s"), "{}", r.stderr);
     assert!(took >= Duration::from_secs(5) && took < Duration::from_secs(10), "gave up after {took:?}");
-    assert!(sigterm_pending(pid), "it was asked: the SIGTERM waits in its pending set");
-    // SAFETY: kill(2) on the holder this test started.
-    assert_eq!(unsafe { libc::kill(pid as i32, libc::SIGKILL) }, 0);
-    assert_eq!(holder.end(10).0, None);
+    assert!(in_syscall(pid, &[libc::SYS_write]), "the holder is still stuck, holding the port");
+    kill_and_reap(holder);
     let h = locks.run(&["--link", link, "halt", "--all"]);
     assert_eq!(h.code, 0, "{}", h.stderr);
     assert!(cube_stands(&locks, link), "module 3 still moving");
