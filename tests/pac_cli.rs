@@ -431,3 +431,26 @@ fn sim_a_killed_client_does_not_poison_the_line() {
         assert_eq!(slow(&["pac-axis", "2"]), axis);
     }
 }
+
+/// Stops are idempotent: a controller in home position has nothing moving,
+/// so `pac-stop` and `pac-stop-axis` exit 0 and say so; online they stop.
+#[test]
+fn stops_of_a_controller_at_rest_exit_0_and_say_so() {
+    for args in [&["pac-stop"][..], &["pac-stop-axis", "2"], &["pac-stop-axis", "2", "--wait"]] {
+        let mut all = vec!["--link", "sim", "--json"];
+        all.extend_from_slice(args);
+        let r = run(&all);
+        assert_eq!(r.code, 0, "{args:?}: {}", r.stderr);
+        assert_eq!(r.json()["already_stopped"], true, "{args:?}: {}", r.stdout);
+        let mut online = vec!["--link", "sim?pac=online", "--json"];
+        online.extend_from_slice(args);
+        let r = run(&online);
+        assert_eq!(r.code, 0, "{args:?}: {}", r.stderr);
+        let doc = r.json();
+        assert_eq!(
+            (doc["already_stopped"].as_bool(), doc["acknowledged"].as_bool()),
+            (Some(false), Some(true)),
+            "{args:?}"
+        );
+    }
+}

@@ -157,13 +157,64 @@ fn simple(ctx: &Ctx, d: &mut Controller, code: u16, axis: Option<u8>, value: Opt
 }
 
 /// A stop, then what became of the process that held the line, if one did.
+/// Idempotent: in home position nothing moves, which is the state asked
+/// for (exit 0, `already_stopped`).
 fn stop(ctx: &Ctx, d: &mut Controller, code: u16, axis: Option<u8>, takeover: Option<&Takeover>) -> anyhow::Result<()> {
-    let done = d.send(code, axis.map_or(0, i64::from), None).map_err(|e| super::takeover::failed(e, takeover))?;
-    report(ctx, code, axis, None, done.ack, HolderReport::after_halt(takeover));
+    let par1 = axis.map_or(0, i64::from);
+    match d.stop_by_hand(code, par1).map_err(|e| super::takeover::failed(e, takeover))? {
+        device::StopOutcome::Sent(done) => report_with(
+            ctx,
+            code,
+            axis,
+            None,
+            done.ack,
+            HolderReport::after_halt(takeover),
+            json!({"already_stopped": false}),
+        ),
+        device::StopOutcome::AtRest { status } => {
+            let holder = HolderReport::after_halt(takeover);
+            let def = def(code);
+            if ctx.json {
+                let envelope = axis.map_or_else(|| controller(ctx), |a| on_axis(ctx, a));
+                let mut doc = doc(
+                    envelope,
+                    json!({"command": def.name, "command_code": def.code_hex(), "par1": par1,
+                           "acknowledged": false, "already_stopped": true, "operating_status": status,
+                           "operating_status_text": table::operating_status_text(status)}),
+                );
+                if let Some(h) = &holder {
+                    doc["holder"] = h.json();
+                }
+                output::json(&doc);
+            } else {
+                if let Some(h) = &holder {
+                    say!("{}", h.line());
+                }
+                say!(
+                    "PA-CONTROL in {}: nothing moves, nothing to stop ({} not sent)",
+                    table::operating_status_text(status),
+                    def.code_hex()
+                );
+            }
+        }
+    }
     Ok(())
 }
 
 fn report(ctx: &Ctx, code: u16, axis: Option<u8>, value: Option<f64>, ack: Ack, holder: Option<HolderReport>) {
+    report_with(ctx, code, axis, value, ack, holder, json!({}));
+}
+
+/// [`report`] with `extra` keys in the JSON document.
+fn report_with(
+    ctx: &Ctx,
+    code: u16,
+    axis: Option<u8>,
+    value: Option<f64>,
+    ack: Ack,
+    holder: Option<HolderReport>,
+    extra: serde_json::Value,
+) {
     let envelope = match axis {
         Some(a) => on_axis(ctx, a),
         None => controller(ctx),
@@ -187,6 +238,7 @@ fn report(ctx: &Ctx, code: u16, axis: Option<u8>, value: Option<f64>, ack: Ack, 
             doc["ack_value"] = par_json(&v);
         }
         merge(&mut doc, status_json(&ack));
+        merge(&mut doc, extra);
         if let Some(h) = &holder {
             doc["holder"] = h.json();
         }

@@ -31,6 +31,15 @@ pub use error::Error;
 pub use halt::{HaltStep, HaltTarget};
 pub use motion::{Halted, MoveProgress, MoveStart};
 
+/// How a stop asked for by hand went ([`Controller::stop_by_hand`]).
+#[derive(Debug)]
+pub enum StopOutcome {
+    /// Sent and acknowledged.
+    Sent(Done),
+    /// Nothing to stop: the controller is in home position (`status`).
+    AtRest { status: u16 },
+}
+
 use crate::proto::pac::session::Step;
 use crate::proto::pac::table::{self, CommandDef, Mode};
 use crate::proto::pac::validate::{self, Context};
@@ -315,6 +324,21 @@ impl Controller {
     /// sent without the local mode check, the QUIT says if it was pointless).
     pub fn stop(&mut self) -> Result<Done> {
         self.send(0x0600, 0, None)
+    }
+
+    /// A stop that a person or a script asked for (0600, 0A9A, 0A93): in home
+    /// position no axis moves (halt-all's table), so that is the state asked
+    /// for and nothing is sent but the status read; the stop would only be
+    /// refused there. In every other mode, or while a command of ours runs,
+    /// the stop goes out as before.
+    pub fn stop_by_hand(&mut self, code: u16, par1: i64) -> Result<StopOutcome> {
+        if self.busy().is_none() {
+            let status = self.read_status()?;
+            if table::mode_of_status(status) == Some(Mode::Home) {
+                return Ok(StopOutcome::AtRest { status });
+            }
+        }
+        Ok(StopOutcome::Sent(self.send(code, par1, None)?))
     }
 
     /// 0A97: switch an axis on.

@@ -538,3 +538,18 @@ fn a_halt_on_a_line_of_late_answers_stops_the_axis_and_ends_the_stop() {
     assert_eq!(rig.sim().busy(), None, "the stop was polled to its end");
     assert_ne!(rig.sim().axis_status(1), Some(1));
 }
+
+/// A stop asked for by hand is idempotent: in home position nothing moves,
+/// so only the status is read and the stop is not sent; in a moving mode
+/// the stop goes out.
+#[test]
+fn a_stop_by_hand_in_home_position_sends_only_the_status_read() {
+    for (code, par1) in [(0x0600, 0), (0x0A9A, 2), (0x0A93, 2)] {
+        let (mut d, seen) = fake(1, &[]);
+        assert!(matches!(d.stop_by_hand(code, par1).unwrap(), StopOutcome::AtRest { status: 1 }), "{code:04X}");
+        assert_eq!(*seen.lock().unwrap(), [0x190B], "{code:04X}");
+        let (mut d, seen) = fake(31, &[]);
+        assert!(matches!(d.stop_by_hand(code, par1).unwrap(), StopOutcome::Sent(_)), "{code:04X}");
+        assert_eq!(seen.lock().unwrap().last(), Some(&code), "online: the stop goes out");
+    }
+}
