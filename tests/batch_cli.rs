@@ -498,3 +498,19 @@ fn a_line_past_the_line_limit_is_refused_and_nothing_of_its_window_runs() {
     );
     assert!(!r.stderr.lines().any(|l| l.starts_with("->")), "line 1 was not run either: {}", r.stderr);
 }
+
+/// A file saved with a byte order mark runs as it reads; `--bench` and
+/// `--quiet` on a line are refused as the other global options are (they
+/// apply to the whole batch), instead of being taken and ignored.
+#[test]
+fn a_byte_order_mark_is_no_part_of_the_first_command_and_bench_or_quiet_on_a_line_are_refused() {
+    let file = script("\u{feff}state -m 3\nstate -m 5\n");
+    let r = common::run(&["--link", "sim", "batch", file.path().to_str().unwrap()]);
+    assert_eq!(r.code, 0, "{}", r.stderr);
+    assert_eq!(r.stdout.matches("CubeState").count(), 2, "{}", r.stdout);
+    for (line, flag) in [("state -m 3 --bench x.toml\n", "--bench"), ("state -m 3 -q\n", "--quiet")] {
+        let r = run_with_stdin(&["--link", "sim", "batch", "-"], line);
+        assert_eq!(r.code, 2, "{line:?}: {}", r.stderr);
+        assert!(r.stderr.contains(&format!("{flag} on a line: give it to batch or shell itself")), "{}", r.stderr);
+    }
+}

@@ -46,6 +46,8 @@ const GLOBAL: &[(&str, &str)] = &[
     ("log", "--log"),
     ("retries", "--retries"),
     ("pac_check_etx", "--pac-check-etx"),
+    ("bench", "--bench"),
+    ("quiet", "--quiet"),
 ];
 
 /// One line, ready to run.
@@ -91,6 +93,9 @@ impl<'a> Engine<'a> {
     /// Parses one line: `None` for a blank line or a comment.
     pub fn parse(&mut self, text: &str) -> Result<Option<Line>, LineError> {
         let bad = |message: String| LineError { message, argument: None };
+        // A file saved with a byte order mark (Windows editors) starts with
+        // U+FEFF, which is no part of the first command's name.
+        let text = text.strip_prefix('\u{feff}').unwrap_or(text);
         let words = shlex::split(text).ok_or_else(|| bad("unbalanced quotes or a trailing backslash".into()))?;
         if words.is_empty() {
             return Ok(None);
