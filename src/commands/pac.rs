@@ -173,23 +173,15 @@ fn stop(ctx: &Ctx, d: &mut Controller, code: u16, axis: Option<u8>, takeover: Op
         ),
         device::StopOutcome::AtRest { status } => {
             let holder = HolderReport::after_halt(takeover);
-            let def = def(code);
             if ctx.json {
-                let envelope = axis.map_or_else(|| controller(ctx), |a| on_axis(ctx, a));
-                let mut doc = doc(
-                    envelope,
-                    json!({"command": def.name, "command_code": def.code_hex(), "par1": par1,
-                           "acknowledged": false, "already_stopped": true, "operating_status": status,
-                           "operating_status_text": table::operating_status_text(status)}),
-                );
-                if let Some(h) = &holder {
-                    doc["holder"] = h.json();
-                }
-                output::json(&doc);
+                let fields = json!({"acknowledged": false, "already_stopped": true, "operating_status": status,
+                                    "operating_status_text": table::operating_status_text(status)});
+                output::json(&command_doc(ctx, code, axis, fields, holder.as_ref()));
             } else {
                 if let Some(h) = &holder {
                     say!("{}", h.line());
                 }
+                let def = def(code);
                 say!(
                     "PA-CONTROL in {}: nothing moves, nothing to stop ({} not sent)",
                     table::operating_status_text(status),
@@ -199,6 +191,26 @@ fn stop(ctx: &Ctx, d: &mut Controller, code: u16, axis: Option<u8>, takeover: Op
         }
     }
     Ok(())
+}
+
+/// The document of one command to the controller or an axis: its envelope,
+/// the command's names and PAR_1, `fields`, and the holder that let go.
+fn command_doc(
+    ctx: &Ctx,
+    code: u16,
+    axis: Option<u8>,
+    fields: serde_json::Value,
+    holder: Option<&HolderReport>,
+) -> serde_json::Value {
+    let envelope = axis.map_or_else(|| controller(ctx), |a| on_axis(ctx, a));
+    let def = def(code);
+    let mut d =
+        doc(envelope, json!({"command": def.name, "command_code": def.code_hex(), "par1": axis.map_or(0, i64::from)}));
+    merge(&mut d, fields);
+    if let Some(h) = holder {
+        d["holder"] = h.json();
+    }
+    d
 }
 
 fn report(ctx: &Ctx, code: u16, axis: Option<u8>, value: Option<f64>, ack: Ack, holder: Option<HolderReport>) {
@@ -215,22 +227,13 @@ fn report_with(
     holder: Option<HolderReport>,
     extra: serde_json::Value,
 ) {
-    let envelope = match axis {
-        Some(a) => on_axis(ctx, a),
-        None => controller(ctx),
-    };
-    let par1 = axis.map_or(0, i64::from);
     let def = def(code);
     let ack_value = match def.ack {
         table::AckKind::None => None,
         _ => Some(ack.q_par),
     };
     if ctx.json {
-        let mut doc = doc(
-            envelope,
-            json!({"command": def.name, "command_code": def.code_hex(), "par1": par1,
-                                           "acknowledged": true}),
-        );
+        let mut doc = command_doc(ctx, code, axis, json!({"acknowledged": true}), holder.as_ref());
         if let Some(v) = value {
             doc["par2"] = json!(v);
         }
@@ -239,9 +242,6 @@ fn report_with(
         }
         merge(&mut doc, status_json(&ack));
         merge(&mut doc, extra);
-        if let Some(h) = &holder {
-            doc["holder"] = h.json();
-        }
         output::json(&doc);
     } else {
         if let Some(h) = &holder {
