@@ -42,7 +42,7 @@ fn in_process_sim_answers_status_and_position() {
     assert!(flags(&doc).contains(&"POSITION_NOT_INITIALIZED".to_string()), "{doc}");
     let p = run(&["--link", "sim", "--json", "cdios-position", "-m", "1"]);
     ok(&p, "position");
-    assert_eq!(p.json()["position"], 0);
+    assert_eq!(p.json()["position"], serde_json::json!({"value": 0, "unit": "counts"}));
 }
 
 #[test]
@@ -64,15 +64,18 @@ fn enable_then_goto_wait_reaches_the_target() {
     let r = run(&["--link", link, "--json", "cdios-goto", "-m", "1", "5000", "--wait"]);
     ok(&r, "goto --wait");
     let doc = r.json();
-    assert_eq!((doc["position"].as_i64(), doc["target"].as_i64()), (Some(5000), Some(5000)), "{doc}");
+    assert_eq!((doc["position"]["value"].as_i64(), doc["target"]["value"].as_i64()), (Some(5000), Some(5000)), "{doc}");
     assert!(!flags(&doc).contains(&"GOTO_ACTIVE".to_string()));
     let r =
         run(&["--link", link, "--json", "cdios-goto", "-m", "1", "-1500", "--relative", "--speed", "800", "--wait"]);
     ok(&r, "relative goto --wait");
-    assert_eq!(r.json()["target"], 3500);
+    assert_eq!(r.json()["target"]["value"], 3500);
     let p = run(&["--link", link, "--json", "cdios-position", "-m", "1", "--all"]);
     ok(&p, "position --all");
-    assert_eq!((p.json()["position"].as_i64(), p.json()["setpoint"].as_i64()), (Some(3500), Some(3500)));
+    assert_eq!(
+        (p.json()["position"]["value"].as_i64(), p.json()["setpoint"]["value"].as_i64()),
+        (Some(3500), Some(3500))
+    );
 }
 
 #[test]
@@ -115,7 +118,8 @@ fn ctrl_c_during_goto_wait_stops_the_motor_and_exits_130() {
     assert!(String::from_utf8_lossy(&out.stderr).contains("stopped"));
     let st = run(&["--link", &link, "--json", "cdios-status", "-m", "0"]);
     assert!(!flags(&st.json()).contains(&"GOTO_ACTIVE".to_string()), "{}", st.stdout);
-    let p = run(&["--link", &link, "--json", "cdios-position", "-m", "0"]).json()["position"].as_i64().unwrap();
+    let p =
+        run(&["--link", &link, "--json", "cdios-position", "-m", "0"]).json()["position"]["value"].as_i64().unwrap();
     assert!(p > 0 && p < 1_000_000, "stopped on the way: {p}");
 }
 
@@ -162,7 +166,7 @@ fn powercube_and_cdios_share_one_slcan_pty() {
     ok(&run(&["--link", pc, "get-param", "-m", "5", "ActPos"]), "get-param");
     let g = run(&["--link", cd, "--json", "cdios-goto", "-m", "0", "1200", "--wait"]);
     ok(&g, "goto");
-    assert_eq!(g.json()["position"], 1200);
+    assert_eq!(g.json()["position"]["value"], 1200);
     ok(&run(&["--link", pc, "home", "-m", "3"]), "home");
     ok(&run(&["--link", cd, "cdios-status", "-m", "1"]), "status");
 }

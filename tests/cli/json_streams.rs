@@ -119,8 +119,8 @@ fn cdios_watch_statuses_and_events_follow_the_schema() {
     let r = run(&["--link", link, "--json", "cdios-watch", "-m", "0", "--count", "6"]);
     assert_eq!(r.code, 0, "{}", r.stderr);
     let lines = stream_lines("cdios-watch", &r.stdout);
-    assert!(lines.iter().any(|l| l["type"] == "status"), "{}", r.stdout);
-    assert!(lines.iter().any(|l| l["type"] == "event"), "{}", r.stdout);
+    assert!(lines.iter().any(|l| l["kind"] == "status"), "{}", r.stdout);
+    assert!(lines.iter().any(|l| l["kind"] == "event"), "{}", r.stdout);
     for l in &lines {
         assert_eq!((l["family"].as_str(), l["link"].as_str(), &l["node"]), (Some("cdios"), Some(link), &1.into()));
     }

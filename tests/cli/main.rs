@@ -19,7 +19,6 @@ mod emergency_halt;
 mod faults_cli;
 mod flags_cli;
 mod guide_walkthrough;
-mod input_bounds;
 mod json_docs;
 mod json_streams;
 mod monitor_cli;

@@ -69,7 +69,14 @@ fn cdios_reads_take_a_list_or_all() {
     assert_eq!(devices(&["--link", "sim", "--json", "cdios-status", "-m", "all"], "module").0, [0, 1]);
     let (ids, doc) = devices(&["--link", "sim", "--json", "cdios-position", "-m", "0,1", "--all"], "module");
     assert_eq!(ids, [0, 1]);
-    assert!(doc["devices"].as_array().unwrap().iter().all(|d| d["node"] == 1 && d["setpoint"].is_i64()), "{doc}");
+    assert!(
+        doc["devices"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .all(|d| d["node"] == 1 && d["setpoint"]["value"].is_i64() && d["setpoint"]["unit"] == "counts"),
+        "{doc}"
+    );
 }
 
 // The modules home together and are waited for one after the other: each

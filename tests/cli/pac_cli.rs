@@ -454,3 +454,27 @@ fn stops_of_a_controller_at_rest_exit_0_and_say_so() {
         );
     }
 }
+
+// Issue 21, item 6: `command` is the axisctl subcommand as typed, in one
+// process and on a batch line alike; the manual's name has its own key.
+#[test]
+fn command_is_the_subcommand_and_the_manual_name_has_its_own_key() {
+    let r = run(&["--link", "sim", "--json", "pac-online"]);
+    assert_eq!(r.code, 0, "{}", r.stderr);
+    assert_eq!(
+        (r.json()["command"].as_str(), r.json()["manual_command"].as_str()),
+        (Some("pac-online"), Some("start-online"))
+    );
+    let r = common::run_with_stdin(&["--link", "sim", "--json", "batch", "-"], "pac-online\npac-raw 0A81 0\n");
+    assert_eq!(r.code, 0, "{}", r.stderr);
+    let lines: Vec<serde_json::Value> = r.stdout.lines().map(|l| serde_json::from_str(l).unwrap()).collect();
+    let names: Vec<_> =
+        lines.iter().map(|l| (l["result"]["command"].clone(), l["result"]["manual_command"].clone())).collect();
+    assert_eq!(
+        names,
+        [
+            (serde_json::json!("pac-online"), serde_json::json!("start-online")),
+            (serde_json::json!("pac-raw"), serde_json::json!("abort-online"))
+        ]
+    );
+}

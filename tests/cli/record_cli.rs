@@ -537,7 +537,7 @@ fn ctrl_c_during_a_recorded_cdios_goto_stops_the_motor() {
     );
     assert_eq!(code, 130, "{err}");
     assert!(err.contains("interrupted: module 0 fast stop sent"), "{err}");
-    let pos = |r: Run| r.json()["position"].as_i64().unwrap_or_else(|| panic!("{}", r.stdout));
+    let pos = |r: Run| r.json()["position"]["value"].as_i64().unwrap_or_else(|| panic!("{}", r.stdout));
     let stopped_at = pos(run(&["--link", cdios, "--json", "cdios-position", "-m", "0"]));
     std::thread::sleep(Duration::from_millis(300));
     assert_eq!(pos(run(&["--link", cdios, "--json", "cdios-position", "-m", "0"])), stopped_at, "still running");

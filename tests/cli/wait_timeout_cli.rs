@@ -154,7 +154,7 @@ fn a_cdios_goto_and_traject_that_run_out_are_wait_timeouts_and_stop_the_motor() 
         "wait timed out after 0.5 s: node 1 module 0 was still running the goto (it answered every poll); \
          node 1 module 0 stopped (fast stop)"
     );
-    let at = ok(&["--link", link, "--json", "cdios-position", "-m", "0"])["position"].as_i64().unwrap();
+    let at = ok(&["--link", link, "--json", "cdios-position", "-m", "0"])["position"]["value"].as_i64().unwrap();
     assert!(at > 0 && at < 1_000_000, "stopped on the way: {at}");
     assert_stands(link);
 
@@ -168,7 +168,7 @@ fn a_cdios_goto_and_traject_that_run_out_are_wait_timeouts_and_stop_the_motor() 
          node 1 module 0 stopped (fast stop)"
     );
     assert_stands(link);
-    let now = ok(&["--link", link, "--json", "cdios-position", "-m", "0"])["position"].as_i64().unwrap();
+    let now = ok(&["--link", link, "--json", "cdios-position", "-m", "0"])["position"]["value"].as_i64().unwrap();
     assert!(now > at && now < at + 200_000, "stopped on the way: {at} -> {now}");
 }
 

@@ -3,7 +3,7 @@
 //! --force, a wait that can never end or cannot be timed, answer timeouts
 //! and retry counts outside what a bench can use.
 
-use crate::common;
+mod common;
 
 use common::run;
 
