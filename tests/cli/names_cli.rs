@@ -78,3 +78,55 @@ fn misspelled_names_get_did_you_mean_before_anything_opens() {
     // Names that are right pass, in any case.
     ok(&["--link", "sim", "get-param", "-m", "17", "actpos", "0x3c"]);
 }
+
+/// Words that look like PowerCube parameter names (a table prefix such as
+/// `Act`, `Def`, `Max` and a capital after it) in every `--help` page, the
+/// README and docs/: each is a parameter of the table, or a pattern of
+/// them (`ActI*`), or a misspelling shown as such (`"MaxVell" (did you
+/// mean`). Issue 25: `record --help` named `ActCur`, which does not exist.
+#[test]
+fn every_parameter_named_in_help_or_docs_exists() {
+    let table: serde_json::Value = run(&["--json", "params", "powercube"]).json();
+    let names: std::collections::HashSet<&str> =
+        table["parameters"]["powercube"].as_array().unwrap().iter().map(|p| p["name"].as_str().unwrap()).collect();
+    let mut texts: Vec<(String, String)> =
+        common::help_pages().into_iter().map(|(p, t)| (format!("axisctl {p} --help"), t)).collect();
+    let root = env!("CARGO_MANIFEST_DIR");
+    for entry in std::fs::read_dir(format!("{root}/docs")).unwrap() {
+        let path = entry.unwrap().path();
+        if path.extension().is_some_and(|e| e == "md") {
+            texts.push((path.display().to_string(), std::fs::read_to_string(&path).unwrap()));
+        }
+    }
+    texts.push(("README.md".into(), std::fs::read_to_string(format!("{root}/README.md")).unwrap()));
+    const PREFIXES: [&str; 8] = ["Act", "Def", "Target", "Max", "Min", "Home", "Cur", "Delta"];
+    let mut unknown = Vec::new();
+    for (what, text) in &texts {
+        let mut words = Vec::new();
+        let mut start = None;
+        for (i, c) in text.char_indices().chain([(text.len(), ' ')]) {
+            match (c.is_ascii_alphanumeric(), start) {
+                (true, None) => start = Some(i),
+                (false, Some(s)) => {
+                    words.push((s, i));
+                    start = None;
+                }
+                _ => {}
+            }
+        }
+        for (start, end) in words {
+            let (word, after) = (&text[start..end], &text[end..]);
+            let looks_like = PREFIXES.iter().any(|p| {
+                word.strip_prefix(p)
+                    .is_some_and(|rest| rest.starts_with(|c: char| c.is_ascii_uppercase() || c.is_ascii_digit()))
+            });
+            let pattern = after.starts_with('*') && names.iter().any(|n| n.starts_with(word));
+            let shown_wrong = after.starts_with("\" (did you mean");
+            if looks_like && !names.contains(word) && !pattern && !shown_wrong {
+                unknown.push(format!("{what}: {word}"));
+            }
+        }
+    }
+    assert!(texts.len() > 60, "only {} texts read", texts.len());
+    assert!(unknown.is_empty(), "names that are no PowerCube parameter:\n{}", unknown.join("\n"));
+}
