@@ -74,7 +74,7 @@ pub struct Global {
     /// Print no results, only errors and warnings (on stderr); the exit status says how it went
     #[arg(long, short = 'q', global = true, conflicts_with = "json")]
     pub quiet: bool,
-    /// Append every CAN frame in candump -l format (serial traffic as hex lines) to FILE
+    /// Append every CAN frame in candump -l format (serial traffic as hex lines) to FILE (- for standard output)
     #[arg(long, global = true, value_name = "FILE")]
     pub log: Option<PathBuf>,
     /// How often a read is retried after a timeout, 0 to 10 (motion is never retried)

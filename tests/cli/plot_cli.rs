@@ -164,3 +164,49 @@ fn a_png_too_large_to_hold_is_exit_2_and_writes_nothing() {
     let r = run(&["plot", rec.to_str().unwrap()]);
     assert_eq!(r.code, 2, "an output is required: {}", r.stderr);
 }
+
+/// `-` is standard output for every file argument (issue 25): the chart
+/// with nothing after it, the traffic log in candump -l lines; no file
+/// named `-` appears. Two charts to `-`, or one beside --json's document,
+/// are refused before anything is drawn.
+#[test]
+fn a_dash_is_standard_output_for_the_chart_and_the_log() {
+    let dir = tempfile::tempdir().unwrap();
+    let rec = dir.path().join("rec.jsonl");
+    std::fs::write(
+        &rec,
+        run(&["--link", "sim", "--json", "record", "-m", "3", "ActPos", "--rate", "50", "--for", "0.2s"]).stdout,
+    )
+    .unwrap();
+    let in_dir = |args: &[&str]| {
+        let out = common::bin().args(args).current_dir(dir.path()).output().unwrap();
+        (
+            out.status.code(),
+            String::from_utf8_lossy(&out.stdout).into_owned(),
+            String::from_utf8_lossy(&out.stderr).into_owned(),
+        )
+    };
+    let (code, svg, err) = in_dir(&["plot", "rec.jsonl", "--svg", "-"]);
+    assert_eq!(code, Some(0), "{err}");
+    assert!(
+        svg.trim_start().starts_with("<svg") && svg.trim_end().ends_with("</svg>"),
+        "{}",
+        &svg[..svg.len().min(200)]
+    );
+    assert_eq!(data_lines(&svg), 1);
+    let (code, png, _) = in_dir(&["plot", "rec.jsonl", "--png", "-", "--svg", "chart.svg"]);
+    assert_eq!(code, Some(0));
+    assert!(png.as_bytes().starts_with(b"\x89PNG") || png.starts_with("\u{fffd}PNG"), "a PNG on stdout");
+    assert!(dir.path().join("chart.svg").exists());
+    for refused in
+        [&["plot", "rec.jsonl", "--svg", "-", "--png", "-"][..], &["--json", "plot", "rec.jsonl", "--svg", "-"]]
+    {
+        let (code, _, err) = in_dir(refused);
+        assert_eq!(code, Some(2), "{refused:?}: {err}");
+    }
+    let (code, out, err) = in_dir(&["--link", "sim", "--log", "-", "--quiet", "get-param", "-m", "3", "ActPos"]);
+    assert_eq!(code, Some(0), "{err}");
+    let lines: Vec<&str> = out.lines().collect();
+    assert!(lines.len() >= 2 && lines.iter().all(|l| l.starts_with('(') && l.contains(" sim0 ")), "{out}");
+    assert!(!dir.path().join("-").exists(), "a file named - was written");
+}

@@ -187,6 +187,11 @@ fn quiet_prints_no_results_and_verbose_is_the_trace() {
     assert_eq!((r.code, r.stdout.as_str()), (4, ""));
     assert!(r.stderr.starts_with("axisctl: "), "the error is still said: {}", r.stderr);
     assert_eq!(run(&["--link", "sim", "-q", "--json", "state", "-m", "3"]).code, 2, "-q and --json conflict");
+    // Tables are results too (get-param, params, scan print them).
+    for args in [&["--link", "sim", "-q", "get-param", "-m", "3", "ActPos"][..], &["-q", "params", "powercube"]] {
+        let r = run(args);
+        assert_eq!((r.code, r.stdout.as_str()), (0, ""), "{args:?}: {}", r.stderr);
+    }
     for flag in ["-v", "--verbose"] {
         let r = run(&["--link", "sim", flag, "state", "-m", "3"]);
         assert_eq!(r.code, 0, "{}", r.stderr);
