@@ -437,7 +437,7 @@ fn run_traject(ctx: &Ctx, t: ModuleTarget, traject: i64, latched: bool, wait: Wa
     }
     let confirmed =
         if wait.wait { s.send_supervised(m, &[cmd], 1 + ctx.retry.read_retries) } else { s.send(m, &[cmd]) }?;
-    let extra = json!({"traject": traject, "latched": latched});
+    let extra = json!({"traject": traject, "on_sync": latched});
     if !wait.wait {
         report_sent(ctx, node, m, "cdios-traject", confirmed, extra);
         return Ok(());

@@ -493,13 +493,13 @@ mod tests {
     /// open works and the link then exchanges frames.
     /// The test adapter is a thread of this process: on a loaded machine
     /// its replies come later than a USB adapter's, which is no noise.
-    const SLOW: SetupTiming = SetupTiming { probe: Duration::from_secs(2), reply: Duration::from_secs(4) };
+    const SLOW: SetupTiming = SetupTiming { probe: Duration::from_millis(600), reply: Duration::from_secs(1) };
 
     #[test]
     fn line_noise_at_the_open_does_not_fail_it() {
         const NOISE: [&[u8]; 6] = [b"\x07", b"x", b"\xff", b"\r", b"\x00\x07", b"#\xfe\r"];
         let clean = Server::start(AckStyle::Lawicel, ack_on_a0);
-        let link = open(&clean.path, 500_000).unwrap();
+        let link = open_timed(&clean.path, 500_000, SLOW).unwrap();
         // Every reply of the open has been read once open returns.
         let setup_len = clean.written.load(Ordering::Relaxed);
         assert!(setup_len > 20, "resync, C, S and O each answered: {setup_len} bytes");
