@@ -18,6 +18,7 @@
 
 mod elements;
 mod error;
+mod face;
 mod halt;
 mod motion;
 #[cfg(test)]

@@ -8,43 +8,12 @@
 //! waits use on a signal ([`MovedDevices::halt`]), each tried whatever the
 //! others did, and each outcome is kept for the run's last message.
 
-use std::fmt;
-
 use crate::device::cdios::Node;
+use crate::device::face::{Face, Halt, MotionTarget};
 use crate::device::pac::Controller;
 use crate::device::powercube::Cubes;
-use crate::proto::cdios::{ModuleId as CdiosModule, NodeId};
-use crate::proto::powercube::ModuleId;
+use crate::proto::cdios::NodeId;
 use crate::session::RetryPolicy;
-
-/// A device a motion went to, as its halt addresses it.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum MotionTarget {
-    /// One PowerCube module.
-    Cube(ModuleId),
-    /// Every module on the PowerCube bus (`home --all`, `move-ramp --sync`).
-    CubeBus,
-    /// One PA-CONTROL axis.
-    PacAxis(u8),
-    /// The whole PA-CONTROL (online mode, the program, a raw command).
-    PacController,
-    /// One 6168 module of a Cdios node.
-    Cdios { node: NodeId, module: CdiosModule },
-}
-
-impl fmt::Display for MotionTarget {
-    /// The command that stops the device by hand: how the run's message
-    /// names each halt.
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            Self::Cube(m) => write!(f, "halt -m {m}"),
-            Self::CubeBus => f.write_str("halt --all"),
-            Self::PacAxis(a) => write!(f, "pac-stop-axis {a}"),
-            Self::PacController => f.write_str("pac-stop"),
-            Self::Cdios { node, module } => write!(f, "cdios-stop --node {node} -m {module} --option fast"),
-        }
-    }
-}
 
 /// Where the halts get their devices: the caller opens them on the link it
 /// holds (a run of many commands keeps one open link). Each family is
@@ -141,36 +110,22 @@ impl MovedDevices {
 }
 
 fn halt_one(opened: &mut Opened, reach: &mut dyn Reach, target: MotionTarget, attempts: u32) -> Result<String, String> {
-    match target {
-        MotionTarget::Cube(m) => {
-            opened.cubes(reach)?.halt_retrying(m, attempts).map_err(|e| e.to_string())?;
-            Ok(format!("module {m} halted"))
-        }
-        // The broadcast stops every module on the bus, known or not.
-        MotionTarget::CubeBus => {
-            opened.cubes(reach)?.halt_all(&[]).broadcast.map_err(|e| e.to_string())?;
-            Ok("Halt broadcast sent".into())
-        }
-        MotionTarget::PacAxis(axis) => match opened.controller(reach)?.halt_axis(axis).result {
-            Ok(at) => Ok(format!("axis {axis} stopped at {at}")),
-            Err(e) => Err(e),
-        },
-        MotionTarget::PacController => {
-            let steps = opened.controller(reach)?.halt_all();
-            let failed: Vec<String> =
-                steps.iter().filter_map(|s| s.result.as_ref().err()).map(|e| e.to_string()).collect();
-            if failed.is_empty() {
-                Ok(steps.iter().filter_map(|s| s.result.as_ref().ok()).cloned().collect::<Vec<_>>().join("; "))
-            } else {
-                Err(failed.join("; "))
-            }
-        }
-        MotionTarget::Cdios { node, module } => match opened.node(reach, node)?.halt_motor(module, attempts) {
-            Ok(true) => Ok(format!("node {node} module {module}: fast stop sent")),
-            Ok(false) => Ok(format!("node {node} module {module}: not running")),
-            Err(e) => Err(e.to_string()),
-        },
-    }
+    // Each family's halt is its face's; only the words are this run's.
+    let halted = match target {
+        MotionTarget::Cube(_) | MotionTarget::CubeBus => opened.cubes(reach)?.halt(target, attempts),
+        MotionTarget::PacAxis(_) | MotionTarget::PacController => opened.controller(reach)?.halt(target, attempts),
+        MotionTarget::Cdios { node, .. } => opened.node(reach, node)?.halt(target, attempts),
+    };
+    let done = halted.map_err(|e| e.to_string())?;
+    Ok(match (target, done) {
+        (MotionTarget::Cube(m), _) => format!("module {m} halted"),
+        (MotionTarget::CubeBus, _) => "Halt broadcast sent".into(),
+        (MotionTarget::PacAxis(axis), Halt::StoppedAt(at)) => format!("axis {axis} stopped at {at}"),
+        (MotionTarget::Cdios { node, module }, Halt::AtRest) => format!("node {node} module {module}: not running"),
+        (MotionTarget::Cdios { node, module }, _) => format!("node {node} module {module}: fast stop sent"),
+        (_, Halt::Steps(said)) => said,
+        (_, other) => format!("{other:?}"),
+    })
 }
 
 #[cfg(test)]
