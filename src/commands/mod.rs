@@ -117,6 +117,9 @@ pub fn classify(err: &anyhow::Error) -> ErrorKind {
 }
 
 fn device_kind(cause: &(dyn std::error::Error + 'static)) -> Option<ErrorKind> {
+    if let Some(e) = cause.downcast_ref::<device::face::FaceError>() {
+        return Some(e.kind());
+    }
     if let Some(e) = cause.downcast_ref::<device::powercube::Error>() {
         return Some(e.kind());
     }
@@ -337,6 +340,27 @@ impl Ctx {
     /// A CAN link (the in-process bench for `sim`), logged with `--log`.
     pub fn can_link(&self) -> anyhow::Result<Box<dyn link::CanLink>> {
         Ok(self.opener.can(self.link()?, None)?)
+    }
+}
+
+/// The sessions of one link of the bench, opened by the command's opener:
+/// where the device registry gets a face of each family.
+pub struct On<'a> {
+    pub opener: &'a Opener,
+    pub spec: &'a LinkSpec,
+    pub opts: SessionOptions,
+}
+
+impl device::registry::Sessions for On<'_> {
+    type Error = OpenError;
+    fn powercube(&mut self) -> Result<PowerCube, OpenError> {
+        self.opener.powercube(self.spec, &self.opts)
+    }
+    fn pac(&mut self) -> Result<Pac, OpenError> {
+        self.opener.pac(self.spec, &self.opts)
+    }
+    fn cdios(&mut self) -> Result<Cdios, OpenError> {
+        self.opener.cdios(self.spec, &self.opts)
     }
 }
 
