@@ -7,6 +7,7 @@ use std::time::{Duration, Instant};
 
 use axisctl::device::cdios::config::{self as servo, Request as ConfigRequest};
 use axisctl::device::cdios::{self as device, EventChange, Goal, Node, WaitEnd, WaitSpec};
+use axisctl::device::face::{MotionTarget, Moving};
 use axisctl::family::Family;
 use axisctl::proto::cdios::table::{self, STATUS_FLAGS};
 use axisctl::proto::cdios::{
@@ -467,13 +468,9 @@ fn wait_motion(ctx: &Ctx, s: &mut Node, m: ModuleId, wait: WaitArgs, goal: Goal)
         let spec = WaitSpec { poll: t.poll, timeout: t.timeout, stop_attempts: t.stop_attempts };
         let progress =
             &mut |pos, r: &_| show(format!("module {m} {}: pos {pos}  {}", goal.name(), status_line(ctx, r)));
-        let waited = axisctl::device::supervisor::guard(
-            s,
-            |s| s.wait(m, goal, spec, &interrupted, progress),
-            |s| {
-                let _ = s.stop_retrying(m, spec.stop_attempts);
-            },
-        );
+        let at = MotionTarget::Cdios { node: s.id(), module: m };
+        let waited = Moving::new(&mut *s, vec![at], spec.stop_attempts)
+            .follow(|s| s.wait(m, goal, spec, &interrupted, progress));
         waited.map_err(|e| super::stopped_by_output(e.into()))
     })
 }

@@ -141,6 +141,9 @@ fn device_kind(cause: &(dyn std::error::Error + 'static)) -> Option<ErrorKind> {
 /// What the device itself answered, when the error is its refusal or fault.
 pub fn refusal(err: &anyhow::Error) -> Option<Refusal> {
     err.chain().find_map(|cause| {
+        if let Some(e) = cause.downcast_ref::<device::face::FaceError>() {
+            return e.refusal();
+        }
         if let Some(e) = cause.downcast_ref::<device::powercube::Error>() {
             return e.refusal();
         }

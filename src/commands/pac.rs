@@ -15,6 +15,7 @@
 use std::io::IsTerminal;
 use std::time::Duration;
 
+use axisctl::device::face::{Face, MotionTarget, Moving};
 use axisctl::device::pac::{self as device, Controller, Element, Register};
 use axisctl::family::Family;
 use axisctl::open::Takeover;
@@ -357,18 +358,10 @@ fn move_axis(
 ) -> anyhow::Result<()> {
     let pos = finite("POS", pos)?;
     on_axis(ctx, axis);
-    if wait.wait {
-        // Supervised from before the first byte; without a wait the move is
-        // one-shot and unsupervised once acknowledged.
-        arm_interrupt()?;
-    }
-    let started = if wait.wait {
-        d.start_move_supervised(axis, pos, relative, !force)
-    } else {
-        d.start_move(axis, pos, relative, !force)
-    }?;
-    let (code, target, start_position) = (started.code, started.target, started.start_position);
     if !wait.wait {
+        // One-shot: unsupervised once acknowledged.
+        let started = d.start_move(axis, pos, relative, !force)?;
+        let (code, target, start_position) = (started.code, started.target, started.start_position);
         if ctx.json {
             let mut doc = doc(
                 on_axis(ctx, axis),
@@ -385,18 +378,26 @@ fn move_axis(
         }
         return Ok(());
     }
+    // Supervised from before the first byte, and the axis halted by the
+    // face on every way out of the wait, an unwinding panic included.
+    arm_interrupt()?;
+    let (moving, started) =
+        d.start(vec![MotionTarget::PacAxis(axis)], 1, |d| d.start_move_supervised(axis, pos, relative, !force))?;
+    let (code, target, start_position) = (started.code, started.target, started.start_position);
     let limit = wait.wait_timeout;
     let poll = Duration::from_millis(wait.poll);
     let reporter = Reporter::new(ctx, &wait);
-    let result = d.wait_move(axis, target, poll, limit, &mut |p| {
-        let (position, status) = (p.position, p.status);
-        reporter.report(
-            axis,
-            json!({"position": crate::output::with_unit(json!(position), POSITION_UNIT), "axis_status": status,
+    let result = moving.follow(|d| {
+        d.wait_move(axis, target, poll, limit, &mut |p| {
+            let (position, status) = (p.position, p.status);
+            reporter.report(
+                axis,
+                json!({"position": crate::output::with_unit(json!(position), POSITION_UNIT), "axis_status": status,
                    "elapsed_ms": p.elapsed.as_millis() as u64}),
-            format!("axis {axis} -> {target}: position {position:.3}  {}", table::axis_status_text(status)),
-        );
-        !interrupted()
+                format!("axis {axis} -> {target}: position {position:.3}  {}", table::axis_status_text(status)),
+            );
+            !interrupted()
+        })
     });
     reporter.finish();
     let device::MoveProgress { position, status, elapsed } = result.map_err(|e| super::stopped_by_output(e.into()))?;
@@ -447,15 +448,18 @@ fn reference(ctx: &Ctx, d: &mut Controller, axis: u8, wait: PacWait) -> anyhow::
     let poll = Duration::from_millis(wait.poll);
     let limit = wait.wait_timeout;
     let reporter = Reporter::new(ctx, &wait);
-    let result = d.reference(axis, poll, limit, &mut |p: &Progress| {
-        // 0A84's acknowledge date has no meaning (5.2.6.3): only time shows.
-        reporter.report(
-            axis,
-            json!({"polls": p.polls, "done": p.ack.be, "operating_status": p.ack.status,
+    let moving = Moving::new(&mut *d, vec![MotionTarget::PacAxis(axis)], 1);
+    let result = moving.follow(|d| {
+        d.reference(axis, poll, limit, &mut |p: &Progress| {
+            // 0A84's acknowledge date has no meaning (5.2.6.3): only time shows.
+            reporter.report(
+                axis,
+                json!({"polls": p.polls, "done": p.ack.be, "operating_status": p.ack.status,
                    "elapsed_ms": p.elapsed.as_millis() as u64}),
-            format!("axis {axis}: reference drive, {} poll(s)", p.polls),
-        );
-        !interrupted()
+                format!("axis {axis}: reference drive, {} poll(s)", p.polls),
+            );
+            !interrupted()
+        })
     });
     reporter.finish();
     let done = result.map_err(|e| super::stopped_by_output(e.into()))?;

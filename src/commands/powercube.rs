@@ -22,7 +22,7 @@ use crate::cli::ids::{Devices, IdList};
 use crate::cli::{PowerCubeCommand as Command, Target, WaitArgs, WatchdogAction};
 use crate::output;
 use crate::output::{say, say_part};
-use axisctl::device::supervisor;
+use axisctl::device::face::{Face, MotionTarget, Moving};
 
 pub fn run(ctx: &Ctx, cmd: Command) -> anyhow::Result<()> {
     match cmd {
@@ -355,10 +355,12 @@ fn halt(ctx: &Ctx, target: Target) -> anyhow::Result<()> {
         return super::bench::halt_all(ctx);
     }
     let (pc, takeover) = super::takeover::open(ctx, |o, spec, opts| o.powercube(spec, opts))?;
-    let sent = Cubes::new(pc).simple(target.module.map(module), Simple::Halt);
+    // The face's stop: one module's acknowledged Halt, or the broadcast.
+    let at = target.module.map(module).map_or(MotionTarget::CubeBus, MotionTarget::Cube);
+    let sent = Cubes::new(pc).stop(at);
     sent.map_err(|e| super::takeover::failed(e, takeover.as_ref()))?;
     let holder = super::takeover::HolderReport::after_halt(takeover.as_ref());
-    report_sent(ctx, target, &Simple::Halt.name().to_lowercase(), holder.as_ref());
+    report_sent(ctx, target, "halt", holder.as_ref());
     Ok(())
 }
 
@@ -425,13 +427,9 @@ fn home_waited(ctx: &Ctx, cubes: &mut Cubes, target: Target, wait: WaitArgs) -> 
         let spec = WaitSpec { poll: t.poll, timeout: t.timeout, halt_attempts: t.stop_attempts };
         let progress =
             &mut |m, pos: f32, cube| show(format!("module {m} homing: pos {pos:.4}  {}", state_summary(ctx, cube)));
-        let waited = supervisor::guard(
-            &mut *cubes,
-            |c| c.wait_each(&goals, spec, &interrupted, progress),
-            |c| {
-                c.halt_each(&modules, spec.halt_attempts);
-            },
-        );
+        let targets = modules.iter().map(|m| MotionTarget::Cube(*m)).collect();
+        let waited = Moving::new(&mut *cubes, targets, spec.halt_attempts)
+            .follow(|c| c.wait_each(&goals, spec, &interrupted, progress));
         waited.map_err(|e| super::stopped_by_output(e.into()))
     })?;
     print_wait_results(ctx, cubes, "home", &results)
@@ -444,13 +442,8 @@ fn wait_for(ctx: &Ctx, cubes: &mut Cubes, m: ModuleId, wait: WaitArgs, goal: Goa
         let what = goal.doing();
         let progress =
             &mut |pos: f32, cube| show(format!("module {m} {what}: pos {pos:.4}  {}", state_summary(ctx, cube)));
-        let waited = supervisor::guard(
-            cubes,
-            |c| c.wait(m, goal, spec, &interrupted, progress),
-            |c| {
-                let _ = c.halt_retrying(m, spec.halt_attempts);
-            },
-        );
+        let waited = Moving::new(&mut *cubes, vec![MotionTarget::Cube(m)], spec.halt_attempts)
+            .follow(|c| c.wait(m, goal, spec, &interrupted, progress));
         waited.map_err(|e| super::stopped_by_output(e.into()))
     })
 }
@@ -642,16 +635,9 @@ fn move_ramp_sync_waited(
         let spec = WaitSpec { poll: t.poll, timeout: t.timeout, halt_attempts: t.stop_attempts };
         let progress =
             &mut |m, pos: f32, cube| show(format!("module {m} moving: pos {pos:.4}  {}", state_summary(ctx, cube)));
-        let modules: Vec<ModuleId> = started.iter().map(|(m, _)| *m).collect();
-        let waited = supervisor::guard(
-            &mut *cubes,
-            |c| c.wait_sync(&started, ticks, spec, &interrupted, progress),
-            |c| {
-                for m in &modules {
-                    let _ = c.halt_retrying(*m, spec.halt_attempts);
-                }
-            },
-        );
+        let targets = started.iter().map(|(m, _)| MotionTarget::Cube(*m)).collect();
+        let waited = Moving::new(&mut *cubes, targets, spec.halt_attempts)
+            .follow(|c| c.wait_sync(&started, ticks, spec, &interrupted, progress));
         waited.map_err(|e| super::stopped_by_output(e.into()))
     })?;
     print_wait_results(ctx, cubes, "move-ramp", &ends)

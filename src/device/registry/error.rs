@@ -2,6 +2,7 @@
 
 use super::target::MotionTarget;
 use crate::device::{cdios, pac, powercube};
+use crate::proto::Refusal;
 use crate::session::{ErrorKind, SessionError};
 
 /// What a face operation failed with: the family's own typed error, kept
@@ -35,6 +36,17 @@ impl FaceError {
             Self::Session(e) => e.kind(),
             Self::HaltFailed(_) => ErrorKind::Device,
             Self::NotHere(..) => ErrorKind::Usage,
+        }
+    }
+
+    /// What the device itself answered, when the failure is its refusal.
+    pub fn refusal(&self) -> Option<Refusal> {
+        match self {
+            Self::PowerCube(e) => e.refusal(),
+            Self::Pac(e) => e.refusal(),
+            Self::Cdios(e) => e.refusal(),
+            Self::Session(e) => e.refusal().cloned(),
+            Self::HaltFailed(_) | Self::NotHere(..) => None,
         }
     }
 

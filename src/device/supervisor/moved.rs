@@ -8,55 +8,39 @@
 //! waits use on a signal ([`MovedDevices::halt`]), each tried whatever the
 //! others did, and each outcome is kept for the run's last message.
 
-use crate::device::cdios::Node;
 use crate::device::face::{Face, Halt, MotionTarget};
-use crate::device::pac::Controller;
-use crate::device::powercube::Cubes;
-use crate::proto::cdios::NodeId;
+use crate::family::Family;
 use crate::session::RetryPolicy;
 
-/// Where the halts get their devices: the caller opens them on the link it
-/// holds (a run of many commands keeps one open link). Each family is
-/// asked once per stop and each Cdios node once; an error says why the
-/// device could not be reached (asked again for its next halt).
+/// Where the halts get their devices: the caller opens the face of a
+/// family (for the Cdios, of one node) on the link it holds (a run of many
+/// commands keeps one open link). Each family is asked once per stop and
+/// each Cdios node once; an error says why the device could not be reached
+/// (asked again for its next halt).
 pub trait Reach {
-    fn cubes(&mut self) -> Result<Cubes, String>;
-    fn controller(&mut self) -> Result<Controller, String>;
-    fn node(&mut self, node: NodeId) -> Result<Node, String>;
+    fn face(&mut self, family: Family, node: Option<u8>) -> Result<Box<dyn Face>, String>;
 }
 
-/// The devices opened for one stop.
+/// Which face halts a device: its family, and for the Cdios its node.
+type FaceKey = (Family, Option<u8>);
+
+/// The faces opened for one stop, by family and node.
 #[derive(Default)]
 struct Opened {
-    cubes: Option<Cubes>,
-    controller: Option<Controller>,
-    nodes: Vec<Node>,
+    faces: Vec<(FaceKey, Box<dyn Face>)>,
 }
 
 impl Opened {
-    fn cubes(&mut self, reach: &mut dyn Reach) -> Result<&mut Cubes, String> {
-        if self.cubes.is_none() {
-            self.cubes = Some(reach.cubes()?);
-        }
-        Ok(self.cubes.as_mut().expect("opened above"))
-    }
-
-    fn controller(&mut self, reach: &mut dyn Reach) -> Result<&mut Controller, String> {
-        if self.controller.is_none() {
-            self.controller = Some(reach.controller()?);
-        }
-        Ok(self.controller.as_mut().expect("opened above"))
-    }
-
-    fn node(&mut self, reach: &mut dyn Reach, node: NodeId) -> Result<&mut Node, String> {
-        let at = match self.nodes.iter().position(|n| n.id() == node) {
+    fn face(&mut self, reach: &mut dyn Reach, target: MotionTarget) -> Result<&mut dyn Face, String> {
+        let key = (target.family(), target.node());
+        let at = match self.faces.iter().position(|(k, _)| *k == key) {
             Some(at) => at,
             None => {
-                self.nodes.push(reach.node(node)?);
-                self.nodes.len() - 1
+                self.faces.push((key, reach.face(key.0, key.1)?));
+                self.faces.len() - 1
             }
         };
-        Ok(&mut self.nodes[at])
+        Ok(self.faces[at].1.as_mut())
     }
 }
 
@@ -111,11 +95,7 @@ impl MovedDevices {
 
 fn halt_one(opened: &mut Opened, reach: &mut dyn Reach, target: MotionTarget, attempts: u32) -> Result<String, String> {
     // Each family's halt is its face's; only the words are this run's.
-    let halted = match target {
-        MotionTarget::Cube(_) | MotionTarget::CubeBus => opened.cubes(reach)?.halt(target, attempts),
-        MotionTarget::PacAxis(_) | MotionTarget::PacController => opened.controller(reach)?.halt(target, attempts),
-        MotionTarget::Cdios { node, .. } => opened.node(reach, node)?.halt(target, attempts),
-    };
+    let halted = opened.face(reach, target)?.halt(target, attempts);
     let done = halted.map_err(|e| e.to_string())?;
     Ok(match (target, done) {
         (MotionTarget::Cube(m), _) => format!("module {m} halted"),
