@@ -78,6 +78,13 @@ impl CdiosSource {
     }
 }
 
+/// The range a Cdios goto position takes (the table's goto field).
+pub fn target_range() -> (i64, i64) {
+    crate::proto::cdios::table::command("goto")
+        .and_then(|c| c.field("position"))
+        .map_or((i64::from(i32::MIN), i64::from(i32::MAX)), |f| (f.min, f.max))
+}
+
 impl DeviceSource for CdiosSource {
     fn family(&self) -> Family {
         Family::Cdios
