@@ -15,7 +15,6 @@
 use std::io::IsTerminal;
 use std::time::Duration;
 
-use axisctl::device::face::{Face, MotionTarget, Moving};
 use axisctl::device::pac::{self as device, Controller, Element, Register};
 use axisctl::family::Family;
 use axisctl::open::Takeover;
@@ -378,29 +377,27 @@ fn move_axis(
         }
         return Ok(());
     }
-    // Supervised from before the first byte, and the axis halted by the
-    // face on every way out of the wait, an unwinding panic included.
+    // Supervised from before the first byte; the device layer's waited
+    // move halts the axis on every way out, an unwinding panic included.
     arm_interrupt()?;
-    let (moving, started) =
-        d.start(vec![MotionTarget::PacAxis(axis)], 1, |d| d.start_move_supervised(axis, pos, relative, !force))?;
-    let (code, target, start_position) = (started.code, started.target, started.start_position);
-    let limit = wait.wait_timeout;
-    let poll = Duration::from_millis(wait.poll);
+    let follow = device::Follow { poll: Duration::from_millis(wait.poll), limit: wait.wait_timeout };
     let reporter = Reporter::new(ctx, &wait);
-    let result = moving.follow(|d| {
-        d.wait_move(axis, target, poll, limit, &mut |p| {
-            let (position, status) = (p.position, p.status);
-            reporter.report(
-                axis,
-                json!({"position": crate::output::with_unit(json!(position), POSITION_UNIT), "axis_status": status,
+    // The target is known once the start is acknowledged, before the first look.
+    let target = std::cell::Cell::new(f64::NAN);
+    let result = d.move_waited((axis, pos, relative, !force), follow, &mut |s| target.set(s.target), &mut |p| {
+        let (position, status, target) = (p.position, p.status, target.get());
+        reporter.report(
+            axis,
+            json!({"position": crate::output::with_unit(json!(position), POSITION_UNIT), "axis_status": status,
                    "elapsed_ms": p.elapsed.as_millis() as u64}),
-                format!("axis {axis} -> {target}: position {position:.3}  {}", table::axis_status_text(status)),
-            );
-            !interrupted()
-        })
+            format!("axis {axis} -> {target}: position {position:.3}  {}", table::axis_status_text(status)),
+        );
+        !interrupted()
     });
     reporter.finish();
-    let device::MoveProgress { position, status, elapsed } = result.map_err(|e| super::stopped_by_output(e.into()))?;
+    let (started, end) = result.map_err(|e| super::stopped_by_output(e.into()))?;
+    let (code, target, start_position) = (started.code, started.target, started.start_position);
+    let device::MoveProgress { position, status, elapsed } = end;
     if ctx.json {
         output::json(&doc(
             on_axis(ctx, axis),
@@ -448,18 +445,15 @@ fn reference(ctx: &Ctx, d: &mut Controller, axis: u8, wait: PacWait) -> anyhow::
     let poll = Duration::from_millis(wait.poll);
     let limit = wait.wait_timeout;
     let reporter = Reporter::new(ctx, &wait);
-    let moving = Moving::new(&mut *d, vec![MotionTarget::PacAxis(axis)], 1);
-    let result = moving.follow(|d| {
-        d.reference(axis, poll, limit, &mut |p: &Progress| {
-            // 0A84's acknowledge date has no meaning (5.2.6.3): only time shows.
-            reporter.report(
-                axis,
-                json!({"polls": p.polls, "done": p.ack.be, "operating_status": p.ack.status,
+    let result = d.reference_waited(axis, device::Follow { poll, limit }, &mut |p: &Progress| {
+        // 0A84's acknowledge date has no meaning (5.2.6.3): only time shows.
+        reporter.report(
+            axis,
+            json!({"polls": p.polls, "done": p.ack.be, "operating_status": p.ack.status,
                    "elapsed_ms": p.elapsed.as_millis() as u64}),
-                format!("axis {axis}: reference drive, {} poll(s)", p.polls),
-            );
-            !interrupted()
-        })
+            format!("axis {axis}: reference drive, {} poll(s)", p.polls),
+        );
+        !interrupted()
     });
     reporter.finish();
     let done = result.map_err(|e| super::stopped_by_output(e.into()))?;

@@ -8,7 +8,7 @@ use std::time::Duration;
 use super::*;
 use crate::clock::{Clock, VirtualClock};
 use crate::device::cdios::{enable_commands, goto_commands, Node};
-use crate::device::pac::Controller;
+use crate::device::pac::{Controller, Follow, MoveProgress};
 use crate::device::powercube::{Cubes, Goal, Move, WaitSpec};
 use crate::device::registry;
 use crate::device::tests::{recorded_bench, Recorded};
@@ -126,35 +126,54 @@ fn axis_speed(clock: &VirtualClock, sim: &Arc<Mutex<PacController>>) -> Option<f
 }
 
 /// The issue: a PA-CONTROL wait had no unwind guard. A panic in the wait
-/// (here in its progress callback) through the `Moving` of `pac-move
-/// --wait` stops the axis; the bare wait below leaves it moving.
+/// (here in its progress callback) of `pac-move --wait`
+/// ([`Controller::move_waited`]) stops the axis; the bare wait of before
+/// leaves it moving.
 #[test]
 fn a_panic_during_a_pa_control_wait_halts_the_axis() {
+    let follow = Follow { poll: Duration::from_millis(50), limit: Duration::from_secs(60) };
+    let bug = |p: &MoveProgress| {
+        assert!(p.elapsed < Duration::from_millis(300), "bug in the progress display");
+        true
+    };
     let (clock, sim, mut ctl) = pac_rig();
+    let mut targets = Vec::new();
     let r = panic::catch_unwind(AssertUnwindSafe(|| {
-        let (moving, started) =
-            ctl.start(vec![MotionTarget::PacAxis(1)], 1, |d| d.start_move_supervised(1, 9000.0, false, true)).unwrap();
-        let _ = moving.follow(|d| {
-            d.wait_move(1, started.target, Duration::from_millis(50), Duration::from_secs(60), &mut |p| {
-                assert!(p.elapsed < Duration::from_millis(300), "bug in the progress display");
-                true
-            })
-        });
+        let _ = ctl.move_waited((1, 9000.0, false, true), follow, &mut |s| targets.push(s.target), &mut |p| bug(p));
     }));
     assert!(r.is_err(), "the panic went on");
+    assert_eq!(targets, [9000.0], "started once");
     assert_eq!(axis_speed(&clock, &sim), Some(0.0), "0A93 polled to standstill");
 
-    // Without the handle the same panic leaves the axis moving.
+    // The bare wait, as `pac-move --wait` ran it before: still moving.
     let (clock, sim, mut ctl) = pac_rig();
     let started = ctl.start_move_supervised(1, 9000.0, false, true).unwrap();
     let r = panic::catch_unwind(AssertUnwindSafe(|| {
-        let _ = ctl.wait_move(1, started.target, Duration::from_millis(50), Duration::from_secs(60), &mut |p| {
-            assert!(p.elapsed < Duration::from_millis(300), "bug in the progress display");
-            true
-        });
+        let _ = ctl.wait_move(1, started.target, follow.poll, follow.limit, &mut |p| bug(p));
     }));
     assert!(r.is_err());
     assert_ne!(axis_speed(&clock, &sim), Some(0.0), "unguarded: still moving");
+}
+
+/// The same for `pac-ref --wait` ([`Controller::reference_waited`]): a
+/// panic while the reference drive runs stops its axis.
+#[test]
+fn a_panic_during_a_pa_control_reference_drive_halts_the_axis() {
+    let (clock, sim, mut ctl) = pac_rig();
+    let follow = Follow { poll: Duration::from_millis(50), limit: Duration::from_secs(60) };
+    let mut polls = 0;
+    let r = panic::catch_unwind(AssertUnwindSafe(|| {
+        let _ = ctl.reference_waited(2, follow, &mut |_| {
+            polls += 1;
+            assert!(polls < 3, "bug in the progress display");
+            true
+        });
+    }));
+    assert!(r.is_err(), "the panic went on");
+    assert!(polls >= 3, "the drive ran: {polls} polls");
+    let mut s = sim.lock().unwrap();
+    s.advance(clock.now());
+    assert_eq!((s.busy(), s.axis_speed(2)), (None, Some(0.0)), "given up, 0A93 polled to standstill");
 }
 
 #[test]

@@ -1,10 +1,14 @@
-//! The PA-CONTROL's device face: one face for the controller of a line.
+//! The PA-CONTROL's device face: one face for the controller of a line,
+//! and the waited moves that hold its `Moving` handle.
 
-use crate::device::face::{Face, FaceError, Found, Halt, HaltStep, MotionTarget, State};
+use std::time::Duration;
+
+use crate::device::face::{Face, FaceError, Found, Halt, HaltStep, MotionTarget, Moving, State};
 use crate::family::Family;
 use crate::proto::pac::table;
+use crate::session::pac::{Done, Progress};
 
-use super::{Controller, HaltTarget, StopOutcome};
+use super::{Controller, HaltTarget, MoveProgress, MoveStart, Result, StopOutcome};
 
 fn step_target(t: HaltTarget) -> MotionTarget {
     match t {
@@ -119,5 +123,46 @@ impl Face for Controller {
                 result: s.result.map(Halt::Steps).map_err(Into::into),
             })
             .collect()
+    }
+}
+
+/// How a waited move is followed: the poll interval and the longest wait.
+#[derive(Debug, Clone, Copy)]
+pub struct Follow {
+    pub poll: Duration,
+    pub limit: Duration,
+}
+
+impl Controller {
+    /// `pac-move --wait`: the move started under the face's [`Moving`]
+    /// handle (armed before its frame leaves) and followed to its end.
+    /// `started` sees the acknowledged start before the first look,
+    /// `observe` each look (and returns `false` to give up). Every way out
+    /// but arrival stops the axis: the wait's own errors after its 0A93,
+    /// a panic (in `observe` too) through the handle's drop.
+    pub fn move_waited(
+        &mut self,
+        (axis, pos, relative, check_area): (u8, f64, bool, bool),
+        follow: Follow,
+        started: &mut dyn FnMut(&MoveStart),
+        observe: &mut dyn FnMut(&MoveProgress) -> bool,
+    ) -> Result<(MoveStart, MoveProgress)> {
+        let targets = vec![MotionTarget::PacAxis(axis)];
+        let (moving, start) = self.start(targets, 1, |d| d.start_move_supervised(axis, pos, relative, check_area))?;
+        started(&start);
+        let end = moving.follow(|d| d.wait_move(axis, start.target, follow.poll, follow.limit, observe))?;
+        Ok((start, end))
+    }
+
+    /// `pac-ref --wait`: the reference drive (0A84) run to its end under
+    /// the face's [`Moving`] handle, armed before its frame leaves.
+    pub fn reference_waited(
+        &mut self,
+        axis: u8,
+        follow: Follow,
+        observe: &mut dyn FnMut(&Progress) -> bool,
+    ) -> Result<Done> {
+        let moving = Moving::new(self, vec![MotionTarget::PacAxis(axis)], 1);
+        moving.follow(|d| d.reference(axis, follow.poll, follow.limit, observe))
     }
 }
