@@ -128,10 +128,6 @@ impl<'a, F: Face + ?Sized> Moving<'a, F> {
         Self { dev, targets, attempts: attempts.max(1), armed: true }
     }
 
-    pub fn targets(&self) -> &[MotionTarget] {
-        &self.targets
-    }
-
     /// The motion ended at a known standstill: nothing to halt.
     pub fn completed(mut self) {
         self.armed = false;
