@@ -399,7 +399,9 @@ fn home(ctx: &Ctx, target: Target, wait: WaitArgs, deadman: Deadman) -> anyhow::
     cubes.set_deadman(deadman)?;
     // Supervised from before the first byte: a signal now halts.
     super::arm_interrupt()?;
-    let r = home_waited(ctx, &mut cubes, target, wait);
+    // Held from before the first Home: every way out halts (one module, or the bus).
+    let at = target.module.map(module).map_or(MotionTarget::CubeBus, MotionTarget::Cube);
+    let r = Moving::new(&mut cubes, vec![at], 1 + ctx.retry.read_retries).follow(|c| home_waited(ctx, c, target, wait));
     released(&mut cubes, r)
 }
 
@@ -427,9 +429,8 @@ fn home_waited(ctx: &Ctx, cubes: &mut Cubes, target: Target, wait: WaitArgs) -> 
         let spec = WaitSpec { poll: t.poll, timeout: t.timeout, halt_attempts: t.stop_attempts };
         let progress =
             &mut |m, pos: f32, cube| show(format!("module {m} homing: pos {pos:.4}  {}", state_summary(ctx, cube)));
-        let targets = modules.iter().map(|m| MotionTarget::Cube(*m)).collect();
-        let waited = Moving::new(&mut *cubes, targets, spec.halt_attempts)
-            .follow(|c| c.wait_each(&goals, spec, &interrupted, progress));
+        // The caller's Moving handle halts on a panic; the wait on its own errors.
+        let waited = cubes.wait_each(&goals, spec, &interrupted, progress);
         waited.map_err(|e| super::stopped_by_output(e.into()))
     })?;
     print_wait_results(ctx, cubes, "home", &results)
@@ -442,8 +443,8 @@ fn wait_for(ctx: &Ctx, cubes: &mut Cubes, m: ModuleId, wait: WaitArgs, goal: Goa
         let what = goal.doing();
         let progress =
             &mut |pos: f32, cube| show(format!("module {m} {what}: pos {pos:.4}  {}", state_summary(ctx, cube)));
-        let waited = Moving::new(&mut *cubes, vec![MotionTarget::Cube(m)], spec.halt_attempts)
-            .follow(|c| c.wait(m, goal, spec, &interrupted, progress));
+        // The caller's Moving handle halts on a panic; the wait on its own errors.
+        let waited = cubes.wait(m, goal, spec, &interrupted, progress);
         waited.map_err(|e| super::stopped_by_output(e.into()))
     })
 }
@@ -572,8 +573,11 @@ fn move_ramp(
         return Ok(());
     }
     cubes.set_deadman(deadman)?;
-    let r = send_move_to(ctx, &mut cubes, (m, target), ramp, ticks, force, true)
-        .and_then(|pos| wait_for(ctx, &mut cubes, m, wait, Goal::RampEnd { target: pos, ticks }));
+    // Held from before the motion frame until the wait ends: every way out halts.
+    let r = Moving::new(&mut cubes, vec![MotionTarget::Cube(m)], 1 + ctx.retry.read_retries).follow(|c| {
+        send_move_to(ctx, c, (m, target), ramp, ticks, force, true)
+            .and_then(|pos| wait_for(ctx, c, m, wait, Goal::RampEnd { target: pos, ticks }))
+    });
     let end = released(&mut cubes, r)?;
     print_wait_results(ctx, &mut cubes, "move-ramp", &[end])
 }
@@ -594,7 +598,9 @@ fn move_ramp_sync(
     if wait.wait {
         cubes.set_deadman(deadman)?;
         super::arm_interrupt()?;
-        let r = move_ramp_sync_waited(ctx, &mut cubes, &plan, ticks, force, wait);
+        // Held from before the first frame until the wait ends: every way out halts the bus.
+        let r = Moving::new(&mut cubes, vec![MotionTarget::CubeBus], 1 + ctx.retry.read_retries)
+            .follow(|c| move_ramp_sync_waited(ctx, c, &plan, ticks, force, wait));
         return released(&mut cubes, r);
     }
     let started = cubes.move_sync(&plan, force, 1 + ctx.retry.read_retries)?;
@@ -635,9 +641,8 @@ fn move_ramp_sync_waited(
         let spec = WaitSpec { poll: t.poll, timeout: t.timeout, halt_attempts: t.stop_attempts };
         let progress =
             &mut |m, pos: f32, cube| show(format!("module {m} moving: pos {pos:.4}  {}", state_summary(ctx, cube)));
-        let targets = started.iter().map(|(m, _)| MotionTarget::Cube(*m)).collect();
-        let waited = Moving::new(&mut *cubes, targets, spec.halt_attempts)
-            .follow(|c| c.wait_sync(&started, ticks, spec, &interrupted, progress));
+        // The caller's Moving handle halts on a panic; the wait on its own errors.
+        let waited = cubes.wait_sync(&started, ticks, spec, &interrupted, progress);
         waited.map_err(|e| super::stopped_by_output(e.into()))
     })?;
     print_wait_results(ctx, cubes, "move-ramp", &ends)
