@@ -177,6 +177,9 @@ pub(crate) use tell_part;
 
 /// Prints rows as an aligned table; the first row is the header.
 pub fn table(rows: &[Vec<String>], style: Style) {
+    if quiet() {
+        return;
+    }
     let cols = rows.iter().map(Vec::len).max().unwrap_or(0);
     let width = |c: usize| rows.iter().filter_map(|r| r.get(c)).map(|s| visible_len(s)).max().unwrap_or(0);
     let widths: Vec<usize> = (0..cols).map(width).collect();

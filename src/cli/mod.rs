@@ -33,6 +33,10 @@ pub struct Cli {
     pub global: Global,
     #[command(subcommand)]
     pub command: Command,
+    /// The subcommand's name as typed (`pac-online`): the `command` of
+    /// its JSON documents.
+    #[arg(skip)]
+    pub name: String,
 }
 
 /// The longest answer timeout: an answer later than a minute is no answer,
@@ -70,7 +74,7 @@ pub struct Global {
     /// Print no results, only errors and warnings (on stderr); the exit status says how it went
     #[arg(long, short = 'q', global = true, conflicts_with = "json")]
     pub quiet: bool,
-    /// Append every CAN frame in candump -l format (serial traffic as hex lines) to FILE
+    /// Append every CAN frame in candump -l format (serial traffic as hex lines) to FILE (- for standard output)
     #[arg(long, global = true, value_name = "FILE")]
     pub log: Option<PathBuf>,
     /// How often a read is retried after a timeout, 0 to 10 (motion is never retried)
@@ -208,5 +212,6 @@ pub fn parse(exit_codes: &str) -> Result<Cli, clap::Error> {
     let from_env = |id| matches.value_source(id) == Some(clap::parser::ValueSource::EnvVariable);
     cli.global.link_from_env = from_env("link");
     cli.global.bench_from_env = from_env("bench");
+    cli.name = matches.subcommand_name().unwrap_or_default().to_string();
     Ok(cli)
 }

@@ -55,10 +55,10 @@ pub struct PlotArgs {
     /// A recording of `axisctl record` (JSON Lines or CSV; - for stdin)
     #[arg(value_name = "REC")]
     pub recording: PathBuf,
-    /// Write the chart as SVG here
+    /// Write the chart as SVG here (- for standard output)
     #[arg(long, value_name = "FILE")]
     pub svg: Option<PathBuf>,
-    /// Write the chart as PNG here (at most 32 million pixels)
+    /// Write the chart as PNG here (at most 32 million pixels; - for standard output)
     #[arg(long, value_name = "FILE")]
     pub png: Option<PathBuf>,
     /// Chart title (default: the recording's file name)

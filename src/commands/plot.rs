@@ -24,9 +24,30 @@ pub fn run(ctx: &Ctx, args: &PlotArgs) -> anyhow::Result<()> {
     // is a usage error with no file touched.
     let svg = args.svg.as_ref().map(|p| plot::svg(&chart, args.width, height).map(|t| (p, t.into_bytes())));
     let png = args.png.as_ref().map(|p| plot::png(&chart, args.width, height).map(|b| (p, b)));
+    let to_stdout = [&args.svg, &args.png].into_iter().flatten().filter(|p| p.as_os_str() == "-").count();
+    if to_stdout > 1 {
+        return Err(usage("only one of --svg and --png can be - (standard output)"));
+    }
+    if to_stdout == 1 && ctx.json {
+        return Err(usage(
+            "--json prints its document on standard output, where a chart to - goes: write the chart to a file",
+        ));
+    }
     let files = [svg, png].into_iter().flatten().collect::<Result<Vec<_>, _>>().map_err(|e| usage(e.to_string()))?;
     for (path, bytes) in &files {
+        if path.as_os_str() == "-" {
+            use std::io::Write;
+            let mut out = std::io::stdout().lock();
+            out.write_all(bytes)
+                .and_then(|()| out.flush())
+                .map_err(|e| anyhow::anyhow!("cannot write the chart to standard output: {e}"))?;
+            continue;
+        }
         std::fs::write(path, bytes).map_err(|e| anyhow::anyhow!("cannot write {}: {e}", path.display()))?;
+    }
+    if to_stdout == 1 {
+        // The chart is the output: a summary after it would be part of it.
+        return Ok(());
     }
     let samples = chart.series.iter().map(|s| s.points.len()).max().unwrap_or(0);
     let written: Vec<String> = files.iter().map(|(p, _)| p.display().to_string()).collect();

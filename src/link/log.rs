@@ -64,7 +64,11 @@ impl std::fmt::Debug for TrafficLog {
 
 impl TrafficLog {
     /// Opens `path` for appending (creating it), naming CAN frames' interface `iface`.
+    /// `-` is standard output, as for every file argument.
     pub fn append(path: &Path, iface: &str) -> Result<Self, LinkError> {
+        if path == Path::new("-") {
+            return Ok(Self::from_writer(std::io::stdout(), iface));
+        }
         let file = OpenOptions::new()
             .create(true)
             .append(true)

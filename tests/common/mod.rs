@@ -253,3 +253,32 @@ pub fn subcommands_and_sim_examples(path: &[String], out: &mut Vec<(String, Vec<
         subcommands_and_sim_examples(&sub, out);
     }
 }
+
+/// Every `--help` page of the binary, the root's first, each with the
+/// subcommand path that prints it.
+pub fn help_pages() -> Vec<(String, String)> {
+    fn walk(path: &mut Vec<String>, out: &mut Vec<(String, String)>) {
+        let mut args: Vec<&str> = path.iter().map(String::as_str).collect();
+        args.push("--help");
+        let help = run(&args).stdout;
+        let subcommands: Vec<String> = help
+            .split("\nCommands:\n")
+            .nth(1)
+            .map(|s| {
+                s.lines()
+                    .take_while(|l| l.starts_with("  ") || l.is_empty())
+                    .filter_map(|l| l.split_whitespace().next().filter(|n| *n != "help").map(str::to_string))
+                    .collect()
+            })
+            .unwrap_or_default();
+        out.push((path.join(" "), help));
+        for name in subcommands {
+            path.push(name);
+            walk(path, out);
+            path.pop();
+        }
+    }
+    let mut out = Vec::new();
+    walk(&mut Vec::new(), &mut out);
+    out
+}

@@ -20,16 +20,27 @@ impl Tmux {
         static NEXT: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
         let n = NEXT.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
         let session = format!("axisctl-{name}-{}-{n}", std::process::id());
-        let ok = Command::new("tmux")
-            .args(["new-session", "-d", "-s", &session, "-x", &w.to_string(), "-y", &h.to_string()])
-            .args(["env", "-i", "PATH=/usr/bin:/bin", "TERM=screen", "PS1=READY$ "])
-            .args(env)
-            .args(["bash", "--norc", "--noprofile"])
-            .status()
-            .expect("run tmux")
-            .success();
-        assert!(ok, "tmux new-session failed");
-        Self { session }
+        // Sessions started at once race to start the tmux server, and a
+        // loser fails ("server exited unexpectedly"): one start at a time,
+        // and a failed start is tried again.
+        static STARTING: std::sync::Mutex<()> = std::sync::Mutex::new(());
+        let _one = STARTING.lock().unwrap_or_else(|e| e.into_inner());
+        let mut failures = Vec::new();
+        for _ in 0..5 {
+            let out = Command::new("tmux")
+                .args(["new-session", "-d", "-s", &session, "-x", &w.to_string(), "-y", &h.to_string()])
+                .args(["env", "-i", "PATH=/usr/bin:/bin", "TERM=screen", "PS1=READY$ "])
+                .args(env)
+                .args(["bash", "--norc", "--noprofile"])
+                .output()
+                .expect("run tmux");
+            if out.status.success() {
+                return Self { session };
+            }
+            failures.push(String::from_utf8_lossy(&out.stderr).trim().to_string());
+            std::thread::sleep(Duration::from_millis(200));
+        }
+        panic!("tmux new-session failed 5 times: {failures:?}")
     }
 
     pub fn keys(&self, keys: &[&str]) {

@@ -2,7 +2,7 @@
 //! code iterates ([`FACES`]), the address every face halts by
 //! ([`MotionTarget`]), and the one error a face returns ([`FaceError`]).
 //! Code that visits every family goes through this folder instead of
-//! naming a family's types (tests/architecture.rs counts the files that
+//! naming a family's types (tests/library/architecture.rs counts the files that
 //! still do); a fourth family adds its variant here and a `face.rs` in its
 //! folder.
 
