@@ -17,17 +17,16 @@ mod pipeline;
 use std::io::{BufRead, BufReader, Read};
 
 use anyhow::Context;
-use axisctl::device::cdios::Node;
-use axisctl::device::pac::Controller;
-use axisctl::device::powercube::Cubes;
+use axisctl::device::face::Face;
+use axisctl::device::registry;
 use axisctl::device::supervisor::{self, HaltOutcome, MovedDevices, Reach};
-use axisctl::proto::cdios::NodeId;
+use axisctl::family::Family;
 use axisctl::session::ErrorKind;
 use clap::parser::ValueSource;
 use clap::FromArgMatches;
 use serde_json::json;
 
-use super::{error_json, exit, input, Ctx, Reported};
+use super::{error_json, exit, input, Ctx, On, Reported};
 use crate::cli::batch::BatchArgs;
 use crate::cli::{Cli, Command};
 use crate::output;
@@ -309,16 +308,11 @@ fn reason(e: anyhow::Error) -> String {
 }
 
 impl Reach for Reached<'_> {
-    fn cubes(&mut self) -> Result<Cubes, String> {
-        Ok(Cubes::new(self.0.powercube().map_err(reason)?))
-    }
-
-    fn controller(&mut self) -> Result<Controller, String> {
-        Ok(Controller::new(self.0.pac().map_err(reason)?))
-    }
-
-    fn node(&mut self, node: NodeId) -> Result<Node, String> {
-        Ok(Node::new(self.0.cdios().map_err(reason)?, node, self.0.retry))
+    fn face(&mut self, family: Family, node: Option<u8>) -> Result<Box<dyn Face>, String> {
+        let ctx = self.0;
+        let spec = ctx.link_for(family).map_err(reason)?;
+        let mut sessions = On { opener: ctx.opener(), spec, opts: ctx.session_options() };
+        registry::open(family, node, &mut sessions, ctx.retry).map_err(|e| reason(e.into()))
     }
 }
 

@@ -6,15 +6,13 @@
 use std::collections::BTreeSet;
 
 use axisctl::bench::{Address, Bench, BenchLink};
-use axisctl::device::cdios::{Node, Stopped};
-use axisctl::device::pac::{Controller, HaltTarget};
-use axisctl::device::powercube::{Cubes, Simple};
+use axisctl::device::face::{Halt, MotionTarget};
+use axisctl::device::registry;
 use axisctl::family::Family;
-use axisctl::proto::{cdios, powercube};
 use serde_json::{json, Map, Value};
 
 use super::takeover::{self, HolderReport};
-use super::{Ctx, NoAnswer};
+use super::{Ctx, NoAnswer, On};
 use crate::output::{self, say};
 
 /// The Cdios node every Cdios command defaults to (`--node 1`): probed on
@@ -40,62 +38,41 @@ fn share_links(ctx: &Ctx) {
 }
 
 /// The Cdios nodes probed on `link`.
-fn cdios_nodes(link: &BenchLink) -> Vec<cdios::NodeId> {
+fn cdios_nodes(link: &BenchLink) -> Vec<u8> {
     let named = link.devices.values().filter_map(|a| match a {
         Address::Cdios { node, .. } => Some(*node),
         _ => None,
     });
     let nodes: BTreeSet<u8> = std::iter::once(DEFAULT_NODE).chain(named).collect();
-    nodes.into_iter().filter_map(cdios::NodeId::new).collect()
+    nodes.into_iter().collect()
+}
+
+/// The sessions of `link`, for the registry's faces.
+fn on<'a>(ctx: &'a Ctx, link: &'a BenchLink) -> On<'a> {
+    On { opener: ctx.opener(), spec: &link.spec, opts: ctx.session_options() }
+}
+
+/// The bench's address of a device a face names; `None` for every device
+/// of a family at once (a broadcast).
+fn address_of(t: MotionTarget) -> Option<Address> {
+    match (t.family(), t.ids()) {
+        (Family::PowerCube, (Some(module), _)) => Some(Address::PowerCube { module }),
+        (Family::Pac, (axis, _)) => Some(Address::Pac { axis }),
+        (Family::Cdios, (Some(node), Some(module))) => Some(Address::Cdios { node, module }),
+        _ => None,
+    }
 }
 
 pub fn scan(ctx: &Ctx, ids: &[u8]) -> anyhow::Result<()> {
     let bench = ctx.bench()?;
     share_links(ctx);
-    let opts = ctx.session_options();
     let mut seen = Vec::new();
     for (link, family) in bench.pairs() {
-        let text = || link.text.clone();
-        match family {
-            Family::PowerCube => {
-                let mut cubes = Cubes::new(ctx.opener().powercube(&link.spec, &opts)?);
-                let candidates: Vec<_> = ids.iter().filter_map(|m| powercube::ModuleId::new(*m)).collect();
-                for f in cubes.scan(&candidates)? {
-                    let version = f.version.as_f64().unwrap_or(f64::NAN) as u16;
-                    seen.push(Seen {
-                        address: Address::PowerCube { module: f.module.get() },
-                        link: text(),
-                        detail: format!("version {}", axisctl::device::powercube::version_text(version)),
-                    });
-                }
-            }
-            Family::Pac => {
-                let mut d = Controller::new(ctx.opener().pac(&link.spec, &opts)?);
-                // A controller that does not answer is absent, as a module is.
-                let Ok(status) = d.status() else { continue };
-                let axes = d.configured_axes()?;
-                seen.push(Seen {
-                    address: Address::Pac { axis: None },
-                    link: text(),
-                    detail: format!(
-                        "status {status} {}, {axes} axes",
-                        axisctl::proto::pac::table::operating_status_text(status)
-                    ),
-                });
-                for axis in 1..=axes {
-                    seen.push(Seen { address: Address::Pac { axis: Some(axis) }, link: text(), detail: String::new() });
-                }
-            }
-            Family::Cdios => {
-                for node in cdios_nodes(link) {
-                    let mut n = Node::new(ctx.opener().cdios(&link.spec, &opts)?, node, ctx.retry);
-                    // A node that does not wake is absent: its modules are reported missing if expected.
-                    let Ok(found) = n.scan() else { continue };
-                    for m in found {
-                        let address = Address::Cdios { node: node.get(), module: m.get() };
-                        seen.push(Seen { address, link: text(), detail: String::new() });
-                    }
-                }
+        for unit in registry::units(family, &cdios_nodes(link)) {
+            let mut face = registry::open(family, unit, &mut on(ctx, link), ctx.retry)?;
+            for f in face.discover(ids)? {
+                let Some(address) = address_of(f.target) else { continue };
+                seen.push(Seen { address, link: link.text.clone(), detail: f.detail });
             }
         }
     }
@@ -187,91 +164,34 @@ struct Step {
 pub fn halt_all(ctx: &Ctx) -> anyhow::Result<()> {
     let bench = ctx.bench()?;
     share_links(ctx);
-    let opts = ctx.session_options();
     let mut steps = Vec::new();
     let mut holders = Vec::new();
     for (link, family) in bench.pairs() {
-        let step = |address, result| Step { link: link.text.clone(), family, address, node: None, result };
-        match family {
-            Family::PowerCube => {
-                let opened = ctx.opener().take_over(|o| o.powercube(&link.spec, &opts));
-                let (pc, t) = match opened {
-                    Ok(x) => x,
-                    Err(e) => {
-                        steps.push(step(None, Err(e.into())));
-                        continue;
-                    }
-                };
-                let mut cubes = Cubes::new(pc);
-                let broadcast = cubes.simple(None, Simple::Halt);
-                let broadcast = broadcast.map(|()| "broadcast Halt sent".to_string());
-                steps.push(step(None, broadcast.map_err(|e| takeover::failed(e, t.as_ref()))));
-                // Then each module that answers, acknowledged: a lost broadcast is seen.
-                let all: Vec<_> = (1..=31).filter_map(powercube::ModuleId::new).collect();
-                match cubes.scan(&all) {
-                    Ok(found) => {
-                        for f in found {
-                            let r = cubes.simple(Some(f.module), Simple::Halt).map(|()| "halted".to_string());
-                            steps
-                                .push(step(Some(Address::PowerCube { module: f.module.get() }), r.map_err(Into::into)));
-                        }
-                    }
-                    Err(e) => steps.push(step(None, Err(e.into()))),
+        for unit in registry::units(family, &cdios_nodes(link)) {
+            let step = |address, result| Step { link: link.text.clone(), family, address, node: unit, result };
+            let opened = ctx.opener().take_over(|o| {
+                let mut sessions = On { opener: o, spec: &link.spec, opts: ctx.session_options() };
+                registry::open(family, unit, &mut sessions, ctx.retry)
+            });
+            let (mut face, t) = match opened {
+                Ok(x) => x,
+                Err(e) => {
+                    steps.push(step(None, Err(e.into())));
+                    continue;
                 }
-                holders.extend(HolderReport::after_halt(t.as_ref()));
+            };
+            // The face's own sequence: it finds its devices and stops each.
+            let done = face.halt_all(None);
+            // The default Cdios node, absent and not expected: nothing to stop.
+            let absent = matches!(&done[..], [one] if one.target.is_none() && one.result.is_err());
+            if absent && unit == Some(DEFAULT_NODE) && !bench.links().iter().any(|l| named_node(l, DEFAULT_NODE)) {
+                continue;
             }
-            Family::Pac => {
-                let (pac, t) = match ctx.opener().take_over(|o| o.pac(&link.spec, &opts)) {
-                    Ok(x) => x,
-                    Err(e) => {
-                        steps.push(step(None, Err(e.into())));
-                        continue;
-                    }
-                };
-                let mut d = Controller::new(pac);
-                // The axes to stop in online mode; unknown, halt-all stops the program (0600).
-                let axes = d.configured_axes().map(|n| (1..=n).collect()).unwrap_or_default();
-                d.set_axes(axes);
-                for s in d.halt_all() {
-                    let address = match s.target {
-                        HaltTarget::Controller => Address::Pac { axis: None },
-                        HaltTarget::Axis(a) => Address::Pac { axis: Some(a) },
-                    };
-                    steps.push(step(Some(address), s.result.map_err(|e| takeover::failed(e, t.as_ref()))));
-                }
-                holders.extend(HolderReport::after_halt(t.as_ref()));
+            for s in done {
+                let result = s.result.map(said).map_err(|e| takeover::failed(e, t.as_ref()));
+                steps.push(step(s.target.and_then(address_of), result));
             }
-            Family::Cdios => {
-                for node in cdios_nodes(link) {
-                    let on_node = |result| Step { node: Some(node.get()), ..step(None, result) };
-                    let (s, t) = match ctx.opener().take_over(|o| o.cdios(&link.spec, &opts)) {
-                        Ok(x) => x,
-                        Err(e) => {
-                            steps.push(on_node(Err(e.into())));
-                            continue;
-                        }
-                    };
-                    let mut n = Node::new(s, node, ctx.retry);
-                    let modules = match n.scan() {
-                        Ok(m) => m,
-                        Err(e) if node.get() != DEFAULT_NODE || bench.links().iter().any(|l| named_node(l, node)) => {
-                            steps.push(on_node(Err(e.into())));
-                            continue;
-                        }
-                        // The default node, absent and not expected: nothing to stop.
-                        Err(_) => continue,
-                    };
-                    for (m, r) in n.halt_all(&modules) {
-                        let said = r.map(|s| match s {
-                            Stopped::FastStop { .. } => "fast stop".to_string(),
-                            Stopped::NotRunning => "already at rest".to_string(),
-                        });
-                        let address = Address::Cdios { node: node.get(), module: m.get() };
-                        steps.push(step(Some(address), said.map_err(|e| takeover::failed(e, t.as_ref()))));
-                    }
-                    holders.extend(HolderReport::after_halt(t.as_ref()));
-                }
-            }
+            holders.extend(HolderReport::after_halt(t.as_ref()));
         }
     }
     print_halt(ctx, bench, &steps, &holders);
@@ -282,8 +202,20 @@ pub fn halt_all(ctx: &Ctx) -> anyhow::Result<()> {
     }
 }
 
-fn named_node(link: &BenchLink, node: cdios::NodeId) -> bool {
-    link.devices.values().any(|a| matches!(a, Address::Cdios { node: n, .. } if *n == node.get()))
+/// How the report says a step went.
+fn said(h: Halt) -> String {
+    match h {
+        Halt::Broadcast => "broadcast Halt sent".into(),
+        Halt::Halted => "halted".into(),
+        Halt::StoppedAt(at) => format!("stopped at {at}"),
+        Halt::FastStop { .. } => "fast stop".into(),
+        Halt::AtRest => "already at rest".into(),
+        Halt::Steps(said) => said,
+    }
+}
+
+fn named_node(link: &BenchLink, node: u8) -> bool {
+    link.devices.values().any(|a| matches!(a, Address::Cdios { node: n, .. } if *n == node))
 }
 
 fn print_halt(ctx: &Ctx, bench: &Bench, steps: &[Step], holders: &[HolderReport]) {

@@ -7,6 +7,7 @@ use std::time::{Duration, Instant};
 
 use axisctl::device::cdios::config::{self as servo, Request as ConfigRequest};
 use axisctl::device::cdios::{self as device, EventChange, Goal, Node, WaitEnd, WaitSpec};
+use axisctl::device::face::{Face, MotionTarget};
 use axisctl::family::Family;
 use axisctl::proto::cdios::table::{self, STATUS_FLAGS};
 use axisctl::proto::cdios::{
@@ -401,20 +402,22 @@ fn goto(
     if let (Some(v), false) = (speed, force) {
         check_goto_speed(&mut s, m, v)?;
     }
-    if wait.wait {
-        // Supervised from before the first byte; without a wait the motion
-        // is one-shot and unsupervised once sent.
-        super::arm_interrupt()?;
-    }
-    let confirmed = if wait.wait { s.send_supervised(m, &cmds, 1 + ctx.retry.read_retries) } else { s.send(m, &cmds) }?;
     let mut extra = json!({"mode": device::mode_name(mode), "requested": position});
     if let Some(v) = speed {
         extra["speed"] = output::with_unit(json!(v), table::SPEED_UNIT);
     }
     if !wait.wait {
+        // One-shot: unsupervised once sent.
+        let confirmed = s.send(m, &cmds)?;
         report_sent(ctx, node, m, "cdios-goto", confirmed, extra);
         return Ok(());
     }
+    // Supervised from before the first byte, and held by the face's Moving
+    // handle until the wait ends: every way out stops the motor.
+    super::arm_interrupt()?;
+    let attempts = 1 + ctx.retry.read_retries;
+    let at = MotionTarget::Cdios { node: s.id(), module: m };
+    let (moving, confirmed) = s.start(vec![at], attempts, |s| s.send_supervised(m, &cmds, attempts))?;
     if !ctx.json {
         crate::output::say!(
             "node {node} module {m}: goto {} {position} {}",
@@ -422,7 +425,7 @@ fn goto(
             if confirmed { "confirmed" } else { "sent" }
         );
     }
-    let end = wait_motion(ctx, &mut s, m, wait, Goal::Goto)?;
+    let end = moving.follow(|s| wait_motion(ctx, s, m, wait, Goal::Goto))?;
     print_wait_end(ctx, (node, m), "cdios-goto", &end, extra);
     Ok(())
 }
@@ -432,17 +435,17 @@ fn run_traject(ctx: &Ctx, t: ModuleTarget, traject: i64, latched: bool, wait: Wa
     let (node, m) = (node_id(&t.node), module_id(&t));
     device::check(&[cmd], m)?;
     let mut s = open(ctx, &t.node)?;
-    if wait.wait {
-        super::arm_interrupt()?;
-    }
-    let confirmed =
-        if wait.wait { s.send_supervised(m, &[cmd], 1 + ctx.retry.read_retries) } else { s.send(m, &[cmd]) }?;
     let extra = json!({"traject": traject, "on_sync": latched});
     if !wait.wait {
+        let confirmed = s.send(m, &[cmd])?;
         report_sent(ctx, node, m, "cdios-traject", confirmed, extra);
         return Ok(());
     }
-    let end = wait_motion(ctx, &mut s, m, wait, Goal::Traject)?;
+    super::arm_interrupt()?;
+    let attempts = 1 + ctx.retry.read_retries;
+    let at = MotionTarget::Cdios { node: s.id(), module: m };
+    let (moving, _) = s.start(vec![at], attempts, |s| s.send_supervised(m, &[cmd], attempts))?;
+    let end = moving.follow(|s| wait_motion(ctx, s, m, wait, Goal::Traject))?;
     print_wait_end(ctx, (node, m), "cdios-traject", &end, extra);
     Ok(())
 }
@@ -477,13 +480,9 @@ fn wait_motion(ctx: &Ctx, s: &mut Node, m: ModuleId, wait: WaitArgs, goal: Goal)
         let spec = WaitSpec { poll: t.poll, timeout: t.timeout, stop_attempts: t.stop_attempts };
         let progress =
             &mut |pos, r: &_| show(format!("module {m} {}: pos {pos}  {}", goal.name(), status_line(ctx, r)));
-        let waited = axisctl::device::supervisor::guard(
-            s,
-            |s| s.wait(m, goal, spec, &interrupted, progress),
-            |s| {
-                let _ = s.stop_retrying(m, spec.stop_attempts);
-            },
-        );
+        // The caller's Moving handle, armed before the motion frame, halts
+        // the motor on a panic; the wait halts it on its own errors.
+        let waited = s.wait(m, goal, spec, &interrupted, progress);
         waited.map_err(|e| super::stopped_by_output(e.into()))
     })
 }

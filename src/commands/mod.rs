@@ -117,6 +117,9 @@ pub fn classify(err: &anyhow::Error) -> ErrorKind {
 }
 
 fn device_kind(cause: &(dyn std::error::Error + 'static)) -> Option<ErrorKind> {
+    if let Some(e) = cause.downcast_ref::<device::face::FaceError>() {
+        return Some(e.kind());
+    }
     if let Some(e) = cause.downcast_ref::<device::powercube::Error>() {
         return Some(e.kind());
     }
@@ -138,6 +141,9 @@ fn device_kind(cause: &(dyn std::error::Error + 'static)) -> Option<ErrorKind> {
 /// What the device itself answered, when the error is its refusal or fault.
 pub fn refusal(err: &anyhow::Error) -> Option<Refusal> {
     err.chain().find_map(|cause| {
+        if let Some(e) = cause.downcast_ref::<device::face::FaceError>() {
+            return e.refusal();
+        }
         if let Some(e) = cause.downcast_ref::<device::powercube::Error>() {
             return e.refusal();
         }
@@ -346,6 +352,27 @@ impl Ctx {
     /// A CAN link (the in-process bench for `sim`), logged with `--log`.
     pub fn can_link(&self) -> anyhow::Result<Box<dyn link::CanLink>> {
         Ok(self.opener.can(self.link()?, None)?)
+    }
+}
+
+/// The sessions of one link of the bench, opened by the command's opener:
+/// where the device registry gets a face of each family.
+pub struct On<'a> {
+    pub opener: &'a Opener,
+    pub spec: &'a LinkSpec,
+    pub opts: SessionOptions,
+}
+
+impl device::registry::Sessions for On<'_> {
+    type Error = OpenError;
+    fn powercube(&mut self) -> Result<PowerCube, OpenError> {
+        self.opener.powercube(self.spec, &self.opts)
+    }
+    fn pac(&mut self) -> Result<Pac, OpenError> {
+        self.opener.pac(self.spec, &self.opts)
+    }
+    fn cdios(&mut self) -> Result<Cdios, OpenError> {
+        self.opener.cdios(self.spec, &self.opts)
     }
 }
 

@@ -359,18 +359,10 @@ fn move_axis(
 ) -> anyhow::Result<()> {
     let pos = finite("POS", pos)?;
     on_axis(ctx, axis);
-    if wait.wait {
-        // Supervised from before the first byte; without a wait the move is
-        // one-shot and unsupervised once acknowledged.
-        arm_interrupt()?;
-    }
-    let started = if wait.wait {
-        d.start_move_supervised(axis, pos, relative, !force)
-    } else {
-        d.start_move(axis, pos, relative, !force)
-    }?;
-    let (code, target, start_position) = (started.code, started.target, started.start_position);
     if !wait.wait {
+        // One-shot: unsupervised once acknowledged.
+        let started = d.start_move(axis, pos, relative, !force)?;
+        let (code, target, start_position) = (started.code, started.target, started.start_position);
         if ctx.json {
             let mut doc = doc(
                 on_axis(ctx, axis),
@@ -387,11 +379,15 @@ fn move_axis(
         }
         return Ok(());
     }
-    let limit = wait.wait_timeout;
-    let poll = Duration::from_millis(wait.poll);
+    // Supervised from before the first byte; the device layer's waited
+    // move halts the axis on every way out, an unwinding panic included.
+    arm_interrupt()?;
+    let follow = device::Follow { poll: Duration::from_millis(wait.poll), limit: wait.wait_timeout };
     let reporter = Reporter::new(ctx, &wait);
-    let result = d.wait_move(axis, target, poll, limit, &mut |p| {
-        let (position, status) = (p.position, p.status);
+    // The target is known once the start is acknowledged, before the first look.
+    let target = std::cell::Cell::new(f64::NAN);
+    let result = d.move_waited((axis, pos, relative, !force), follow, &mut |s| target.set(s.target), &mut |p| {
+        let (position, status, target) = (p.position, p.status, target.get());
         reporter.report(
             axis,
             json!({"position": crate::output::with_unit(json!(position), POSITION_UNIT), "axis_status": status,
@@ -401,7 +397,9 @@ fn move_axis(
         !interrupted()
     });
     reporter.finish();
-    let device::MoveProgress { position, status, elapsed } = result.map_err(|e| super::stopped_by_output(e.into()))?;
+    let (started, end) = result.map_err(|e| super::stopped_by_output(e.into()))?;
+    let (code, target, start_position) = (started.code, started.target, started.start_position);
+    let device::MoveProgress { position, status, elapsed } = end;
     if ctx.json {
         output::json(&doc(
             on_axis(ctx, axis),
@@ -449,7 +447,7 @@ fn reference(ctx: &Ctx, d: &mut Controller, axis: u8, wait: PacWait) -> anyhow::
     let poll = Duration::from_millis(wait.poll);
     let limit = wait.wait_timeout;
     let reporter = Reporter::new(ctx, &wait);
-    let result = d.reference(axis, poll, limit, &mut |p: &Progress| {
+    let result = d.reference_waited(axis, device::Follow { poll, limit }, &mut |p: &Progress| {
         // 0A84's acknowledge date has no meaning (5.2.6.3): only time shows.
         reporter.report(
             axis,

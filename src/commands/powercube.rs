@@ -22,7 +22,7 @@ use crate::cli::ids::{Devices, IdList};
 use crate::cli::{PowerCubeCommand as Command, Target, WaitArgs, WatchdogAction};
 use crate::output;
 use crate::output::{say, say_part};
-use axisctl::device::supervisor;
+use axisctl::device::face::{Face, MotionTarget, Moving};
 
 pub fn run(ctx: &Ctx, cmd: Command) -> anyhow::Result<()> {
     match cmd {
@@ -355,10 +355,12 @@ fn halt(ctx: &Ctx, target: Target) -> anyhow::Result<()> {
         return super::bench::halt_all(ctx);
     }
     let (pc, takeover) = super::takeover::open(ctx, |o, spec, opts| o.powercube(spec, opts))?;
-    let sent = Cubes::new(pc).simple(target.module.map(module), Simple::Halt);
+    // The face's stop: one module's acknowledged Halt, or the broadcast.
+    let at = target.module.map(module).map_or(MotionTarget::CubeBus, MotionTarget::Cube);
+    let sent = Cubes::new(pc).stop(at);
     sent.map_err(|e| super::takeover::failed(e, takeover.as_ref()))?;
     let holder = super::takeover::HolderReport::after_halt(takeover.as_ref());
-    report_sent(ctx, target, &Simple::Halt.name().to_lowercase(), holder.as_ref());
+    report_sent(ctx, target, "halt", holder.as_ref());
     Ok(())
 }
 
@@ -397,7 +399,9 @@ fn home(ctx: &Ctx, target: Target, wait: WaitArgs, deadman: Deadman) -> anyhow::
     cubes.set_deadman(deadman)?;
     // Supervised from before the first byte: a signal now halts.
     super::arm_interrupt()?;
-    let r = home_waited(ctx, &mut cubes, target, wait);
+    // Held from before the first Home: every way out halts (one module, or the bus).
+    let at = target.module.map(module).map_or(MotionTarget::CubeBus, MotionTarget::Cube);
+    let r = Moving::new(&mut cubes, vec![at], 1 + ctx.retry.read_retries).follow(|c| home_waited(ctx, c, target, wait));
     released(&mut cubes, r)
 }
 
@@ -425,13 +429,8 @@ fn home_waited(ctx: &Ctx, cubes: &mut Cubes, target: Target, wait: WaitArgs) -> 
         let spec = WaitSpec { poll: t.poll, timeout: t.timeout, halt_attempts: t.stop_attempts };
         let progress =
             &mut |m, pos: f32, cube| show(format!("module {m} homing: pos {pos:.4}  {}", state_summary(ctx, cube)));
-        let waited = supervisor::guard(
-            &mut *cubes,
-            |c| c.wait_each(&goals, spec, &interrupted, progress),
-            |c| {
-                c.halt_each(&modules, spec.halt_attempts);
-            },
-        );
+        // The caller's Moving handle halts on a panic; the wait on its own errors.
+        let waited = cubes.wait_each(&goals, spec, &interrupted, progress);
         waited.map_err(|e| super::stopped_by_output(e.into()))
     })?;
     print_wait_results(ctx, cubes, "home", &results)
@@ -444,13 +443,8 @@ fn wait_for(ctx: &Ctx, cubes: &mut Cubes, m: ModuleId, wait: WaitArgs, goal: Goa
         let what = goal.doing();
         let progress =
             &mut |pos: f32, cube| show(format!("module {m} {what}: pos {pos:.4}  {}", state_summary(ctx, cube)));
-        let waited = supervisor::guard(
-            cubes,
-            |c| c.wait(m, goal, spec, &interrupted, progress),
-            |c| {
-                let _ = c.halt_retrying(m, spec.halt_attempts);
-            },
-        );
+        // The caller's Moving handle halts on a panic; the wait on its own errors.
+        let waited = cubes.wait(m, goal, spec, &interrupted, progress);
         waited.map_err(|e| super::stopped_by_output(e.into()))
     })
 }
@@ -579,8 +573,11 @@ fn move_ramp(
         return Ok(());
     }
     cubes.set_deadman(deadman)?;
-    let r = send_move_to(ctx, &mut cubes, (m, target), ramp, ticks, force, true)
-        .and_then(|pos| wait_for(ctx, &mut cubes, m, wait, Goal::RampEnd { target: pos, ticks }));
+    // Held from before the motion frame until the wait ends: every way out halts.
+    let r = Moving::new(&mut cubes, vec![MotionTarget::Cube(m)], 1 + ctx.retry.read_retries).follow(|c| {
+        send_move_to(ctx, c, (m, target), ramp, ticks, force, true)
+            .and_then(|pos| wait_for(ctx, c, m, wait, Goal::RampEnd { target: pos, ticks }))
+    });
     let end = released(&mut cubes, r)?;
     print_wait_results(ctx, &mut cubes, "move-ramp", &[end])
 }
@@ -601,7 +598,9 @@ fn move_ramp_sync(
     if wait.wait {
         cubes.set_deadman(deadman)?;
         super::arm_interrupt()?;
-        let r = move_ramp_sync_waited(ctx, &mut cubes, &plan, ticks, force, wait);
+        // Held from before the first frame until the wait ends: every way out halts the bus.
+        let r = Moving::new(&mut cubes, vec![MotionTarget::CubeBus], 1 + ctx.retry.read_retries)
+            .follow(|c| move_ramp_sync_waited(ctx, c, &plan, ticks, force, wait));
         return released(&mut cubes, r);
     }
     let started = cubes.move_sync(&plan, force, 1 + ctx.retry.read_retries)?;
@@ -642,16 +641,8 @@ fn move_ramp_sync_waited(
         let spec = WaitSpec { poll: t.poll, timeout: t.timeout, halt_attempts: t.stop_attempts };
         let progress =
             &mut |m, pos: f32, cube| show(format!("module {m} moving: pos {pos:.4}  {}", state_summary(ctx, cube)));
-        let modules: Vec<ModuleId> = started.iter().map(|(m, _)| *m).collect();
-        let waited = supervisor::guard(
-            &mut *cubes,
-            |c| c.wait_sync(&started, ticks, spec, &interrupted, progress),
-            |c| {
-                for m in &modules {
-                    let _ = c.halt_retrying(*m, spec.halt_attempts);
-                }
-            },
-        );
+        // The caller's Moving handle halts on a panic; the wait on its own errors.
+        let waited = cubes.wait_sync(&started, ticks, spec, &interrupted, progress);
         waited.map_err(|e| super::stopped_by_output(e.into()))
     })?;
     print_wait_results(ctx, cubes, "move-ramp", &ends)

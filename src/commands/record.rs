@@ -7,6 +7,7 @@
 use std::time::Duration;
 
 use axisctl::device::cdios::{self as cdios_dev, Node};
+use axisctl::device::face::Moving;
 use axisctl::device::pac::Controller;
 use axisctl::device::powercube::{self as cube_dev, Cubes, Move};
 use axisctl::device::supervisor;
@@ -16,7 +17,7 @@ use axisctl::proto::powercube::table::ids;
 use axisctl::proto::powercube::ModuleId;
 use axisctl::record::{
     self, Address, CdiosSampler, CdiosValue, Channel, CubeSampler, End, HaltMotion, HaltWhen, PacSampler, PacValue,
-    RecordError, Sample, Until,
+    RecordError, Recording, Sample, Until,
 };
 use clap::Parser;
 use serde_json::{json, Map, Value};
@@ -260,30 +261,27 @@ fn go<S: HaltMotion>(
     writer.header(s.channels());
     let (mut tried, mut started) = (false, false);
     let clock = ctx.clock.clone();
-    let ended = supervisor::guard(
-        s,
-        |s| {
-            let mut sink = |sample: &Sample, s: &mut S| -> Result<(), RecordError> {
-                writer.sample(sample);
-                if let (Some(m), false) = (&motion, tried) {
-                    // Started once the first sample shows where it started
-                    // from. A start that fails was handled by the device
-                    // layer (a motion that may have gone out is halted there).
-                    tried = true;
-                    let text = start(s, m)?;
-                    started = true;
-                    output::err_line(format_args!("{} at t = {:.4} s: {text}", m.device(), sample.t));
-                }
-                Ok(())
-            };
-            record::record(s, clock.as_ref(), period, until, &|| supervisor::stop_requested(), &mut sink)
-        },
-        |s| {
-            if let Some(m) = &motion {
-                record::halt_motion(s, m.address(node), HaltWhen::Always, attempts);
+    // Armed before the motion starts (after the first sample): the face
+    // halts it on a panic's unwind; every other end is weighed below.
+    let targets = motion.as_ref().and_then(|m| record::motion_target(m.address(node))).into_iter().collect();
+    let mut faced = Recording::new(s);
+    let ended = Moving::new(&mut faced, targets, attempts).follow(|r| {
+        let s = r.sampler();
+        let mut sink = |sample: &Sample, s: &mut S| -> Result<(), RecordError> {
+            writer.sample(sample);
+            if let (Some(m), false) = (&motion, tried) {
+                // Started once the first sample shows where it started
+                // from. A start that fails was handled by the device
+                // layer (a motion that may have gone out is halted there).
+                tried = true;
+                let text = start(s, m)?;
+                started = true;
+                output::err_line(format_args!("{} at t = {:.4} s: {text}", m.device(), sample.t));
             }
-        },
-    );
+            Ok(())
+        };
+        record::record(s, clock.as_ref(), period, until, &|| supervisor::stop_requested(), &mut sink)
+    });
     output::flush();
     let Some(m) = motion.filter(|_| started) else {
         // Without a motion Ctrl-C is how an open-ended recording ends.

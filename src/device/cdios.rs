@@ -8,6 +8,7 @@
 
 pub mod config;
 mod error;
+mod face;
 mod io;
 mod wait;
 

@@ -5,8 +5,10 @@
 //! over it: nothing that decides what is safe to send lives above this layer.
 
 pub mod cdios;
+pub mod face;
 pub mod pac;
 pub mod powercube;
+pub mod registry;
 pub mod supervisor;
 
 #[cfg(test)]

@@ -18,6 +18,7 @@
 
 mod elements;
 mod error;
+mod face;
 mod halt;
 mod motion;
 #[cfg(test)]
@@ -28,6 +29,7 @@ use std::fmt;
 
 pub use elements::{Element, Register, RegisterKind};
 pub use error::Error;
+pub use face::Follow;
 pub use halt::{HaltStep, HaltTarget};
 pub use motion::{Halted, MoveProgress, MoveStart};
 

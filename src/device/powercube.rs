@@ -8,6 +8,7 @@
 
 mod deadman;
 mod error;
+mod face;
 mod moves;
 mod sync;
 mod wait;

@@ -15,7 +15,8 @@
 //! SIGXFSZ, so a write past `ulimit -f` fails with EFBIG and halts like any
 //! failed write instead of killing the process. A failed output write is recorded
 //! the same way ([`note_output_failure`]): a wait whose progress cannot be
-//! shown halts rather than panics. [`guard`] halts on a panic of the
+//! shown halts rather than panics. The device face's
+//! [`Moving`](crate::device::face::Moving) handle halts on a panic of the
 //! waiting thread itself; the panic hook ([`install_panic_hook`], set by the
 //! binary at start) records a panic on any other thread the same way, so
 //! the wait (or the dashboard) halts what it moved and says why.
@@ -25,12 +26,13 @@
 //! once it is acknowledged the process ends and the axis moves on,
 //! unsupervised.
 
-use std::panic::{self, AssertUnwindSafe, PanicHookInfo};
+use std::panic::{self, PanicHookInfo};
 use std::sync::Once;
 
 mod moved;
 
-pub use moved::{HaltOutcome, MotionTarget, MovedDevices, Reach};
+pub use super::registry::target::MotionTarget;
+pub use moved::{HaltOutcome, MovedDevices, Reach};
 
 pub use crate::clock::stop::{
     arm, caught, exit_code, forget_signal, ignore_file_size_signal, job_stop, log_failure, note_log_failure,
@@ -43,7 +45,8 @@ pub use crate::clock::stop::{
 /// ([`note_panic`]), then lets the previous hook print it. A thread that
 /// panics may have been the one that knew a device was moving; the
 /// supervised wait or the dashboard that sees the record halts what it
-/// moved. Needs `panic = "unwind"` (the default) for [`guard`] to run at all.
+/// moved. Needs `panic = "unwind"` (the default) for the
+/// [`Moving`](crate::device::face::Moving) handle's drop to run at all.
 pub fn install_panic_hook() {
     static ONCE: Once = Once::new();
     ONCE.call_once(|| {
@@ -69,18 +72,6 @@ pub fn describe_panic(info: &PanicHookInfo<'_>) -> String {
     match info.location() {
         Some(at) => format!("thread '{name}' at {}:{}: {msg}", at.file(), at.line()),
         None => format!("thread '{name}': {msg}"),
-    }
-}
-
-/// Runs `body` on the device and halts it with `halt` if `body` panics,
-/// then lets the panic go on: a bug in a wait never leaves an axis moving.
-pub fn guard<D, R>(dev: &mut D, body: impl FnOnce(&mut D) -> R, halt: impl FnOnce(&mut D)) -> R {
-    match panic::catch_unwind(AssertUnwindSafe(|| body(&mut *dev))) {
-        Ok(r) => r,
-        Err(payload) => {
-            let _ = panic::catch_unwind(AssertUnwindSafe(|| halt(dev)));
-            panic::resume_unwind(payload)
-        }
     }
 }
 
@@ -138,18 +129,5 @@ mod tests {
         let r = std::thread::spawn(|| panic!("static")).join();
         assert!(r.is_err());
         assert!(panic_failure().unwrap().ends_with("boom 7"));
-    }
-
-    #[test]
-    fn a_panic_in_the_body_halts_then_goes_on() {
-        let mut halted = false;
-        let r = panic::catch_unwind(AssertUnwindSafe(|| {
-            guard(&mut halted, |_| panic!("bug in a wait"), |h| *h = true);
-        }));
-        assert!(r.is_err(), "the panic goes on after the halt");
-        assert!(halted, "the device was halted");
-        let mut halted = false;
-        assert_eq!(guard(&mut halted, |_| 7, |h| *h = true), 7);
-        assert!(!halted, "no halt without a panic");
     }
 }

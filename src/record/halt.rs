@@ -9,10 +9,9 @@
 //! device layer's, the ones the supervised waits use.
 
 use super::{Address, CdiosSampler, CubeSampler, End, PacSampler, RecordError, Sampler};
-use crate::proto::cdios::ModuleId as CdiosModule;
-use crate::proto::powercube::flags::state;
-use crate::proto::powercube::table::ids;
-use crate::proto::powercube::ModuleId;
+use crate::device::face::{Face, FaceError, Found, Halt, HaltStep, MotionTarget, State};
+use crate::device::registry;
+use crate::family::Family;
 
 /// When the recorded motion is halted at the end of the recording.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -35,22 +34,96 @@ impl HaltWhen {
 }
 
 /// A sampler whose device a recorded motion moves: the look at the device
-/// and its halt, on the sampler's own link.
+/// and its halt, on the sampler's own link, both the device face's.
 pub trait HaltMotion: Sampler {
+    /// The face of the sampler's device.
+    fn face(&mut self) -> &mut dyn Face;
+
     /// Whether the device at `at` still moves; `None` when that cannot be
     /// read (it is then halted).
-    fn still_moving(&mut self, at: Address) -> Option<bool>;
+    fn still_moving(&mut self, at: Address) -> Option<bool> {
+        let t = target(at)?;
+        self.face().state(t).ok().map(|s| s.moving)
+    }
 
     /// The family's halt of `at`: what was done (`halted`), or the failure
     /// in capitals (`HALT FAILED: ...`). `attempts`: how often a halt whose
     /// acknowledge is lost is sent.
-    fn halt(&mut self, at: Address, attempts: u32) -> Result<String, String>;
+    fn halt(&mut self, at: Address, attempts: u32) -> Result<String, String> {
+        let face = self.face();
+        let Some(t) = target(at).filter(|t| t.family() == face.family()) else { return Err(foreign(at)) };
+        let failed = if t.family() == Family::PowerCube { "HALT FAILED" } else { "STOP FAILED" };
+        match face.halt(t, attempts) {
+            Ok(Halt::AtRest) => Ok("not running (it had come to rest)".into()),
+            Ok(Halt::StoppedAt(position)) => Ok(format!("stopped at {position}")),
+            Ok(Halt::FastStop { .. }) => Ok("fast stop sent".into()),
+            Ok(_) => Ok("halted".into()),
+            Err(e) => Err(format!("{failed}: {e}")),
+        }
+    }
 
     /// After the halt: what the family set up to supervise the motion is
     /// undone (a PowerCube's dead-man backstop); the failure, said.
     fn release(&mut self) -> Result<(), String> {
         Ok(())
     }
+}
+
+/// The address the device face halts `at` by.
+fn target(at: Address) -> Option<MotionTarget> {
+    match at {
+        Address::Module(m) => registry::target(Family::PowerCube, Some(m), None),
+        Address::Axis(a) => registry::target(Family::Pac, Some(a), None),
+        Address::CdiosModule { node, module } => registry::target(Family::Cdios, Some(node), Some(module)),
+    }
+}
+
+/// A recording as a device face: the sampler's own face, so that a
+/// [`Moving`](crate::device::face::Moving) handle halts a recorded motion
+/// while the sampling loop holds the sampler.
+pub struct Recording<'a, S: HaltMotion> {
+    sampler: &'a mut S,
+    family: Family,
+}
+
+impl<'a, S: HaltMotion> Recording<'a, S> {
+    pub fn new(sampler: &'a mut S) -> Self {
+        let family = sampler.face().family();
+        Self { sampler, family }
+    }
+
+    pub fn sampler(&mut self) -> &mut S {
+        self.sampler
+    }
+}
+
+impl<S: HaltMotion> Face for Recording<'_, S> {
+    fn family(&self) -> Family {
+        self.family
+    }
+    fn discover(&mut self, candidates: &[u8]) -> Result<Vec<Found>, FaceError> {
+        self.sampler.face().discover(candidates)
+    }
+    fn identify(&mut self, at: MotionTarget) -> Result<String, FaceError> {
+        self.sampler.face().identify(at)
+    }
+    fn state(&mut self, at: MotionTarget) -> Result<State, FaceError> {
+        self.sampler.face().state(at)
+    }
+    fn halt(&mut self, at: MotionTarget, attempts: u32) -> Result<Halt, FaceError> {
+        self.sampler.face().halt(at, attempts)
+    }
+    fn stop(&mut self, at: MotionTarget) -> Result<Halt, FaceError> {
+        self.sampler.face().stop(at)
+    }
+    fn halt_all(&mut self, known: Option<&[MotionTarget]>) -> Vec<HaltStep> {
+        self.sampler.face().halt_all(known)
+    }
+}
+
+/// The face's address of a recorded motion's device.
+pub fn motion_target(at: Address) -> Option<MotionTarget> {
+    target(at)
 }
 
 /// Halts the motion at `at` when `when` says so; what was done, `None` when
@@ -74,23 +147,8 @@ fn foreign(at: Address) -> String {
 }
 
 impl HaltMotion for CubeSampler {
-    fn still_moving(&mut self, at: Address) -> Option<bool> {
-        let Address::Module(m) = at else { return None };
-        let m = ModuleId::new(m)?;
-        self.cubes().get_u32(m, ids::CUBE_STATE).ok().map(|word| word & state::MOTION != 0)
-    }
-
-    fn halt(&mut self, at: Address, attempts: u32) -> Result<String, String> {
-        let Some(m) = (match at {
-            Address::Module(m) => ModuleId::new(m),
-            _ => None,
-        }) else {
-            return Err(foreign(at));
-        };
-        match self.cubes().halt_retrying(m, attempts) {
-            Ok(()) => Ok("halted".into()),
-            Err(e) => Err(format!("HALT FAILED: {e}")),
-        }
+    fn face(&mut self) -> &mut dyn Face {
+        self.cubes()
     }
 
     fn release(&mut self) -> Result<(), String> {
@@ -99,45 +157,14 @@ impl HaltMotion for CubeSampler {
 }
 
 impl HaltMotion for PacSampler {
-    fn still_moving(&mut self, at: Address) -> Option<bool> {
-        let Address::Axis(axis) = at else { return None };
-        let ctl = self.controller();
-        // A command still running (BE = 0) moves, whatever the axis says.
-        if ctl.busy().is_some() {
-            return Some(true);
-        }
-        // 1910 axis status 1: moving.
-        ctl.read_i64(0x1910, i64::from(axis)).ok().map(|status| status == 1)
-    }
-
-    /// 0A93, polled to standstill: the stop of last resort the waits use.
-    fn halt(&mut self, at: Address, _attempts: u32) -> Result<String, String> {
-        let Address::Axis(axis) = at else { return Err(foreign(at)) };
-        match self.controller().halt_axis(axis).result {
-            Ok(position) => Ok(format!("stopped at {position}")),
-            Err(e) => Err(format!("STOP FAILED: {e}")),
-        }
+    fn face(&mut self) -> &mut dyn Face {
+        self.controller()
     }
 }
 
 impl HaltMotion for CdiosSampler {
-    fn still_moving(&mut self, at: Address) -> Option<bool> {
-        let Address::CdiosModule { module, .. } = at else { return None };
-        self.node().running(CdiosModule::new(module)?).ok()
-    }
-
-    fn halt(&mut self, at: Address, attempts: u32) -> Result<String, String> {
-        let Some(m) = (match at {
-            Address::CdiosModule { module, .. } => CdiosModule::new(module),
-            _ => None,
-        }) else {
-            return Err(foreign(at));
-        };
-        match self.node().halt_motor(m, attempts) {
-            Ok(true) => Ok("fast stop sent".into()),
-            Ok(false) => Ok("not running (it had come to rest)".into()),
-            Err(e) => Err(format!("STOP FAILED: {e}")),
-        }
+    fn face(&mut self) -> &mut dyn Face {
+        self.node()
     }
 }
 

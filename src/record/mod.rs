@@ -20,7 +20,7 @@ use crate::clock::Clock;
 use crate::family::Family;
 
 pub use cdios::{CdiosSampler, CdiosValue};
-pub use halt::{halt_motion, HaltMotion, HaltWhen};
+pub use halt::{halt_motion, motion_target, HaltMotion, HaltWhen, Recording};
 pub use pac::{PacSampler, PacValue};
 pub use powercube::CubeSampler;
 

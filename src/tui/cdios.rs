@@ -5,7 +5,8 @@
 //! [`crate::device::cdios`] operation; this file only words it.
 
 use super::source::{Action, CdiosSnap, DeviceKey, DeviceSource, HaltReport, Snapshot, SourceError};
-use crate::device::cdios::{self as device, Node, SentPoll, Stopped};
+use crate::device::cdios::{self as device, Node, SentPoll};
+use crate::device::face::Face;
 use crate::family::Family;
 use crate::proto::cdios::{Command, GotoMode, ModuleId, NodeId, StopOption};
 use crate::session::cdios::Cdios;
@@ -75,6 +76,13 @@ impl CdiosSource {
         };
         self.send(m, Command::Goto { mode, position }, &what)
     }
+}
+
+/// The range a Cdios goto position takes (the table's goto field).
+pub fn target_range() -> (i64, i64) {
+    crate::proto::cdios::table::command("goto")
+        .and_then(|c| c.field("position"))
+        .map_or((i64::from(i32::MIN), i64::from(i32::MAX)), |f| (f.min, f.max))
 }
 
 impl DeviceSource for CdiosSource {
@@ -147,18 +155,13 @@ impl DeviceSource for CdiosSource {
         }
     }
 
+    fn face(&mut self) -> &mut dyn Face {
+        &mut self.node
+    }
+
     fn halt_all(&mut self) -> Vec<HaltReport> {
         let node = self.node.id().get();
-        self.node
-            .halt_all(&self.known)
-            .into_iter()
-            .map(|(m, r)| {
-                let text = r.map(|s| match s {
-                    Stopped::FastStop { confirmed } => sent("fast stop", confirmed),
-                    Stopped::NotRunning => "not running".into(),
-                });
-                (Some(DeviceKey::Cdios { node, module: m.get() }), text.map_err(Into::into))
-            })
-            .collect()
+        let known: Vec<DeviceKey> = self.known.iter().map(|m| DeviceKey::Cdios { node, module: m.get() }).collect();
+        super::source::halt_all(&mut self.node, &known)
     }
 }

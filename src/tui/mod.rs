@@ -56,13 +56,6 @@ pub const TICK: Duration = Duration::from_millis(100);
 /// Shortest time between two redraws for worker reports (20 frames a second).
 pub const FRAME: Duration = Duration::from_millis(50);
 
-/// The range a Cdios goto position takes (the table's goto field).
-pub fn cdios_target_range() -> (i64, i64) {
-    crate::proto::cdios::table::command("goto")
-        .and_then(|c| c.field("position"))
-        .map_or((i64::from(i32::MIN), i64::from(i32::MAX)), |f| (f.min, f.max))
-}
-
 /// One link to open: its name for the status bar and its device sources.
 pub struct LinkPlan {
     pub name: String,

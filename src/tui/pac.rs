@@ -8,7 +8,8 @@
 //! controller line polls it and the axes show as stale with that reason.
 
 use super::source::{Action, DeviceKey, DeviceSource, HaltReport, PacAxisSnap, PacCtrlSnap, Snapshot, SourceError};
-use crate::device::pac::{self, Controller, Error, HaltTarget, TraverseArea};
+use crate::device::face::Face;
+use crate::device::pac::{self, Controller, Error, TraverseArea};
 use crate::family::Family;
 use crate::session::pac::Pac;
 
@@ -16,6 +17,12 @@ pub struct PacSource {
     ctl: Controller,
     /// Given with `--axes`; `None` asks the controller.
     wanted: Option<Vec<u8>>,
+}
+
+impl From<Error> for SourceError {
+    fn from(e: Error) -> Self {
+        err(e)
+    }
 }
 
 fn err(e: Error) -> SourceError {
@@ -119,17 +126,12 @@ impl DeviceSource for PacSource {
 
     /// See [`Controller::halt_all`]: the mode is read fresh, automatic mode
     /// gets 0600, online mode 0A9A per axis.
+    fn face(&mut self) -> &mut dyn Face {
+        &mut self.ctl
+    }
+
     fn halt_all(&mut self) -> Vec<HaltReport> {
-        self.ctl
-            .halt_all()
-            .into_iter()
-            .map(|step| {
-                let key = match step.target {
-                    HaltTarget::Controller => DeviceKey::PacController,
-                    HaltTarget::Axis(a) => DeviceKey::PacAxis(a),
-                };
-                (Some(key), step.result.map_err(err))
-            })
-            .collect()
+        // The controller's axes were set at discovery: the face keeps them.
+        super::source::halt_all(&mut self.ctl, &[])
     }
 }

@@ -8,6 +8,7 @@
 use std::collections::BTreeMap;
 
 use super::source::{Action, CubeSnap, DeviceKey, DeviceSource, HaltReport, Snapshot, SourceError};
+use crate::device::face::Face;
 use crate::device::powercube::{self as device, Cubes, SentRead, Simple, Target};
 use crate::family::Family;
 use crate::proto::powercube::limits::Limits;
@@ -165,12 +166,12 @@ impl DeviceSource for CubeSource {
         }
     }
 
+    fn face(&mut self) -> &mut dyn Face {
+        &mut self.cubes
+    }
+
     fn halt_all(&mut self) -> Vec<HaltReport> {
-        let r = self.cubes.halt_all(&self.known);
-        let mut out = vec![(None, r.broadcast.map(|_| "Halt broadcast".into()).map_err(Into::into))];
-        for (m, res) in r.modules {
-            out.push((Some(DeviceKey::Cube(m.get())), res.map(|_| "halted".to_string()).map_err(Into::into)));
-        }
-        out
+        let known: Vec<DeviceKey> = self.known.iter().map(|m| DeviceKey::Cube(m.get())).collect();
+        super::source::halt_all(&mut self.cubes, &known)
     }
 }

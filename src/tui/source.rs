@@ -3,6 +3,8 @@
 //! worker of a link ([`super::worker`]) drives its sources one call at a
 //! time, so a source never waits on anything but its own transactions.
 
+use crate::device::face::{Face, FaceError, Halt, MotionTarget};
+use crate::device::registry;
 use crate::family::Family;
 use crate::proto::powercube::limits::Limits;
 use crate::session::SessionError;
@@ -175,6 +177,61 @@ pub enum Health {
 /// One line of a halt-all report.
 pub type HaltReport = (Option<DeviceKey>, Result<String, SourceError>);
 
+impl DeviceKey {
+    /// The key of a device a face names; `None`: every device of the family.
+    pub fn of(t: MotionTarget) -> Option<Self> {
+        Some(match (t.family(), t.ids()) {
+            (Family::PowerCube, (Some(m), _)) => Self::Cube(m),
+            (Family::Pac, (Some(a), _)) => Self::PacAxis(a),
+            (Family::Pac, (None, _)) => Self::PacController,
+            (Family::Cdios, (Some(node), Some(module))) => Self::Cdios { node, module },
+            _ => return None,
+        })
+    }
+
+    /// The address the device face halts it by.
+    pub fn target(self) -> Option<MotionTarget> {
+        match self {
+            Self::Cube(m) | Self::PacAxis(m) => registry::target(self.family(), Some(m), None),
+            Self::PacController => registry::target(Family::Pac, None, None),
+            Self::Cdios { node, module } => registry::target(Family::Cdios, Some(node), Some(module)),
+        }
+    }
+}
+
+impl From<FaceError> for SourceError {
+    fn from(e: FaceError) -> Self {
+        match e {
+            FaceError::PowerCube(e) => e.into(),
+            FaceError::Pac(e) => e.into(),
+            FaceError::Cdios(e) => e.into(),
+            FaceError::Session(s) => Self::Session(s),
+            other => Self::Refused(other.to_string()),
+        }
+    }
+}
+
+/// The face's halt-all of the devices a source shows (the face's own
+/// sequence, the one `halt --all` sends), in the dashboard's words.
+pub fn halt_all(face: &mut dyn Face, known: &[DeviceKey]) -> Vec<HaltReport> {
+    let known: Vec<MotionTarget> = known.iter().filter_map(|k| k.target()).collect();
+    face.halt_all(Some(&known))
+        .into_iter()
+        .map(|s| {
+            let said = s.result.map(|h| match h {
+                Halt::Broadcast => "Halt broadcast".to_string(),
+                Halt::Halted => "halted".into(),
+                Halt::StoppedAt(at) => format!("stopped at {at}"),
+                Halt::FastStop { confirmed: true } => "fast stop confirmed".into(),
+                Halt::FastStop { confirmed: false } => "fast stop sent (confirmations off)".into(),
+                Halt::AtRest => "not running".into(),
+                Halt::Steps(said) => said,
+            });
+            (s.target.and_then(DeviceKey::of), said.map_err(Into::into))
+        })
+        .collect()
+}
+
 /// A family on a link.
 pub trait DeviceSource: Send {
     fn family(&self) -> Family;
@@ -193,4 +250,6 @@ pub trait DeviceSource: Send {
     fn act(&mut self, dev: DeviceKey, action: Action) -> Result<String, SourceError>;
     /// Stops every device of the family, as fast as the link allows.
     fn halt_all(&mut self) -> Vec<HaltReport>;
+    /// The device face the source drives: what halts a device it moved.
+    fn face(&mut self) -> &mut dyn Face;
 }

@@ -926,6 +926,9 @@ impl DeviceSource for Panicky {
     fn halt_all(&mut self) -> Vec<super::source::HaltReport> {
         self.inner.halt_all()
     }
+    fn face(&mut self) -> &mut dyn crate::device::face::Face {
+        self.inner.face()
+    }
 }
 
 /// The real UI loop on real time: module 17 (linear, slow: 0.5 m takes

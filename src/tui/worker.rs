@@ -26,7 +26,7 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use super::event::{Event, LinkEvent, LinkId, ToWorker};
-use super::source::{Action, DeviceKey, DeviceSource, Health};
+use super::source::{DeviceKey, DeviceSource, Health};
 use crate::clock::Clock;
 
 /// Opens the link again from the same path, with fresh device sources.
@@ -279,10 +279,13 @@ impl LinkWorker {
     pub fn halt_moved(&mut self) -> String {
         let mut said = Vec::new();
         for dev in self.moved.clone() {
-            let halted = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| match self.source_of(dev) {
-                Some(i) => self.sources[i].act(dev, Action::Halt).map_err(|e| e.to_string()),
-                None => Err("its link is closed".into()),
-            }));
+            // The face's halt, the one every way out of a motion uses.
+            let halted =
+                std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| match (self.source_of(dev), dev.target()) {
+                    (Some(i), Some(at)) => self.sources[i].face().halt(at, 1).map(|_| ()).map_err(|e| e.to_string()),
+                    (Some(_), None) => Err("no such device".into()),
+                    (None, _) => Err("its link is closed".into()),
+                }));
             said.push(match halted {
                 Ok(Ok(_)) => format!("halted {}", dev.label()),
                 Ok(Err(e)) => format!("HALT OF {} FAILED: {e}", dev.label()),

@@ -8,86 +8,39 @@
 //! waits use on a signal ([`MovedDevices::halt`]), each tried whatever the
 //! others did, and each outcome is kept for the run's last message.
 
-use std::fmt;
-
-use crate::device::cdios::Node;
-use crate::device::pac::Controller;
-use crate::device::powercube::Cubes;
-use crate::proto::cdios::{ModuleId as CdiosModule, NodeId};
-use crate::proto::powercube::ModuleId;
+use crate::device::face::{Face, Halt, MotionTarget};
+use crate::family::Family;
 use crate::session::RetryPolicy;
 
-/// A device a motion went to, as its halt addresses it.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum MotionTarget {
-    /// One PowerCube module.
-    Cube(ModuleId),
-    /// Every module on the PowerCube bus (`home --all`, `move-ramp --sync`).
-    CubeBus,
-    /// One PA-CONTROL axis.
-    PacAxis(u8),
-    /// The whole PA-CONTROL (online mode, the program, a raw command).
-    PacController,
-    /// One 6168 module of a Cdios node.
-    Cdios { node: NodeId, module: CdiosModule },
-}
-
-impl fmt::Display for MotionTarget {
-    /// The command that stops the device by hand: how the run's message
-    /// names each halt.
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            Self::Cube(m) => write!(f, "halt -m {m}"),
-            Self::CubeBus => f.write_str("halt --all"),
-            Self::PacAxis(a) => write!(f, "pac-stop-axis {a}"),
-            Self::PacController => f.write_str("pac-stop"),
-            Self::Cdios { node, module } => write!(f, "cdios-stop --node {node} -m {module} --option fast"),
-        }
-    }
-}
-
-/// Where the halts get their devices: the caller opens them on the link it
-/// holds (a run of many commands keeps one open link). Each family is
-/// asked once per stop and each Cdios node once; an error says why the
-/// device could not be reached (asked again for its next halt).
+/// Where the halts get their devices: the caller opens the face of a
+/// family (for the Cdios, of one node) on the link it holds (a run of many
+/// commands keeps one open link). Each family is asked once per stop and
+/// each Cdios node once; an error says why the device could not be reached
+/// (asked again for its next halt).
 pub trait Reach {
-    fn cubes(&mut self) -> Result<Cubes, String>;
-    fn controller(&mut self) -> Result<Controller, String>;
-    fn node(&mut self, node: NodeId) -> Result<Node, String>;
+    fn face(&mut self, family: Family, node: Option<u8>) -> Result<Box<dyn Face>, String>;
 }
 
-/// The devices opened for one stop.
+/// Which face halts a device: its family, and for the Cdios its node.
+type FaceKey = (Family, Option<u8>);
+
+/// The faces opened for one stop, by family and node.
 #[derive(Default)]
 struct Opened {
-    cubes: Option<Cubes>,
-    controller: Option<Controller>,
-    nodes: Vec<Node>,
+    faces: Vec<(FaceKey, Box<dyn Face>)>,
 }
 
 impl Opened {
-    fn cubes(&mut self, reach: &mut dyn Reach) -> Result<&mut Cubes, String> {
-        if self.cubes.is_none() {
-            self.cubes = Some(reach.cubes()?);
-        }
-        Ok(self.cubes.as_mut().expect("opened above"))
-    }
-
-    fn controller(&mut self, reach: &mut dyn Reach) -> Result<&mut Controller, String> {
-        if self.controller.is_none() {
-            self.controller = Some(reach.controller()?);
-        }
-        Ok(self.controller.as_mut().expect("opened above"))
-    }
-
-    fn node(&mut self, reach: &mut dyn Reach, node: NodeId) -> Result<&mut Node, String> {
-        let at = match self.nodes.iter().position(|n| n.id() == node) {
+    fn face(&mut self, reach: &mut dyn Reach, target: MotionTarget) -> Result<&mut dyn Face, String> {
+        let key = (target.family(), target.node());
+        let at = match self.faces.iter().position(|(k, _)| *k == key) {
             Some(at) => at,
             None => {
-                self.nodes.push(reach.node(node)?);
-                self.nodes.len() - 1
+                self.faces.push((key, reach.face(key.0, key.1)?));
+                self.faces.len() - 1
             }
         };
-        Ok(&mut self.nodes[at])
+        Ok(self.faces[at].1.as_mut())
     }
 }
 
@@ -141,36 +94,18 @@ impl MovedDevices {
 }
 
 fn halt_one(opened: &mut Opened, reach: &mut dyn Reach, target: MotionTarget, attempts: u32) -> Result<String, String> {
-    match target {
-        MotionTarget::Cube(m) => {
-            opened.cubes(reach)?.halt_retrying(m, attempts).map_err(|e| e.to_string())?;
-            Ok(format!("module {m} halted"))
-        }
-        // The broadcast stops every module on the bus, known or not.
-        MotionTarget::CubeBus => {
-            opened.cubes(reach)?.halt_all(&[]).broadcast.map_err(|e| e.to_string())?;
-            Ok("Halt broadcast sent".into())
-        }
-        MotionTarget::PacAxis(axis) => match opened.controller(reach)?.halt_axis(axis).result {
-            Ok(at) => Ok(format!("axis {axis} stopped at {at}")),
-            Err(e) => Err(e),
-        },
-        MotionTarget::PacController => {
-            let steps = opened.controller(reach)?.halt_all();
-            let failed: Vec<String> =
-                steps.iter().filter_map(|s| s.result.as_ref().err()).map(|e| e.to_string()).collect();
-            if failed.is_empty() {
-                Ok(steps.iter().filter_map(|s| s.result.as_ref().ok()).cloned().collect::<Vec<_>>().join("; "))
-            } else {
-                Err(failed.join("; "))
-            }
-        }
-        MotionTarget::Cdios { node, module } => match opened.node(reach, node)?.halt_motor(module, attempts) {
-            Ok(true) => Ok(format!("node {node} module {module}: fast stop sent")),
-            Ok(false) => Ok(format!("node {node} module {module}: not running")),
-            Err(e) => Err(e.to_string()),
-        },
-    }
+    // Each family's halt is its face's; only the words are this run's.
+    let halted = opened.face(reach, target)?.halt(target, attempts);
+    let done = halted.map_err(|e| e.to_string())?;
+    Ok(match (target, done) {
+        (MotionTarget::Cube(m), _) => format!("module {m} halted"),
+        (MotionTarget::CubeBus, _) => "Halt broadcast sent".into(),
+        (MotionTarget::PacAxis(axis), Halt::StoppedAt(at)) => format!("axis {axis} stopped at {at}"),
+        (MotionTarget::Cdios { node, module }, Halt::AtRest) => format!("node {node} module {module}: not running"),
+        (MotionTarget::Cdios { node, module }, _) => format!("node {node} module {module}: fast stop sent"),
+        (_, Halt::Steps(said)) => said,
+        (_, other) => format!("{other:?}"),
+    })
 }
 
 #[cfg(test)]

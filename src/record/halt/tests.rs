@@ -11,7 +11,10 @@ use crate::device::cdios::{enable_commands, goto_commands, Node};
 use crate::device::pac::Controller;
 use crate::device::powercube::{self as cube_dev, Cubes, Move};
 use crate::link::SerialFormat;
-use crate::proto::cdios::{GotoMode, NodeId};
+use crate::proto::cdios::{GotoMode, ModuleId as CdiosModule, NodeId};
+use crate::proto::powercube::flags::state;
+use crate::proto::powercube::table::ids;
+use crate::proto::powercube::ModuleId;
 use crate::record::{CdiosValue, Channel, PacValue};
 use crate::session::cdios::Cdios;
 use crate::session::pac::Pac;
@@ -47,6 +50,9 @@ impl Sampler for Fake {
 }
 
 impl HaltMotion for Fake {
+    fn face(&mut self) -> &mut dyn Face {
+        unreachable!("the fake answers its looks and halts itself")
+    }
     fn still_moving(&mut self, at: Address) -> Option<bool> {
         assert_eq!(at, Address::Module(17));
         self.calls.borrow_mut().push("look");

@@ -132,7 +132,7 @@ pub fn target_range(d: &DeviceView) -> Option<String> {
             _ => None,
         },
         Some(Snapshot::Cdios(_)) => {
-            let (lo, hi) = crate::tui::cdios_target_range();
+            let (lo, hi) = crate::tui::cdios::target_range();
             Some(format!("{lo} .. {hi} counts"))
         }
         _ => None,

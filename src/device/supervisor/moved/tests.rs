@@ -7,14 +7,18 @@ use std::time::{Duration, Instant};
 
 use super::*;
 use crate::clock::{Clock, VirtualClock};
-use crate::device::cdios::{enable_commands, goto_commands};
+use crate::device::cdios::{enable_commands, goto_commands, Node};
+use crate::device::pac::Controller;
+use crate::device::powercube::Cubes;
 use crate::device::powercube::Move;
 use crate::device::tests::{recorded_bench, Recorded, Recording};
 use crate::link::mem::{ByteDevice, MemByteLink};
 use crate::link::SerialFormat;
-use crate::proto::cdios::GotoMode;
+use crate::proto::cdios::NodeId;
+use crate::proto::cdios::{GotoMode, ModuleId as CdiosModule};
 use crate::proto::powercube::can::{classify, CanMessage};
 use crate::proto::powercube::flags::state;
+use crate::proto::powercube::ModuleId;
 use crate::proto::powercube::Request;
 use crate::proto::CanFrame;
 use crate::session::cdios::Cdios;
@@ -68,6 +72,17 @@ fn retries(n: u32) -> RetryPolicy {
 }
 
 impl Reach for Rig {
+    fn face(&mut self, family: Family, node: Option<u8>) -> Result<Box<dyn Face>, String> {
+        Ok(match (family, node.and_then(NodeId::new)) {
+            (Family::PowerCube, _) => Box::new(self.cubes()?),
+            (Family::Pac, _) => Box::new(self.controller()?),
+            (Family::Cdios, Some(n)) => Box::new(self.node(n)?),
+            (Family::Cdios, None) => return Err("no node".into()),
+        })
+    }
+}
+
+impl Rig {
     fn cubes(&mut self) -> Result<Cubes, String> {
         self.opened.push("powercube".into());
         if self.unreachable.contains(&"powercube") {
