@@ -1,0 +1,311 @@
+//! Whole-bench `backup`, `diff` and `restore` through the real binary,
+//! against `axisctl sim` served on ptys (PowerCube and Cdios share the slcan
+//! pty, the PA-CONTROL has its own): one file holds every device of every
+//! link; a device of the file that is not on the bench is reported, never
+//! skipped. Every process runs under a deadline.
+
+mod common;
+
+use std::path::{Path, PathBuf};
+use std::process::Stdio;
+
+use common::{Run, Sim};
+use serde_json::Value;
+
+fn run(args: &[&str]) -> Run {
+    let mut c = common::bin();
+    c.args(args).stdout(Stdio::piped()).stderr(Stdio::piped());
+    common::wait_bounded(c.spawn().unwrap(), 120, args).run()
+}
+
+fn ok(r: &Run, what: &str) {
+    assert_eq!(r.code, 0, "{what}: stdout {}\nstderr {}", r.stdout, r.stderr);
+}
+
+fn valid(def: &str, doc: &Value) {
+    if let Some(e) = common::schema_errors(&common::schema(def), doc) {
+        panic!("{def}: {e}\n{doc:#}");
+    }
+}
+
+fn s(p: &Path) -> &str {
+    p.to_str().unwrap()
+}
+
+/// The served bench: (the slcan link of PowerCube and Cdios, the PA-CONTROL's serial link).
+fn served() -> (Sim, String, String) {
+    let sim = Sim::start(&[], 3);
+    let (can, serial) = (sim.link("powercube").to_string(), sim.link("pac").to_string());
+    assert_eq!(sim.link("cdios"), can, "one CAN pty");
+    (sim, can, serial)
+}
+
+/// `--link A --link B ARGS...`, or `--bench FILE ARGS...`.
+fn on(bench: &[&str], args: &[&str]) -> Run {
+    run(&[bench, args].concat())
+}
+
+/// Each device of a backup or diff document: `family:address link`.
+fn devices(doc: &Value) -> Vec<String> {
+    doc["devices"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|d| {
+            let at: Vec<String> =
+                ["node", "module", "axis"].iter().filter_map(|k| d.get(*k).map(|v| format!("{k} {v}"))).collect();
+            format!("{} {} {}", d["family"].as_str().unwrap(), at.join(" "), d["link"].as_str().unwrap())
+        })
+        .collect()
+}
+
+/// Every device of the served bench, each on its own link.
+fn whole_bench(can: &str, serial: &str) -> Vec<String> {
+    let mut want: Vec<String> = [3, 5, 17].iter().map(|m| format!("powercube module {m} {can}")).collect();
+    want.extend([0, 1].iter().map(|m| format!("cdios node 1 module {m} {can}")));
+    want.push(format!("pac  {serial}"));
+    want.extend([1, 2, 3].iter().map(|a| format!("pac axis {a} {serial}")));
+    want
+}
+
+/// The writes in a `--log` (PowerCube SetExtended, PA-CONTROL 0700/0800
+/// parameter writes) and in a `--trace` (Cdios `set_*`, the EEPROM store).
+fn writes(log: &Path, trace: &str) -> Vec<String> {
+    let text = std::fs::read_to_string(log).unwrap_or_default();
+    let mut out: Vec<String> = text
+        .lines()
+        .filter_map(|l| l.split_whitespace().last().map(|f| (l, f)))
+        .filter(|(l, f)| {
+            let (id, data) = f.split_once('#').unwrap_or(("", ""));
+            let cube =
+                u32::from_str_radix(id, 16).is_ok_and(|id| (0x0E0..=0x0FF).contains(&id)) && data.starts_with("08");
+            let pac = l.split_once(" tx ").is_some_and(|(_, hex)| {
+                let hex = hex.to_uppercase();
+                hex.starts_with("01 02 30 37 30 30 3B") || hex.starts_with("01 02 30 38 30 30 3B")
+            });
+            cube || pac
+        })
+        .map(|(l, _)| l.to_string())
+        .collect();
+    out.extend(
+        trace
+            .lines()
+            .filter(|l| l.starts_with("-> ") && (l.contains(" set_") || l.contains(" store_configuration")))
+            .map(str::to_string),
+    );
+    out
+}
+
+/// One setting changed on a device of each family, each on its link.
+fn change_one_per_family(can: &str, serial: &str) {
+    for args in [
+        &["--link", can, "set-param", "-m", "5", "MaxVel", "0.5"][..],
+        &["--link", can, "cdios-config", "-m", "1", "speeds.slope=20"],
+        &["--link", serial, "pac-axis-param", "3", "acceleration", "2500"],
+    ] {
+        ok(&run(args), &args.join(" "));
+    }
+}
+
+/// The differences of a `diff --json`: `device setting`.
+fn differences(doc: &Value) -> Vec<String> {
+    let mut out = Vec::new();
+    for (d, at) in doc["devices"].as_array().unwrap().iter().zip(devices(doc)) {
+        for x in d["differences"].as_array().unwrap() {
+            out.push(format!("{} {}", at.rsplit_once(' ').unwrap().0, x["name"].as_str().unwrap()));
+        }
+    }
+    out
+}
+
+fn bench_round_trip(bench: &[&str], can: &str, serial: &str, dir: &Path) {
+    let file = dir.join("b.json");
+    let r = on(bench, &["--json", "backup", "--out", s(&file)]);
+    ok(&r, "backup");
+    assert_eq!(devices(&r.json()), whole_bench(can, serial), "{}", r.stdout);
+    let saved: Value = serde_json::from_str(&std::fs::read_to_string(&file).unwrap()).unwrap();
+    valid("backup_document", &saved);
+    assert_eq!(devices(&saved), whole_bench(can, serial));
+
+    let r = on(bench, &["--json", "diff", s(&file)]);
+    ok(&r, "diff");
+    valid("diff_report", &r.json());
+    assert_eq!(r.json()["differs"], false, "{}", r.stdout);
+    assert_eq!(devices(&r.json()), whole_bench(can, serial));
+    let r = on(bench, &["diff", s(&file)]);
+    ok(&r, "diff");
+    assert_eq!(r.stdout.trim(), "no differences (9 devices)");
+
+    // A change on each family, each link: the diff names the three; a dry
+    // run shows them and writes nothing; the restore writes them back.
+    change_one_per_family(can, serial);
+    let r = on(bench, &["--json", "diff", s(&file)]);
+    ok(&r, "diff after the changes");
+    assert_eq!(
+        differences(&r.json()),
+        ["powercube module 5 MaxVel", "cdios node 1 module 1 speeds.slope", "pac axis 3 acceleration"],
+        "{}",
+        r.stdout
+    );
+    let log = dir.join("dry.log");
+    let _ = std::fs::remove_file(&log);
+    let r = on(bench, &["--trace", "--log", s(&log), "restore", s(&file), "--dry-run"]);
+    ok(&r, "restore --dry-run");
+    assert!(r.stdout.contains("dry run: nothing was written"), "{}", r.stdout);
+    assert_eq!(writes(&log, &r.stderr), Vec::<String>::new(), "a dry run sends no write");
+    assert!(std::fs::read_to_string(&log).unwrap().contains(" tx "), "the dry run read the PA-CONTROL on its line");
+    let r = on(bench, &["--json", "diff", s(&file)]);
+    assert_eq!(differences(&r.json()).len(), 3, "{}", r.stdout);
+
+    let log = dir.join("restore.log");
+    let _ = std::fs::remove_file(&log);
+    let r = on(bench, &["--trace", "--log", s(&log), "--json", "restore", s(&file)]);
+    ok(&r, "restore");
+    assert_eq!(r.json()["summary"]["written"], 3, "{}", r.stdout);
+    assert_eq!(writes(&log, &r.stderr).len(), 3, "one write per change: {:#?}", writes(&log, &r.stderr));
+    let r = on(bench, &["--json", "diff", s(&file)]);
+    ok(&r, "diff after the restore");
+    assert_eq!(r.json()["differs"], false, "{}", r.stdout);
+}
+
+/// `--link CAN --link SERIAL backup` saves every PowerCube module, every
+/// Cdios module and the PA-CONTROL with its axes in one file; `diff` with
+/// the same links finds no difference; `restore --dry-run` writes nothing;
+/// the same with a bench file naming both links.
+#[test]
+fn one_backup_holds_every_device_of_every_link() {
+    let (_sim, can, serial) = served();
+    let dir = tempfile::tempdir().unwrap();
+    bench_round_trip(&["--link", &can, "--link", &serial], &can, &serial, dir.path());
+    let file = dir.path().join("bench.toml");
+    std::fs::write(&file, format!("[[link]]\nspec = \"{can}\"\n[[link]]\nspec = \"{serial}\"\n")).unwrap();
+    bench_round_trip(&["--bench", s(&file)], &can, &serial, dir.path());
+}
+
+/// One `--link` to the CAN adapter: the backup holds the Cdios node beside
+/// the PowerCubes, read over the one open port (not "device busy" from our
+/// own second open), and `--family powercube,cdios` says the same.
+#[test]
+fn a_can_link_backup_holds_the_cdios_node_on_the_same_adapter() {
+    let (_sim, can, _serial) = served();
+    let want: Vec<String> = whole_bench(&can, "-").into_iter().filter(|d| !d.starts_with("pac")).collect();
+    let cdios: Vec<String> = want.iter().filter(|d| d.starts_with("cdios")).cloned().collect();
+    for (family, wanted) in
+        [(&[][..], &want), (&["--family", "powercube,cdios"], &want), (&["--family", "cdios"], &cdios)]
+    {
+        let r = run(&[&["--link", &can, "--json", "--trace", "backup"][..], family].concat());
+        ok(&r, &format!("backup {family:?}"));
+        assert_eq!(&devices(&r.json()), wanted, "{family:?}");
+        assert!(r.stderr.contains("identify"), "the Cdios node was asked over the link: {}", r.stderr);
+    }
+}
+
+fn write(dir: &Path, name: &str, doc: &Value) -> PathBuf {
+    let p = dir.join(name);
+    std::fs::write(&p, serde_json::to_string_pretty(doc).unwrap()).unwrap();
+    p
+}
+
+/// A device of the file that is not on the bench is reported: `diff`
+/// compares the others and exits 4 (no answer) or 2 (no link of the bench
+/// reaches its family), naming each; `restore` writes nothing.
+#[test]
+fn a_device_of_the_file_missing_from_the_bench_is_reported() {
+    let (_sim, can, serial) = served();
+    let dir = tempfile::tempdir().unwrap();
+    let r = run(&["--link", &can, "--link", &serial, "backup"]);
+    ok(&r, "backup");
+    let mut doc = r.json();
+    // Module 5 becomes module 9, which no simulator serves.
+    let m5 = doc["devices"].as_array_mut().unwrap().iter_mut().find(|d| d["module"] == 5 && d["family"] == "powercube");
+    m5.unwrap()["module"] = 9.into();
+    let file = write(dir.path(), "nine.json", &doc);
+
+    let r = run(&["--link", &can, "--link", &serial, "--json", "diff", s(&file)]);
+    assert_eq!(r.code, 4, "{}{}", r.stdout, r.stderr);
+    assert_eq!(r.stdout, "", "stdout stays empty on a failure");
+    let err: Value = serde_json::from_str(&r.stderr).unwrap();
+    let report = &err["error"]["report"];
+    valid("diff_report", report);
+    assert_eq!(report["missing"].as_array().unwrap().len(), 1, "{report}");
+    assert_eq!(report["missing"][0]["module"], 9);
+    assert_eq!(report["missing"][0]["link"], can.as_str());
+    assert_eq!(report["devices"].as_array().unwrap().len(), 8, "the others were compared");
+    assert_eq!(report["differs"], false);
+    assert!(err["error"]["message"].as_str().unwrap().starts_with("1 device of "), "{err}");
+
+    let r = run(&["--link", &can, "--link", &serial, "diff", s(&file)]);
+    assert_eq!(r.code, 4);
+    assert!(r.stdout.contains("no differences (8 devices)"), "{}", r.stdout);
+    assert!(r.stdout.contains("powercube module 9 (on "), "{}", r.stdout);
+
+    // The PA-CONTROL is on no link of a CAN-only bench: exit 2, and the
+    // CAN devices are compared.
+    let r = run(&["--link", &can, "--json", "diff", s(&file)]);
+    assert_eq!(r.code, 2, "{}", r.stderr);
+    let err: Value = serde_json::from_str(&r.stderr).unwrap();
+    assert_eq!(err["error"]["report"]["missing"].as_array().unwrap().len(), 5, "{err}");
+    assert!(err["error"]["message"].as_str().unwrap().contains("no link of the bench carries the PA-CONTROL"));
+
+    // A restore writes every device of its file or none.
+    let (i, _) = doc["devices"].as_array().unwrap().iter().enumerate().find(|(_, d)| d["module"] == 3).unwrap();
+    doc["devices"][i]["settings"]["MaxVel"]["value"] = 0.25.into();
+    let file = write(dir.path(), "changed.json", &doc);
+    for dry in [true, false] {
+        let log = dir.path().join(format!("restore-{dry}.log"));
+        let mut args = vec!["--link", &can, "--link", &serial, "--log", s(&log), "--trace", "restore", s(&file)];
+        if dry {
+            args.push("--dry-run");
+        }
+        let r = run(&args);
+        assert_eq!(r.code, 4, "{}{}", r.stdout, r.stderr);
+        assert!(r.stderr.contains("powercube module 9 (on "), "{}", r.stderr);
+        assert!(r.stderr.contains("nothing was written"), "{}", r.stderr);
+        assert_eq!(writes(&log, &r.stderr), Vec::<String>::new());
+    }
+}
+
+/// A device the bench file expects is never left out of a backup: one that
+/// does not answer fails it with exit 4, and no file is written.
+#[test]
+fn a_backup_missing_an_expected_device_is_not_written() {
+    let dir = tempfile::tempdir().unwrap();
+    let bench = dir.path().join("bench.toml");
+    std::fs::write(
+        &bench,
+        "[[link]]\nspec = \"sim\"\ndevices = { wrist = \"powercube:9\", gripper = \"cdios:1/0\" }\n",
+    )
+    .unwrap();
+    let out = dir.path().join("b.json");
+    let r = run(&["--bench", s(&bench), "backup", "--out", s(&out)]);
+    assert_eq!(r.code, 4, "{}{}", r.stdout, r.stderr);
+    assert!(r.stderr.contains("expected but not answering: wrist (powercube module 9 on sim)"), "{}", r.stderr);
+    assert!(!out.exists());
+    std::fs::write(&bench, "[[link]]\nspec = \"sim\"\ndevices = { gripper = \"cdios:1/0\" }\n").unwrap();
+    ok(&run(&["--bench", s(&bench), "backup", "--out", s(&out)]), "every expected device answers");
+}
+
+/// `backup --out -` writes the document to stdout, and `diff -` and
+/// `restore -` read it from stdin.
+#[test]
+fn out_dash_is_stdout_and_dash_is_stdin() {
+    use std::io::Write;
+    let dir = tempfile::tempdir().unwrap();
+    let r = run(&["--link", "sim", "backup", "--out", "-"]);
+    ok(&r, "backup --out -");
+    valid("backup_document", &r.json());
+    assert!(!dir.path().join("-").exists() && !Path::new("-").exists(), "no file named -");
+    for args in [&["diff", "-"][..], &["restore", "-", "--dry-run"]] {
+        let mut child = common::bin()
+            .args([&["--link", "sim", "--json"][..], args].concat())
+            .stdin(Stdio::piped())
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap();
+        child.stdin.take().unwrap().write_all(r.stdout.as_bytes()).unwrap();
+        let done = common::wait_bounded(child, 60, args).run();
+        ok(&done, &args.join(" "));
+        assert_eq!(done.json()["differs"], false, "{}", done.stdout);
+    }
+}
