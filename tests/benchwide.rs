@@ -309,3 +309,31 @@ fn out_dash_is_stdout_and_dash_is_stdin() {
         assert_eq!(done.json()["differs"], false, "{}", done.stdout);
     }
 }
+
+/// On a bench of several links, a per-family document (and its error
+/// object) names the link its family used, not every link joined; from a
+/// bench file too, where no `--link` was given at all.
+#[test]
+fn a_family_document_names_its_own_link() {
+    let (_sim, can, serial) = served();
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("bench.toml");
+    std::fs::write(&file, format!("[[link]]\nspec = \"{can}\"\n[[link]]\nspec = \"{serial}\"\n")).unwrap();
+    for bench in [&["--link", &can, "--link", &serial][..], &["--bench", s(&file)]] {
+        for (args, link) in [
+            (&["pac-state"][..], &serial),
+            (&["pac-axis", "2"], &serial),
+            (&["state", "-m", "3"], &can),
+            (&["cdios-status", "-m", "0"], &can),
+        ] {
+            let r = on(bench, &[&["--json"][..], args].concat());
+            ok(&r, &args.join(" "));
+            assert_eq!(r.json()["link"], link.as_str(), "{args:?} {bench:?}: {}", r.stdout);
+        }
+        // Module 9 does not answer: the error object names the PowerCube's link.
+        let r = on(bench, &["--json", "state", "-m", "9"]);
+        assert_eq!(r.code, 4, "{}", r.stderr);
+        let err: Value = serde_json::from_str(&r.stderr).unwrap();
+        assert_eq!(err["error"]["link"], can.as_str(), "{err}");
+    }
+}
