@@ -337,3 +337,101 @@ fn a_family_document_names_its_own_link() {
         assert_eq!(err["error"]["link"], can.as_str(), "{err}");
     }
 }
+
+/// `record DEVICE.VALUE...` reads devices of different links and families
+/// in one recording: each line one sample with one `t`, every device with
+/// its own link, and the values follow the devices (a PowerCube turning
+/// at constant speed is seen rising).
+#[test]
+fn one_recording_over_every_link() {
+    let (_sim, can, serial) = served();
+    ok(&run(&["--link", &can, "reset", "-m", "5"]), "reset");
+    ok(&run(&["--link", &can, "move-vel", "-m", "5", "0.1"]), "move-vel");
+    let r = run(&[
+        "--link",
+        &can,
+        "--link",
+        &serial,
+        "--json",
+        "record",
+        "powercube:5.ActPos",
+        "pac:2.position",
+        "cdios:1/0.position",
+        "powercube:5.ActVel",
+        "--rate",
+        "50",
+        "--count",
+        "5",
+    ]);
+    ok(&r, "record");
+    ok(&run(&["--link", &can, "halt", "-m", "5"]), "halt");
+    let lines: Vec<Value> = r.stdout.lines().map(|l| serde_json::from_str(l).unwrap()).collect();
+    assert_eq!(lines.len(), 5, "{}", r.stdout);
+    let (mut last_t, mut last_pos) = (-1.0, f64::NEG_INFINITY);
+    for (i, l) in lines.iter().enumerate() {
+        valid("record_line", l);
+        assert_eq!(l["seq"], i as u64);
+        let t = l["t"].as_f64().unwrap();
+        assert!(t >= last_t, "stamps never go back: {}", r.stdout);
+        last_t = t;
+        let envs: Vec<(String, String)> = l["devices"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|d| (d["family"].as_str().unwrap().to_string(), d["link"].as_str().unwrap().to_string()))
+            .collect();
+        let want = [("powercube", &can), ("pac", &serial), ("cdios", &can)].map(|(f, l)| (f.to_string(), l.clone()));
+        assert_eq!(envs, want, "one object per device, each on its link");
+        let cube = &l["devices"][0]["values"];
+        assert_eq!((cube["ActPos"]["unit"].as_str(), cube["ActVel"]["unit"].as_str()), (Some("rad"), Some("rad/s")));
+        assert_eq!(l["devices"][1]["values"]["position"]["unit"], "AE");
+        assert!(l["devices"][2]["values"]["position"].get("value").is_some(), "{l}");
+        let pos = cube["ActPos"]["value"].as_f64().unwrap();
+        assert!(pos > last_pos, "module 5 turns: {}", r.stdout);
+        last_pos = pos;
+    }
+    // The rate is kept over the three links: 5 samples at 50 Hz span 80 ms at least.
+    assert!(last_t >= 0.08 - 1e-6, "{}", r.stdout);
+}
+
+/// The bench form of `record` checks every name before a link opens: a bad
+/// one exits 2 with nothing sent.
+#[test]
+fn a_bad_bench_recording_sends_nothing() {
+    let (_sim, can, serial) = served();
+    for (values, says) in [
+        (&["pac.position"][..], "pac is the controller"),
+        (&["powercube:3.ActPos", "ActVel"], "names no device"),
+        (&["powercube:3.NoSuch"], "NoSuch"),
+        (&["pac:2.ActPos"], "no value \"ActPos\" to record here"),
+        (&["cdios:1/0.position", "powercube:99.ActPos"], "powercube:99"),
+        (&["wrist.ActPos"], "\"wrist\" is not a device of the bench"),
+    ] {
+        let r = run(&[&["--link", &can, "--link", &serial, "--trace", "record", "--count", "1"][..], values].concat());
+        assert_eq!(r.code, 2, "{values:?}: {}", r.stderr);
+        assert!(r.stderr.contains(says), "{values:?}: {}", r.stderr);
+        assert!(!r.stderr.lines().any(|l| l.starts_with("-> ")), "nothing sent: {}", r.stderr);
+    }
+    let r = run(&["--link", &can, "record", "powercube:3.ActPos", "--", "move-vel", "-m", "3", "0.1"]);
+    assert_eq!(r.code, 2, "{}", r.stderr);
+    assert!(r.stderr.contains("nothing was sent"), "{}", r.stderr);
+}
+
+/// The help's bench-file example of `record` runs as written: the names of
+/// docs/sim-bench.toml stand for their devices.
+#[test]
+fn the_documented_bench_recording_runs() {
+    let args = "--bench docs/sim-bench.toml --json record shoulder.ActPos slide.position gripper.position --count 5";
+    let help = run(&["record", "--help"]);
+    assert!(help.stdout.contains(&format!("axisctl {args}")), "{}", help.stdout);
+    let r = run(&args.split(' ').collect::<Vec<_>>());
+    ok(&r, args);
+    let lines: Vec<Value> = r.stdout.lines().map(|l| serde_json::from_str(l).unwrap()).collect();
+    assert_eq!(lines.len(), 5);
+    for l in &lines {
+        valid("record_line", l);
+        let d = &l["devices"];
+        assert_eq!((d[0]["module"].as_u64(), d[1]["axis"].as_u64()), (Some(3), Some(2)), "{l}");
+        assert_eq!((d[2]["node"].as_u64(), d[2]["module"].as_u64()), (Some(1), Some(0)), "{l}");
+    }
+}
