@@ -435,3 +435,30 @@ fn the_documented_bench_recording_runs() {
         assert_eq!((d[2]["node"].as_u64(), d[2]["module"].as_u64()), (Some(1), Some(0)), "{l}");
     }
 }
+
+/// The dashboard started on a bench of two links (and from a bench file
+/// naming them) shows every device of every link: the PowerCube modules
+/// and the Cdios modules of the CAN adapter, the PA-CONTROL axes of the
+/// serial line, each link in the status bar.
+#[test]
+fn the_dashboard_of_a_bench_shows_every_device_of_every_link() {
+    let (_sim, can, serial) = served();
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("bench.toml");
+    std::fs::write(&file, format!("[[link]]\nspec = \"{can}\"\n[[link]]\nspec = \"{serial}\"\n")).unwrap();
+    let bin = env!("CARGO_BIN_EXE_axisctl");
+    for bench in [format!("--link {can} --link {serial}"), format!("--bench {}", s(&file))] {
+        let t = common::tmux::Tmux::start("benchwide", 200, 40, &[]);
+        t.wait_for("READY$");
+        t.keys(&[&format!("{bin} {bench} dashboard; echo EXIT=$?"), "Enter"]);
+        t.wait_for("module 17");
+        let screen = t.wait_for("node 1 mod 1");
+        for want in ["module 3", "module 5", "axis 1", "axis 3", "node 1 mod 0", &serial] {
+            assert!(screen.contains(want), "{want:?} missing ({bench}):\n{screen}");
+        }
+        let port = can.trim_start_matches("slcan:");
+        assert!(screen.contains(port), "the CAN link in the status bar ({bench}):\n{screen}");
+        t.keys(&["q"]);
+        t.wait_for("EXIT=0");
+    }
+}
