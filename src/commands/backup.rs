@@ -67,16 +67,15 @@ fn pairs<'b>(bench: &'b Bench, named: &[Family]) -> anyhow::Result<Vec<(&'b Benc
 /// The Cdios nodes a backup probes on `link`: `--node`, and on a bench
 /// file every node it expects there.
 fn nodes(bench: &Bench, link: &BenchLink, node: u8) -> Vec<u8> {
+    if bench.is_single() {
+        return vec![node];
+    }
     let expected = link.devices.values().filter_map(|a| match a {
         bench::Address::Cdios { node, .. } => Some(*node),
         _ => None,
     });
     let all: BTreeSet<u8> = std::iter::once(node).chain(expected).collect();
-    if bench.is_single() {
-        vec![node]
-    } else {
-        all.into_iter().collect()
-    }
+    all.into_iter().collect()
 }
 
 /// A bench file's address in the backup's form.
