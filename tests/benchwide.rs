@@ -460,3 +460,47 @@ fn the_dashboard_of_a_bench_shows_every_device_of_every_link() {
         t.wait_for("EXIT=0");
     }
 }
+
+/// Two links of a bench each with modules 3, 5 and 17 (the in-process
+/// bench and a served one): six devices in one backup, each compared and
+/// restored on its own link.
+#[test]
+fn the_same_module_ids_on_two_links_are_two_devices() {
+    let (_sim, can, _serial) = served();
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("two.json");
+    let bench = ["--link", "sim", "--link", &can];
+    let r = on(&bench, &["--json", "backup", "--family", "powercube", "--out", s(&file)]);
+    ok(&r, "backup");
+    let want: Vec<String> =
+        ["sim", &can].iter().flat_map(|l| [3, 5, 17].map(|m| format!("powercube module {m} {l}"))).collect();
+    assert_eq!(devices(&r.json()), want);
+    let r = on(&bench, &["--json", "diff", s(&file)]);
+    ok(&r, "diff");
+    assert_eq!(r.json()["differs"], false, "{}", r.stdout);
+    ok(&run(&["--link", &can, "set-param", "-m", "5", "MaxVel", "0.5"]), "set-param");
+    let r = on(&bench, &["--json", "diff", s(&file)]);
+    ok(&r, "diff");
+    let changed: Vec<String> = r.json()["devices"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|d| d["differs"] == true)
+        .map(|d| format!("{} {}", d["module"], d["link"].as_str().unwrap()))
+        .collect();
+    assert_eq!(changed, [format!("5 {can}")], "{}", r.stdout);
+    let r = on(&bench, &["--json", "restore", s(&file)]);
+    ok(&r, "restore");
+    assert_eq!(r.json()["summary"]["written"], 1, "{}", r.stdout);
+    let doc = r.json();
+    let written: Vec<&str> = doc["devices"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|d| d["results"].as_array().unwrap().iter().any(|x| x["outcome"] == "written"))
+        .map(|d| d["link"].as_str().unwrap())
+        .collect();
+    assert_eq!(written, [can.as_str()], "written on the served link only");
+    let r = on(&bench, &["--json", "diff", s(&file)]);
+    assert_eq!(r.json()["differs"], false, "{}", r.stdout);
+}

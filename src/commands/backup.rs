@@ -294,7 +294,7 @@ fn diff(ctx: &Ctx, file: &Path, file2: Option<&Path>) -> anyhow::Result<()> {
     };
     let mut diffs = backup::diff(&left, &right);
     // A device not on the bench is listed once, not as every one of its values.
-    diffs.retain(|d| !missing.iter().any(|m| m.device.address() == d.address));
+    diffs.retain(|d| !missing.iter().any(|m| m.device.address() == d.address && m.device.link == d.link));
     let differs = diffs.iter().any(|d| !d.differences.is_empty());
     let left_name = file.display().to_string();
     if ctx.json {
@@ -354,7 +354,11 @@ fn targets(doc: &Document, to: Option<u8>) -> anyhow::Result<Vec<(Device, Addres
     Ok(vec![(one.clone(), at)])
 }
 
-fn invalid(path: &Path, problems: &[Problem], what: &str) -> anyhow::Error {
+/// The invalid values of a restore, each with the index of its device in
+/// the file (two links may each have a module 3).
+type Problems = Vec<(usize, Problem)>;
+
+fn invalid(path: &Path, problems: &Problems, what: &str) -> anyhow::Error {
     usage(format!(
         "{} invalid value{} in {}; {what} (--skip-invalid writes the others):{}",
         problems.len(),
@@ -364,8 +368,8 @@ fn invalid(path: &Path, problems: &[Problem], what: &str) -> anyhow::Error {
     ))
 }
 
-fn problems_text(problems: &[Problem]) -> String {
-    problems.iter().map(|p| format!("\n  {p}")).collect()
+fn problems_text(problems: &Problems) -> String {
+    problems.iter().map(|(_, p)| format!("\n  {p}")).collect()
 }
 
 fn restore(ctx: &Ctx, path: &Path, opts: Options) -> anyhow::Result<()> {
@@ -374,7 +378,11 @@ fn restore(ctx: &Ctx, path: &Path, opts: Options) -> anyhow::Result<()> {
     if opts.store && !pairs.iter().any(|(d, _)| d.family == Family::Cdios) {
         return Err(usage("--store stores a Cdios configuration, but the file holds no Cdios device"));
     }
-    let mut problems: Vec<Problem> = pairs.iter().flat_map(|(d, _)| backup::check_file(d)).collect();
+    let mut problems: Problems = pairs
+        .iter()
+        .enumerate()
+        .flat_map(|(i, (d, _))| backup::check_file(d).into_iter().map(move |p| (i, p)))
+        .collect();
     // What the file alone shows is refused before the link opens.
     if !problems.is_empty() && !opts.skip_invalid {
         return Err(invalid(path, &problems, "nothing was sent"));
@@ -414,7 +422,7 @@ fn restore(ctx: &Ctx, path: &Path, opts: Options) -> anyhow::Result<()> {
         // The file's settings, addressed to the target, against the live ones.
         let mut wanted = file_dev.clone();
         (wanted.module, wanted.axis, wanted.node, wanted.link) = (at.module, at.axis, at.node, now.link.clone());
-        problems.extend(live.check_live(link, &wanted, &now)?);
+        problems.extend(live.check_live(link, &wanted, &now)?.into_iter().map(|p| (devices.len(), p)));
         devices.push((wanted, now, link));
     }
     live::done();
@@ -444,7 +452,7 @@ fn restore(ctx: &Ctx, path: &Path, opts: Options) -> anyhow::Result<()> {
     if !problems.is_empty() && !ctx.json {
         say!("skipping {} invalid value{}:{}", problems.len(), plural(problems.len()), problems_text(&problems));
     }
-    let mut results: Vec<(Address, Vec<ValueResult>)> = Vec::new();
+    let mut results: Vec<(usize, Vec<ValueResult>)> = Vec::new();
     // What ended the writes early: a device that refused or could not be
     // reached, or a signal. Every value not reached is reported as not written.
     let mut ended: Option<anyhow::Error> = None;
@@ -458,9 +466,10 @@ fn restore(ctx: &Ctx, path: &Path, opts: Options) -> anyhow::Result<()> {
                 break;
             }
         }
-        for (wanted, now, link) in &devices {
+        for (i, (wanted, now, link)) in devices.iter().enumerate() {
             let at = wanted.address();
-            let skip: BTreeSet<String> = problems.iter().filter(|p| p.device == at).map(|p| p.name.clone()).collect();
+            let skip: BTreeSet<String> =
+                problems.iter().filter(|(d, _)| *d == i).map(|(_, p)| p.name.clone()).collect();
             let why = match &ended {
                 Some(e) => Some(format!("the restore stopped: {}", super::error_json::message(e))),
                 None => signal(),
@@ -473,7 +482,7 @@ fn restore(ctx: &Ctx, path: &Path, opts: Options) -> anyhow::Result<()> {
                     backup::not_written(wanted, now, &skip, &why)
                 }),
             };
-            results.push((at, rs));
+            results.push((i, rs));
         }
         live::done();
     }
@@ -482,12 +491,12 @@ fn restore(ctx: &Ctx, path: &Path, opts: Options) -> anyhow::Result<()> {
     }
     let failed_any = results.iter().flat_map(|(_, rs)| rs).any(|r| r.outcome == backup::Outcome::Failed);
     // The EEPROM store is its own step, after every write went through.
-    let mut stored: Vec<(Address, bool)> = Vec::new();
+    let mut stored: Vec<(usize, bool)> = Vec::new();
     let mut store_error = None;
     if opts.store && !opts.dry_run && !failed_any && ended.is_none() {
-        for (wanted, _, link) in devices.iter().filter(|(d, _, _)| d.family == Family::Cdios) {
+        for (i, (wanted, _, link)) in devices.iter().enumerate().filter(|(_, (d, _, _))| d.family == Family::Cdios) {
             let r = live.store(link, wanted.address());
-            stored.push((wanted.address(), r.is_ok()));
+            stored.push((i, r.is_ok()));
             if let Err(e) = r {
                 store_error.get_or_insert(e);
             }
@@ -504,7 +513,10 @@ fn restore(ctx: &Ctx, path: &Path, opts: Options) -> anyhow::Result<()> {
     }
     let failed: Vec<(Address, &ValueResult)> = results
         .iter()
-        .flat_map(|(at, rs)| rs.iter().map(move |r| (*at, r)))
+        .flat_map(|(i, rs)| {
+            let at = devices[*i].0.address();
+            rs.iter().map(move |r| (at, r))
+        })
         .filter(|(_, r)| r.outcome == backup::Outcome::Failed)
         .collect();
     if let Some((_, first)) = failed.first() {
@@ -529,9 +541,9 @@ fn report(
     devices: &[Pair],
     diffs: &[backup::DeviceDiff],
     differs: bool,
-    problems: &[Problem],
-    results: &[(Address, Vec<ValueResult>)],
-    stored: &[(Address, bool)],
+    problems: &Problems,
+    results: &[(usize, Vec<ValueResult>)],
+    stored: &[(usize, bool)],
     fails: bool,
 ) -> anyhow::Result<()> {
     let all = results.iter().flat_map(|(_, rs)| rs.iter());
@@ -541,10 +553,11 @@ fn report(
         let devs: Vec<Value> = devices
             .iter()
             .zip(diff_objs)
-            .map(|((wanted, _, _), mut d)| {
-                let rs = results.iter().find(|(at, _)| *at == wanted.address()).map_or(&[][..], |(_, r)| &r[..]);
+            .enumerate()
+            .map(|(i, (_, mut d))| {
+                let rs = results.iter().find(|(at, _)| *at == i).map_or(&[][..], |(_, r)| &r[..]);
                 d["results"] = serde_json::to_value(rs).unwrap_or_default();
-                if let Some((_, ok)) = stored.iter().find(|(at, _)| *at == wanted.address()) {
+                if let Some((_, ok)) = stored.iter().find(|(at, _)| *at == i) {
                     d["stored"] = (*ok).into();
                 }
                 d
@@ -552,10 +565,9 @@ fn report(
             .collect();
         let probs: Vec<Value> = problems
             .iter()
-            .map(|p| {
-                // An address of the file moved by --to is the one device's.
-                let link = devices.iter().find(|(w, _, _)| w.address() == p.device).or(devices.first());
-                let mut o = envelope(p.device, link.map_or("", |(w, _, _)| w.link.as_str()));
+            .map(|(i, p)| {
+                let link = devices.get(*i).map_or("", |(w, _, _)| w.link.as_str());
+                let mut o = envelope(p.device, link);
                 o.insert("name".into(), p.name.clone().into());
                 o.insert("message".into(), p.message.clone().into());
                 Value::Object(o)
@@ -578,7 +590,18 @@ fn report(
         say!("dry run: nothing was written{}", if opts.store { " or stored" } else { "" });
         return Ok(());
     }
-    for (at, rs) in results {
+    // Two links may each have a module 3: a bench of several links says which.
+    let several = devices.iter().any(|(d, _, _)| devices[0].0.link != d.link);
+    let name = |i: usize| {
+        let (d, _, _) = &devices[i];
+        if several {
+            format!("{} on {}", d.address(), d.link)
+        } else {
+            d.address().to_string()
+        }
+    };
+    for (i, rs) in results {
+        let at = name(*i);
         for r in rs.iter().filter(|r| r.outcome != backup::Outcome::Unchanged) {
             let unit = if r.unit.is_empty() { String::new() } else { format!(" {}", r.unit) };
             let mut line = format!(
@@ -599,9 +622,9 @@ fn report(
     }
     let counts: Vec<String> = summary.iter().map(|(o, n)| format!("{n} {}", o.name().replace('_', " "))).collect();
     say!("restore: {}", counts.join(", "));
-    for (at, ok) in stored {
+    for (i, ok) in stored {
         if *ok {
-            say!("{at}: configuration stored in EEPROM (05h)");
+            say!("{}: configuration stored in EEPROM (05h)", name(*i));
         }
     }
     Ok(())
