@@ -447,17 +447,21 @@ fn the_dashboard_of_a_bench_shows_every_device_of_every_link() {
     let file = dir.path().join("bench.toml");
     std::fs::write(&file, format!("[[link]]\nspec = \"{can}\"\n[[link]]\nspec = \"{serial}\"\n")).unwrap();
     let bin = env!("CARGO_BIN_EXE_axisctl");
-    for bench in [format!("--link {can} --link {serial}"), format!("--bench {}", s(&file))] {
-        let t = common::tmux::Tmux::start("benchwide", 200, 40, &[]);
-        t.wait_for("READY$");
-        t.keys(&[&format!("{bin} {bench} dashboard; echo EXIT=$?"), "Enter"]);
+    // One terminal for both runs: a tmux server that just lost its last
+    // session may refuse a new one.
+    let t = common::tmux::Tmux::start("benchwide", 200, 40, &[]);
+    t.wait_for("READY$");
+    for (run, bench) in [format!("--link {can} --link {serial}"), format!("--bench {}", s(&file))].iter().enumerate() {
+        // A generous timeout, as every test gives: a module found late on a loaded
+        // machine must not be taken for absent by the start-up scan.
+        t.keys(&[&format!("clear; {bin} --timeout 1000 {bench} dashboard; echo RUN{run}=$?"), "Enter"]);
         // Each link's devices are found by its own worker: wait until every one shows.
         let port = can.trim_start_matches("slcan:");
         let wants =
             ["module 3", "module 5", "module 17", "axis 1", "axis 3", "node 1 mod 0", "node 1 mod 1", &serial, port];
         t.wait_until(&format!("every device and link of {bench}"), |screen| wants.iter().all(|w| screen.contains(w)));
         t.keys(&["q"]);
-        t.wait_for("EXIT=0");
+        t.wait_for(&format!("RUN{run}=0"));
     }
 }
 
