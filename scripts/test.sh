@@ -2,12 +2,12 @@
 # The test command of the README and of .ci/run. The tests use tools
 # outside Rust and fail (never skip) without them, so this checks them
 # first and installs what is missing:
-#   python3 with python-can and pyserial  tests/python_interop.rs (python-can against our sim and logs)
-#   tmux                                  tests/dashboard_tmux.rs (the dashboard in a real terminal)
-#   man (man-db)                          tests/completions_man.rs (the man page renders)
-#   bash, git                             tests/completions_man.rs (completion, --version's commit)
+#   python3 with python-can and pyserial  tests/cli/python_interop.rs (python-can against our sim and logs)
+#   tmux                                  tests/cli/dashboard_tmux.rs (the dashboard in a real terminal)
+#   man (man-db)                          tests/cli/completions_man.rs (the man page renders)
+#   bash, git                             tests/cli/completions_man.rs (completion, --version's commit)
 # Installing uses pip, or apt-get as root / through sudo. Extra arguments go
-# to `cargo test`, e.g. `scripts/test.sh --test pac_cli`.
+# to `cargo test`, e.g. `scripts/test.sh --test cli pac_cli`.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 

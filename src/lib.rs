@@ -1,7 +1,7 @@
 //! axisctl: commissioning PowerCube, PA-CONTROL and Cdios motion hardware.
 //!
 //! Layers, from the wire up (docs/architecture.md draws them and says what
-//! each may import; tests/architecture.rs checks it):
+//! each may import; tests/library/architecture.rs checks it):
 //! - [`proto`]: sans-IO codecs, the protocol tables and the answer matchers. No I/O, no clock.
 //! - [`clock`]: real and virtual time.
 //! - [`link`]: transports (SocketCAN, slcan, serial, in-memory) behind small traits.

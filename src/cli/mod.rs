@@ -33,6 +33,10 @@ pub struct Cli {
     pub global: Global,
     #[command(subcommand)]
     pub command: Command,
+    /// The subcommand's name as typed (`pac-online`): the `command` of
+    /// its JSON documents.
+    #[arg(skip)]
+    pub name: String,
 }
 
 /// The longest answer timeout: an answer later than a minute is no answer,
@@ -208,5 +212,6 @@ pub fn parse(exit_codes: &str) -> Result<Cli, clap::Error> {
     let from_env = |id| matches.value_source(id) == Some(clap::parser::ValueSource::EnvVariable);
     cli.global.link_from_env = from_env("link");
     cli.global.bench_from_env = from_env("bench");
+    cli.name = matches.subcommand_name().unwrap_or_default().to_string();
     Ok(cli)
 }

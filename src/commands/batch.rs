@@ -54,6 +54,8 @@ const GLOBAL: &[(&str, &str)] = &[
 pub enum Line {
     Run {
         command: Box<Command>,
+        /// The subcommand as typed, for its documents' `command` key.
+        name: String,
     },
     /// `help`, `--help`: clap's text, printed when the line runs.
     Text(String),
@@ -137,22 +139,23 @@ impl<'a> Engine<'a> {
             at = m.subcommand().map(|(_, sub)| sub);
         }
         let cli = Cli::from_arg_matches(&matches).map_err(|e| bad(e.to_string()))?;
-        Ok(Some(Line::Run { command: Box::new(cli.command) }))
+        let name = matches.subcommand_name().unwrap_or_default().to_string();
+        Ok(Some(Line::Run { command: Box::new(cli.command), name }))
     }
 
     /// Runs one parsed line and reports its result: on stdout (`--json`:
     /// one object per document), a failure on stderr (`--json`: its error
     /// object on stdout, in line). `Err` holds the failure's exit code.
     pub fn run(&mut self, n: usize, text: &str, line: Line) -> Result<(), u8> {
-        let command = match line {
+        let (command, name) = match line {
             Line::Text(help) => {
                 output::text(format_args!("{help}"));
                 return Ok(());
             }
-            Line::Run { command } => command,
+            Line::Run { command, name } => (command, name),
         };
         let moves = command.starts_motion();
-        let result = self.report(n, text, |ctx| super::dispatch(ctx, *command));
+        let result = self.report(n, text, |ctx| super::dispatch(ctx, &name, *command));
         if let Some(target) = moves {
             self.moved.note(target);
         }

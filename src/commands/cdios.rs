@@ -273,7 +273,12 @@ fn position(ctx: &Ctx, t: ModulesTarget, kind: PositionKind, all: bool) -> anyho
             let latched = s.position(m, PositionSource::Latched)?;
             let setpoint = s.position(m, PositionSource::Setpoint)?;
             if ctx.json {
-                return Ok(doc(ctx, node, m, json!({"position": cur, "latched": latched, "setpoint": setpoint})));
+                return Ok(doc(
+                    ctx,
+                    node,
+                    m,
+                    json!({"position": counts(cur), "latched": counts(latched), "setpoint": counts(setpoint)}),
+                ));
             }
             say!("node {node} module {m}: position {cur}, latched {latched}, setpoint {setpoint}");
             return Ok(Value::Null);
@@ -281,11 +286,16 @@ fn position(ctx: &Ctx, t: ModulesTarget, kind: PositionKind, all: bool) -> anyho
         let p = s.position(m, source_of(kind))?;
         let name = kind.to_possible_value().map(|v| v.get_name().to_string()).unwrap_or_default();
         if ctx.json {
-            return Ok(doc(ctx, node, m, json!({"source": name, "position": p})));
+            return Ok(doc(ctx, node, m, json!({"source": name, "position": counts(p)})));
         }
         say!("node {node} module {m}: {name} position {p}");
         Ok(Value::Null)
     })
+}
+
+/// A position as every family gives it: `{value, unit}`.
+fn counts(position: i32) -> Value {
+    output::with_unit(json!(position), table::POSITION_UNIT)
 }
 
 fn report_sent(ctx: &Ctx, node: NodeId, m: ModuleId, what: &str, confirmed: bool, extra: Value) {
@@ -352,7 +362,7 @@ fn set_position(ctx: &Ctx, t: ModuleTarget, position: i64) -> anyhow::Result<()>
     let cmd = Command::SetPosition { position };
     device::check(&[cmd], m)?;
     let confirmed = open(ctx, &t.node)?.send(m, &[cmd])?;
-    report_sent(ctx, node, m, "cdios-set-position", confirmed, json!({"position": position}));
+    report_sent(ctx, node, m, "cdios-set-position", confirmed, json!({"position": counts(position)}));
     Ok(())
 }
 
@@ -488,11 +498,11 @@ fn print_wait_end(ctx: &Ctx, (node, m): (NodeId, ModuleId), what: &str, end: &Wa
             ctx,
             node,
             m,
-            json!({"command": what, "done": true, "position": end.position,
+            json!({"command": what, "done": true, "position": counts(end.position),
                              "elapsed_ms": end.elapsed.as_millis() as u64, "state": status_json(&end.status)}),
         );
         if let Some(t) = end.target {
-            doc["target"] = json!(t);
+            doc["target"] = counts(t);
         }
         merge(&mut doc, extra);
         output::json(&doc);
@@ -655,12 +665,12 @@ fn event_json(ctx: &Ctx, ev: &Event, start: Instant) -> Value {
     let address = [("node", u64::from(a.node.get())), ("module", u64::from(a.module))];
     let mut doc = output::device_doc(
         output::envelope(Family::Cdios, &ctx.link_text_for(Family::Cdios), &address),
-        json!({"type": "event", "t_ms": ev.at.saturating_duration_since(start).as_millis() as u64,
+        json!({"kind": "event", "t_ms": ev.at.saturating_duration_since(start).as_millis() as u64,
                "code": a.data[0], "data": a.data}),
     );
     if let Some(r) = ev.decoded() {
         if let Some(def) = r.def {
-            doc["command"] = json!(def.key);
+            doc["message"] = json!(def.key);
         }
         let values: serde_json::Map<String, Value> =
             r.fields.iter().map(|f| (f.key.to_string(), json!(f.raw))).collect();
@@ -703,7 +713,8 @@ fn watch(
                 last = Some((r.status, pos));
                 let t_ms = (clock.now() - start).as_millis() as u64;
                 if ctx.json {
-                    let body = json!({"type": "status", "t_ms": t_ms, "position": pos, "state": status_json(&r)});
+                    let body =
+                        json!({"kind": "status", "t_ms": t_ms, "position": counts(pos), "state": status_json(&r)});
                     output::json(&doc(ctx, node, m, body));
                 } else {
                     say!("{:>9.3} status   pos {pos:<11} {}", t_ms as f64 / 1e3, status_line(ctx, &r));

@@ -191,6 +191,9 @@ pub struct Ctx {
     /// The family of the command being run, set by [`dispatch`]: the
     /// bench's link for it is the command's link.
     family: std::sync::Mutex<Option<Family>>,
+    /// The subcommand being run as typed (`pac-online`), set by
+    /// [`dispatch`]: the `command` key of its documents.
+    command: std::sync::Mutex<String>,
     /// The links as the user gave them, for the JSON envelope.
     pub link_text: String,
     pub json: bool,
@@ -235,6 +238,11 @@ fn bench_of(g: &Global) -> Result<Option<Bench>, BenchError> {
 }
 
 impl Ctx {
+    /// The subcommand being run, as typed (`pac-online`).
+    pub fn command_name(&self) -> String {
+        self.command.lock().unwrap_or_else(|e| e.into_inner()).clone()
+    }
+
     fn resolve(g: &Global) -> anyhow::Result<Self> {
         let link_text = g.link.join(" ");
         crate::output::set_link(&link_text);
@@ -243,6 +251,7 @@ impl Ctx {
         Ok(Self {
             bench: bench_of(g),
             family: std::sync::Mutex::new(None),
+            command: std::sync::Mutex::new(String::new()),
             link_text,
             json: g.json,
             timeout: g.timeout.map(Duration::from_millis),
@@ -393,12 +402,13 @@ pub fn stopped_by_output(err: anyhow::Error) -> anyhow::Error {
 
 pub fn run(cli: Cli) -> anyhow::Result<()> {
     let ctx = Ctx::resolve(&cli.global)?;
-    dispatch(&ctx, cli.command)
+    dispatch(&ctx, &cli.name, cli.command)
 }
 
 /// Runs one subcommand with the resolved options: a process's one
 /// command, or each line of `batch` and `shell`.
-pub fn dispatch(ctx: &Ctx, command: Command) -> anyhow::Result<()> {
+pub fn dispatch(ctx: &Ctx, name: &str, command: Command) -> anyhow::Result<()> {
+    name.clone_into(&mut ctx.command.lock().unwrap_or_else(|e| e.into_inner()));
     let family = match &command {
         // Whole-bench commands: every family (crate::commands::bench).
         Command::PowerCube(PowerCubeCommand::Scan { .. }) => None,

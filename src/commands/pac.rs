@@ -204,8 +204,10 @@ fn command_doc(
 ) -> serde_json::Value {
     let envelope = axis.map_or_else(|| controller(ctx), |a| on_axis(ctx, a));
     let def = def(code);
-    let mut d =
-        doc(envelope, json!({"command": def.name, "command_code": def.code_hex(), "par1": axis.map_or(0, i64::from)}));
+    let mut d = doc(
+        envelope,
+        json!({"command": ctx.command_name(), "manual_command": def.name, "command_code": def.code_hex(), "par1": axis.map_or(0, i64::from)}),
+    );
     merge(&mut d, fields);
     if let Some(h) = holder {
         d["holder"] = h.json();
@@ -372,8 +374,8 @@ fn move_axis(
         if ctx.json {
             let mut doc = doc(
                 on_axis(ctx, axis),
-                json!({"command": def(code).name, "command_code": def(code).code_hex(),
-                "target": target, "start_position": start_position, "done": false, "acknowledged": true}),
+                json!({"command": ctx.command_name(), "manual_command": def(code).name, "command_code": def(code).code_hex(),
+                "target": output::with_unit(json!(target), POSITION_UNIT), "start_position": output::with_unit(json!(start_position), POSITION_UNIT), "done": false, "acknowledged": true}),
             );
             merge(&mut doc, status_json(&started.ack));
             output::json(&doc);
@@ -403,8 +405,8 @@ fn move_axis(
     if ctx.json {
         output::json(&doc(
             on_axis(ctx, axis),
-            json!({"command": def(code).name, "command_code": def(code).code_hex(),
-            "target": target, "start_position": start_position,
+            json!({"command": ctx.command_name(), "manual_command": def(code).name, "command_code": def(code).code_hex(),
+            "target": output::with_unit(json!(target), POSITION_UNIT), "start_position": output::with_unit(json!(start_position), POSITION_UNIT),
             "position": output::with_unit(json!(position), POSITION_UNIT), "axis_status": status,
             "axis_status_text": table::axis_status_text(status), "done": true,
             "elapsed_ms": elapsed.as_millis() as u64}),
@@ -428,7 +430,7 @@ fn reference(ctx: &Ctx, d: &mut Controller, axis: u8, wait: PacWait) -> anyhow::
         if ctx.json {
             let mut doc = doc(
                 on_axis(ctx, axis),
-                json!({"command": def(0x0A84).name, "command_code": "0A84",
+                json!({"command": ctx.command_name(), "manual_command": def(0x0A84).name, "command_code": "0A84",
                                                          "done": done, "acknowledged": true}),
             );
             merge(&mut doc, status_json(&ack));
@@ -463,7 +465,7 @@ fn reference(ctx: &Ctx, d: &mut Controller, axis: u8, wait: PacWait) -> anyhow::
     if ctx.json {
         let mut doc = doc(
             on_axis(ctx, axis),
-            json!({"command": def(0x0A84).name, "command_code": "0A84",
+            json!({"command": ctx.command_name(), "manual_command": def(0x0A84).name, "command_code": "0A84",
             "done": true, "position": output::with_unit(json!(position), POSITION_UNIT), "polls": done.polls,
             "elapsed_ms": done.elapsed.as_millis() as u64}),
         );
@@ -777,8 +779,8 @@ fn raw(ctx: &Ctx, d: &mut Controller, code_text: &str, par1: i64, par2: Option<&
     if ctx.json {
         let mut doc = doc(
             controller(ctx),
-            json!({"command": "pac-raw", "command_code": format!("{:04X}", cmd.code),
-            "name": def.map(|d| d.name), "par1": cmd.par1,
+            json!({"command": ctx.command_name(), "command_code": format!("{:04X}", cmd.code),
+            "manual_command": def.map(|d| d.name), "par1": cmd.par1,
             "par2": par_json(&cmd.par2), "quit": ack.quit, "be": ack.be, "typ": ack.q_par.typ(),
             "q_par": par_json(&ack.q_par), "polls": done.polls, "check_rule": check_rule_name(ack.check_rule)}),
         );

@@ -55,7 +55,7 @@ pub fn motion(snap: &Snapshot) -> Option<(Units, [f64; 2], Option<f64>)> {
             None,
         )),
         Snapshot::Cdios(c) => Some((
-            Units { pos: "counts", vel: cdios::SPEED_UNIT, cur: None, decimals: 0 },
+            Units { pos: cdios::POSITION_UNIT, vel: cdios::SPEED_UNIT, cur: None, decimals: 0 },
             [c.position as f64, c.speed as f64],
             None,
         )),

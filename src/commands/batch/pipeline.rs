@@ -236,7 +236,7 @@ mod tests {
     fn requests(line: &str) -> Option<usize> {
         use clap::Parser;
         let cli = crate::cli::Cli::try_parse_from(std::iter::once("axisctl").chain(line.split_whitespace())).unwrap();
-        plan(&Line::Run { command: Box::new(cli.command) }).map(|p| p.requests().len())
+        plan(&Line::Run { command: Box::new(cli.command), name: String::new() }).map(|p| p.requests().len())
     }
 
     #[test]

@@ -262,6 +262,8 @@ const ROW: CommandDef = CommandDef {
 /// The unit of motor speeds and RPM errors (26h); positions are motor
 /// counts, which the manual gives no unit.
 pub const SPEED_UNIT: &str = "rpm";
+/// The unit of positions: motor counts (the manual names none).
+pub const POSITION_UNIT: &str = "counts";
 
 // ---- Command codes ----
 

@@ -862,7 +862,7 @@ pub const AXIS_PARAMS: &[AxisParamDef] = &[
     ap(3, "manual-speed", "Manual speed", "AE/s"),
     ap(4, "creep-speed", "Creep speed", "AE/s"),
     ap(5, "start-stop-speed", "Start-Stop speed", "AE/s"),
-    ap(6, "acceleration", "Acceleration", "AE/s^2"),
+    ap(6, "acceleration", "Acceleration", "AE/s²"),
     ap(7, "gear-factor", "Gear factor", ""),
     ap(8, "traverse-area-min", "Minimum traverse area", "AE"),
     ap(9, "traverse-area-max", "Maximum traverse area", "AE"),

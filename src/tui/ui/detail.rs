@@ -113,7 +113,7 @@ pub fn unit_of(app: &App, d: &DeviceView) -> &'static str {
     let _ = app;
     match &d.snap {
         Some(Snapshot::Cube(c)) => crate::proto::powercube::table::position_unit(c.linear),
-        Some(Snapshot::Cdios(_)) => "counts",
+        Some(Snapshot::Cdios(_)) => crate::proto::cdios::table::POSITION_UNIT,
         _ => "",
     }
 }

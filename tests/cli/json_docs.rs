@@ -1,0 +1,332 @@
+//! docs/json*.md stays true: every documented command is run against the
+//! simulated bench and its output must have the documented shape and
+//! validate against the published schema (schema/axisctl.schema.json).
+
+use crate::common;
+
+use serde_json::Value;
+
+use common::{schema, schema_errors};
+
+/// (command line, documented JSON) pairs of one markdown file.
+fn examples(md: &str) -> Vec<(String, String)> {
+    let mut out = Vec::new();
+    let mut cmd: Option<String> = None;
+    let mut lines = md.lines();
+    while let Some(line) = lines.next() {
+        if let Some(c) = line.strip_prefix("$ axisctl ") {
+            cmd = Some(c.to_string());
+        } else if line.trim() == "```json" {
+            let body: Vec<&str> = lines.by_ref().take_while(|l| l.trim() != "```").collect();
+            if let Some(c) = cmd.take() {
+                out.push((c, body.join("\n")));
+            }
+        }
+    }
+    out
+}
+
+/// Same keys recursively and the same JSON types; arrays compare their
+/// elements with the first real element's shape.
+fn same_shape(doc: &Value, real: &Value, path: &str) -> Result<(), String> {
+    match (doc, real) {
+        (Value::Object(d), Value::Object(r)) => {
+            let (dk, rk): (Vec<_>, Vec<_>) = (d.keys().collect(), r.keys().collect());
+            if dk != rk {
+                return Err(format!("{path}: documented keys {dk:?}, real keys {rk:?}"));
+            }
+            d.iter().try_for_each(|(k, v)| same_shape(v, &r[k], &format!("{path}.{k}")))
+        }
+        (Value::Array(d), Value::Array(r)) => match (d.first(), r.first()) {
+            (Some(d0), Some(_)) => {
+                r.iter().enumerate().try_for_each(|(i, v)| same_shape(d0, v, &format!("{path}[{i}]")))
+            }
+            _ => Ok(()),
+        },
+        (Value::Number(_), Value::Number(_))
+        | (Value::String(_), Value::String(_))
+        | (Value::Bool(_), Value::Bool(_))
+        | (Value::Null, Value::Null) => Ok(()),
+        _ => Err(format!("{path}: documented {doc}, real {real}")),
+    }
+}
+
+/// A file with this line runs its examples in order on one served
+/// simulator, so that state carries over (online mode, a referenced axis);
+/// otherwise each example runs on a fresh in-process bench.
+const SERVED: &str = "<!-- examples run in order on one served simulator -->";
+
+/// The served link of the family a command belongs to.
+fn family_link<'a>(sim: &'a common::Sim, args: &[&str]) -> &'a str {
+    match args.iter().find(|a| !a.starts_with('-') && **a != "sim") {
+        Some(c) if c.starts_with("pac-") => sim.link("pac"),
+        Some(c) if c.starts_with("cdios-") => sim.link("cdios"),
+        _ => sim.link("powercube"),
+    }
+}
+
+#[test]
+fn every_documented_example_matches_real_output() {
+    let document = schema("document");
+    let mut checked = 0;
+    for entry in std::fs::read_dir(concat!(env!("CARGO_MANIFEST_DIR"), "/docs")).unwrap() {
+        let path = entry.unwrap().path();
+        let name = path.file_name().unwrap().to_string_lossy().to_string();
+        if !(name.starts_with("json") && name.ends_with(".md")) {
+            continue;
+        }
+        let text = std::fs::read_to_string(&path).unwrap();
+        let sim = text.contains(SERVED).then(|| common::Sim::start(&[], 3));
+        for (cmd, doc) in examples(&text) {
+            let mut args: Vec<&str> = cmd.split_whitespace().collect();
+            assert!(args.contains(&"--json"), "{name}: example without --json: {cmd}");
+            if let Some(sim) = &sim {
+                let link = family_link(sim, &args);
+                args.iter_mut().filter(|a| **a == "sim").for_each(|a| *a = link);
+            }
+            let r = common::run(&args);
+            assert_eq!(r.code, 0, "{name}: `axisctl {cmd}` failed: {}", r.stderr);
+            let doc: Value = serde_json::from_str(&doc).unwrap_or_else(|e| panic!("{name}: bad JSON for {cmd}: {e}"));
+            if let Err(e) = same_shape(&doc, &r.json(), "$") {
+                panic!("{name}: `axisctl {cmd}`: {e}");
+            }
+            for (what, v) in [("real output", r.json()), ("documented example", doc)] {
+                if let Some(e) = schema_errors(&document, &v) {
+                    panic!("{name}: `axisctl {cmd}`: the {what} breaks the schema:\n{e}");
+                }
+            }
+            checked += 1;
+        }
+    }
+    assert!(checked >= 20, "only {checked} examples found");
+}
+
+/// Commands whose --json output is no single document: the dashboard is a
+/// terminal UI, `monitor` and `sim` stream JSON Lines (docs/guide.md).
+/// Commands that print no JSON document: the dashboard, streams, and the
+/// shell scripts and man pages generated from the parser. `batch` and
+/// `shell` print one `$defs/batch_line` object per line of other commands
+/// (docs/json.md, checked by tests/cli/batch_cli.rs).
+const NOT_DOCUMENTS: [&str; 8] = ["dashboard", "help", "monitor", "sim", "completions", "man", "batch", "shell"];
+
+// Every command's JSON is documented, so every command's output is checked
+// against the schema by the test above.
+#[test]
+fn every_command_has_a_documented_example() {
+    let help = common::run(&["--help"]).stdout;
+    let commands: Vec<&str> = help
+        .lines()
+        .skip_while(|l| !l.starts_with("Commands:"))
+        .skip(1)
+        .take_while(|l| l.starts_with("  "))
+        .filter_map(|l| l.split_whitespace().next())
+        .collect();
+    assert!(commands.len() > 40, "{help}");
+    let mut documented = std::collections::BTreeSet::new();
+    for entry in std::fs::read_dir(concat!(env!("CARGO_MANIFEST_DIR"), "/docs")).unwrap() {
+        let path = entry.unwrap().path();
+        if !path.file_name().unwrap().to_string_lossy().starts_with("json") {
+            continue;
+        }
+        for (cmd, _) in examples(&std::fs::read_to_string(&path).unwrap()) {
+            let words: Vec<&str> = cmd.split_whitespace().collect();
+            // The first word that is neither an option nor an option's value.
+            let mut i = 0;
+            while i < words.len() && words[i].starts_with('-') {
+                i += if matches!(words[i], "--link" | "--timeout" | "--retries" | "--log") { 2 } else { 1 };
+            }
+            documented.extend(words.get(i).map(|w| w.to_string()));
+        }
+    }
+    let missing: Vec<&&str> =
+        commands.iter().filter(|c| !NOT_DOCUMENTS.contains(c) && !documented.contains(**c)).collect();
+    assert!(missing.is_empty(), "no documented --json example for {missing:?}");
+}
+
+#[test]
+fn shape_comparison_notices_differences() {
+    let a: Value = serde_json::json!({"module": 17, "flags": ["X"]});
+    assert!(same_shape(&a, &serde_json::json!({"module": 3, "flags": []}), "$").is_ok());
+    assert!(same_shape(&a, &serde_json::json!({"module": "17", "flags": []}), "$").is_err());
+    assert!(same_shape(&a, &serde_json::json!({"module": 17}), "$").is_err());
+    assert!(same_shape(&a, &serde_json::json!({"module": 17, "flags": [1]}), "$").is_err());
+}
+
+// The schema is no formality: each convention it states rejects output
+// that breaks it.
+#[test]
+fn schema_rejects_broken_conventions() {
+    let document = schema("document");
+    let good = serde_json::json!({"family": "powercube", "module": 17, "link": "sim", "acknowledged": true,
+        "state": {"raw": 2, "flags": ["STATE_HOME_OK"], "errors": [], "warnings": [],
+                  "details": [{"name": "STATE_HOME_OK", "mask": 2, "class": "info", "description": "homed"}],
+                  "unknown_bits": 0}});
+    assert_eq!(schema_errors(&document, &good), None);
+    let broken = |path: &str, v: Value| {
+        let mut doc = good.clone();
+        *doc.pointer_mut(path).unwrap() = v;
+        doc
+    };
+    for bad in [
+        broken("/module", Value::from(0)),
+        broken("/family", Value::from("pa-control")),
+        broken("/state/unknown_bits", serde_json::json!([])),
+        broken("/state/details/0/class", Value::from("fatal")),
+        broken("/state", Value::from(1)),
+        broken("/acknowledged", Value::from(1)),
+        serde_json::json!({"family": "cdios", "link": "sim", "module": 0}),
+        serde_json::json!({"module": 3, "error": 0}),
+        serde_json::json!({"devices": [{"module": 3}]}),
+        serde_json::json!({"family": "pac", "link": "sim", "axis": 2, "position": 200.5}),
+        serde_json::json!({"family": "cdios", "link": "sim", "node": 1, "module": 0, "motor_speed": 300}),
+    ] {
+        assert!(schema_errors(&document, &bad).is_some(), "accepted {bad}");
+    }
+    let error = schema("error_document");
+    assert_eq!(
+        schema_errors(&error, &serde_json::json!({"error": {"kind": "usage", "exit_code": 2, "message": "x"}})),
+        None
+    );
+    for bad in [
+        serde_json::json!({"error": {"kind": "usage", "exit_code": 5, "message": "x"}}),
+        serde_json::json!({"error": {"kind": "usage", "message": "x"}}),
+        serde_json::json!({"error": {"kind": "timeout", "exit_code": 4, "message": "x", "device": {}}}),
+    ] {
+        assert!(schema_errors(&error, &bad).is_some(), "accepted {bad}");
+    }
+}
+
+/// Beyond the documented examples: every `--link sim` example of every
+/// subcommand's own help, run with `--json`, prints one document that the
+/// schema accepts (JSON Lines of stream lines for a stream), or on failure
+/// one error object on stderr carrying the exit code.
+#[test]
+fn every_help_example_under_json_follows_the_schema() {
+    let (document, stream, error) = (schema("document"), schema("stream_line"), schema("error_document"));
+    let mut subs = Vec::new();
+    common::subcommands_and_sim_examples(&[], &mut subs);
+    // Text, a terminal UI, or streams that run until stopped (tests/cli/json_streams.rs).
+    let text_only = ["completions", "man", "sim", "dashboard", "watchdog keepalive", "cdios-watch", "monitor"];
+    let (mut documents, mut errors) = (0, 0);
+    for (path, examples) in subs {
+        if text_only.iter().any(|t| path == *t || path.starts_with(&format!("{t} "))) {
+            continue;
+        }
+        for words in examples {
+            let command: Vec<&str> =
+                words.iter().map(String::as_str).skip(2).skip_while(|w| w.starts_with("--")).collect();
+            if text_only.iter().any(|t| command.join(" ").starts_with(t)) {
+                continue;
+            }
+            // `--link LINK` first, then `--json`.
+            let mut args: Vec<&str> = words.iter().map(String::as_str).filter(|w| *w != "--json").collect();
+            args.insert(2, "--json");
+            // Examples write files (`backup --out bench.json`): never into the checkout.
+            let cwd = concat!(env!("CARGO_TARGET_TMPDIR"), "/json-docs-cwd");
+            std::fs::create_dir_all(cwd).unwrap();
+            let out = common::bin().current_dir(cwd).args(&args).output().unwrap();
+            let r = common::Run {
+                code: out.status.code().unwrap_or(-1),
+                stdout: String::from_utf8_lossy(&out.stdout).into(),
+                stderr: String::from_utf8_lossy(&out.stderr).into(),
+            };
+            if r.code == 0 {
+                let docs: Vec<(Value, &jsonschema::Validator)> = match serde_json::from_str::<Value>(&r.stdout) {
+                    Ok(v) => vec![(v, &document)],
+                    Err(_) => r.stdout.lines().map(|l| (serde_json::from_str(l).unwrap(), &stream)).collect(),
+                };
+                for (v, schema) in docs {
+                    if let Some(e) = schema_errors(schema, &v) {
+                        panic!("`axisctl {}`: {v} breaks the schema:\n{e}", args.join(" "));
+                    }
+                }
+                documents += 1;
+            } else {
+                let line = r.stderr.lines().last().unwrap_or_default();
+                let v: Value = serde_json::from_str(line).unwrap_or_else(|e| panic!("{args:?}: {e}: {}", r.stderr));
+                if let Some(e) = schema_errors(&error, &v) {
+                    panic!("`axisctl {}`: {v} breaks the schema:\n{e}", args.join(" "));
+                }
+                assert_eq!(v["error"]["exit_code"], r.code, "{args:?}");
+                errors += 1;
+            }
+        }
+    }
+    assert!(documents > 60, "only {documents} examples printed a document ({errors} errors)");
+}
+
+/// Every `--link sim` example of every `--help` page, run as written by bash
+/// (redirections, `&&` and comments included) on the binary under test, in
+/// the order the pages come: all exit 0 and end. An example that needs a
+/// state gets it from its link (`sim?pac=online`, `sim?cdios=enabled`,
+/// `sim?pac=automatic`) or from an earlier example (`backup --out bench.json`
+/// before `restore bench.json`); files of the checkout are reached as
+/// `docs/...`. The dashboard needs a terminal (tests/cli/dashboard_tmux.rs).
+#[test]
+fn every_sim_example_of_every_help_runs_as_written_and_ends() {
+    fn pages(path: &[String], out: &mut Vec<String>) {
+        let mut args: Vec<&str> = path.iter().map(String::as_str).collect();
+        args.push("--help");
+        let help = common::run(&args).stdout;
+        let section = |name: &str| -> Vec<String> {
+            help.split(&format!("\n{name}:\n"))
+                .nth(1)
+                .map(|s| s.lines().take_while(|l| l.starts_with("  ") || l.is_empty()).map(str::to_string).collect())
+                .unwrap_or_default()
+        };
+        for line in section("Examples") {
+            let line = line.trim();
+            if line.starts_with("axisctl --link sim ") || line.starts_with("axisctl --link 'sim?") {
+                out.push(line.to_string());
+            }
+        }
+        for line in section("Commands") {
+            let Some(name) = line.split_whitespace().next().filter(|n| *n != "help") else { continue };
+            let mut sub = path.to_vec();
+            sub.push(name.to_string());
+            pages(&sub, out);
+        }
+    }
+    let mut examples = Vec::new();
+    pages(&[], &mut examples);
+    examples.dedup();
+    assert!(examples.len() > 100, "only {} examples found", examples.len());
+    let bin_dir = std::path::Path::new(env!("CARGO_BIN_EXE_axisctl")).parent().unwrap().to_path_buf();
+    let path = format!("{}:{}", bin_dir.display(), std::env::var("PATH").unwrap_or_default());
+    let cwd = tempfile::tempdir().unwrap();
+    std::os::unix::fs::symlink(concat!(env!("CARGO_MANIFEST_DIR"), "/docs"), cwd.path().join("docs")).unwrap();
+    let mut failed = Vec::new();
+    for line in examples.iter().filter(|l| !l.contains(" dashboard")) {
+        let mut child = std::process::Command::new("bash")
+            .args(["--norc", "--noprofile", "-c", line])
+            .current_dir(cwd.path())
+            .env("PATH", &path)
+            .env_remove("AXISCTL_LINK")
+            .env_remove("AXISCTL_BENCH")
+            .env("NO_COLOR", "1")
+            .env("AXISCTL_TIMEOUT", "400")
+            .stdin(std::process::Stdio::null())
+            .stdout(std::process::Stdio::null())
+            .stderr(std::process::Stdio::piped())
+            .spawn()
+            .unwrap();
+        let deadline = std::time::Instant::now() + std::time::Duration::from_secs(120);
+        while child.try_wait().unwrap().is_none() {
+            if std::time::Instant::now() > deadline {
+                let _ = child.kill();
+                break;
+            }
+            std::thread::sleep(std::time::Duration::from_millis(20));
+        }
+        let out = child.wait_with_output().unwrap();
+        if !out.status.success() {
+            let err = String::from_utf8_lossy(&out.stderr);
+            failed.push(format!(
+                "{line}: {:?} {}",
+                out.status.code(),
+                err.lines().next().unwrap_or("(ended by the deadline)")
+            ));
+        }
+    }
+    assert!(failed.is_empty(), "help examples that fail as written:\n{}", failed.join("\n"));
+}
