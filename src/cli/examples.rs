@@ -169,6 +169,8 @@ pub const EXAMPLES: &[(&str, &[&str])] = &[
             "--link sim backup --family cdios --out cdios.json",
             "--link socketcan:can0 backup -m 3,5 --out arm.json",
             "--link serial:/dev/ttyUSB0 backup --family pac --out pac.json",
+            "--link slcan:/dev/ttyACM0 --link serial:/dev/ttyUSB0 backup --out bench.json",
+            "--link sim backup --out - | axisctl --link sim diff -",
         ],
     ),
     ("diff", &["--link sim diff bench.json", "--json diff before.json after.json"]),
