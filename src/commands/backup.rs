@@ -159,7 +159,7 @@ fn save(ctx: &Ctx, select: &Selection, out: Option<&Path>) -> anyhow::Result<()>
     }
     // `--out -` is stdout, as no --out.
     let out = out.filter(|p| *p != Path::new("-"));
-    let mut live = Live::new(ctx)?;
+    let mut live = Live::new(ctx);
     let mut links: Vec<&str> = Vec::new();
     let mut devices = Vec::new();
     for (link, family) in pairs {
@@ -176,7 +176,7 @@ fn save(ctx: &Ctx, select: &Selection, out: Option<&Path>) -> anyhow::Result<()>
     let expected = bench.links().iter().flat_map(|l| l.devices.iter().map(move |(n, a)| (n, backup_address(*a), l)));
     let absent: Vec<String> = expected
         .filter(|(_, a, _)| select.module.is_none() && (named.is_empty() || named.contains(&a.family)))
-        .filter(|(_, a, _)| !devices.iter().any(|d: &Device| d.address() == *a))
+        .filter(|(_, a, l)| !devices.iter().any(|d: &Device| d.address() == *a && d.link == l.text))
         .map(|(n, a, l)| format!("{n} ({a} on {})", l.text))
         .collect();
     if !absent.is_empty() {
@@ -222,7 +222,7 @@ fn read_file(path: &Path) -> anyhow::Result<Document> {
 /// left out of the live side and listed; any other failure ends the diff.
 fn capture_like<'d>(ctx: &Ctx, file: &'d Document) -> anyhow::Result<(Document, Vec<Missing<'d>>)> {
     let bench = ctx.bench()?;
-    let mut live = Live::new(ctx)?;
+    let mut live = Live::new(ctx);
     let (mut devices, mut missing) = (Vec::new(), Vec::new());
     for d in &file.devices {
         let read = live::link_of(bench, d).map_err(anyhow::Error::from).and_then(|l| live.capture(l, d.address()));
@@ -392,7 +392,7 @@ fn restore(ctx: &Ctx, path: &Path, opts: Options) -> anyhow::Result<()> {
     // what was written and what was not.
     super::arm_interrupt()?;
     let bench = ctx.bench()?;
-    let mut live = Live::new(ctx)?;
+    let mut live = Live::new(ctx);
     let mut devices = Vec::new();
     let mut mismatches = Vec::new();
     let mut missing = Vec::new();

@@ -40,9 +40,9 @@ pub(super) struct Wanted<'s> {
 }
 
 impl<'a> Live<'a> {
-    pub fn new(ctx: &'a Ctx) -> anyhow::Result<Self> {
+    pub fn new(ctx: &'a Ctx) -> Self {
         ctx.opener().keep_links_open();
-        Ok(Self { ctx, cubes: Vec::new(), pacs: Vec::new(), nodes: Vec::new() })
+        Self { ctx, cubes: Vec::new(), pacs: Vec::new(), nodes: Vec::new() }
     }
 
     fn cubes(&mut self, link: &'a BenchLink) -> anyhow::Result<&mut Cubes> {
