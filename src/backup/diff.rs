@@ -37,16 +37,25 @@ pub fn same_value(a: &serde_json::Value, b: &serde_json::Value) -> bool {
 
 /// Every device of both documents; each compared on the identity keys
 /// either side holds and on the settings either side restores.
+///
+/// A device of the left is paired with the right's device at the same
+/// address on the same link, else with the first one not yet paired at that
+/// address (the ports of a served simulator, or the adapter's path, change
+/// from run to run): two links of a bench may each have a module 3.
 pub fn diff(left: &Document, right: &Document) -> Vec<DeviceDiff> {
-    let mut out: Vec<DeviceDiff> = left
-        .devices
-        .iter()
-        .map(|l| {
-            let r = right.devices.iter().find(|r| r.address() == l.address());
-            DeviceDiff { address: l.address(), link: l.link.clone(), differences: device_diff(Some(l), r) }
-        })
-        .collect();
-    for r in right.devices.iter().filter(|r| !left.devices.iter().any(|l| l.address() == r.address())) {
+    let mut paired = vec![false; right.devices.len()];
+    let mut out = Vec::new();
+    for l in &left.devices {
+        let free = |i: &usize| !paired[*i] && right.devices[*i].address() == l.address();
+        let all = 0..right.devices.len();
+        let r = all.clone().filter(free).find(|i| right.devices[*i].link == l.link).or_else(|| all.clone().find(free));
+        if let Some(i) = r {
+            paired[i] = true;
+        }
+        let r = r.map(|i| &right.devices[i]);
+        out.push(DeviceDiff { address: l.address(), link: l.link.clone(), differences: device_diff(Some(l), r) });
+    }
+    for (r, _) in right.devices.iter().zip(&paired).filter(|(_, p)| !**p) {
         out.push(DeviceDiff { address: r.address(), link: r.link.clone(), differences: device_diff(None, Some(r)) });
     }
     out

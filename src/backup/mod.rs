@@ -190,9 +190,11 @@ pub fn parse(name: &str, text: &str) -> Result<Document, ParseError> {
         return Err(ParseError::Newer(name.into(), schema.into()));
     }
     let doc: Document = serde_json::from_value(value).map_err(|e| ParseError::NotBackup(name.into(), e.to_string()))?;
+    // A device is its address on its link: two links of a bench may each have a module 3.
     let mut seen = std::collections::BTreeSet::new();
-    if let Some(d) = doc.devices.iter().find(|d| !seen.insert(d.address())) {
-        return Err(ParseError::NotBackup(name.into(), format!("{} is in it twice", d.address())));
+    if let Some(d) = doc.devices.iter().find(|d| !seen.insert((d.link.as_str(), d.address()))) {
+        let on = if d.link.is_empty() { String::new() } else { format!(" on {}", d.link) };
+        return Err(ParseError::NotBackup(name.into(), format!("{}{on} is in it twice", d.address())));
     }
     Ok(doc)
 }

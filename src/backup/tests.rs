@@ -47,6 +47,39 @@ fn a_newer_schema_or_another_document_is_refused() {
     assert!(e.to_string().contains("twice"), "{e}");
 }
 
+/// Two links of a bench may each have a module 17: one device each, paired
+/// by link; a link whose name changed (a new pty) is paired by address in
+/// the file's order.
+#[test]
+fn one_address_on_two_links_is_two_devices() {
+    let on = |link: &str, v: f64| {
+        let mut d = cube_doc(&[("MaxVel", v.into(), true)]).devices.remove(0);
+        d.link = link.into();
+        d
+    };
+    let doc = |devices| Document { devices, ..cube_doc(&[]) };
+    let file = doc(vec![on("slcan:/dev/a", 0.1), on("slcan:/dev/b", 0.2)]);
+    let text = serde_json::to_string(&file).unwrap();
+    assert_eq!(parse("f", &text).unwrap(), file);
+    let twice = doc(vec![on("slcan:/dev/a", 0.1), on("slcan:/dev/a", 0.2)]);
+    let e = parse("f", &serde_json::to_string(&twice).unwrap()).unwrap_err();
+    assert!(e.to_string().contains("powercube module 17 on slcan:/dev/a is in it twice"), "{e}");
+
+    // Live, in the other order: each compared with its own link's device.
+    let live = doc(vec![on("slcan:/dev/b", 0.2), on("slcan:/dev/a", 0.1)]);
+    assert!(diff(&file, &live).iter().all(|d| d.differences.is_empty()), "{:?}", diff(&file, &live));
+    let live = doc(vec![on("slcan:/dev/b", 0.25), on("slcan:/dev/a", 0.1)]);
+    let d = diff(&file, &live);
+    let differs: Vec<_> = d.iter().filter(|d| !d.differences.is_empty()).map(|d| d.link.as_str()).collect();
+    assert_eq!(differs, ["slcan:/dev/b"]);
+    // The links renamed: paired in order.
+    let live = doc(vec![on("slcan:/dev/c", 0.1), on("slcan:/dev/d", 0.25)]);
+    let d = diff(&file, &live);
+    assert_eq!(d.len(), 2, "{d:?}");
+    assert_eq!(d[1].differences.len(), 1);
+    assert!(d[0].differences.is_empty());
+}
+
 #[test]
 fn the_diff_compares_restored_settings_and_identity_only() {
     let a = cube_doc(&[("MaxVel", 0.1.into(), true), ("ActPos", 0.5.into(), false), ("MaxAcc", 1.into(), true)]);

@@ -10,7 +10,7 @@ use super::ids;
 /// Which devices of the link: the families, and the PowerCube modules.
 #[derive(Debug, Args)]
 pub struct Selection {
-    /// Only these families (powercube, pac, cdios; repeat or comma-separate); default: every family the link carries
+    /// Only these families (powercube, pac, cdios; repeat or comma-separate); default: every family of every link of the bench
     #[arg(long, value_name = "FAMILY", value_delimiter = ',', value_parser = super::dashboard::parse_family)]
     pub family: Vec<Family>,
     /// PowerCube modules: a list (3,5 or 1-8) or all (every module that answers; the default)
@@ -19,7 +19,7 @@ pub struct Selection {
     /// Cdios node id (CANopen), 1 to 127
     #[arg(long, value_name = "N", default_value_t = 1, value_parser = ids::id(CDIOS_NODE))]
     pub node: u8,
-    /// Every device on the link (the default; says so in a script)
+    /// Every device of the bench (the default; says so in a script)
     #[arg(long, conflicts_with = "module")]
     pub all: bool,
 }
@@ -30,7 +30,7 @@ pub enum BackupCommand {
     Backup {
         #[command(flatten)]
         select: Selection,
-        /// Write the document to FILE (default: stdout)
+        /// Write the document to FILE (default, or `-`: stdout)
         #[arg(long, short, value_name = "FILE")]
         out: Option<PathBuf>,
     },

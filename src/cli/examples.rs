@@ -169,6 +169,8 @@ pub const EXAMPLES: &[(&str, &[&str])] = &[
             "--link sim backup --family cdios --out cdios.json",
             "--link socketcan:can0 backup -m 3,5 --out arm.json",
             "--link serial:/dev/ttyUSB0 backup --family pac --out pac.json",
+            "--link slcan:/dev/ttyACM0 --link serial:/dev/ttyUSB0 backup --out bench.json",
+            "--link sim backup --out - | axisctl --link sim diff -",
         ],
     ),
     ("diff", &["--link sim diff bench.json", "--json diff before.json after.json"]),
@@ -189,6 +191,8 @@ pub const EXAMPLES: &[(&str, &[&str])] = &[
             "--link sim record --format csv -m 3,5 ActPos --rate 100 --for 10s > run.csv",
             "--link 'sim?pac=online' record --axis 2 position speed --for 5s -- pac-move 2 150",
             "--link 'sim?cdios=enabled' record --node 1 -m 0 position speed --count 50 -- cdios-goto -m 0 5000",
+            "--link sim record powercube:17.ActPos pac:2.position cdios:1/0.speed --count 20",
+            "--bench docs/sim-bench.toml --json record shoulder.ActPos slide.position gripper.position --count 5",
         ],
     ),
     (

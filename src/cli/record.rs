@@ -28,7 +28,9 @@ pub struct RecordArgs {
     #[arg(long, value_name = "N")]
     pub node: Option<u8>,
     /// The values: PowerCube parameter names (ActPos ActVel Cur; `axisctl params powercube`);
-    /// PA-CONTROL position, speed, status; Cdios position, setpoint, speed, rpm-error
+    /// PA-CONTROL position, speed, status; Cdios position, setpoint, speed, rpm-error.
+    /// Or DEVICE.VALUE for devices anywhere on the bench (powercube:3.ActPos pac:2.position
+    /// cdios:1/0.speed, or a bench file's name: shoulder.ActPos), each read on its family's link
     #[arg(value_name = "VALUE", required = true, add = super::complete::record_values())]
     pub values: Vec<String>,
     /// Samples per second (default: as fast as the link allows)

@@ -1,26 +1,27 @@
 //! `axisctl backup`, `diff` and `restore`: thin adapters over
 //! `axisctl::backup` (the document, the diff engine, the checks and the
-//! write order live there).
+//! write order live there), over every link of the bench and every family
+//! on it.
+
+mod live;
 
 use std::collections::BTreeSet;
 use std::path::Path;
 
 use axisctl::backup::{self, Address, Device, Difference, Document, Problem, ValueResult};
-use axisctl::device::cdios::{Node, Slot};
-use axisctl::device::pac::Controller;
-use axisctl::device::powercube::{Cubes, Error as CubeError};
+use axisctl::bench::{self, Bench, BenchError, BenchLink};
 use axisctl::device::supervisor;
 use axisctl::family::{Family, CDIOS_MODULE, POWERCUBE_MODULE};
 use axisctl::link::LinkSpec;
-use axisctl::proto::cdios::{ModuleId as CdiosModule, NodeId};
+use axisctl::proto::cdios::ModuleId as CdiosModule;
 use axisctl::proto::powercube::ModuleId;
 use axisctl::session::ErrorKind;
 use serde_json::{json, Value};
 
-use super::{usage, Ctx, Interrupted};
+use super::{usage, Ctx, Interrupted, NoAnswer};
 use crate::cli::backup::{BackupCommand, Selection};
-use crate::cli::ids::Devices;
 use crate::output::{self, say};
+use live::{Live, Wanted};
 
 pub fn run(ctx: &Ctx, cmd: BackupCommand) -> anyhow::Result<()> {
     match cmd {
@@ -32,16 +33,11 @@ pub fn run(ctx: &Ctx, cmd: BackupCommand) -> anyhow::Result<()> {
     }
 }
 
-/// The families a backup reads: those named, else every family the link
-/// carries (a serial line carries one, which must be named).
-fn families(ctx: &Ctx, named: &[Family]) -> anyhow::Result<Vec<Family>> {
-    let link = ctx.link()?;
-    let fits = |f: Family| match link {
-        LinkSpec::Sim(_) => true,
-        LinkSpec::Serial { .. } => f.link_kind().rs232(),
-        _ => f.link_kind().can(),
-    };
-    if let Some(f) = named.iter().find(|f| !fits(**f)) {
+/// The families a backup reads on the one `--link` of old: those named,
+/// else every family the link carries (a serial line carries one, which
+/// must be named).
+fn families(link: &LinkSpec, named: &[Family]) -> anyhow::Result<Vec<Family>> {
+    if let Some(f) = named.iter().find(|f| !bench::fits(link, **f)) {
         return Err(usage(format!("{link} does not carry the {f}")));
     }
     if !named.is_empty() {
@@ -52,190 +48,88 @@ fn families(ctx: &Ctx, named: &[Family]) -> anyhow::Result<Vec<Family>> {
             "{link} is a serial line, which carries one family: name it with --family powercube or --family pac"
         )));
     }
-    Ok(Family::ALL.into_iter().filter(|f| fits(*f)).collect())
+    Ok(Family::ALL.into_iter().filter(|f| bench::fits(link, *f)).collect())
 }
 
-/// The sessions of the command, opened when first needed.
-struct Live<'a> {
-    ctx: &'a Ctx,
-    cubes: Option<Cubes>,
-    pac: Option<Controller>,
-    /// Cdios nodes by id, with the controller's identify answer.
-    nodes: Vec<(Node, Vec<Slot>)>,
+/// The (link, family) pairs a backup reads: on several links or a bench
+/// file, every family of every link (those named only, if any are).
+fn pairs<'b>(bench: &'b Bench, named: &[Family]) -> anyhow::Result<Vec<(&'b BenchLink, Family)>> {
+    if bench.is_single() {
+        let link = &bench.links()[0];
+        return Ok(families(&link.spec, named)?.into_iter().map(|f| (link, f)).collect());
+    }
+    if let Some(f) = named.iter().find(|f| !bench.links().iter().any(|l| l.carries(**f))) {
+        return Err(BenchError::NoLink { family: *f, links: bench.describe() }.into());
+    }
+    Ok(bench.pairs().filter(|(_, f)| named.is_empty() || named.contains(f)).collect())
 }
 
-impl<'a> Live<'a> {
-    fn new(ctx: &'a Ctx) -> Self {
-        Self { ctx, cubes: None, pac: None, nodes: Vec::new() }
+/// The Cdios nodes a backup probes on `link`: `--node`, and on a bench
+/// file every node it expects there.
+fn nodes(bench: &Bench, link: &BenchLink, node: u8) -> Vec<u8> {
+    if bench.is_single() {
+        return vec![node];
     }
+    let expected = link.devices.values().filter_map(|a| match a {
+        bench::Address::Cdios { node, .. } => Some(*node),
+        _ => None,
+    });
+    let all: BTreeSet<u8> = std::iter::once(node).chain(expected).collect();
+    all.into_iter().collect()
+}
 
-    fn cubes(&mut self) -> anyhow::Result<&mut Cubes> {
-        if self.cubes.is_none() {
-            self.cubes = Some(Cubes::new(self.ctx.powercube()?));
-        }
-        Ok(self.cubes.as_mut().expect("opened above"))
-    }
-
-    /// The node and its slots, opened and identified once.
-    fn node(&mut self, id: u8) -> anyhow::Result<&mut (Node, Vec<Slot>)> {
-        if !self.nodes.iter().any(|(n, _)| n.id().get() == id) {
-            let node_id = NodeId::new(id).ok_or_else(|| usage(format!("node {id}: a Cdios node id is 1 to 127")))?;
-            let mut node = Node::new(self.ctx.cdios()?, node_id, self.ctx.retry);
-            let slots = node.identify()?;
-            self.nodes.push((node, slots));
-        }
-        Ok(self.nodes.iter_mut().find(|(n, _)| n.id().get() == id).expect("opened above"))
-    }
-
-    fn pac(&mut self) -> anyhow::Result<&mut Controller> {
-        if self.pac.is_none() {
-            self.pac = Some(Controller::new(self.ctx.pac()?));
-        }
-        Ok(self.pac.as_mut().expect("opened above"))
-    }
-
-    /// The devices of `family` the selection names, or those present.
-    fn present(&mut self, family: Family, select: &Selection, named: bool) -> anyhow::Result<Vec<Address>> {
-        let addr = |module| Address { family, module, axis: None, node: None };
-        match family {
-            Family::PowerCube => {
-                let ids: Vec<u8> = match &select.module {
-                    Some(Devices::One(id)) => vec![*id],
-                    Some(Devices::List(list)) => list.0.clone(),
-                    Some(Devices::All) | None => {
-                        let found: Vec<u8> = self.cubes()?.present()?.iter().map(|m| m.get()).collect();
-                        if found.is_empty() && named {
-                            let ids = format!("{}-{}", POWERCUBE_MODULE.min, POWERCUBE_MODULE.max);
-                            return Err(CubeError::NoneAnswered { ids }.into());
-                        }
-                        found
-                    }
-                };
-                Ok(ids.into_iter().map(|id| addr(Some(id))).collect())
-            }
-            Family::Pac => {
-                let c = self.pac()?;
-                backup::pac::ensure_home(c)?;
-                let n = c.configured_axes()?;
-                let axes = (1..=n).map(|a| Address { axis: Some(a), ..addr(None) });
-                Ok(std::iter::once(addr(None)).chain(axes).collect())
-            }
-            Family::Cdios => {
-                target(Address { family, module: None, axis: None, node: Some(select.node) });
-                let (node, _) = match self.node(select.node) {
-                    Ok(n) => n,
-                    // A CAN bus without the node: no Cdios device, unless asked for.
-                    Err(_) if !named => return Ok(Vec::new()),
-                    Err(e) => return Err(e),
-                };
-                let found = node.scan()?;
-                Ok(found
-                    .iter()
-                    .map(|m| Address { family, module: Some(m.get()), axis: None, node: Some(select.node) })
-                    .collect())
-            }
-        }
-    }
-
-    /// The live device at `at`, read into the backup's shape.
-    fn capture(&mut self, at: Address) -> anyhow::Result<Device> {
-        target(at);
-        let link = self.ctx.link_text.clone();
-        match at.family {
-            Family::PowerCube => Ok(backup::powercube::capture(self.cubes()?, module(at)?, &link)?),
-            Family::Pac => Ok(match at.axis {
-                None => backup::pac::capture_controller(self.pac()?, &link)?,
-                Some(a) => backup::pac::capture_axis(self.pac()?, a, &link)?,
-            }),
-            Family::Cdios => {
-                let m = cdios_module(at)?;
-                let (node, slots) = self.node(at.node.unwrap_or(1))?;
-                let slot = slots.iter().find(|s| s.module == m.get()).copied();
-                let (ty, version) = slot.map_or((0, 0), |s| (s.ty, s.version));
-                Ok(backup::cdios::capture(node, m, ty, version, &link)?)
-            }
-        }
-    }
-
-    fn check_live(&mut self, file: &Device, live: &Device) -> anyhow::Result<Vec<Problem>> {
-        target(file.address());
-        Ok(match file.family {
-            Family::PowerCube => backup::powercube::check_live(file, live),
-            Family::Pac => backup::pac::check_live(self.pac()?, file, live)?,
-            Family::Cdios => backup::cdios::check_live(file, live),
-        })
-    }
-
-    fn restore(
-        &mut self,
-        file: &Device,
-        live: &Device,
-        skip: &BTreeSet<String>,
-        stop: backup::Stop<'_>,
-    ) -> anyhow::Result<Vec<ValueResult>> {
-        let at = live.address();
-        target(at);
-        match at.family {
-            Family::PowerCube => {
-                let m = module(at)?;
-                Ok(backup::powercube::restore(self.cubes()?, m, file, live, skip, stop)?)
-            }
-            Family::Pac => Ok(backup::pac::restore(self.pac()?, file, live, skip, stop)?),
-            Family::Cdios => {
-                let m = cdios_module(at)?;
-                let (node, _) = self.node(at.node.unwrap_or(1))?;
-                Ok(backup::cdios::restore(node, m, file, live, skip, stop)?)
-            }
-        }
-    }
-
-    /// Refuses a device that moves (or a PA-CONTROL out of home position):
-    /// asked of every device before the first write.
-    fn ensure_at_rest(&mut self, at: Address) -> anyhow::Result<()> {
-        target(at);
-        match at.family {
-            Family::PowerCube => {
-                let m = module(at)?;
-                Ok(backup::powercube::ensure_at_rest(self.cubes()?, m)?)
-            }
-            Family::Pac => Ok(backup::pac::ensure_home(self.pac()?)?),
-            Family::Cdios => {
-                let m = cdios_module(at)?;
-                let (node, _) = self.node(at.node.unwrap_or(1))?;
-                Ok(backup::cdios::ensure_at_rest(node, m)?)
-            }
-        }
-    }
-
-    /// The Cdios EEPROM store (05h) of one module.
-    fn store(&mut self, at: Address) -> anyhow::Result<()> {
-        target(at);
-        let m = cdios_module(at)?;
-        let (node, _) = self.node(at.node.unwrap_or(1))?;
-        Ok(backup::cdios::store(node, m)?)
+/// A bench file's address in the backup's form.
+fn backup_address(a: bench::Address) -> Address {
+    let none = Address { family: a.family(), module: None, axis: None, node: None };
+    match a {
+        bench::Address::PowerCube { module } => Address { module: Some(module), ..none },
+        bench::Address::Pac { axis } => Address { axis, ..none },
+        bench::Address::Cdios { node, module } => Address { module: Some(module), node: Some(node), ..none },
     }
 }
+
+/// Why the commands stop: a device a backup file names that is not on the
+/// bench (no link reaches its family, or it does not answer).
+struct Missing<'d> {
+    device: &'d Device,
+    error: anyhow::Error,
+}
+
+impl Missing<'_> {
+    fn line(&self) -> String {
+        format!("{} (on {}): {}", self.device.address(), self.device.link, super::error_json::message(&self.error))
+    }
+
+    fn json(&self) -> Value {
+        let mut o = envelope(self.device.address(), &self.device.link);
+        o.insert("error".into(), super::error_json::message(&self.error).into());
+        Value::Object(o)
+    }
+}
+
+/// The error of a command that met devices of a file missing from the
+/// bench, every one named: exit 2 when the bench has no link for a family
+/// of the file (what was given is short of the file), else 4 (no answer).
+fn missing_error(path: &Path, mut missing: Vec<Missing>, what: &str) -> Option<anyhow::Error> {
+    let lines: String = missing.iter().map(|m| format!("\n  {}", m.line())).collect();
+    let n = missing.len();
+    let no_link = missing.iter().position(|m| m.error.chain().any(|c| c.is::<BenchError>())).unwrap_or(0);
+    let first = (n > 0).then(|| missing.swap_remove(no_link))?;
+    Some(first.error.context(format!(
+        "{n} device{} of {} {} not on the bench; {what}:{lines}",
+        plural(n),
+        path.display(),
+        if n == 1 { "is" } else { "are" }
+    )))
+}
+
+/// A device of a restore: the file's settings addressed to it, the live
+/// device, and the link it is on.
+type Pair<'a> = (Device, Device, &'a BenchLink);
 
 /// Why the writes stop, as each value not written says it.
 fn stop_text(sig: i32) -> String {
     format!("the restore stopped on {}", supervisor::signal_name(sig))
-}
-
-fn cdios_module(at: Address) -> anyhow::Result<CdiosModule> {
-    at.module.and_then(CdiosModule::new).ok_or_else(|| usage(format!("{at}: no Cdios module id 0 to 15")))
-}
-
-fn module(at: Address) -> anyhow::Result<ModuleId> {
-    at.module.and_then(ModuleId::new).ok_or_else(|| usage(format!("{at}: no PowerCube module id 1 to 31")))
-}
-
-/// Records the device being addressed, for the error object.
-fn target(at: Address) {
-    let mut addr: Vec<(&'static str, u64)> = Vec::new();
-    addr.extend(at.node.map(|n| ("node", n.into())));
-    addr.extend(at.module.map(|m| ("module", m.into())));
-    addr.extend(at.axis.map(|a| ("axis", a.into())));
-    output::target(at.family, &addr);
 }
 
 /// The envelope of a device in a report.
@@ -258,24 +152,44 @@ fn save(ctx: &Ctx, select: &Selection, out: Option<&Path>) -> anyhow::Result<()>
     } else {
         select.family.clone()
     };
-    let families = families(ctx, &named)?;
-    if select.module.is_some() && !families.contains(&Family::PowerCube) {
+    let bench = ctx.bench()?;
+    let pairs = pairs(bench, &named)?;
+    if select.module.is_some() && !pairs.iter().any(|(_, f)| *f == Family::PowerCube) {
         return Err(usage("-m names PowerCube modules, but the backup reads no PowerCube"));
     }
-    let named = !named.is_empty();
+    // `--out -` is stdout, as no --out.
+    let out = out.filter(|p| *p != Path::new("-"));
     let mut live = Live::new(ctx);
-    let mut doc = Document {
-        schema: backup::SCHEMA.into(),
-        created_by: format!("axisctl {}", env!("AXISCTL_VERSION")),
-        link: ctx.link_text.clone(),
-        devices: Vec::new(),
-    };
-    for f in families {
-        for at in live.present(f, select, named)? {
-            doc.devices.push(live.capture(at)?);
+    let mut links: Vec<&str> = Vec::new();
+    let mut devices = Vec::new();
+    for (link, family) in pairs {
+        let wanted = Wanted { select, nodes: nodes(bench, link, select.node), named: !named.is_empty() };
+        for at in live.present(link, family, &wanted)? {
+            devices.push(live.capture(link, at)?);
+        }
+        if !links.contains(&link.text.as_str()) {
+            links.push(&link.text);
         }
     }
-    output::forget_target();
+    live::done();
+    // A device the bench file expects is never silently left out of its backup.
+    let expected = bench.links().iter().flat_map(|l| l.devices.iter().map(move |(n, a)| (n, backup_address(*a), l)));
+    let absent: Vec<String> = expected
+        .filter(|(_, a, _)| select.module.is_none() && (named.is_empty() || named.contains(&a.family)))
+        .filter(|(_, a, l)| !devices.iter().any(|d: &Device| d.address() == *a && d.link == l.text))
+        .map(|(n, a, l)| format!("{n} ({a} on {})", l.text))
+        .collect();
+    if !absent.is_empty() {
+        return Err(
+            NoAnswer(format!("expected but not answering: {}; no backup was written", absent.join(", "))).into()
+        );
+    }
+    let doc = Document {
+        schema: backup::SCHEMA.into(),
+        created_by: format!("axisctl {}", env!("AXISCTL_VERSION")),
+        link: links.join(" "),
+        devices,
+    };
     let text = serde_json::to_string_pretty(&doc)?;
     let Some(path) = out else {
         say!("{text}");
@@ -304,14 +218,23 @@ fn read_file(path: &Path) -> anyhow::Result<Document> {
 }
 
 /// The live bench in the shape of `file`: each of its devices read at its
-/// own address.
-fn capture_like(live: &mut Live, file: &Document) -> anyhow::Result<Document> {
-    let mut devices = Vec::new();
+/// own address on the link that reaches it. A device not on the bench is
+/// left out of the live side and listed; any other failure ends the diff.
+fn capture_like<'d>(ctx: &Ctx, file: &'d Document) -> anyhow::Result<(Document, Vec<Missing<'d>>)> {
+    let bench = ctx.bench()?;
+    let mut live = Live::new(ctx);
+    let (mut devices, mut missing) = (Vec::new(), Vec::new());
     for d in &file.devices {
-        devices.push(live.capture(d.address())?);
+        let read = live::link_of(bench, d).map_err(anyhow::Error::from).and_then(|l| live.capture(l, d.address()));
+        match read {
+            Ok(now) => devices.push(now),
+            Err(error) if live::is_missing(&error) => missing.push(Missing { device: d, error }),
+            Err(e) => return Err(e),
+        }
     }
-    output::forget_target();
-    Ok(Document { devices, link: live.ctx.link_text.clone(), ..file.clone() })
+    live::done();
+    let links: Vec<&str> = bench.links().iter().map(|l| l.text.as_str()).collect();
+    Ok((Document { devices, link: links.join(" "), ..file.clone() }, missing))
 }
 
 fn diff_json(diffs: &[backup::DeviceDiff]) -> Vec<Value> {
@@ -362,20 +285,38 @@ fn plural(n: usize) -> &'static str {
 
 fn diff(ctx: &Ctx, file: &Path, file2: Option<&Path>) -> anyhow::Result<()> {
     let left = read_file(file)?;
-    let (right, right_name) = match file2 {
-        Some(p) => (read_file(p)?, p.display().to_string()),
-        None => (capture_like(&mut Live::new(ctx), &left)?, "live".to_string()),
+    let (right, right_name, missing) = match file2 {
+        Some(p) => (read_file(p)?, p.display().to_string(), Vec::new()),
+        None => {
+            let (doc, missing) = capture_like(ctx, &left)?;
+            (doc, "live".to_string(), missing)
+        }
     };
-    let diffs = backup::diff(&left, &right);
+    let mut diffs = backup::diff(&left, &right);
+    // A device not on the bench is listed once, not as every one of its values.
+    diffs.retain(|d| !missing.iter().any(|m| m.device.address() == d.address && m.device.link == d.link));
     let differs = diffs.iter().any(|d| !d.differences.is_empty());
     let left_name = file.display().to_string();
     if ctx.json {
-        output::json(&json!({"command": "diff", "left": left_name, "right": right_name, "differs": differs,
-                             "devices": diff_json(&diffs)}));
+        let absent: Vec<Value> = missing.iter().map(Missing::json).collect();
+        let doc = json!({"command": "diff", "left": left_name, "right": right_name, "differs": differs,
+                         "devices": diff_json(&diffs), "missing": absent});
+        // Stdout stays empty on a failure (the contract): the diff goes with the error object.
+        if missing.is_empty() {
+            output::json(&doc);
+        } else {
+            output::report_with_error(doc);
+        }
     } else {
         print_diff(ctx, &diffs, &left_name, &right_name);
+        for m in &missing {
+            say!("{}: not on the bench", m.line());
+        }
     }
-    Ok(())
+    match missing_error(file, missing, "the others were compared") {
+        Some(e) => Err(e),
+        None => Ok(()),
+    }
 }
 
 struct Options {
@@ -413,7 +354,11 @@ fn targets(doc: &Document, to: Option<u8>) -> anyhow::Result<Vec<(Device, Addres
     Ok(vec![(one.clone(), at)])
 }
 
-fn invalid(path: &Path, problems: &[Problem], what: &str) -> anyhow::Error {
+/// The invalid values of a restore, each with the index of its device in
+/// the file (two links may each have a module 3).
+type Problems = Vec<(usize, Problem)>;
+
+fn invalid(path: &Path, problems: &Problems, what: &str) -> anyhow::Error {
     usage(format!(
         "{} invalid value{} in {}; {what} (--skip-invalid writes the others):{}",
         problems.len(),
@@ -423,8 +368,8 @@ fn invalid(path: &Path, problems: &[Problem], what: &str) -> anyhow::Error {
     ))
 }
 
-fn problems_text(problems: &[Problem]) -> String {
-    problems.iter().map(|p| format!("\n  {p}")).collect()
+fn problems_text(problems: &Problems) -> String {
+    problems.iter().map(|(_, p)| format!("\n  {p}")).collect()
 }
 
 fn restore(ctx: &Ctx, path: &Path, opts: Options) -> anyhow::Result<()> {
@@ -433,7 +378,11 @@ fn restore(ctx: &Ctx, path: &Path, opts: Options) -> anyhow::Result<()> {
     if opts.store && !pairs.iter().any(|(d, _)| d.family == Family::Cdios) {
         return Err(usage("--store stores a Cdios configuration, but the file holds no Cdios device"));
     }
-    let mut problems: Vec<Problem> = pairs.iter().flat_map(|(d, _)| backup::check_file(d)).collect();
+    let mut problems: Problems = pairs
+        .iter()
+        .enumerate()
+        .flat_map(|(i, (d, _))| backup::check_file(d).into_iter().map(move |p| (i, p)))
+        .collect();
     // What the file alone shows is refused before the link opens.
     if !problems.is_empty() && !opts.skip_invalid {
         return Err(invalid(path, &problems, "nothing was sent"));
@@ -442,13 +391,30 @@ fn restore(ctx: &Ctx, path: &Path, opts: Options) -> anyhow::Result<()> {
     // ends the restore after the value being written, with the report of
     // what was written and what was not.
     super::arm_interrupt()?;
+    let bench = ctx.bench()?;
     let mut live = Live::new(ctx);
     let mut devices = Vec::new();
     let mut mismatches = Vec::new();
-    for (file_dev, at) in pairs {
-        let now = live.capture(at)?;
+    let mut missing = Vec::new();
+    for (file_dev, at) in &pairs {
+        let at = *at;
+        let link = match live::link_of(bench, file_dev) {
+            Ok(l) => l,
+            Err(e) => {
+                missing.push(Missing { device: file_dev, error: e.into() });
+                continue;
+            }
+        };
+        let now = match live.capture(link, at) {
+            Ok(now) => now,
+            Err(error) if live::is_missing(&error) => {
+                missing.push(Missing { device: file_dev, error });
+                continue;
+            }
+            Err(e) => return Err(e),
+        };
         if opts.to.is_none() {
-            let keys = backup::identity_mismatch(&file_dev, &now, backup::identity_keys(at.family));
+            let keys = backup::identity_mismatch(file_dev, &now, backup::identity_keys(at.family));
             if !keys.is_empty() {
                 mismatches.push(format!("\n  {at}: {}", keys.join(", ")));
             }
@@ -456,10 +422,14 @@ fn restore(ctx: &Ctx, path: &Path, opts: Options) -> anyhow::Result<()> {
         // The file's settings, addressed to the target, against the live ones.
         let mut wanted = file_dev.clone();
         (wanted.module, wanted.axis, wanted.node, wanted.link) = (at.module, at.axis, at.node, now.link.clone());
-        problems.extend(live.check_live(&wanted, &now)?);
-        devices.push((wanted, now));
+        problems.extend(live.check_live(link, &wanted, &now)?.into_iter().map(|p| (devices.len(), p)));
+        devices.push((wanted, now, link));
     }
-    output::forget_target();
+    live::done();
+    // Every device of the file is written, or none: one not on the bench stops it here.
+    if let Some(e) = missing_error(path, missing, "nothing was written") {
+        return Err(e);
+    }
     if !mismatches.is_empty() {
         return Err(usage(format!(
             "{} was taken from another device; nothing was written (name the target with --to ID to write it anyway):{}",
@@ -467,11 +437,11 @@ fn restore(ctx: &Ctx, path: &Path, opts: Options) -> anyhow::Result<()> {
             mismatches.concat()
         )));
     }
-    let wrap = |ds: &[(Device, Device)], pick: fn(&(Device, Device)) -> &Device| Document {
-        devices: ds.iter().map(pick).cloned().collect(),
+    let side = |file: bool| Document {
+        devices: devices.iter().map(|(w, n, _)| if file { w } else { n }).cloned().collect(),
         ..doc.clone()
     };
-    let diffs = backup::diff(&wrap(&devices, |p| &p.0), &wrap(&devices, |p| &p.1));
+    let diffs = backup::diff(&side(true), &side(false));
     let differs = diffs.iter().any(|d| !d.differences.is_empty());
     if !ctx.json {
         print_diff(ctx, &diffs, &path.display().to_string(), "live");
@@ -482,7 +452,7 @@ fn restore(ctx: &Ctx, path: &Path, opts: Options) -> anyhow::Result<()> {
     if !problems.is_empty() && !ctx.json {
         say!("skipping {} invalid value{}:{}", problems.len(), plural(problems.len()), problems_text(&problems));
     }
-    let mut results: Vec<(Address, Vec<ValueResult>)> = Vec::new();
+    let mut results: Vec<(usize, Vec<ValueResult>)> = Vec::new();
     // What ended the writes early: a device that refused or could not be
     // reached, or a signal. Every value not reached is reported as not written.
     let mut ended: Option<anyhow::Error> = None;
@@ -490,47 +460,48 @@ fn restore(ctx: &Ctx, path: &Path, opts: Options) -> anyhow::Result<()> {
         // Only a signal: a closed output does not stop a restore (it says
         // less, but what it writes is the same).
         let signal = || supervisor::caught().map(stop_text);
-        for (wanted, _) in &devices {
-            if let Err(e) = live.ensure_at_rest(wanted.address()) {
+        for (wanted, _, link) in &devices {
+            if let Err(e) = live.ensure_at_rest(link, wanted.address()) {
                 ended = Some(e);
                 break;
             }
         }
-        for (wanted, now) in &devices {
+        for (i, (wanted, now, link)) in devices.iter().enumerate() {
             let at = wanted.address();
-            let skip: BTreeSet<String> = problems.iter().filter(|p| p.device == at).map(|p| p.name.clone()).collect();
+            let skip: BTreeSet<String> =
+                problems.iter().filter(|(d, _)| *d == i).map(|(_, p)| p.name.clone()).collect();
             let why = match &ended {
                 Some(e) => Some(format!("the restore stopped: {}", super::error_json::message(e))),
                 None => signal(),
             };
             let rs = match why {
                 Some(why) => backup::not_written(wanted, now, &skip, &why),
-                None => live.restore(wanted, now, &skip, &signal).unwrap_or_else(|e| {
+                None => live.restore(link, wanted, now, &skip, &signal).unwrap_or_else(|e| {
                     let why = format!("the restore stopped: {at}: {}", super::error_json::message(&e));
                     ended = Some(e);
                     backup::not_written(wanted, now, &skip, &why)
                 }),
             };
-            results.push((at, rs));
+            results.push((i, rs));
         }
-        output::forget_target();
+        live::done();
     }
     if let (None, Some(sig)) = (&ended, supervisor::caught()) {
         ended = Some(Interrupted(format!(": {}", stop_text(sig))).into());
     }
     let failed_any = results.iter().flat_map(|(_, rs)| rs).any(|r| r.outcome == backup::Outcome::Failed);
     // The EEPROM store is its own step, after every write went through.
-    let mut stored: Vec<(Address, bool)> = Vec::new();
+    let mut stored: Vec<(usize, bool)> = Vec::new();
     let mut store_error = None;
     if opts.store && !opts.dry_run && !failed_any && ended.is_none() {
-        for (wanted, _) in devices.iter().filter(|(d, _)| d.family == Family::Cdios) {
-            let r = live.store(wanted.address());
-            stored.push((wanted.address(), r.is_ok()));
+        for (i, (wanted, _, link)) in devices.iter().enumerate().filter(|(_, (d, _, _))| d.family == Family::Cdios) {
+            let r = live.store(link, wanted.address());
+            stored.push((i, r.is_ok()));
             if let Err(e) = r {
                 store_error.get_or_insert(e);
             }
         }
-        output::forget_target();
+        live::done();
     }
     let fails = store_error.is_some() || failed_any || ended.is_some();
     report(ctx, path, &opts, &devices, &diffs, differs, &problems, &results, &stored, fails)?;
@@ -542,7 +513,10 @@ fn restore(ctx: &Ctx, path: &Path, opts: Options) -> anyhow::Result<()> {
     }
     let failed: Vec<(Address, &ValueResult)> = results
         .iter()
-        .flat_map(|(at, rs)| rs.iter().map(move |r| (*at, r)))
+        .flat_map(|(i, rs)| {
+            let at = devices[*i].0.address();
+            rs.iter().map(move |r| (at, r))
+        })
         .filter(|(_, r)| r.outcome == backup::Outcome::Failed)
         .collect();
     if let Some((_, first)) = failed.first() {
@@ -564,12 +538,12 @@ fn report(
     ctx: &Ctx,
     path: &Path,
     opts: &Options,
-    devices: &[(Device, Device)],
+    devices: &[Pair],
     diffs: &[backup::DeviceDiff],
     differs: bool,
-    problems: &[Problem],
-    results: &[(Address, Vec<ValueResult>)],
-    stored: &[(Address, bool)],
+    problems: &Problems,
+    results: &[(usize, Vec<ValueResult>)],
+    stored: &[(usize, bool)],
     fails: bool,
 ) -> anyhow::Result<()> {
     let all = results.iter().flat_map(|(_, rs)| rs.iter());
@@ -579,10 +553,11 @@ fn report(
         let devs: Vec<Value> = devices
             .iter()
             .zip(diff_objs)
-            .map(|((wanted, _), mut d)| {
-                let rs = results.iter().find(|(at, _)| *at == wanted.address()).map_or(&[][..], |(_, r)| &r[..]);
+            .enumerate()
+            .map(|(i, (_, mut d))| {
+                let rs = results.iter().find(|(at, _)| *at == i).map_or(&[][..], |(_, r)| &r[..]);
                 d["results"] = serde_json::to_value(rs).unwrap_or_default();
-                if let Some((_, ok)) = stored.iter().find(|(at, _)| *at == wanted.address()) {
+                if let Some((_, ok)) = stored.iter().find(|(at, _)| *at == i) {
                     d["stored"] = (*ok).into();
                 }
                 d
@@ -590,8 +565,9 @@ fn report(
             .collect();
         let probs: Vec<Value> = problems
             .iter()
-            .map(|p| {
-                let mut o = envelope(p.device, &ctx.link_text);
+            .map(|(i, p)| {
+                let link = devices.get(*i).map_or("", |(w, _, _)| w.link.as_str());
+                let mut o = envelope(p.device, link);
                 o.insert("name".into(), p.name.clone().into());
                 o.insert("message".into(), p.message.clone().into());
                 Value::Object(o)
@@ -614,7 +590,18 @@ fn report(
         say!("dry run: nothing was written{}", if opts.store { " or stored" } else { "" });
         return Ok(());
     }
-    for (at, rs) in results {
+    // Two links may each have a module 3: a bench of several links says which.
+    let several = devices.iter().any(|(d, _, _)| devices[0].0.link != d.link);
+    let name = |i: usize| {
+        let (d, _, _) = &devices[i];
+        if several {
+            format!("{} on {}", d.address(), d.link)
+        } else {
+            d.address().to_string()
+        }
+    };
+    for (i, rs) in results {
+        let at = name(*i);
         for r in rs.iter().filter(|r| r.outcome != backup::Outcome::Unchanged) {
             let unit = if r.unit.is_empty() { String::new() } else { format!(" {}", r.unit) };
             let mut line = format!(
@@ -635,9 +622,9 @@ fn report(
     }
     let counts: Vec<String> = summary.iter().map(|(o, n)| format!("{n} {}", o.name().replace('_', " "))).collect();
     say!("restore: {}", counts.join(", "));
-    for (at, ok) in stored {
+    for (i, ok) in stored {
         if *ok {
-            say!("{at}: configuration stored in EEPROM (05h)");
+            say!("{}: configuration stored in EEPROM (05h)", name(*i));
         }
     }
     Ok(())

@@ -107,8 +107,11 @@ fn module_id(t: &ModuleTarget) -> ModuleId {
 
 /// A per-module object: the envelope (docs/json.md) and the command's keys.
 fn doc(ctx: &Ctx, node: NodeId, m: ModuleId, body: Value) -> Value {
-    let envelope =
-        output::envelope(Family::Cdios, &ctx.link_text, &[("node", node.get().into()), ("module", m.get().into())]);
+    let envelope = output::envelope(
+        Family::Cdios,
+        &ctx.link_text_for(Family::Cdios),
+        &[("node", node.get().into()), ("module", m.get().into())],
+    );
     output::device_doc(envelope, body)
 }
 
@@ -157,7 +160,8 @@ fn identify(ctx: &Ctx, n: NodeArgs) -> anyhow::Result<()> {
         .map(|s| json!({"module": s.module, "type": s.ty, "version": s.version, "present": s.ty != 0}))
         .collect();
     if ctx.json {
-        let envelope = output::envelope(Family::Cdios, &ctx.link_text, &[("node", node.get().into())]);
+        let envelope =
+            output::envelope(Family::Cdios, &ctx.link_text_for(Family::Cdios), &[("node", node.get().into())]);
         output::json(&output::device_doc(envelope, json!({"modules": modules})));
         return Ok(());
     }
@@ -659,7 +663,7 @@ fn event_json(ctx: &Ctx, ev: &Event, start: Instant) -> Value {
     let a = &ev.answer;
     let address = [("node", u64::from(a.node.get())), ("module", u64::from(a.module))];
     let mut doc = output::device_doc(
-        output::envelope(Family::Cdios, &ctx.link_text, &address),
+        output::envelope(Family::Cdios, &ctx.link_text_for(Family::Cdios), &address),
         json!({"kind": "event", "t_ms": ev.at.saturating_duration_since(start).as_millis() as u64,
                "code": a.data[0], "data": a.data}),
     );

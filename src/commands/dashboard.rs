@@ -83,7 +83,13 @@ fn fits(spec: &LinkSpec, f: Family) -> Result<(), String> {
 }
 
 fn assign(ctx: &Ctx, args: &DashboardArgs) -> anyhow::Result<Assignment> {
-    let global = ctx.given_link()?.cloned();
+    // A bench of several links or a bench file: each family on the link
+    // that carries it, so that every device of every link is shown.
+    let bench = ctx.given_bench()?.filter(|b| !b.is_single());
+    let global = match bench {
+        Some(_) => None,
+        None => ctx.given_link()?.cloned(),
+    };
     if let Some(g @ LinkSpec::Serial { .. }) = &global {
         if Family::ALL.iter().all(|f| link_option(args, *f).1.is_none() || !f.link_kind().rs232()) {
             let opts: Vec<_> = Family::ALL
@@ -106,6 +112,10 @@ fn assign(ctx: &Ctx, args: &DashboardArgs) -> anyhow::Result<Assignment> {
                 fits(&spec, f).map_err(|why| usage(format!("{opt} {spec}: {why}")))?;
                 spec
             }
+            None if bench.is_some() => match bench.and_then(|b| b.links().iter().find(|l| l.carries(f))) {
+                Some(l) => l.spec.clone(),
+                None => continue,
+            },
             // The global link serves every family it fits, except a serial
             // line: that carries one family, named by its own option.
             None => match global.clone().filter(|g| g.is_can() && fits(g, f).is_ok()) {
@@ -253,6 +263,29 @@ mod tests {
         assert!(matches!(a.get(Family::Pac).cloned(), Some(LinkSpec::Serial { .. })));
         let a = resolve(&["axisctl", "--link", "sim", "dashboard", "--without", "pac"]).unwrap();
         assert_eq!(a.get(Family::Pac).cloned(), None);
+    }
+
+    /// On a bench of several links (or a bench file) each family takes the
+    /// link that carries it; a family option still wins.
+    #[test]
+    fn a_bench_gives_each_family_its_link() {
+        let (can, serial) = ("slcan:/dev/axisctl-a", "serial:/dev/axisctl-b");
+        let a = resolve(&["axisctl", "--link", can, "--link", serial, "dashboard"]).unwrap();
+        let text = |f| a.get(f).map(ToString::to_string);
+        assert_eq!(text(Family::PowerCube).as_deref(), Some("slcan:/dev/axisctl-a?bitrate=1000000"));
+        assert_eq!(text(Family::Cdios), text(Family::PowerCube));
+        assert_eq!(text(Family::Pac).as_deref(), Some("serial:/dev/axisctl-b"));
+        let a = resolve(&["axisctl", "--link", can, "--link", "socketcan:can1", "dashboard"]).unwrap();
+        assert_eq!(a.get(Family::Pac), None, "no link carries the PA-CONTROL: left out");
+        let a = resolve(&["axisctl", "--link", can, "--link", serial, "dashboard", "--cdios-link", "socketcan:can1"])
+            .unwrap();
+        assert_eq!(a.get(Family::Cdios).map(ToString::to_string).as_deref(), Some("socketcan:can1"));
+        let dir = tempfile::tempdir().unwrap();
+        let file = dir.path().join("bench.toml");
+        std::fs::write(&file, format!("[[link]]\nspec = \"{serial}\"\n[[link]]\nspec = \"{can}\"\n")).unwrap();
+        let a = resolve(&["axisctl", "--bench", file.to_str().unwrap(), "dashboard"]).unwrap();
+        assert_eq!(a.0.len(), 3, "{a:?}");
+        assert_eq!(a.get(Family::Pac).map(ToString::to_string).as_deref(), Some("serial:/dev/axisctl-b"));
     }
 
     #[test]

@@ -298,6 +298,17 @@ impl Ctx {
         Ok(&self.pick(bench)?.spec)
     }
 
+    /// The link a document of `family` names: on a bench of several links
+    /// or from a bench file the one that carries the family, not every link
+    /// joined; the links as given when none carries it (the command then
+    /// fails on it) or none was given.
+    pub fn link_text_for(&self, family: Family) -> String {
+        match self.given_bench() {
+            Ok(Some(bench)) => bench.link_for(family).map_or_else(|_| self.link_text.clone(), |l| l.text.clone()),
+            _ => self.link_text.clone(),
+        }
+    }
+
     /// The link carrying `family`; a usage error naming the links when none does.
     pub fn link_for(&self, family: Family) -> anyhow::Result<&LinkSpec> {
         Ok(&self.bench()?.link_for(family)?.spec)
@@ -425,7 +436,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
 /// command, or each line of `batch` and `shell`.
 pub fn dispatch(ctx: &Ctx, name: &str, command: Command) -> anyhow::Result<()> {
     name.clone_into(&mut ctx.command.lock().unwrap_or_else(|e| e.into_inner()));
-    *ctx.family.lock().unwrap_or_else(|e| e.into_inner()) = match &command {
+    let family = match &command {
         // Whole-bench commands: every family (crate::commands::bench).
         Command::PowerCube(PowerCubeCommand::Scan { .. }) => None,
         Command::PowerCube(PowerCubeCommand::Halt { target }) if target.all => None,
@@ -434,6 +445,9 @@ pub fn dispatch(ctx: &Ctx, name: &str, command: Command) -> anyhow::Result<()> {
         Command::Cdios(_) => Some(Family::Cdios),
         _ => None,
     };
+    *ctx.family.lock().unwrap_or_else(|e| e.into_inner()) = family;
+    // The error object names the link the command's family uses.
+    crate::output::set_link(&family.map_or_else(|| ctx.link_text.clone(), |f| ctx.link_text_for(f)));
     match command {
         Command::Decode { kind, value } => decode::run(ctx, &kind, &value),
         Command::Sim(args) => sim::run(ctx, &args),

@@ -117,12 +117,12 @@ fn status_json(ack: &Ack) -> serde_json::Value {
 
 /// The envelope of a controller-level object (docs/json.md).
 fn controller(ctx: &Ctx) -> serde_json::Map<String, serde_json::Value> {
-    output::envelope(Family::Pac, &ctx.link_text, &[])
+    output::envelope(Family::Pac, &ctx.link_text_for(Family::Pac), &[])
 }
 
 /// The envelope of an object about one axis.
 fn on_axis(ctx: &Ctx, axis: u8) -> serde_json::Map<String, serde_json::Value> {
-    output::envelope(Family::Pac, &ctx.link_text, &[("axis", axis.into())])
+    output::envelope(Family::Pac, &ctx.link_text_for(Family::Pac), &[("axis", axis.into())])
 }
 
 /// `envelope` and the command's own keys.
@@ -324,7 +324,7 @@ struct Reporter {
 impl Reporter {
     fn new(ctx: &Ctx, wait: &PacWait) -> Self {
         let bar = crate::output::spinner(ctx.json);
-        Self { bar, json: wait.progress_json, link: ctx.link_text.clone() }
+        Self { bar, json: wait.progress_json, link: ctx.link_text_for(Family::Pac) }
     }
 
     /// One poll: the spinner's text, and with `--progress-json` a line on

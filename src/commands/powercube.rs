@@ -109,7 +109,7 @@ fn module(id: u8) -> ModuleId {
 
 /// The envelope of a per-module object (docs/json.md).
 fn envelope(ctx: &Ctx, m: ModuleId) -> serde_json::Map<String, serde_json::Value> {
-    output::envelope(Family::PowerCube, &ctx.link_text, &[("module", m.get().into())])
+    output::envelope(Family::PowerCube, &ctx.link_text_for(Family::PowerCube), &[("module", m.get().into())])
 }
 
 /// `envelope` and the command's own keys.
@@ -369,7 +369,7 @@ fn report_sent(ctx: &Ctx, target: Target, what: &str, holder: Option<&super::tak
         let mut out = match target.module {
             Some(m) => doc(ctx, module(m), json!({"command": what, "acknowledged": true})),
             None => {
-                let mut all = output::envelope(Family::PowerCube, &ctx.link_text, &[]);
+                let mut all = output::envelope(Family::PowerCube, &ctx.link_text_for(Family::PowerCube), &[]);
                 all.insert("module".into(), serde_json::Value::Null);
                 output::device_doc(all, json!({"command": what, "broadcast": true, "acknowledged": false}))
             }
@@ -935,7 +935,7 @@ fn keepalive(ctx: &Ctx, pc: &mut PowerCube, interval_ms: u64, duration: Option<f
     let ms = |us: u64| us as f64 / 1e3;
     if ctx.json {
         // The refresh is a broadcast: addressed to every module.
-        let mut all = output::envelope(Family::PowerCube, &ctx.link_text, &[]);
+        let mut all = output::envelope(Family::PowerCube, &ctx.link_text_for(Family::PowerCube), &[]);
         all.insert("module".into(), serde_json::Value::Null);
         output::json(&output::device_doc(
             all,

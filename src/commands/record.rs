@@ -28,6 +28,8 @@ use crate::cli::record::{Format, RecordArgs};
 use crate::cli::{cdios::CdiosCommand, pac::PacCommand, Cli, Command, PowerCubeCommand};
 use crate::output::{self, say};
 
+mod several;
+
 /// What is recorded: one family's devices and values, checked before the
 /// link opens.
 enum Selection {
@@ -76,6 +78,9 @@ impl Motion {
 const MOTIONS: &str = "move-ramp, move-step, move-vel, move-cur (PowerCube), pac-move (PA-CONTROL), cdios-goto (Cdios)";
 
 pub fn run(ctx: &Ctx, args: RecordArgs) -> anyhow::Result<()> {
+    if several::addressed(&args.values) {
+        return several::run(ctx, &args);
+    }
     let sel = selection(&args)?;
     let motion = (!args.motion.is_empty()).then(|| motion(&args.motion)).transpose()?;
     if let Some(m) = &motion {
@@ -93,29 +98,12 @@ pub fn run(ctx: &Ctx, args: RecordArgs) -> anyhow::Result<()> {
             )));
         }
     }
-    let period = match args.rate {
-        Some(hz) if !(hz.is_finite() && hz > 0.0 && hz <= 100_000.0) => {
-            return Err(usage(format!("--rate {hz} is out of range: more than 0 and at most 100000 Hz")))
-        }
-        Some(hz) => Some(Duration::from_secs_f64(1.0 / hz)),
-        None => None,
-    };
-    let until = match (args.count, args.duration) {
-        (Some(_), Some(_)) => return Err(usage("--count and --for both end the recording: give one")),
-        (Some(0), None) => return Err(usage("--count 0 records nothing: give at least 1")),
-        (Some(n), None) => Until::Count(n),
-        (None, Some(d)) => Until::Elapsed(d),
-        (None, None) => Until::Stopped,
-    };
-    let format = args.format.unwrap_or(if ctx.json { Format::Jsonl } else { Format::Text });
-    if ctx.json && format != Format::Jsonl {
-        return Err(usage("--json writes JSON Lines: leave out --format, or give --format csv without --json"));
-    }
+    let (period, until, format) = pace(ctx, &args)?;
     // From here on a signal ends the recording between two samples (and
     // halts a motion it started) instead of killing the process mid-line.
     super::arm_interrupt()?;
     let attempts = 1 + ctx.retry.read_retries;
-    let mut writer = Writer::new(ctx, format);
+    let mut writer = Writer::new(format);
     match sel {
         Selection::PowerCube { modules, params } => {
             let mut s = CubeSampler::new(Cubes::new(ctx.powercube()?), &modules, &params).map_err(device_error)?;
@@ -137,6 +125,29 @@ pub fn run(ctx: &Ctx, args: RecordArgs) -> anyhow::Result<()> {
             go(&mut s, ctx, (period, until), (motion, node.get(), attempts), &mut writer, start)
         }
     }
+}
+
+/// The rate, the end and the format of a recording, checked before the link opens.
+fn pace(ctx: &Ctx, args: &RecordArgs) -> anyhow::Result<(Option<Duration>, Until, Format)> {
+    let period = match args.rate {
+        Some(hz) if !(hz.is_finite() && hz > 0.0 && hz <= 100_000.0) => {
+            return Err(usage(format!("--rate {hz} is out of range: more than 0 and at most 100000 Hz")))
+        }
+        Some(hz) => Some(Duration::from_secs_f64(1.0 / hz)),
+        None => None,
+    };
+    let until = match (args.count, args.duration) {
+        (Some(_), Some(_)) => return Err(usage("--count and --for both end the recording: give one")),
+        (Some(0), None) => return Err(usage("--count 0 records nothing: give at least 1")),
+        (Some(n), None) => Until::Count(n),
+        (None, Some(d)) => Until::Elapsed(d),
+        (None, None) => Until::Stopped,
+    };
+    let format = args.format.unwrap_or(if ctx.json { Format::Jsonl } else { Format::Text });
+    if ctx.json && format != Format::Jsonl {
+        return Err(usage("--json writes JSON Lines: leave out --format, or give --format csv without --json"));
+    }
+    Ok((period, until, format))
 }
 
 /// The devices and values, every name checked before anything is sent.
@@ -258,7 +269,8 @@ fn go<S: HaltMotion>(
     writer: &mut Writer,
     start: impl Fn(&mut S, &Motion) -> Result<String, RecordError>,
 ) -> anyhow::Result<()> {
-    writer.header(s.channels());
+    let links: Vec<String> = s.channels().iter().map(|c| ctx.link_text_for(c.address.family())).collect();
+    writer.header(s.channels(), &links);
     let (mut tried, mut started) = (false, false);
     let clock = ctx.clock.clone();
     // Armed before the motion starts (after the first sample): the face
@@ -312,7 +324,7 @@ fn go<S: HaltMotion>(
 
 /// The device layer's own error, so that its exit-code class and refusal
 /// are found in the chain (a transparent wrapper would hide its type).
-fn device_error(e: RecordError) -> anyhow::Error {
+pub(super) fn device_error(e: RecordError) -> anyhow::Error {
     match e {
         RecordError::PowerCube(e) => (*e).into(),
         RecordError::Pac(e) => (*e).into(),
@@ -354,9 +366,8 @@ fn start_cdios(s: &mut CdiosSampler, m: &Motion, attempts: u32) -> Result<String
 type DeviceColumns = (Map<String, Value>, Vec<(usize, String)>);
 
 /// Writes the samples in the chosen format.
-struct Writer {
+pub(super) struct Writer {
     format: Format,
-    link: String,
     devices: Vec<DeviceColumns>,
     units: Vec<String>,
     /// Text columns: each as wide as its header.
@@ -364,20 +375,22 @@ struct Writer {
 }
 
 impl Writer {
-    fn new(ctx: &Ctx, format: Format) -> Self {
-        Self { format, link: ctx.link_text.clone(), devices: Vec::new(), units: Vec::new(), widths: Vec::new() }
+    pub fn new(format: Format) -> Self {
+        Self { format, devices: Vec::new(), units: Vec::new(), widths: Vec::new() }
     }
 
-    fn header(&mut self, channels: &[Channel]) {
+    /// The columns, each channel with the link its device is on.
+    pub fn header(&mut self, channels: &[Channel], links: &[String]) {
         self.units = channels.iter().map(|c| c.unit.clone()).collect();
-        for (i, c) in channels.iter().enumerate() {
-            let pos = self.devices.iter().position(|(env, _)| env.get("_addr") == Some(&json!(c.address.label())));
+        for ((i, c), link) in channels.iter().enumerate().zip(links) {
+            let key = json!([c.address.label(), link]);
+            let pos = self.devices.iter().position(|(env, _)| env.get("_addr") == Some(&key));
             let at = match pos {
                 Some(p) => p,
                 None => {
                     let mut env = Map::new();
                     env.insert("family".into(), json!(c.address.family().name()));
-                    env.insert("link".into(), json!(self.link));
+                    env.insert("link".into(), json!(link));
                     match c.address {
                         Address::Module(m) => env.insert("module".into(), json!(m)),
                         Address::Axis(a) => env.insert("axis".into(), json!(a)),
@@ -386,7 +399,7 @@ impl Writer {
                             env.insert("module".into(), json!(module))
                         }
                     };
-                    env.insert("_addr".into(), json!(c.address.label()));
+                    env.insert("_addr".into(), key);
                     self.devices.push((env, Vec::new()));
                     self.devices.len() - 1
                 }
@@ -408,7 +421,7 @@ impl Writer {
         }
     }
 
-    fn sample(&mut self, s: &Sample) {
+    pub fn sample(&mut self, s: &Sample) {
         match self.format {
             Format::Jsonl => {
                 let devices: Vec<Value> = self

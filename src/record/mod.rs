@@ -13,6 +13,7 @@ mod cdios;
 mod halt;
 mod pac;
 mod powercube;
+mod several;
 
 use std::time::{Duration, Instant};
 
@@ -23,6 +24,7 @@ pub use cdios::{CdiosSampler, CdiosValue};
 pub use halt::{halt_motion, motion_target, HaltMotion, HaltWhen, Recording};
 pub use pac::{PacSampler, PacValue};
 pub use powercube::CubeSampler;
+pub use several::Several;
 
 /// Which device a channel belongs to, in the envelope's address form.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]

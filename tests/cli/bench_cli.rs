@@ -255,18 +255,6 @@ fn per_family_commands_take_their_family_link() {
     let r = run(&["--link", &can, "--link", &serial, "pac-stop-axis", "2"]);
     assert_eq!(r.code, 0, "{}", r.stderr);
     assert!(r.stdout.contains("PA-CONTROL in home position: nothing moves"), "{}", r.stdout);
-    let dir = tempfile::tempdir().unwrap();
-    let out = dir.path().join("b.json");
-    let r = run(&["--link", &can, "--link", &serial, "backup", "--out", out.to_str().unwrap()]);
-    assert_eq!(r.code, 2, "{}", r.stderr);
-    assert!(
-        r.stderr.contains(&format!(
-            "this command takes one link; the bench has 2: {can} (powercube, cdios), {serial} (pac)"
-        )),
-        "{}",
-        r.stderr
-    );
-    assert!(!out.exists());
     let r = run(&["--link", &can, "--link", &can, "scan"]);
     assert_eq!(r.code, 2, "{}", r.stderr);
     assert!(r.stderr.contains("is given twice"), "{}", r.stderr);

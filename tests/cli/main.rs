@@ -6,6 +6,7 @@
 mod common;
 
 mod backup_cli;
+mod benchwide;
 mod batch_cli;
 mod batch_pipeline;
 mod bench_cli;
