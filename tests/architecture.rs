@@ -24,6 +24,7 @@ const LAYERS: &[(&str, &[&str])] = &[
     ("tui", &["device", "session", "proto", "link", "clock", "family", "monitor", "plot"]),
     ("plot", &[]),
     ("record", &["device", "session", "proto", "link", "clock", "family"]),
+    ("commission", &["device", "session", "proto", "link", "clock", "family", "backup", "record", "plot", "bench"]),
 ];
 
 /// Top-level modules of the binary crate (declared in main.rs): not layers
