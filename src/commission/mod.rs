@@ -2,3 +2,5 @@
 //! passed or failed against the plan's thresholds, and the handover report.
 
 pub mod figures;
+pub mod plan;
+pub mod report;
