@@ -34,7 +34,11 @@ impl Command {
                     false => Cli::try_parse_from(words).ok().and_then(|cli| cli.command.starts_motion()),
                 }
             }
-            Self::Decode { .. }
+            // Every PowerCube module of the plan may move (it halts them
+            // itself on every way out).
+            Self::Commission(a) if !a.dry_run && !a.print_plan => Some(MotionTarget::CubeBus),
+            Self::Commission(_)
+            | Self::Decode { .. }
             | Self::Sim(_)
             | Self::Monitor(_)
             | Self::Dashboard(_)
