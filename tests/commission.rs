@@ -250,7 +250,8 @@ fn ctrl_c_during_the_second_test_move_halts_it_and_leaves_an_incomplete_report()
         }
         assert!(Instant::now() < deadline, "no second test move of module 3 within 60 s");
         assert!(child.try_wait().unwrap().is_none(), "the run ended before its second move");
-        std::thread::yield_now();
+        // Polls the log (the event), not a wait for a guessed time: the move lasts over a second.
+        std::thread::sleep(Duration::from_millis(2));
     };
     assert_eq!(second, 2);
     unsafe {
@@ -307,4 +308,61 @@ fn a_bad_plan_is_refused_before_anything_is_sent() {
         assert!(r.stderr.contains(want), "{text}: {}", r.stderr);
         assert_eq!(std::fs::read_to_string(&log).unwrap_or_default(), "", "nothing sent for {text}");
     }
+}
+
+/// The plan of docs/guide.md "Commissioning" runs as written on the
+/// simulated bench (its backup file taken there first) and passes.
+#[test]
+fn the_guides_plan_runs_as_written() {
+    let guide = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/docs/guide.md")).unwrap();
+    let section = guide.split("\n## Commissioning\n").nth(1).unwrap().split("\n## ").next().unwrap();
+    let plan = section.split("```toml\n").nth(1).unwrap().split("```").next().unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("plan.toml"), plan).unwrap();
+    let arm = dir.path().join("arm.json");
+    let r = run(&["--link", "sim", "backup", "--out", arm.to_str().unwrap()]);
+    assert_eq!(r.code, 0, "{}", r.stderr);
+    let out = dir.path().join("r");
+    let plan_file = dir.path().join("plan.toml");
+    let r = run(&[
+        "--link",
+        "sim",
+        "commission",
+        "--plan",
+        plan_file.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--yes",
+    ]);
+    assert_eq!(r.code, 0, "{}\n{}", r.stdout, r.stderr);
+    let report = read_report(&out);
+    let names: Vec<&str> = checks(&report).iter().map(|c| c["check"].as_str().unwrap()).collect();
+    assert_eq!(names, ["identity", "settings", "limits", "home", "move_forward", "move_back", "halt", "backup"]);
+    // The file's settings and the inline one were compared.
+    let settings = check(&report, "powercube:17", "settings");
+    assert!(settings["measured"].as_array().unwrap().len() > 10, "{settings}");
+    assert_eq!(measured(settings, "MaxVel")["limit"], "0.1 ± 0.001");
+}
+
+#[test]
+fn the_watchdog_check_sees_it_trip_and_recover() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("plan.toml");
+    std::fs::write(&file, "[[device]]\naddress = \"powercube:3\"\nwatchdog = true\nbackup = false\n").unwrap();
+    let out = dir.path().join("r");
+    let r = run(&[
+        "--link",
+        "sim",
+        "commission",
+        "--plan",
+        file.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--yes",
+    ]);
+    assert_eq!(r.code, 0, "{}", r.stderr);
+    let report = read_report(&out);
+    let c = check(&report, "powercube:3", "watchdog");
+    assert_eq!(measured(c, "tripped")["value"], true, "{c}");
+    assert_eq!(measured(c, "recovered after reset")["value"], true, "{c}");
 }
