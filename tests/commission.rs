@@ -366,3 +366,54 @@ fn the_watchdog_check_sees_it_trip_and_recover() {
     assert_eq!(measured(c, "tripped")["value"], true, "{c}");
     assert_eq!(measured(c, "recovered after reset")["value"], true, "{c}");
 }
+
+/// A bench served by `axisctl sim` (slcan) gives the report `--link sim`
+/// gives: the same checks with the same verdicts, the figures within what
+/// the slower link's sampling changes.
+#[test]
+fn a_served_bench_gives_the_same_report_as_the_in_process_one() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut plan = default_plan();
+    plan["device"].as_array_mut().unwrap().retain(|d| d["address"].as_str() == Some("powercube:17"));
+    let file = dir.path().join("plan.toml");
+    std::fs::write(&file, toml::to_string(&plan).unwrap()).unwrap();
+    let sim = common::Sim::start(&[], 3);
+    let mut reports = Vec::new();
+    for (name, link) in [("in-process", "sim"), ("served", sim.link("powercube"))] {
+        let out = dir.path().join(name);
+        let r = run(&[
+            "--link",
+            link,
+            "commission",
+            "--plan",
+            file.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+            "--yes",
+        ]);
+        assert_eq!(r.code, 0, "{name}: {}\n{}", r.stdout, r.stderr);
+        reports.push(read_report(&out));
+    }
+    let (a, b) = (checks(&reports[0]), checks(&reports[1]));
+    assert_eq!(a.len(), b.len());
+    // (figure, absolute tolerance): times within 50 ms, positions within 1e-4 m.
+    let tolerance = [
+        ("rise_time", 0.05),
+        ("overshoot", 1.0),
+        ("settling_time", 0.05),
+        ("steady_state_error", 1e-4),
+        ("time_to_reach", 0.05),
+        ("peak_speed", 1e-3),
+        ("time_to_standstill", 0.05),
+    ];
+    for (x, y) in a.iter().zip(b) {
+        assert_eq!((&x["check"], &x["status"]), (&y["check"], &y["status"]));
+        for (fig, tol) in tolerance {
+            let find = |c: &Value| c["measured"].as_array().and_then(|m| m.iter().find(|m| m["name"] == fig).cloned());
+            if let (Some(p), Some(q)) = (find(x), find(y)) {
+                let (p, q) = (p["value"].as_f64().unwrap(), q["value"].as_f64().unwrap());
+                assert!((p - q).abs() <= tol, "{} {fig}: in-process {p}, served {q}", x["check"]);
+            }
+        }
+    }
+}
