@@ -417,3 +417,25 @@ fn a_served_bench_gives_the_same_report_as_the_in_process_one() {
         }
     }
 }
+
+#[test]
+fn json_streams_one_line_per_check_then_the_outcome() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("r");
+    let r = run(&["--link", "sim", "--json", "commission", "--out", out.to_str().unwrap(), "--dry-run"]);
+    assert_eq!(r.code, 0, "{}", r.stderr);
+    let stream = common::schema("stream_line");
+    let lines: Vec<Value> = r.stdout.lines().map(|l| serde_json::from_str(l).unwrap()).collect();
+    for l in &lines {
+        assert!(common::schema_errors(&stream, l).is_none(), "{l}");
+    }
+    let report = read_report(&out);
+    let (last, each) = lines.split_last().unwrap();
+    assert_eq!(each.len(), checks(&report).len(), "one line per check");
+    for (line, c) in each.iter().zip(checks(&report)) {
+        assert_eq!((&line["check"]["device"], &line["check"]["check"]), (&c["device"], &c["check"]));
+    }
+    assert_eq!(last["summary"], report["summary"]);
+    assert_eq!((last["complete"].as_bool(), last["passed"].as_bool()), (Some(true), Some(true)));
+    assert!(r.stderr.contains("would make these motions"), "the list still goes to stderr");
+}
