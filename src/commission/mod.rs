@@ -123,7 +123,7 @@ pub fn settings_check(at: &str, plan: &plan::Settings, file: Option<&backup::Dev
                 let tol = tol.unwrap_or(plan.tolerance * w.abs());
                 (
                     (g - w).abs() <= tol || backup::same_value(&want, got.as_ref().unwrap_or(&want)),
-                    format!("{w} ± {tol}"),
+                    format!("{w} ± {}", format!("{tol:.3e}").parse().unwrap_or(tol)),
                 )
             }
             _ => (got.as_ref().is_some_and(|g| backup::same_value(&want, g)), want.to_string()),

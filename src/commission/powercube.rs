@@ -590,7 +590,8 @@ fn watchdog(cubes: &mut Cubes, m: ModuleId, at: &str) -> Check {
 
 fn round(v: f64) -> f64 {
     if v.is_finite() {
-        (v * 1e6).round() / 1e6
+        // + 0.0: a -0 rounded from a tiny negative error reads as 0.
+        (v * 1e6).round() / 1e6 + 0.0
     } else {
         v
     }
