@@ -557,7 +557,14 @@ fn halt_test(
     let stopped = tr.pos.last().copied().unwrap_or(f64::NAN);
     c.measure("distance_after_halt", json!(round((stopped - at_halt).abs())), "any".into(), unit, true);
     attach(&mut c, at, &tr, run);
-    (back, c)
+    // The test halted it, and it stands: the Halt state is the test's, not
+    // a finding, so a Reset leaves the module ready as it was found (a run
+    // after this one moves it again).
+    let Some(mut cubes) = back else { return (None, c) };
+    if let Err(e) = cubes.simple(Some(m), cube_dev::Simple::Reset) {
+        c = c.fail(format!("standstill measured; the Reset after it failed: {e}"));
+    }
+    (Some(cubes), c)
 }
 
 /// The watchdog trips (CubeState COMM_ERROR) once refreshes stop, and the
