@@ -135,3 +135,63 @@ pub fn settings_check(at: &str, plan: &plan::Settings, file: Option<&backup::Dev
     }
     c
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::family::Family;
+    use plan::{Expected, Settings};
+    use report::Status;
+
+    fn device(values: &[(&str, serde_json::Value, bool)]) -> backup::Device {
+        let mut d = backup::Device::new(Family::PowerCube, "sim");
+        d.module = Some(5);
+        for (name, v, restore) in values {
+            d.settings.insert(name.to_string(), backup::Setting::new(v.clone(), "rad/s", *restore));
+        }
+        d
+    }
+
+    fn settings(values: &[(&str, f64, Option<f64>)]) -> Settings {
+        Settings {
+            backup: None,
+            tolerance: 1e-6,
+            values: values.iter().map(|(n, v, t)| (n.to_string(), Expected { value: *v, tolerance: *t })).collect(),
+        }
+    }
+
+    #[test]
+    fn inline_values_pass_within_their_tolerance_and_fail_outside() {
+        let live = device(&[("MaxVel", 1.5.into(), true), ("MaxAcc", 3.0.into(), true)]);
+        let c = settings_check("powercube:5", &settings(&[("MaxVel", 1.45, Some(0.1))]), None, &live);
+        assert_eq!(c.status, Status::Pass);
+        assert_eq!(c.measured[0].limit, "1.45 ± 0.1");
+        let c = settings_check("powercube:5", &settings(&[("MaxVel", 1.45, Some(0.01))]), None, &live);
+        assert_eq!(c.status, Status::Fail);
+        assert_eq!((c.measured[0].value.as_f64(), c.measured[0].pass), (Some(1.5), false));
+        // Without its own tolerance: relative to the value (1e-6 here).
+        let c = settings_check("powercube:5", &settings(&[("MaxAcc", 3.0000001, None)]), None, &live);
+        assert_eq!(c.status, Status::Pass);
+        let c = settings_check("powercube:5", &settings(&[("MaxAcc", 3.001, None)]), None, &live);
+        assert_eq!(c.status, Status::Fail);
+        // A setting the device does not have fails, with no value.
+        let c = settings_check("powercube:5", &settings(&[("MaxCur", 5.0, Some(1.0))]), None, &live);
+        assert_eq!((c.status, &c.measured[0].value), (Status::Fail, &serde_json::Value::Null));
+    }
+
+    #[test]
+    fn a_backup_files_restorable_settings_are_expected_and_inline_values_win() {
+        let live = device(&[("MaxVel", 1.5.into(), true), ("MaxAcc", 3.0.into(), true)]);
+        // The file's MaxAcc differs; its read-only value is not compared.
+        let file =
+            device(&[("MaxVel", 1.0.into(), true), ("MaxAcc", 2.0.into(), true), ("DefMaxVel", 9.0.into(), false)]);
+        let mut plan = settings(&[("MaxVel", 1.5, None)]);
+        plan.backup = Some("arm.json".into());
+        let c = settings_check("powercube:5", &plan, Some(&file), &live);
+        let out: Vec<&str> = c.measured.iter().filter(|m| !m.pass).map(|m| m.name.as_str()).collect();
+        assert_eq!(out, ["MaxAcc"], "the inline MaxVel wins over the file's");
+        assert_eq!(c.measured.len(), 2, "DefMaxVel is kept for information only");
+        let c = settings_check("powercube:5", &plan, None, &live);
+        assert_eq!(c.status, Status::Fail, "the file holds no such device: {}", c.detail);
+    }
+}
