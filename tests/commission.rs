@@ -447,3 +447,34 @@ fn json_streams_one_line_per_check_then_the_outcome() {
     assert_eq!((last["complete"].as_bool(), last["passed"].as_bool()), (Some(true), Some(true)));
     assert!(r.stderr.contains("would make these motions"), "the list still goes to stderr");
 }
+
+/// A module whose following error trips it mid-move (`sim --fault
+/// trip=300ms`: STATE_TOW_ERROR once it has moved 300 ms) fails its test
+/// move with the fault's name, is halted, and is not moved again.
+#[test]
+fn a_module_that_faults_mid_move_fails_its_move_and_is_halted() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("plan.toml");
+    let plan = "[[device]]\naddress = \"powercube:3\"\nbackup = false\n\
+                [device.move]\ndistance = 0.6\nwindow = [-3.0, 3.0]\nvel = 0.5\n\
+                [device.halt]\ndistance = 0.6\nafter_s = 0.2\nstandstill_s = { max = 0.5 }\n";
+    std::fs::write(&file, plan).unwrap();
+    let sim = common::Sim::start(&["--fault", "trip=300ms"], 3);
+    let (out, log) = (dir.path().join("r"), dir.path().join("trip.log"));
+    let link = sim.link("powercube");
+    let args = ["--link", link, "--log", log.to_str().unwrap(), "commission", "--plan", file.to_str().unwrap()];
+    let r = run(&[&args[..], &["--out", out.to_str().unwrap(), "--yes"]].concat());
+    assert_eq!(r.code, 5, "{}\n{}", r.stdout, r.stderr);
+    let report = read_report(&out);
+    assert_eq!(with_status(&report, "fail"), BTreeSet::from(["powercube:3 move_forward".to_string()]));
+    let detail = check(&report, "powercube:3", "move_forward")["detail"].as_str().unwrap().to_string();
+    assert!(detail.contains("STATE_TOW_ERROR") && detail.ends_with(", halted"), "{detail}");
+    for later in ["move_back", "halt"] {
+        assert_eq!(check(&report, "powercube:3", later)["status"], "skipped", "{later}");
+    }
+    let text = std::fs::read_to_string(&log).unwrap();
+    let frames: Vec<&str> = text.lines().filter_map(|l| l.split_whitespace().nth(2)).collect();
+    let motion = frames.iter().position(|f| f.starts_with("0E3#0B")).expect("the move went out");
+    assert!(frames[motion..].contains(&"0E3#02"), "a Halt after the move");
+    assert_eq!(frames.iter().filter(|f| f.starts_with("0E3#0B")).count(), 1, "never moved again");
+}

@@ -18,7 +18,7 @@ use crate::backup::{self, Device};
 use crate::device::powercube::{self as cube_dev, Cubes, Goal, Move, WaitSpec};
 use crate::device::supervisor;
 use crate::plot;
-use crate::proto::powercube::flags::state;
+use crate::proto::powercube::flags::{state, CUBE_STATE};
 use crate::proto::powercube::table::{self, ids};
 use crate::proto::powercube::ModuleId;
 use crate::record::{self, Address, CubeSampler, Sample, Sampler, Until};
@@ -337,9 +337,12 @@ fn record_ramp(
                         return Ok(());
                     }
                 }
-                let errors = st & (state::ERROR | state::TOW_ERROR | state::BEYOND_SOFT | state::BEYOND_HARD);
-                if errors != 0 {
-                    failed.set(Some(format!("the module faulted (CubeState 0x{st:08x})")));
+                // The error flags as the waits read them (a following error
+                // too large is STATE_TOW_ERROR).
+                let decoded = CUBE_STATE.decode(st);
+                if decoded.has_error() {
+                    let names = decoded.errors.join(", ");
+                    failed.set(Some(format!("the module faulted: {names} (CubeState 0x{st:08x})")));
                     done.set(true);
                 }
                 trace.seen_motion |= st & state::MOTION != 0;
