@@ -176,7 +176,7 @@ fn execute(
     motions: Vec<String>,
 ) -> anyhow::Result<(Report, Files)> {
     let started = SystemTime::now();
-    let total = devices.iter().map(|(_, d)| planned_checks(d)).sum::<usize>().max(1);
+    let total = devices.iter().map(|(_, d)| cube_plan::planned(d).len()).sum::<usize>().max(1);
     let done = std::cell::Cell::new(0usize);
     let json = ctx.json;
     let mut on_step = |device: &str, check: &str| {
@@ -255,16 +255,6 @@ fn execute(
 struct Files {
     backup: Document,
     recordings: Vec<(String, String)>,
-}
-
-fn planned_checks(d: &DevicePlan) -> usize {
-    1 + usize::from(d.settings.is_some())
-        + usize::from(d.limits)
-        + usize::from(d.home.is_some())
-        + 2 * usize::from(d.moves.is_some())
-        + usize::from(d.halt.is_some())
-        + usize::from(d.watchdog)
-        + usize::from(d.backup)
 }
 
 fn bar(done: usize, total: usize) -> String {

@@ -47,6 +47,22 @@ pub fn motions(at: &str, plan: &DevicePlan, unit: &str) -> Vec<String> {
     out
 }
 
+/// The checks a plan asks of a module, in the order they run.
+pub fn planned(plan: &DevicePlan) -> Vec<&'static str> {
+    let asked = [
+        ("identity", true),
+        ("settings", plan.settings.is_some()),
+        ("limits", plan.limits),
+        ("home", plan.home.is_some()),
+        ("move_forward", plan.moves.is_some()),
+        ("move_back", plan.moves.is_some()),
+        ("halt", plan.halt.is_some()),
+        ("watchdog", plan.watchdog),
+        ("backup", plan.backup),
+    ];
+    asked.into_iter().filter(|(_, on)| *on).map(|(name, _)| name).collect()
+}
+
 /// Runs the plan's checks on module `m` (`at` is its address as the report
 /// says it); `expected`: the plan's backup file's device, if any. Returns
 /// the handle for the next module, `None` when the link was lost with it.
@@ -64,6 +80,11 @@ pub fn run_module(
         Ok(d) => d,
         Err(e) => {
             run.end(Check::new(at, "identity").fail(format!("module {m} could not be read: {e}")), t);
+            // The rest of its plan is said, not silently dropped.
+            for name in planned(plan).into_iter().skip(1) {
+                let t = run.begin(at, name);
+                run.end(Check::new(at, name).skipped("not run: the module could not be read"), t);
+            }
             return Some(cubes);
         }
     };
@@ -135,7 +156,12 @@ pub fn run_module(
     let mut cubes = cubes?;
     if plan.watchdog && !run.interrupted {
         let t = run.begin(at, "watchdog");
-        let c = if run.dry_run { Check::new(at, "watchdog").skipped("dry run") } else { watchdog(&mut cubes, m, at) };
+        // Tripping it faults the module: not on a module not to be moved.
+        let c = match (&blocked, run.dry_run) {
+            (_, true) => Check::new(at, "watchdog").skipped("dry run"),
+            (Some(b), false) => Check::new(at, "watchdog").skipped(format!("not run: {b}")),
+            (None, false) => watchdog(&mut cubes, m, at),
+        };
         run.end(c, t);
     }
     if plan.backup && !run.interrupted {
