@@ -201,7 +201,11 @@ impl Plan {
     pub fn parse(text: &str, file: &str) -> Result<Self, PlanError> {
         let plan: Plan = toml::from_str(text).map_err(|e| PlanError::Toml {
             file: file.into(),
-            line: 1 + text[..e.span().map_or(0, |s| s.start).min(text.len())].matches('\n').count(),
+            // Bytes, not chars: a span never splits a character here.
+            line: 1 + text.as_bytes()[..e.span().map_or(0, |s| s.start).min(text.len())]
+                .iter()
+                .filter(|b| **b == b'\n')
+                .count(),
             message: e.message().trim().to_string(),
         })?;
         plan.check().map_err(|message| PlanError::Invalid { file: file.into(), message })?;

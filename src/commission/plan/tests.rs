@@ -74,3 +74,17 @@ fn bands_hold_inside_and_say_their_limits() {
     assert_eq!(b.text(), "0.1 .. 0.5");
     assert_eq!(Band::max(2.0).text(), "<= 2");
 }
+
+proptest::proptest! {
+    /// Any text is a plan or a typed error, never a panic: cut at any
+    /// byte, or a key's value swapped for another.
+    #[test]
+    fn any_text_parses_or_errs(cut in 0..FULL.len(), junk in "\\PC{0,40}") {
+        let text = format!("{}{junk}", &FULL[..FULL.floor_char_boundary(cut)]);
+        let _ = Plan::parse(&text, "p.toml");
+        for value in ["nan", "inf", "-0.0", "1e308", "\"x\"", "[]", "{}", "-1"] {
+            let _ = Plan::parse(&FULL.replacen("0.5", value, 1), "p.toml");
+            let _ = Plan::parse(&FULL.replacen("30", value, 1), "p.toml");
+        }
+    }
+}
