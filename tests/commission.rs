@@ -97,6 +97,29 @@ fn the_simulated_bench_passes_and_every_file_is_written() {
         assert!((0.0..=0.5).contains(&halt), "{m} halt {halt}");
         assert_eq!(check(&report, m, "backup")["file"], "backup.json");
     }
+    // The simulated ramp is an exact trapezoid: its figures in closed form,
+    // within two sampling steps of the recording.
+    for d in report["plan"]["device"].as_array().unwrap() {
+        let mv = &d["move"];
+        let (dist, v, a) = (mv["distance"].as_f64().unwrap(), mv["vel"].as_f64().unwrap(), mv["acc"].as_f64().unwrap());
+        let total = if dist >= v * v / a { dist / v + v / a } else { 2.0 * (dist / a).sqrt() };
+        // The time a ramp takes to cover (or to have left) `x` of its distance from an end.
+        let from_end = |x: f64| if x <= v * v / (2.0 * a) { (2.0 * x / a).sqrt() } else { v / (2.0 * a) + x / v };
+        let rise = total - 2.0 * from_end(0.1 * dist);
+        let settle = total - from_end(0.02 * dist);
+        let at = d["address"].as_str().unwrap();
+        for name in ["move_forward", "move_back"] {
+            let c = check(&report, at, name);
+            let tol = 2.0 * largest_gap(&out, c) + 1e-3;
+            let got = |f: &str| measured(c, f)["value"].as_f64().unwrap();
+            assert!((got("rise_time") - rise).abs() <= tol, "{at} {name}: rise {} vs {rise}", got("rise_time"));
+            assert!(
+                (got("settling_time") - settle).abs() <= tol,
+                "{at} {name}: settling {} vs {settle}",
+                got("settling_time")
+            );
+        }
+    }
     // The identity measured is the module's own (serial 12328 + id).
     assert_eq!(measured(check(&report, "powercube:5", "identity"), "serial")["value"], 12333);
     let backup: Value = serde_json::from_str(&std::fs::read_to_string(out.join("backup.json")).unwrap()).unwrap();
