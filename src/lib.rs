@@ -16,12 +16,14 @@
 //! - [`record`]: sampling chosen values with time stamps, pipelined as the dashboard polls.
 //! - [`monitor`]: passive decoding of any frame on a CAN bus.
 //! - [`tui`]: the dashboard, adapters over [`device`].
+//! - [`commission`]: a plan run over the bench, its checks, step-response figures and the report.
 //! - [`plot`]: charts of sampled values as SVG (recordings, dashboard snapshots); pure.
 //! - `cli` and `commands` (binary side): the command line as typed, and thin subcommands.
 
 pub mod backup;
 pub mod bench;
 pub mod clock;
+pub mod commission;
 pub mod device;
 pub mod family;
 pub mod link;

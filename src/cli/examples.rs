@@ -196,6 +196,14 @@ pub const EXAMPLES: &[(&str, &[&str])] = &[
         ],
     ),
     (
+        "commission",
+        &[
+            "--link sim commission --print-plan > plan.toml",
+            "--link sim commission --plan plan.toml --out handover --yes",
+            "--link sim commission --out check --dry-run",
+        ],
+    ),
+    (
         "plot",
         &[
             "plot step.jsonl --svg step.svg",

@@ -4,6 +4,7 @@
 pub mod backup;
 pub mod batch;
 pub mod cdios;
+pub mod commission;
 pub mod complete;
 pub mod dashboard;
 pub mod examples;
@@ -130,6 +131,8 @@ pub enum Command {
     Record(record::RecordArgs),
     /// Draw a recording of `record` as an SVG chart with units
     Plot(record::PlotArgs),
+    /// Run a commissioning plan over the bench (identity, settings, limits, homing, test moves, halt, backup) and write the report
+    Commission(commission::CommissionArgs),
     /// Print a shell completion script: bash, zsh, fish, elvish or powershell
     #[command(after_help = "Examples:\n  \
                             axisctl completions bash > ~/.local/share/bash-completion/completions/axisctl   # mkdir -p the directory first\n  \

@@ -34,7 +34,11 @@ impl Command {
                     false => Cli::try_parse_from(words).ok().and_then(|cli| cli.command.starts_motion()),
                 }
             }
-            Self::Decode { .. }
+            // Every PowerCube module of the plan may move (it halts them
+            // itself on every way out).
+            Self::Commission(a) if !a.dry_run && !a.print_plan => Some(MotionTarget::CubeBus),
+            Self::Commission(_)
+            | Self::Decode { .. }
             | Self::Sim(_)
             | Self::Monitor(_)
             | Self::Dashboard(_)
@@ -186,7 +190,8 @@ mod tests {
     ];
 
     /// Every subcommand that moves nothing (`record` moves what follows
-    /// its `--`, classified on its own).
+    /// its `--`, `commission` what its plan says unless `--dry-run` or
+    /// `--print-plan`: each classified on its own).
     const STILL: &[&str] = &[
         "scan",
         "info",
@@ -249,6 +254,7 @@ mod tests {
         "batch",
         "shell",
         "record",
+        "commission",
         "plot",
         "completions",
         "man",
@@ -282,7 +288,10 @@ mod tests {
             let name = path.split(' ').next().unwrap();
             for line in *lines {
                 let moves = parse(line).starts_motion();
-                let listed = MOVING.contains(&name) || (name == "record" && line.contains(" -- "));
+                let plan_moves = !line.contains("--dry-run") && !line.contains("--print-plan");
+                let listed = MOVING.contains(&name)
+                    || (name == "record" && line.contains(" -- "))
+                    || (name == "commission" && plan_moves);
                 assert_eq!(moves.is_some(), listed, "{line}: {moves:?}");
                 seen.insert(name);
             }

@@ -32,8 +32,9 @@ use crate::cli::{Cli, Command};
 use crate::output;
 
 /// Subcommands that take over the terminal, serve until stopped or start
-/// another engine: they make no sense as a line.
-pub const REFUSED: &[&str] = &["sim", "dashboard", "batch", "shell"];
+/// another engine: they make no sense as a line. `commission` is a whole
+/// procedure with its own confirmation on standard input and its report.
+pub const REFUSED: &[&str] = &["sim", "dashboard", "batch", "shell", "commission"];
 
 /// The global options (the ids of `cli::Global`): given to `batch` or
 /// `shell` they apply to every line; on a line they are refused.

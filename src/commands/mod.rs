@@ -5,6 +5,7 @@ mod backup;
 mod batch;
 mod bench;
 mod cdios;
+mod commission;
 mod dashboard;
 mod decode;
 pub mod error_json;
@@ -461,6 +462,7 @@ pub fn dispatch(ctx: &Ctx, name: &str, command: Command) -> anyhow::Result<()> {
         Command::Flags { word } => names::flags(ctx, word.as_deref()),
         Command::Record(args) => record::run(ctx, args),
         Command::Plot(args) => plot::run(ctx, &args),
+        Command::Commission(args) => commission::run(ctx, args),
         Command::Completions { shell } => manual::completions(shell),
         Command::Man { dir } => manual::man(dir.as_deref()),
         Command::Batch(args) => batch::run(ctx, &args),

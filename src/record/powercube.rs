@@ -57,6 +57,13 @@ impl CubeSampler {
     pub fn cubes(&mut self) -> &mut Cubes {
         &mut self.cubes
     }
+
+    /// The device handle back, once the recording is over (a run that
+    /// records one module after the other keeps one link).
+    pub fn into_cubes(mut self) -> Cubes {
+        self.finish();
+        self.cubes
+    }
 }
 
 impl Sampler for CubeSampler {

@@ -142,7 +142,16 @@ fn a_bad_line_anywhere_runs_nothing() {
 
 #[test]
 fn lines_that_cannot_run_in_a_batch_and_options_on_a_line_are_refused() {
-    for line in ["dashboard", "sim", "batch", "shell", "get-param -m 17 ActPos --timeout 5", "--json scan"] {
+    let lines = [
+        "dashboard",
+        "sim",
+        "batch",
+        "shell",
+        "commission --out c --yes",
+        "get-param -m 17 ActPos --timeout 5",
+        "--json scan",
+    ];
+    for line in lines {
         let r = run_with_stdin(&["--link", "sim", "batch"], &format!("get-param -m 17 ActPos\n{line}\n"));
         assert_eq!(r.code, 2, "{line}: {}", r.stderr);
         assert!(r.stdout.is_empty(), "line 1 did not run either: {}", r.stdout);

@@ -6,13 +6,14 @@
 mod common;
 
 mod backup_cli;
-mod benchwide;
 mod batch_cli;
 mod batch_pipeline;
 mod bench_cli;
+mod benchwide;
 mod cdios_cli;
 mod cdios_wire;
 mod checked_before_sending;
+mod commission;
 mod completions_man;
 mod dashboard_tmux;
 mod decode_cli;

@@ -1,0 +1,24 @@
+//! `commission`, as typed (clap derive only).
+
+use std::path::PathBuf;
+
+use clap::Args;
+
+#[derive(Debug, Args)]
+pub struct CommissionArgs {
+    /// The plan (TOML); without it, the default plan for every device found
+    #[arg(long, value_name = "FILE")]
+    pub plan: Option<PathBuf>,
+    /// Print the default plan for the bench it sees (TOML) and exit: nothing moves
+    #[arg(long, conflicts_with_all = ["out", "yes", "dry_run", "plan"])]
+    pub print_plan: bool,
+    /// Write report.json, report.md, report.html, the recordings and backup.json here
+    #[arg(long, value_name = "DIR", required_unless_present = "print_plan")]
+    pub out: Option<PathBuf>,
+    /// Make the plan's motions without asking (for scripts)
+    #[arg(long)]
+    pub yes: bool,
+    /// Run only the checks that do not move; list the motions the plan would make
+    #[arg(long)]
+    pub dry_run: bool,
+}

@@ -1,0 +1,197 @@
+//! `axisctl commission`: a written plan run over the bench, each check
+//! passed or failed against the plan's thresholds with the measured value
+//! beside its limit, and the handover report.
+//!
+//! The checks of a device run in a fixed order: identity, settings, limits,
+//! homing, the test moves (recorded, with their step-response figures), the
+//! halt test, the watchdog, the final backup. Every motion goes through the
+//! device layer's supervised operations and is halted on every way out (a
+//! signal, an error, the end of its recording); a motion check that fails
+//! or is interrupted leaves the device's later motion checks unrun. The
+//! library reads and computes; the binary writes the files.
+
+pub mod figures;
+pub mod plan;
+pub mod powercube;
+pub mod report;
+
+use std::sync::Arc;
+use std::time::Instant;
+
+use crate::backup;
+use crate::clock::Clock;
+use report::Check;
+
+/// What one run shares across devices: options, the clock, the results so
+/// far and the hooks that show progress.
+pub struct Run<'a> {
+    /// Checks that move nothing run; the others are listed as skipped.
+    pub dry_run: bool,
+    /// How often a halt whose acknowledge is lost is sent.
+    pub halt_attempts: u32,
+    /// The link the devices are on, for the backup's envelope.
+    pub link: String,
+    pub clock: Arc<dyn Clock>,
+    pub start: Instant,
+    /// A signal or a failed output: stop now, halt what moves.
+    pub stop: &'a dyn Fn() -> bool,
+    /// A check begins: (device, check).
+    pub on_step: &'a mut dyn FnMut(&str, &str),
+    /// A check ended.
+    pub on_check: &'a mut dyn FnMut(&Check),
+    pub checks: Vec<Check>,
+    /// The final backups, one device each.
+    pub backups: Vec<backup::Device>,
+    /// Files for the report's directory: (name, contents).
+    pub files: Vec<(String, String)>,
+    /// Set once the run was stopped: nothing more is checked.
+    pub interrupted: bool,
+}
+
+impl<'a> Run<'a> {
+    pub fn new(
+        clock: Arc<dyn Clock>,
+        link: &str,
+        stop: &'a dyn Fn() -> bool,
+        on_step: &'a mut dyn FnMut(&str, &str),
+        on_check: &'a mut dyn FnMut(&Check),
+    ) -> Self {
+        let start = clock.now();
+        Self {
+            dry_run: false,
+            halt_attempts: 3,
+            link: link.into(),
+            clock,
+            start,
+            stop,
+            on_step,
+            on_check,
+            checks: Vec::new(),
+            backups: Vec::new(),
+            files: Vec::new(),
+            interrupted: false,
+        }
+    }
+
+    /// Seconds since the run started.
+    pub fn elapsed(&self) -> f64 {
+        self.clock.now().saturating_duration_since(self.start).as_secs_f64()
+    }
+
+    /// Says a check begins; its start time.
+    fn begin(&mut self, device: &str, check: &str) -> f64 {
+        (self.on_step)(device, check);
+        self.elapsed()
+    }
+
+    /// Records a finished check that began at `t`.
+    fn end(&mut self, mut c: Check, t: f64) {
+        c.t = t;
+        c.duration_s = self.elapsed() - t;
+        (self.on_check)(&c);
+        self.checks.push(c);
+    }
+}
+
+/// The final backups of every device, in one `axisctl-backup/1` document.
+pub const BACKUP_FILE: &str = "backup.json";
+
+/// The device's settings against the plan's: those the backup file's
+/// device restores (compared as `diff` compares them, within the plan's
+/// relative tolerance), then the inline values (within their own
+/// tolerance, else the relative one). Any family: `live` is the device
+/// read into a backup's shape.
+pub fn settings_check(at: &str, plan: &plan::Settings, file: Option<&backup::Device>, live: &backup::Device) -> Check {
+    let mut c = Check::new(at, "settings");
+    let mut expected: std::collections::BTreeMap<String, (serde_json::Value, Option<f64>, String)> = Default::default();
+    if let Some(f) = file {
+        for (name, s) in f.restorable() {
+            expected.insert(name.clone(), (s.value.clone(), None, s.unit.clone()));
+        }
+    }
+    for (name, e) in &plan.values {
+        let unit = live.settings.get(name).map(|s| s.unit.clone()).unwrap_or_default();
+        expected.insert(name.clone(), (serde_json::json!(e.value), e.tolerance, unit));
+    }
+    if plan.backup.is_some() && file.is_none() {
+        return c.fail(format!("the plan's backup file holds no device {at}"));
+    }
+    for (name, (want, tol, unit)) in expected {
+        let got = live.settings.get(&name).map(|s| s.value.clone());
+        let (ok, limit) = match (want.as_f64(), got.as_ref().and_then(|g| g.as_f64())) {
+            (Some(w), Some(g)) => {
+                let tol = tol.unwrap_or(plan.tolerance * w.abs());
+                (
+                    (g - w).abs() <= tol || backup::same_value(&want, got.as_ref().unwrap_or(&want)),
+                    format!("{w} ± {}", format!("{tol:.3e}").parse().unwrap_or(tol)),
+                )
+            }
+            _ => (got.as_ref().is_some_and(|g| backup::same_value(&want, g)), want.to_string()),
+        };
+        c.measure(&name, got.unwrap_or(serde_json::Value::Null), limit, &unit, ok);
+    }
+    if c.measured.is_empty() {
+        c.detail = "the plan expects no setting".into();
+    }
+    c
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::family::Family;
+    use plan::{Expected, Settings};
+    use report::Status;
+
+    fn device(values: &[(&str, serde_json::Value, bool)]) -> backup::Device {
+        let mut d = backup::Device::new(Family::PowerCube, "sim");
+        d.module = Some(5);
+        for (name, v, restore) in values {
+            d.settings.insert(name.to_string(), backup::Setting::new(v.clone(), "rad/s", *restore));
+        }
+        d
+    }
+
+    fn settings(values: &[(&str, f64, Option<f64>)]) -> Settings {
+        Settings {
+            backup: None,
+            tolerance: 1e-6,
+            values: values.iter().map(|(n, v, t)| (n.to_string(), Expected { value: *v, tolerance: *t })).collect(),
+        }
+    }
+
+    #[test]
+    fn inline_values_pass_within_their_tolerance_and_fail_outside() {
+        let live = device(&[("MaxVel", 1.5.into(), true), ("MaxAcc", 3.0.into(), true)]);
+        let c = settings_check("powercube:5", &settings(&[("MaxVel", 1.45, Some(0.1))]), None, &live);
+        assert_eq!(c.status, Status::Pass);
+        assert_eq!(c.measured[0].limit, "1.45 ± 0.1");
+        let c = settings_check("powercube:5", &settings(&[("MaxVel", 1.45, Some(0.01))]), None, &live);
+        assert_eq!(c.status, Status::Fail);
+        assert_eq!((c.measured[0].value.as_f64(), c.measured[0].pass), (Some(1.5), false));
+        // Without its own tolerance: relative to the value (1e-6 here).
+        let c = settings_check("powercube:5", &settings(&[("MaxAcc", 3.0000001, None)]), None, &live);
+        assert_eq!(c.status, Status::Pass);
+        let c = settings_check("powercube:5", &settings(&[("MaxAcc", 3.001, None)]), None, &live);
+        assert_eq!(c.status, Status::Fail);
+        // A setting the device does not have fails, with no value.
+        let c = settings_check("powercube:5", &settings(&[("MaxCur", 5.0, Some(1.0))]), None, &live);
+        assert_eq!((c.status, &c.measured[0].value), (Status::Fail, &serde_json::Value::Null));
+    }
+
+    #[test]
+    fn a_backup_files_restorable_settings_are_expected_and_inline_values_win() {
+        let live = device(&[("MaxVel", 1.5.into(), true), ("MaxAcc", 3.0.into(), true)]);
+        // The file's MaxAcc differs; its read-only value is not compared.
+        let file =
+            device(&[("MaxVel", 1.0.into(), true), ("MaxAcc", 2.0.into(), true), ("DefMaxVel", 9.0.into(), false)]);
+        let mut plan = settings(&[("MaxVel", 1.5, None)]);
+        plan.backup = Some("arm.json".into());
+        let c = settings_check("powercube:5", &plan, Some(&file), &live);
+        let out: Vec<&str> = c.measured.iter().filter(|m| !m.pass).map(|m| m.name.as_str()).collect();
+        assert_eq!(out, ["MaxAcc"], "the inline MaxVel wins over the file's");
+        assert_eq!(c.measured.len(), 2, "DefMaxVel is kept for information only");
+        let c = settings_check("powercube:5", &plan, None, &live);
+        assert_eq!(c.status, Status::Fail, "the file holds no such device: {}", c.detail);
+    }
+}

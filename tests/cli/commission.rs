@@ -1,0 +1,545 @@
+//! `axisctl commission` through the binary on the simulated bench: the
+//! report and its schema, failures the plan provokes, `--dry-run` and
+//! Ctrl-C during a test move.
+
+use crate::common;
+
+use std::collections::BTreeSet;
+use std::io::Read;
+use std::path::Path;
+use std::process::Stdio;
+use std::time::{Duration, Instant};
+
+use common::{bin, run};
+use serde_json::Value;
+
+fn report_schema() -> jsonschema::Validator {
+    let text =
+        std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/schema/commission-report.schema.json")).unwrap();
+    jsonschema::validator_for(&serde_json::from_str(&text).unwrap()).unwrap()
+}
+
+fn read_report(dir: &Path) -> Value {
+    let text = std::fs::read_to_string(dir.join("report.json")).expect("report.json written");
+    let report: Value = serde_json::from_str(&text).unwrap();
+    if let Some(e) = common::schema_errors(&report_schema(), &report) {
+        panic!("report.json breaks its schema:\n{e}");
+    }
+    report
+}
+
+fn checks(report: &Value) -> &Vec<Value> {
+    report["checks"].as_array().unwrap()
+}
+
+fn check<'a>(report: &'a Value, device: &str, name: &str) -> &'a Value {
+    checks(report)
+        .iter()
+        .find(|c| c["device"] == device && c["check"] == name)
+        .unwrap_or_else(|| panic!("no check {name} of {device}"))
+}
+
+fn measured<'a>(c: &'a Value, name: &str) -> &'a Value {
+    c["measured"].as_array().unwrap().iter().find(|m| m["name"] == name).unwrap_or_else(|| panic!("no {name} in {c}"))
+}
+
+fn with_status(report: &Value, status: &str) -> BTreeSet<String> {
+    checks(report)
+        .iter()
+        .filter(|c| c["status"] == status)
+        .map(|c| format!("{} {}", c["device"].as_str().unwrap(), c["check"].as_str().unwrap()))
+        .collect()
+}
+
+/// The default plan of the simulated bench, as TOML to edit.
+fn default_plan() -> toml::Table {
+    let r = run(&["--link", "sim", "commission", "--print-plan"]);
+    assert_eq!(r.code, 0, "{}", r.stderr);
+    r.stdout.parse().expect("the printed plan is TOML")
+}
+
+fn device<'a>(plan: &'a mut toml::Table, at: &str) -> &'a mut toml::Table {
+    plan["device"]
+        .as_array_mut()
+        .unwrap()
+        .iter_mut()
+        .map(|d| d.as_table_mut().unwrap())
+        .find(|d| d["address"].as_str() == Some(at))
+        .unwrap()
+}
+
+#[test]
+fn the_simulated_bench_passes_and_every_file_is_written() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("handover");
+    let r = run(&["--link", "sim", "commission", "--out", out.to_str().unwrap(), "--yes"]);
+    assert_eq!(r.code, 0, "{}\n{}", r.stdout, r.stderr);
+    let report = read_report(&out);
+    assert_eq!((report["complete"].as_bool(), report["passed"].as_bool()), (Some(true), Some(true)));
+    for m in ["powercube:3", "powercube:5", "powercube:17"] {
+        for name in ["identity", "settings", "limits", "home", "move_forward", "move_back", "halt", "backup"] {
+            assert_eq!(check(&report, m, name)["status"], "pass", "{m} {name}");
+        }
+        for mv in ["move_forward", "move_back"] {
+            let c = check(&report, m, mv);
+            for fig in ["rise_time", "overshoot", "settling_time", "steady_state_error", "time_to_reach"] {
+                assert!(measured(c, fig)["value"].is_number(), "{m} {mv} {fig}: {c}");
+            }
+            let csv = out.join(c["recording"].as_str().unwrap());
+            let text = std::fs::read_to_string(&csv).unwrap();
+            assert!(text.starts_with("t [s],ActPos"), "{}", csv.display());
+            assert!(text.lines().count() > 20, "a recording of samples: {}", csv.display());
+        }
+        // The ramp is a trapezoid: no overshoot, and it ends on its target.
+        let fwd = check(&report, m, "move_forward");
+        assert_eq!(measured(fwd, "overshoot")["value"], 0.0);
+        let halt = measured(check(&report, m, "halt"), "time_to_standstill")["value"].as_f64().unwrap();
+        assert!((0.0..=0.5).contains(&halt), "{m} halt {halt}");
+        assert_eq!(check(&report, m, "backup")["file"], "backup.json");
+    }
+    // The simulated ramp is an exact trapezoid: its figures in closed form,
+    // within two sampling steps of the recording.
+    for d in report["plan"]["device"].as_array().unwrap() {
+        let mv = &d["move"];
+        let (dist, v, a) = (mv["distance"].as_f64().unwrap(), mv["vel"].as_f64().unwrap(), mv["acc"].as_f64().unwrap());
+        let total = if dist >= v * v / a { dist / v + v / a } else { 2.0 * (dist / a).sqrt() };
+        // The time a ramp takes to cover (or to have left) `x` of its distance from an end.
+        let from_end = |x: f64| if x <= v * v / (2.0 * a) { (2.0 * x / a).sqrt() } else { v / (2.0 * a) + x / v };
+        let rise = total - 2.0 * from_end(0.1 * dist);
+        let settle = total - from_end(0.02 * dist);
+        let at = d["address"].as_str().unwrap();
+        for name in ["move_forward", "move_back"] {
+            let c = check(&report, at, name);
+            let tol = 2.0 * largest_gap(&out, c) + 1e-3;
+            let got = |f: &str| measured(c, f)["value"].as_f64().unwrap();
+            assert!((got("rise_time") - rise).abs() <= tol, "{at} {name}: rise {} vs {rise}", got("rise_time"));
+            assert!(
+                (got("settling_time") - settle).abs() <= tol,
+                "{at} {name}: settling {} vs {settle}",
+                got("settling_time")
+            );
+        }
+    }
+    // The identity measured is the module's own (serial 12328 + id).
+    assert_eq!(measured(check(&report, "powercube:5", "identity"), "serial")["value"], 12333);
+    let backup: Value = serde_json::from_str(&std::fs::read_to_string(out.join("backup.json")).unwrap()).unwrap();
+    assert_eq!(backup["schema"], "axisctl-backup/1");
+    assert_eq!(backup["devices"].as_array().unwrap().len(), 3);
+    let html = std::fs::read_to_string(out.join("report.html")).unwrap();
+    assert!(html.contains("PASSED") && html.matches("<svg").count() == 9, "three plots per module");
+    let md = std::fs::read_to_string(out.join("report.md")).unwrap();
+    assert!(md.starts_with("# Commissioning report: PASSED"));
+    // The plan written beside the report runs again as a plan.
+    let again = std::fs::read_to_string(out.join("plan.toml")).unwrap();
+    assert!(again.contains("address = \"powercube:17\""));
+}
+
+#[test]
+fn a_serial_and_an_overshoot_band_the_plan_misses_fail_exactly_those_checks() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut plan = default_plan();
+    device(&mut plan, "powercube:5")["identity"]["serial"] = toml::Value::Integer(4711);
+    let m17 = device(&mut plan, "powercube:17");
+    m17["move"]["overshoot_percent"] = toml::Value::Table(toml::toml! { min = 1.0 max = 5.0 });
+    // Shorter: module 3 keeps its read checks only, no halt tests.
+    for at in ["powercube:3", "powercube:5", "powercube:17"] {
+        device(&mut plan, at).remove("halt");
+    }
+    let m3 = device(&mut plan, "powercube:3");
+    m3.remove("move");
+    m3.remove("home");
+    let file = dir.path().join("plan.toml");
+    std::fs::write(&file, toml::to_string(&plan).unwrap()).unwrap();
+    let out = dir.path().join("r");
+    let r = run(&[
+        "--link",
+        "sim",
+        "commission",
+        "--plan",
+        file.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--yes",
+    ]);
+    assert_eq!(r.code, 5, "the device-fault code\n{}\n{}", r.stdout, r.stderr);
+    let report = read_report(&out);
+    assert_eq!(report["passed"], false);
+    assert_eq!(
+        with_status(&report, "fail"),
+        BTreeSet::from([
+            "powercube:5 identity".to_string(),
+            "powercube:17 move_forward".to_string(),
+            "powercube:17 move_back".to_string(),
+        ])
+    );
+    let serial = measured(check(&report, "powercube:5", "identity"), "serial");
+    assert_eq!(
+        (serial["value"].as_u64(), serial["limit"].as_str(), serial["pass"].as_bool()),
+        (Some(12333), Some("4711"), Some(false))
+    );
+    // Not the module ordered: it is not moved.
+    assert_eq!(check(&report, "powercube:5", "home")["status"], "skipped");
+    for mv in ["move_forward", "move_back"] {
+        let o = measured(check(&report, "powercube:17", mv), "overshoot");
+        assert_eq!(
+            (o["value"].as_f64(), o["limit"].as_str(), o["pass"].as_bool()),
+            (Some(0.0), Some("1 .. 5"), Some(false))
+        );
+        // Only the overshoot is out.
+        let c = check(&report, "powercube:17", mv);
+        let out: Vec<&str> = c["measured"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .filter(|m| m["pass"] == false)
+            .map(|m| m["name"].as_str().unwrap())
+            .collect();
+        assert_eq!(out, ["overshoot"]);
+    }
+    assert!(r.stderr.contains("commissioning failed: powercube:5 identity, powercube:17 move_forward"), "{}", r.stderr);
+}
+
+/// PowerCube requests go to 0x0E0 + module; SetMotion is 0x0B, Home 0x01.
+fn motion_frames(log: &Path) -> Vec<String> {
+    std::fs::read_to_string(log)
+        .unwrap_or_default()
+        .lines()
+        .filter_map(|l| l.split_whitespace().nth(2))
+        .filter(|f| {
+            let (id, data) = f.split_once('#').unwrap_or(("", ""));
+            let id = u32::from_str_radix(id, 16).unwrap_or(0);
+            (0x0E1..=0x0FF).contains(&id) && (data.starts_with("0B") || data.starts_with("01"))
+        })
+        .map(str::to_string)
+        .collect()
+}
+
+#[test]
+fn a_dry_run_sends_no_motion_frame_and_lists_the_motions() {
+    let dir = tempfile::tempdir().unwrap();
+    let (out, log) = (dir.path().join("r"), dir.path().join("dry.log"));
+    let r = run(&[
+        "--link",
+        "sim",
+        "--log",
+        log.to_str().unwrap(),
+        "commission",
+        "--out",
+        out.to_str().unwrap(),
+        "--dry-run",
+    ]);
+    assert_eq!(r.code, 0, "{}", r.stderr);
+    let frames = std::fs::read_to_string(&log).unwrap();
+    assert!(frames.lines().count() > 50, "the reads went out");
+    assert_eq!(motion_frames(&log), Vec::<String>::new());
+    let report = read_report(&out);
+    assert_eq!(report["dry_run"], true);
+    assert_eq!(check(&report, "powercube:17", "move_forward")["status"], "skipped");
+    assert_eq!(check(&report, "powercube:17", "identity")["status"], "pass");
+    let motions: Vec<&str> = report["motions"].as_array().unwrap().iter().map(|m| m.as_str().unwrap()).collect();
+    assert!(motions.contains(&"powercube:17: home"), "{motions:?}");
+    assert!(r.stderr.contains("powercube:17: ramp 0.1 m from where it stands and back"), "{}", r.stderr);
+    // The same run that would move asks first; a script's stdin cannot answer.
+    let log2 = dir.path().join("asked.log");
+    let r = run(&["--link", "sim", "--log", log2.to_str().unwrap(), "commission", "--out", out.to_str().unwrap()]);
+    assert_eq!(r.code, 2, "{}", r.stderr);
+    assert!(r.stderr.contains("give --yes"), "{}", r.stderr);
+    assert_eq!(motion_frames(&log2), Vec::<String>::new());
+}
+
+#[test]
+fn ctrl_c_during_the_second_test_move_halts_it_and_leaves_an_incomplete_report() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut plan = default_plan();
+    for at in ["powercube:3", "powercube:5", "powercube:17"] {
+        device(&mut plan, at).remove("halt");
+    }
+    // Module 3's moves slow and long (about 4 s each), so that the signal
+    // lands in the second one however late a loaded host lets the test see it.
+    let mv = device(&mut plan, "powercube:3")["move"].as_table_mut().unwrap();
+    for key in ["rise_time_s", "settling_time_s", "time_to_reach_s"] {
+        mv.remove(key);
+    }
+    mv.insert("distance".into(), toml::Value::Float(1.2));
+    mv.insert("vel".into(), toml::Value::Float(0.3));
+    mv.insert("timeout_s".into(), toml::Value::Float(60.0));
+    let file = dir.path().join("plan.toml");
+    std::fs::write(&file, toml::to_string(&plan).unwrap()).unwrap();
+    let (out, log) = (dir.path().join("r"), dir.path().join("run.log"));
+    let mut child = bin()
+        .args(["--link", "sim", "--log", log.to_str().unwrap(), "commission", "--plan", file.to_str().unwrap()])
+        .args(["--out", out.to_str().unwrap(), "--yes"])
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    // Module 3's second SetMotion (0x0E3, 0x0B) is the start of move_back.
+    let deadline = Instant::now() + Duration::from_secs(60);
+    let second = loop {
+        let sent: Vec<String> = motion_frames(&log).into_iter().filter(|f| f.starts_with("0E3#0B")).collect();
+        if sent.len() >= 2 {
+            break sent.len();
+        }
+        assert!(Instant::now() < deadline, "no second test move of module 3 within 60 s");
+        assert!(child.try_wait().unwrap().is_none(), "the run ended before its second move");
+        // Polls the log (the event), not a wait for a guessed time: the move lasts over a second.
+        std::thread::sleep(Duration::from_millis(2));
+    };
+    assert_eq!(second, 2);
+    unsafe {
+        libc::kill(child.id() as i32, libc::SIGINT);
+    }
+    let ended = common::wait_bounded(child, 30, &["commission"]);
+    assert_eq!(ended.code, 130, "{}", ended.stderr);
+    let text = std::fs::read_to_string(&log).unwrap();
+    let frames: Vec<&str> = text.lines().filter_map(|l| l.split_whitespace().nth(2)).collect();
+    let last_motion = frames.iter().rposition(|f| f.starts_with("0E3#0B")).unwrap();
+    assert!(frames[last_motion..].contains(&"0E3#02"), "a Halt to module 3 after its last SetMotion");
+    let report = read_report(&out);
+    assert_eq!((report["complete"].as_bool(), report["passed"].as_bool()), (Some(false), Some(false)));
+    assert!(report["ended"].as_str().unwrap().contains("SIGINT"), "{}", report["ended"]);
+    let back = check(&report, "powercube:3", "move_back");
+    assert_eq!(back["status"], "fail");
+    assert!(back["detail"].as_str().unwrap().starts_with("interrupted"), "{back}");
+    assert_eq!(check(&report, "powercube:3", "move_forward")["status"], "pass");
+    assert!(!checks(&report).iter().any(|c| c["device"] == "powercube:5"), "nothing after the interruption");
+    let html = std::fs::read_to_string(out.join("report.html")).unwrap();
+    assert!(html.contains("INCOMPLETE"));
+    let mut s = String::new();
+    std::fs::File::open(out.join("report.md")).unwrap().read_to_string(&mut s).unwrap();
+    assert!(s.starts_with("# Commissioning report: INCOMPLETE"));
+}
+
+#[test]
+fn a_bad_plan_is_refused_before_anything_is_sent() {
+    let dir = tempfile::tempdir().unwrap();
+    let log = dir.path().join("bad.log");
+    let cases = [
+        ("[[device]]\naddress = \"powercube:3\"\nsnap = true\n", "line 3"),
+        ("[[device]]\naddress = \"pac:1\"\n", "PowerCube modules only"),
+        ("[[device]]\naddress = \"powercube:3\"\nsettings = { values = { MaxVelo = { value = 1.0 } } }\n", "MaxVelo"),
+        ("[[device]]\naddress = \"powercube:3\"\nsettings = { backup = \"missing.json\" }\n", "missing.json"),
+    ];
+    for (text, want) in cases {
+        let file = dir.path().join("p.toml");
+        std::fs::write(&file, text).unwrap();
+        let out = dir.path().join("r");
+        let r = run(&[
+            "--link",
+            "sim",
+            "--log",
+            log.to_str().unwrap(),
+            "commission",
+            "--plan",
+            file.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+            "--yes",
+        ]);
+        assert_eq!(r.code, 2, "{text}: {}", r.stderr);
+        assert!(r.stderr.contains(want), "{text}: {}", r.stderr);
+        assert_eq!(std::fs::read_to_string(&log).unwrap_or_default(), "", "nothing sent for {text}");
+    }
+}
+
+/// The plan of docs/guide.md "Commissioning" runs as written on the
+/// simulated bench (its backup file taken there first) and passes.
+#[test]
+fn the_guides_plan_runs_as_written() {
+    let guide = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/docs/guide.md")).unwrap();
+    let section = guide.split("\n## Commissioning\n").nth(1).unwrap().split("\n## ").next().unwrap();
+    let plan = section.split("```toml\n").nth(1).unwrap().split("```").next().unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("plan.toml"), plan).unwrap();
+    let arm = dir.path().join("arm.json");
+    let r = run(&["--link", "sim", "backup", "--out", arm.to_str().unwrap()]);
+    assert_eq!(r.code, 0, "{}", r.stderr);
+    let out = dir.path().join("r");
+    let plan_file = dir.path().join("plan.toml");
+    let r = run(&[
+        "--link",
+        "sim",
+        "commission",
+        "--plan",
+        plan_file.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--yes",
+    ]);
+    assert_eq!(r.code, 0, "{}\n{}", r.stdout, r.stderr);
+    let report = read_report(&out);
+    let names: Vec<&str> = checks(&report).iter().map(|c| c["check"].as_str().unwrap()).collect();
+    assert_eq!(names, ["identity", "settings", "limits", "home", "move_forward", "move_back", "halt", "backup"]);
+    // The file's settings and the inline one were compared.
+    let settings = check(&report, "powercube:17", "settings");
+    assert!(settings["measured"].as_array().unwrap().len() > 10, "{settings}");
+    assert_eq!(measured(settings, "MaxVel")["limit"], "0.1 ± 0.001");
+}
+
+#[test]
+fn the_watchdog_check_sees_it_trip_and_recover() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("plan.toml");
+    std::fs::write(&file, "[[device]]\naddress = \"powercube:3\"\nwatchdog = true\nbackup = false\n").unwrap();
+    let out = dir.path().join("r");
+    let r = run(&[
+        "--link",
+        "sim",
+        "commission",
+        "--plan",
+        file.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--yes",
+    ]);
+    assert_eq!(r.code, 0, "{}", r.stderr);
+    let report = read_report(&out);
+    let c = check(&report, "powercube:3", "watchdog");
+    assert_eq!(measured(c, "tripped")["value"], true, "{c}");
+    assert_eq!(measured(c, "recovered after reset")["value"], true, "{c}");
+}
+
+/// A bench served by `axisctl sim` (slcan) gives the report `--link sim`
+/// gives: the same checks with the same verdicts, the figures within what
+/// the slower link's sampling changes; a second run on it gives it again.
+#[test]
+fn a_served_bench_gives_the_same_report_as_the_in_process_one() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut plan = default_plan();
+    plan["device"].as_array_mut().unwrap().retain(|d| d["address"].as_str() == Some("powercube:17"));
+    let file = dir.path().join("plan.toml");
+    std::fs::write(&file, toml::to_string(&plan).unwrap()).unwrap();
+    let sim = common::Sim::start(&[], 3);
+    let mut reports = Vec::new();
+    // Served twice: the first run leaves the module ready (the halt test's
+    // Halt reset), so the second moves it all the same.
+    let served = sim.link("powercube");
+    for (name, link) in [("in-process", "sim"), ("served", served), ("served again", served)] {
+        let out = dir.path().join(name);
+        let r = run(&[
+            "--link",
+            link,
+            "commission",
+            "--plan",
+            file.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+            "--yes",
+        ]);
+        assert_eq!(r.code, 0, "{name}: {}\n{}", r.stdout, r.stderr);
+        reports.push(read_report(&out));
+    }
+    let dirs = ["in-process", "served", "served again"].map(|n| dir.path().join(n));
+    for (b, b_dir) in reports.iter().zip(&dirs).skip(1) {
+        same_within_tolerance((&dirs[0], checks(&reports[0])), (b_dir, checks(b)));
+    }
+}
+
+/// The largest step between two samples of a check's recording, in s.
+fn largest_gap(dir: &Path, c: &Value) -> f64 {
+    let Some(file) = c["recording"].as_str() else { return 0.0 };
+    let text = std::fs::read_to_string(dir.join(file)).unwrap();
+    let t: Vec<f64> = text.lines().skip(1).map(|l| l.split(',').next().unwrap().parse().unwrap()).collect();
+    t.windows(2).map(|w| w[1] - w[0]).fold(0.0, f64::max)
+}
+
+/// The same checks and verdicts; each time figure within two sampling
+/// steps of each recording (a crossing is interpolated between the two
+/// samples around it, so each side is off by at most a step of its own),
+/// positions within 1e-4, the overshoot within 1 %.
+fn same_within_tolerance((a_dir, a): (&Path, &[Value]), (b_dir, b): (&Path, &[Value])) {
+    assert_eq!(a.len(), b.len());
+    let times = ["rise_time", "settling_time", "time_to_reach", "time_to_standstill"];
+    let fixed = [("overshoot", 1.0), ("steady_state_error", 1e-4), ("peak_speed", 1e-3)];
+    for (x, y) in a.iter().zip(b) {
+        assert_eq!((&x["check"], &x["status"]), (&y["check"], &y["status"]));
+        let steps = 2.0 * (largest_gap(a_dir, x) + largest_gap(b_dir, y)) + 1e-3;
+        let all = times.iter().map(|f| (*f, steps)).chain(fixed);
+        for (fig, tol) in all {
+            let find = |c: &Value| c["measured"].as_array().and_then(|m| m.iter().find(|m| m["name"] == fig).cloned());
+            if let (Some(p), Some(q)) = (find(x), find(y)) {
+                let (p, q) = (p["value"].as_f64().unwrap(), q["value"].as_f64().unwrap());
+                assert!((p - q).abs() <= tol, "{} {fig}: in-process {p}, served {q} (tolerance {tol})", x["check"]);
+            }
+        }
+    }
+}
+
+#[test]
+fn json_streams_one_line_per_check_then_the_outcome() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("r");
+    let r = run(&["--link", "sim", "--json", "commission", "--out", out.to_str().unwrap(), "--dry-run"]);
+    assert_eq!(r.code, 0, "{}", r.stderr);
+    let stream = common::schema("stream_line");
+    let lines: Vec<Value> = r.stdout.lines().map(|l| serde_json::from_str(l).unwrap()).collect();
+    for l in &lines {
+        assert!(common::schema_errors(&stream, l).is_none(), "{l}");
+    }
+    let report = read_report(&out);
+    let (last, each) = lines.split_last().unwrap();
+    assert_eq!(each.len(), checks(&report).len(), "one line per check");
+    for (line, c) in each.iter().zip(checks(&report)) {
+        assert_eq!((&line["check"]["device"], &line["check"]["check"]), (&c["device"], &c["check"]));
+    }
+    assert_eq!(last["summary"], report["summary"]);
+    assert_eq!((last["complete"].as_bool(), last["passed"].as_bool()), (Some(true), Some(true)));
+    assert!(r.stderr.contains("would make these motions"), "the list still goes to stderr");
+}
+
+/// A module whose following error trips it mid-move (`sim --fault
+/// trip=300ms`: STATE_TOW_ERROR once it has moved 300 ms) fails its test
+/// move with the fault's name, is halted, and is not moved again.
+#[test]
+fn a_module_that_faults_mid_move_fails_its_move_and_is_halted() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("plan.toml");
+    let plan = "[[device]]\naddress = \"powercube:3\"\nbackup = false\n\
+                [device.move]\ndistance = 0.6\nwindow = [-3.0, 3.0]\nvel = 0.5\n\
+                [device.halt]\ndistance = 0.6\nafter_s = 0.2\nstandstill_s = { max = 0.5 }\n";
+    std::fs::write(&file, plan).unwrap();
+    let sim = common::Sim::start(&["--fault", "trip=300ms"], 3);
+    let (out, log) = (dir.path().join("r"), dir.path().join("trip.log"));
+    let link = sim.link("powercube");
+    let args = ["--link", link, "--log", log.to_str().unwrap(), "commission", "--plan", file.to_str().unwrap()];
+    let r = run(&[&args[..], &["--out", out.to_str().unwrap(), "--yes"]].concat());
+    assert_eq!(r.code, 5, "{}\n{}", r.stdout, r.stderr);
+    let report = read_report(&out);
+    assert_eq!(with_status(&report, "fail"), BTreeSet::from(["powercube:3 move_forward".to_string()]));
+    let detail = check(&report, "powercube:3", "move_forward")["detail"].as_str().unwrap().to_string();
+    assert!(detail.contains("STATE_TOW_ERROR") && detail.ends_with(", halted"), "{detail}");
+    for later in ["move_back", "halt"] {
+        assert_eq!(check(&report, "powercube:3", later)["status"], "skipped", "{later}");
+    }
+    let text = std::fs::read_to_string(&log).unwrap();
+    let frames: Vec<&str> = text.lines().filter_map(|l| l.split_whitespace().nth(2)).collect();
+    let motion = frames.iter().position(|f| f.starts_with("0E3#0B")).expect("the move went out");
+    assert!(frames[motion..].contains(&"0E3#02"), "a Halt after the move");
+    assert_eq!(frames.iter().filter(|f| f.starts_with("0E3#0B")).count(), 1, "never moved again");
+}
+
+#[test]
+fn a_planned_module_that_does_not_answer_fails_and_its_other_checks_are_said_skipped() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("plan.toml");
+    std::fs::write(&file, "[[device]]\naddress = \"powercube:9\"\nhome = { timeout_s = 5 }\n").unwrap();
+    let out = dir.path().join("r");
+    let r = run(&[
+        "--link",
+        "sim",
+        "commission",
+        "--plan",
+        file.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--yes",
+    ]);
+    assert_eq!(r.code, 5, "{}", r.stderr);
+    let report = read_report(&out);
+    assert_eq!(with_status(&report, "fail"), BTreeSet::from(["powercube:9 identity".to_string()]));
+    assert_eq!(
+        with_status(&report, "skipped"),
+        BTreeSet::from(["powercube:9 limits", "powercube:9 home", "powercube:9 backup"].map(String::from))
+    );
+    assert!(check(&report, "powercube:9", "identity")["detail"].as_str().unwrap().contains("no answer from module 9"));
+}
