@@ -14,6 +14,7 @@ mod manual;
 mod monitor;
 mod names;
 mod pac;
+mod pac_limits;
 mod plot;
 mod powercube;
 mod record;
