@@ -121,3 +121,71 @@ fn a_garbled_limits_file_is_not_trusted() {
     let r = ax(&["--link", link, "pac-speed", "1", "60000"]);
     assert!(r.stderr.contains("not known here"), "{}", r.stderr);
 }
+
+/// A session log with error frames as `candump -e -L` writes them.
+const ERROR_LOG: &str = "\
+(1700000000.000000) can0 0F1#01
+(1700000000.010000) can0 0A3#0A3C0000803F
+(1700000000.020000) can0 20000004#0004000000000000
+(1700000000.030000) can0 0F1#01
+(1700000000.040000) can0 20000040#0000000000000000
+(1700000000.070000) can0 0F1#01
+";
+
+#[test]
+fn monitor_names_error_frames_in_text_json_and_candump_lines() {
+    let r = run_with_stdin(&["monitor", "--from-log", "-"], ERROR_LOG);
+    assert_eq!(r.code, 0, "{}", r.stderr);
+    let lines: Vec<&str> = r.stdout.lines().collect();
+    assert_eq!(lines.len(), 6, "{}", r.stdout);
+    assert!(lines[2].contains("error") && lines[2].contains("bus error: controller: rx warning"), "{}", lines[2]);
+    assert!(lines[4].contains("bus error: bus off"), "{}", lines[4]);
+
+    // Error frames are the bus's: an id filter keeps them, as candump -e does.
+    let r = run_with_stdin(&["--json", "monitor", "--from-log", "-", "--filter", "0A3:7FF"], ERROR_LOG);
+    assert_eq!(r.code, 0, "{}", r.stderr);
+    let schema = common::schema("stream_line");
+    let docs: Vec<serde_json::Value> = r.stdout.lines().map(|l| serde_json::from_str(l).unwrap()).collect();
+    for d in &docs {
+        assert_eq!(common::schema_errors(&schema, d), None, "{d}");
+    }
+    let kinds: Vec<&str> = docs.iter().map(|d| d["kind"].as_str().unwrap()).collect();
+    assert_eq!(kinds, ["ack", "error", "error"]);
+    assert_eq!(docs[2]["frame"], "20000040#0000000000000000");
+    assert_eq!(docs[2]["family"], serde_json::Value::Null);
+    assert_eq!(docs[2]["details"]["problems"], serde_json::json!(["bus off"]));
+    // `--family powercube` leaves them out.
+    let r = run_with_stdin(&["--json", "monitor", "--from-log", "-", "--family", "powercube"], ERROR_LOG);
+    assert!(!r.stdout.contains("\"error\""), "{}", r.stdout);
+
+    // Replayed to candump lines, the log comes out as it went in.
+    let r = run_with_stdin(&["monitor", "--from-log", "-", "--candump"], ERROR_LOG);
+    assert_eq!(r.stdout, ERROR_LOG);
+}
+
+#[test]
+fn monitor_table_has_one_row_per_id_with_count_period_and_rate() {
+    let r = run_with_stdin(&["monitor", "--from-log", "-", "--table"], ERROR_LOG);
+    assert_eq!(r.code, 0, "{}", r.stderr);
+    let lines: Vec<&str> = r.stdout.lines().collect();
+    assert_eq!(lines.len(), 5, "a header and 4 ids, printed once at the end into a pipe: {}", r.stdout);
+    assert!(lines[0].starts_with("ID") && lines[0].contains("COUNT") && lines[0].contains("PERIOD"), "{}", lines[0]);
+    let row = |id: &str| lines.iter().find(|l| l.starts_with(id)).unwrap_or_else(|| panic!("{id}: {}", r.stdout));
+    let f1: Vec<&str> = row("0F1").split_whitespace().collect();
+    // 3 frames at 0, 30 and 70 ms: the last period 40 ms, 2 periods in 70 ms.
+    assert_eq!(&f1[..5], ["0F1", "3", "40.0", "28.6", "01"], "{}", row("0F1"));
+    assert!(row("0F1").ends_with("Home"));
+    assert!(row("0A3").contains("ActPos = 1"));
+    assert!(row("20000040").contains("bus off"));
+
+    for other in ["--json", "--candump"] {
+        let args: Vec<&str> = if other == "--json" {
+            vec!["--json", "monitor", "--from-log", "-", "--table"]
+        } else {
+            vec!["monitor", "--from-log", "-", "--table", "--candump"]
+        };
+        let r = run_with_stdin(&args, ERROR_LOG);
+        assert_eq!(r.code, 2, "{other}: {}", r.stderr);
+        assert!(r.stdout.is_empty());
+    }
+}
