@@ -189,3 +189,103 @@ fn monitor_table_has_one_row_per_id_with_count_period_and_rate() {
         assert!(r.stdout.is_empty());
     }
 }
+
+#[test]
+fn send_refuses_motion_without_force_and_sends_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    for (frame, why) in [
+        ("0F1#01", "Home starts a motion of PowerCube module 17"),
+        ("100#0100", "broadcast starts every PowerCube module"),
+        ("0E3#0A3C", "does not decode"),
+        ("0A94;1;1;100.0", "may start a motion"),
+    ] {
+        let log = dir.path().join("refused.log");
+        let r = common::run(&["--link", "sim?pac=online", "--log", log.to_str().unwrap(), "send", frame]);
+        assert_eq!(r.code, 2, "{frame}: {}", r.stderr);
+        assert!(r.stderr.contains(why) && r.stderr.contains("--force"), "{frame}: {}", r.stderr);
+        assert!(sent(&log).is_empty(), "{frame}: nothing sent: {:?}", sent(&log));
+    }
+    for bad in ["0F1", "0F1#1", "20000004#00", "0A94;1;x;1", "nonsense"] {
+        let r = common::run(&["--link", "sim", "send", bad]);
+        assert_eq!(r.code, 2, "{bad}: {}", r.stderr);
+    }
+}
+
+#[test]
+fn send_decodes_the_frame_and_its_answers() {
+    let dir = tempfile::tempdir().unwrap();
+    let log = dir.path().join("send.log");
+    let r = common::run(&["--link", "sim", "--log", log.to_str().unwrap(), "send", "0C3#0A3C", "--listen", "2000"]);
+    assert_eq!(r.code, 0, "{}", r.stderr);
+    assert!(
+        r.stderr.contains("-> 0C3#0A3C") && r.stderr.contains("GetExtended ActPos"),
+        "decoded before: {}",
+        r.stderr
+    );
+    assert!(r.stdout.starts_with("<- 0A3#0A3C") && r.stdout.contains("ActPos = "), "{}", r.stdout);
+    assert!(std::fs::read_to_string(&log).unwrap().contains(" 0C3#0A3C"), "logged");
+
+    let r = common::run(&["--link", "sim", "--json", "send", "0C3#0A3C"]);
+    assert_eq!(r.code, 0, "{}", r.stderr);
+    let doc = r.json();
+    assert_eq!(common::schema_errors(&common::schema("document"), &doc), None, "{doc}");
+    assert_eq!((doc["command"].as_str(), doc["motion"].as_bool()), (Some("send"), Some(false)));
+    assert_eq!(doc["sent"]["device"], "powercube:3");
+    assert_eq!(doc["answers"][0]["kind"], "ack", "{doc}");
+    assert_eq!(doc["answers"][0]["details"]["param"], "ActPos");
+
+    // With --force a motion goes out, and its acknowledge comes back.
+    let log = dir.path().join("forced.log");
+    let r = common::run(&[
+        "--link",
+        "sim",
+        "--log",
+        log.to_str().unwrap(),
+        "send",
+        "--force",
+        "0F1#01",
+        "--listen",
+        "2000",
+    ]);
+    assert_eq!(r.code, 0, "{}", r.stderr);
+    assert!(r.stdout.contains("Home ok"), "{}", r.stdout);
+    assert!(std::fs::read_to_string(&log).unwrap().contains(" 0F1#01"));
+
+    // A PA-CONTROL command goes as pac-raw's.
+    let r = common::run(&["--link", "sim", "send", "190C;1;0;0"]);
+    assert_eq!(r.code, 0, "{}", r.stderr);
+    assert!(r.stdout.starts_with("190C get-actual-pos: QUIT 0"), "{}", r.stdout);
+}
+
+#[test]
+fn a_powercube_scan_on_a_pac_control_line_hints_at_the_other_protocol() {
+    let sim = Sim::start(&["--pac", "pty-serial"], 1);
+    let link = sim.link("pac");
+    let r = common::run(&["--link", link, "scan"]);
+    assert_eq!(r.code, 6, "{}", r.stderr);
+    assert!(r.stderr.contains("another protocol on this line?"), "{}", r.stderr);
+    assert!(r.stderr.contains(&format!("try `axisctl --link {link} pac-state`")), "{}", r.stderr);
+    let r = common::run(&["--link", link, "--json", "scan"]);
+    let err: serde_json::Value = serde_json::from_str(r.stderr.lines().last().unwrap()).unwrap();
+    assert_eq!(err["error"]["kind"], "malformed");
+    assert!(err["error"]["message"].as_str().unwrap().contains("pac-state"), "{err}");
+    // The hint follows the suggestion it makes: pac-state answers there.
+    assert_eq!(common::run(&["--link", link, "pac-state"]).code, 0);
+}
+
+#[test]
+fn moving_a_module_that_was_never_homed_warns_first_and_still_moves() {
+    let r = run_with_stdin(
+        &["--link", "sim", "--trace", "batch"],
+        "move-ramp -m 3 0.05 --wait\nhome -m 3 --wait\nmove-ramp -m 3 0.1 --wait\n",
+    );
+    assert_eq!(r.code, 0, "a warning, not a refusal: {}", r.stderr);
+    let lines: Vec<&str> = r.stderr.lines().collect();
+    let warned: Vec<usize> =
+        lines.iter().enumerate().filter(|(_, l)| l.contains("was not homed")).map(|(i, _)| i).collect();
+    assert_eq!(warned.len(), 1, "only before the move ahead of the home: {}", r.stderr);
+    assert!(lines[warned[0]].starts_with("axisctl: warning: module 3 was not homed (CubeState lacks HOME_OK)"));
+    let first_motion = lines.iter().position(|l| l.starts_with("->") && l.contains("SetMotion")).expect("a motion");
+    assert!(warned[0] < first_motion, "said before the motion went out: {}", r.stderr);
+    assert!(r.stdout.contains("home done"), "{}", r.stdout);
+}

@@ -34,6 +34,7 @@ impl Command {
                     false => Cli::try_parse_from(words).ok().and_then(|cli| cli.command.starts_motion()),
                 }
             }
+            Self::Send(args) => args.starts_motion(),
             Self::Decode { .. }
             | Self::Sim(_)
             | Self::Monitor(_)
@@ -188,6 +189,8 @@ mod tests {
     /// Every subcommand that moves nothing (`record` moves what follows
     /// its `--`, classified on its own).
     const STILL: &[&str] = &[
+        // Moves only with --force and a motion frame: classified per frame (cli::send's tests).
+        "send",
         "scan",
         "info",
         "state",

@@ -788,6 +788,19 @@ fn axis_param(ctx: &Ctx, d: &mut Controller, axis: u8, name: &str, access: &Para
     Ok(())
 }
 
+/// `send CODE;PAR1;TYP;PAR2`: the command as `pac-raw` sends it (checked,
+/// followed to its end, printed decoded), after `send` refused motion
+/// without `--force`.
+pub(super) fn send_line(ctx: &Ctx, cmd: &Command) -> anyhow::Result<()> {
+    let mut d = Controller::new(ctx.pac()?);
+    d.know_online_limits(pac_limits::load(ctx.link_for(Family::Pac)?).unwrap_or_default());
+    let par2 = match cmd.par2 {
+        Par2::Int(i) => i.to_string(),
+        Par2::Float(f) => format!("{f:?}"),
+    };
+    raw(ctx, &mut d, &format!("{:04X}", cmd.code), cmd.par1, Some(&par2))
+}
+
 fn raw(ctx: &Ctx, d: &mut Controller, code_text: &str, par1: i64, par2: Option<&str>) -> anyhow::Result<()> {
     let known = table::command_by_name(code_text);
     let cmd = match known {

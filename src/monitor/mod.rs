@@ -127,6 +127,33 @@ pub fn describe_event(event: &CanEvent) -> FrameInfo {
     }
 }
 
+/// Why sending `frame` by hand may set something moving, if it may: a
+/// PowerCube motion request (Home, SetMotion, SetIStep) or Home / StartMotion
+/// broadcast, a Cdios GOTO or START, or a command of either family that does
+/// not decode (nothing can say it does not move).
+pub fn motion_of(frame: &CanFrame) -> Option<String> {
+    match pc_can::classify(frame) {
+        Ok(Some(CanMessage::Request { module, request })) if request.is_motion() => {
+            return Some(format!("{request} starts a motion of PowerCube module {module}"));
+        }
+        Ok(Some(CanMessage::Broadcast(b @ (pc_can::Broadcast::Home | pc_can::Broadcast::StartMotion)))) => {
+            return Some(format!("the {b} broadcast starts every PowerCube module on the bus"));
+        }
+        Ok(_) => {}
+        Err(e) => return Some(format!("a PowerCube frame that does not decode ({e}): it may move a module")),
+    }
+    match cdios_tp::classify(frame) {
+        Ok(Some(BusMessage::Command { node, data })) => match cdios_table::decode_command(&data) {
+            Ok(d) if [cdios_table::GOTO, cdios_table::START].contains(&d.def.code) => {
+                Some(format!("Cdios {} starts a motor of node {node}", d.def.key))
+            }
+            Ok(_) => None,
+            Err(e) => Some(format!("a Cdios command that does not decode ({e}): it may start a motor")),
+        },
+        _ => None,
+    }
+}
+
 fn powercube(frame: &CanFrame) -> Option<FrameInfo> {
     let id = frame.id();
     let ours = !frame.is_extended() && (id == pc_can::BROADCAST_ID || (0x0A1..=0x0FF).contains(&id) && id & 0x1F != 0);
