@@ -174,7 +174,8 @@ fn online(ctx: &Ctx, d: &mut Controller) -> anyhow::Result<()> {
     let spec = ctx.link_for(Family::Pac)?;
     if d.online_limits().is_empty() {
         // Online already, or nothing could be read: an older copy is kept.
-    } else if let Err(e) = pac_limits::store(spec, d.online_limits()) {
+    } else if let (Err(e), false) = (pac_limits::store(spec, d.online_limits()), ctx.json) {
+        // (With --json stderr carries one error object or nothing.)
         output::err_line(format_args!(
             "axisctl: warning: the speed and acceleration limits read could not be kept ({e}): \
              pac-speed and pac-accel will leave the check to the controller"
@@ -198,7 +199,8 @@ fn offline(ctx: &Ctx, d: &mut Controller) -> anyhow::Result<()> {
 fn limited(ctx: &Ctx, d: &mut Controller, code: u16, axis: u8, value: f64) -> anyhow::Result<()> {
     let limits = pac_limits::load(ctx.link_for(Family::Pac)?).unwrap_or_default();
     // A value that is not positive is refused anyway: no note before that.
-    if limits.of(code, axis).is_none() && value > 0.0 {
+    // With --json stderr carries one error object or nothing (docs/json.md).
+    if limits.of(code, axis).is_none() && value > 0.0 && !ctx.json {
         output::err_line(format_args!(
             "axisctl: note: axis {axis}'s limits for {code:04X} are not known here (pac-online reads them in \
              home position): the controller checks the value"

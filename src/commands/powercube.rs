@@ -119,7 +119,10 @@ fn doc(ctx: &Ctx, m: ModuleId, body: serde_json::Value) -> serde_json::Value {
 
 fn cubes(ctx: &Ctx) -> anyhow::Result<Cubes> {
     let mut cubes = Cubes::new(ctx.powercube()?);
-    cubes.warn_with(|w| output::err_line(format_args!("axisctl: warning: {w}")));
+    // With --json stderr carries one error object or nothing (docs/json.md).
+    if !ctx.json {
+        cubes.warn_with(|w| output::err_line(format_args!("axisctl: warning: {w}")));
+    }
     Ok(cubes)
 }
 
