@@ -116,6 +116,44 @@ pub fn decode_kinds() -> ArgValueCompleter {
     ArgValueCompleter::new(|current: &OsStr| starting_with(current, Family::all_decode_kinds()))
 }
 
+/// `-m` of the PowerCube commands: the modules the bench file names
+/// (`AXISCTL_BENCH`, else `./axisctl.toml`), each with its name; nothing
+/// without a bench file (any id of the range is valid, none is likelier).
+pub fn bench_modules() -> ArgValueCompleter {
+    ArgValueCompleter::new(|current: &OsStr| {
+        let path = std::env::var_os("AXISCTL_BENCH")
+            .filter(|v| !v.is_empty())
+            .map_or_else(|| std::path::PathBuf::from(crate::commands::BENCH_FILE), std::path::PathBuf::from);
+        modules_in(&path, Family::PowerCube, current)
+    })
+}
+
+/// The module ids of `family`'s devices in the bench file at `path`, those
+/// that start with what is typed after the list's last comma.
+fn modules_in(path: &std::path::Path, family: Family, current: &OsStr) -> Vec<CompletionCandidate> {
+    use axisctl::bench::{Address, Bench};
+    let Ok(bench) = Bench::from_file(path) else { return Vec::new() };
+    let typed = current.to_string_lossy();
+    let (done, last) = typed.rsplit_once(',').map_or(("", typed.as_ref()), |(d, l)| (d, l));
+    let mut out: Vec<(u8, String)> = bench
+        .links()
+        .iter()
+        .flat_map(|l| l.devices.iter())
+        .filter_map(|(name, a)| match (family, a) {
+            (Family::PowerCube, Address::PowerCube { module }) => Some((*module, name.clone())),
+            _ => None,
+        })
+        .filter(|(m, _)| m.to_string().starts_with(last))
+        .collect();
+    out.sort();
+    out.into_iter()
+        .map(|(m, name)| {
+            let value = if done.is_empty() { m.to_string() } else { format!("{done},{m}") };
+            CompletionCandidate::new(value).help(Some(format!("powercube:{m} {name}").into()))
+        })
+        .collect()
+}
+
 /// `--link`: `sim`, the forms with the serial ports and CAN interfaces of
 /// this machine.
 pub fn links() -> ArgValueCompleter {
@@ -186,5 +224,34 @@ mod tests {
         assert!(names(&config_changes(), "-brake").contains(&"-brake-present".to_string()));
         assert!(names(&config_changes(), "+CONFIGID_MOD_BRAKE").contains(&"+CONFIGID_MOD_BRAKE_PRESENT".to_string()));
         assert_eq!(names(&links(), "si"), ["sim"]);
+    }
+
+    #[test]
+    fn module_ids_come_from_the_bench_file_with_their_names() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("axisctl.toml");
+        std::fs::write(
+            &path,
+            "[[link]]\nspec = \"sim\"\ndevices = { base = \"powercube:3\", wrist = \"powercube:17\", \
+             elbow = \"powercube:5\", gripper = \"cdios:1/0\" }\n",
+        )
+        .unwrap();
+        let got = |typed: &str| -> Vec<(String, String)> {
+            modules_in(&path, Family::PowerCube, OsStr::new(typed))
+                .iter()
+                .map(|c| {
+                    (
+                        c.get_value().to_string_lossy().into_owned(),
+                        c.get_help().map(|h| h.to_string()).unwrap_or_default(),
+                    )
+                })
+                .collect()
+        };
+        let all = got("");
+        assert_eq!(all.iter().map(|(v, _)| v.as_str()).collect::<Vec<_>>(), ["3", "5", "17"], "{all:?}");
+        assert_eq!(all[0].1, "powercube:3 base");
+        assert_eq!(got("1").iter().map(|(v, _)| v.as_str()).collect::<Vec<_>>(), ["17"]);
+        assert_eq!(got("3,1").iter().map(|(v, _)| v.as_str()).collect::<Vec<_>>(), ["3,17"], "after a comma");
+        assert!(modules_in(&dir.path().join("none.toml"), Family::PowerCube, OsStr::new("")).is_empty());
     }
 }

@@ -63,6 +63,10 @@ pub const EXAMPLES: &[(&str, &[&str])] = &[
             "sim --fault drop=0.2 --fault-seed 7",
         ],
     ),
+    (
+        "send",
+        &["--link sim send 0C3#0A3C", "--link sim --json send 0C3#0A3C --listen 200", "--link sim send '190C;1;0;0'"],
+    ),
     ("monitor", &["--link slcan:/dev/ttyACM0 monitor -m 3,5", "monitor --from-log bus.log --family powercube --stats"]),
     ("cdios-identify", &["--link sim cdios-identify", "--link sim --json cdios-identify --node 1"]),
     ("cdios-status", &["--link sim cdios-status -m 0", "--link sim --json cdios-status -m all --node 1"]),

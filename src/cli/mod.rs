@@ -14,6 +14,7 @@ pub mod motion;
 pub mod pac;
 pub mod powercube;
 pub mod record;
+pub mod send;
 pub mod sim;
 pub mod suggest;
 pub mod wait;
@@ -103,6 +104,8 @@ pub enum Command {
     Sim(SimArgs),
     /// Passive, decoded bus monitor on any CAN link, or replay of a candump log
     Monitor(MonitorArgs),
+    /// Send one raw frame, decoded first, and print the answers decoded (motion only with --force)
+    Send(send::SendArgs),
     #[command(flatten)]
     Cdios(cdios::CdiosCommand),
     /// Live dashboard of every device on the links (try: --link sim dashboard)

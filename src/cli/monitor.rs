@@ -40,6 +40,9 @@ pub struct MonitorArgs {
     /// Print candump -L lines instead of decoded ones
     #[arg(long)]
     pub candump: bool,
+    /// A live table, one row per CAN id: count, period, rate, last data and its decoding (printed once at the end when not on a terminal)
+    #[arg(long)]
+    pub table: bool,
     /// Decode a candump log file instead of listening on a link (- reads standard input)
     #[arg(long, value_name = "FILE")]
     pub from_log: Option<PathBuf>,

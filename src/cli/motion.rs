@@ -37,6 +37,7 @@ impl Command {
             // Every PowerCube module of the plan may move (it halts them
             // itself on every way out).
             Self::Commission(a) if !a.dry_run && !a.print_plan => Some(MotionTarget::CubeBus),
+            Self::Send(args) => args.starts_motion(),
             Self::Commission(_)
             | Self::Decode { .. }
             | Self::Sim(_)
@@ -193,6 +194,8 @@ mod tests {
     /// its `--`, `commission` what its plan says unless `--dry-run` or
     /// `--print-plan`: each classified on its own).
     const STILL: &[&str] = &[
+        // Moves only with --force and a motion frame: classified per frame (cli::send's tests).
+        "send",
         "scan",
         "info",
         "state",

@@ -10,7 +10,7 @@ use axisctl::family::POWERCUBE_MODULE;
 #[derive(Debug, Args, Clone, Copy)]
 pub struct ModuleArg {
     /// PowerCube module address, 1 to 31
-    #[arg(short, long, value_name = "ID", value_parser = ids::id(POWERCUBE_MODULE))]
+    #[arg(short, long, value_name = "ID", value_parser = ids::id(POWERCUBE_MODULE), add = super::complete::bench_modules())]
     pub module: u8,
 }
 
@@ -18,7 +18,7 @@ pub struct ModuleArg {
 #[derive(Debug, Args, Clone)]
 pub struct ModulesArg {
     /// PowerCube module address 1..31, a list (3,5,17 or 1-8: one object per module) or all (every module present)
-    #[arg(short, long, value_name = "ID[,ID...]|all", value_parser = ids::devices(POWERCUBE_MODULE))]
+    #[arg(short, long, value_name = "ID[,ID...]|all", value_parser = ids::devices(POWERCUBE_MODULE), add = super::complete::bench_modules())]
     pub module: ids::Devices,
 }
 
@@ -27,7 +27,7 @@ pub struct ModulesArg {
 #[group(required = true, multiple = false)]
 pub struct Target {
     /// PowerCube module address, 1 to 31
-    #[arg(short, long, value_name = "ID", value_parser = ids::id(POWERCUBE_MODULE))]
+    #[arg(short, long, value_name = "ID", value_parser = ids::id(POWERCUBE_MODULE), add = super::complete::bench_modules())]
     pub module: Option<u8>,
     /// Broadcast to every module on the bus (not acknowledged)
     #[arg(long)]

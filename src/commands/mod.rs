@@ -15,9 +15,11 @@ mod manual;
 mod monitor;
 mod names;
 mod pac;
+mod pac_limits;
 mod plot;
 mod powercube;
 mod record;
+mod send;
 mod shell;
 mod sim;
 mod sim_tap;
@@ -453,6 +455,7 @@ pub fn dispatch(ctx: &Ctx, name: &str, command: Command) -> anyhow::Result<()> {
         Command::Decode { kind, value } => decode::run(ctx, &kind, &value),
         Command::Sim(args) => sim::run(ctx, &args),
         Command::Monitor(args) => monitor::run(ctx, &args),
+        Command::Send(args) => send::run(ctx, &args),
         Command::Cdios(c) => cdios::run(ctx, c),
         Command::Dashboard(args) => dashboard::run(ctx, &args),
         Command::Pac(cmd) => pac::run(ctx, cmd),

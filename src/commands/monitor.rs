@@ -6,9 +6,11 @@ use std::io::Write;
 use std::time::{Duration, SystemTime, UNIX_EPOCH};
 
 use axisctl::family::Family;
-use axisctl::monitor::{describe, passes_any, FamilyFilter, FrameInfo, IdFilter, Stats};
-use axisctl::proto::candump::{format_candump_line, parse_candump_line};
-use axisctl::proto::CanFrame;
+use std::io::IsTerminal;
+
+use axisctl::monitor::{describe_event, passes_any, FamilyFilter, FrameInfo, IdFilter, Stats, Table};
+use axisctl::proto::can_error::CanEvent;
+use axisctl::proto::candump::{format_candump_error, format_candump_line, parse_candump_event};
 use serde_json::json;
 
 use super::{arm_interrupt, interrupted, usage, Ctx};
@@ -41,8 +43,12 @@ impl Filter {
         })
     }
 
-    fn pass(&self, f: &CanFrame, i: &FrameInfo) -> bool {
-        (self.families.is_empty() || self.families.iter().any(|f| f.pass(i)))
+    /// Error frames are the bus's, not an id's: only `--family` (as
+    /// `other`) hides them, as candump -e shows them whatever its id filters.
+    fn pass(&self, event: &CanEvent, i: &FrameInfo) -> bool {
+        let family = self.families.is_empty() || self.families.iter().any(|f| f.pass(i));
+        let CanEvent::Frame(f) = event else { return family };
+        family
             && (self.modules.is_empty() || i.module.is_some_and(|m| self.modules.contains(&m)))
             && (self.ids.is_empty() || self.ids.contains(&f.id()))
             && passes_any(&self.masks, f)
@@ -59,15 +65,30 @@ struct Printer<'a> {
     iface: String,
     /// The link listened on, for the envelope; `None` for a log replay.
     link: Option<&'a str>,
+    /// `--table`: the rows instead of a line per frame.
+    table: Option<Table>,
+    terminal: bool,
+    drawn: Option<std::time::Instant>,
     out: std::io::StdoutLock<'static>,
 }
 
 impl Printer<'_> {
-    fn frame(&mut self, ts: f64, f: &CanFrame, i: &FrameInfo) -> std::io::Result<()> {
+    fn frame(&mut self, ts: f64, event: &CanEvent, i: &FrameInfo) -> std::io::Result<()> {
+        let text = match event {
+            CanEvent::Frame(f) => f.to_string(),
+            CanEvent::Error(e) => e.to_string(),
+        };
+        if let Some(table) = &mut self.table {
+            table.add(ts, event, i);
+            return self.redraw(false);
+        }
         if self.candump {
             let secs = ts.floor();
-            let line =
-                format_candump_line(secs as u64, ((ts - secs) * 1e6).round().min(999_999.0) as u32, &self.iface, f);
+            let (s, us) = (secs as u64, ((ts - secs) * 1e6).round().min(999_999.0) as u32);
+            let line = match event {
+                CanEvent::Frame(f) => format_candump_line(s, us, &self.iface, f),
+                CanEvent::Error(e) => format_candump_error(s, us, &self.iface, e),
+            };
             writeln!(self.out, "{line}")?;
         } else if self.ctx.json {
             let mut v = serde_json::to_value(i).unwrap_or_default();
@@ -80,7 +101,7 @@ impl Printer<'_> {
                 v["link"] = json!(link);
             }
             v["timestamp"] = json!(ts);
-            v["frame"] = json!(f.to_string());
+            v["frame"] = json!(text);
             writeln!(self.out, "{v}")?;
         } else {
             let who = match (i.family, i.node, i.module) {
@@ -90,20 +111,47 @@ impl Printer<'_> {
                 _ => String::new(),
             };
             let fam = i.family.map_or("-", Family::name);
-            let text = match &i.error {
-                Some(e) => self.ctx.style.error(&format!("{} ({e})", i.summary)),
-                None if i.kind == "error" => self.ctx.style.error(&i.summary),
-                None => i.summary.clone(),
-            };
             let shown = match self.timestamps {
                 Timestamps::Absolute => ts,
                 Timestamps::Zero => ts - *self.first.get_or_insert(ts),
                 Timestamps::Delta => ts - self.last.unwrap_or(ts),
             };
             self.last = Some(ts);
-            writeln!(self.out, "{shown:17.6}  {:<24} {fam:<9} {:<9} {who:<17} {text}", f.to_string(), i.kind)?;
+            let summary = text_of(self.ctx, i);
+            writeln!(self.out, "{shown:17.6}  {text:<24} {fam:<9} {:<9} {who:<17} {summary}", i.kind)?;
         }
         self.out.flush()
+    }
+
+    /// `--table`: on a terminal the table is drawn again in place, at most
+    /// [`TABLE_REDRAW`] apart; into a pipe or file it is printed once, at the end.
+    fn redraw(&mut self, last: bool) -> std::io::Result<()> {
+        let Some(table) = &self.table else { return Ok(()) };
+        let due = self.drawn.is_none_or(|t| t.elapsed() >= TABLE_REDRAW);
+        if !(last || self.terminal && due) {
+            return Ok(());
+        }
+        if self.terminal {
+            // Home and clear, as watch(1) does: the rows stay where the eye expects them.
+            write!(self.out, "\x1b[H\x1b[2J")?;
+        }
+        for line in table.lines() {
+            writeln!(self.out, "{line}")?;
+        }
+        self.drawn = Some(std::time::Instant::now());
+        self.out.flush()
+    }
+}
+
+/// How often the live table is drawn on a terminal.
+const TABLE_REDRAW: Duration = Duration::from_millis(250);
+
+/// The summary as the human line shows it: failures in the error colour.
+fn text_of(ctx: &Ctx, i: &FrameInfo) -> String {
+    match &i.error {
+        Some(e) => ctx.style.error(&format!("{} ({e})", i.summary)),
+        None if i.kind == "error" => ctx.style.error(&i.summary),
+        None => i.summary.clone(),
     }
 }
 
@@ -114,6 +162,9 @@ fn now_secs() -> f64 {
 pub fn run(ctx: &Ctx, a: &MonitorArgs) -> anyhow::Result<()> {
     if a.candump && ctx.json {
         return Err(usage("--candump and --json are two different outputs: pick one"));
+    }
+    if a.table && (a.candump || ctx.json) {
+        return Err(usage("--table is a live view for a person: use it without --json and --candump"));
     }
     let filter = Filter::new(a)?;
     let mut stats = Stats::default();
@@ -129,13 +180,16 @@ pub fn run(ctx: &Ctx, a: &MonitorArgs) -> anyhow::Result<()> {
         last: None,
         iface,
         link,
+        table: a.table.then(Table::default),
+        terminal: std::io::stdout().is_terminal(),
+        drawn: None,
         out: std::io::stdout().lock(),
     };
-    let mut handle = |ts: f64, f: &CanFrame, p: &mut Printer| -> anyhow::Result<bool> {
-        let info = describe(f);
-        if filter.pass(f, &info) {
-            stats.add(f, &info);
-            if let Err(e) = p.frame(ts, f, &info) {
+    let mut handle = |ts: f64, event: &CanEvent, p: &mut Printer| -> anyhow::Result<bool> {
+        let info = describe_event(event);
+        if filter.pass(event, &info) {
+            stats.add_event(event, &info);
+            if let Err(e) = p.frame(ts, event, &info) {
                 // Nothing more can be shown: the exit code follows the
                 // failure's kind (a closed pipe is a normal end).
                 crate::output::note_failure(&e);
@@ -162,9 +216,9 @@ pub fn run(ctx: &Ctx, a: &MonitorArgs) -> anyhow::Result<()> {
             if line.trim().is_empty() {
                 continue;
             }
-            let (ts, iface, frame) = parse_candump_line(line).map_err(|e| usage(format!("{name}:{n}: {e}")))?;
+            let (ts, iface, event) = parse_candump_event(line).map_err(|e| usage(format!("{name}:{n}: {e}")))?;
             p.iface = iface;
-            if !handle(ts, &frame, &mut p)? {
+            if !handle(ts, &event, &mut p)? {
                 break;
             }
         }
@@ -177,15 +231,21 @@ pub fn run(ctx: &Ctx, a: &MonitorArgs) -> anyhow::Result<()> {
         }
         arm_interrupt()?;
         let mut link = ctx.can_link()?;
+        // A listener shows the bus's error frames too (SocketCAN's error
+        // filter; an slcan adapter's reports come anyway).
+        link.report_errors();
         let start = std::time::Instant::now();
         let stop = a.duration.map(|s| Duration::from_secs_f64(s.max(0.0)));
         while !interrupted() && stop.is_none_or(|d| start.elapsed() < d) {
-            if let Some(frame) = link.recv(Duration::from_millis(50))? {
-                if !handle(now_secs(), &frame, &mut p)? {
+            if let Some(event) = link.recv_event(Duration::from_millis(50))? {
+                if !handle(now_secs(), &event, &mut p)? {
                     break;
                 }
             }
         }
+    }
+    if let Err(e) = p.redraw(true) {
+        crate::output::note_failure(&e);
     }
     if a.stats && crate::output::failure().is_none() {
         let mut print = || -> std::io::Result<()> {

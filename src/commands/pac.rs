@@ -23,6 +23,7 @@ use axisctl::proto::pac::{Ack, CheckRule, Command, Par2};
 use axisctl::session::pac::Progress;
 use serde_json::json;
 
+use super::pac_limits;
 use super::takeover::HolderReport;
 use super::{arm_interrupt, interrupted, usage, Ctx};
 use crate::cli::ids::Devices;
@@ -40,8 +41,8 @@ pub fn run(ctx: &Ctx, cmd: PacCommand) -> anyhow::Result<()> {
     let mut d = Controller::new(pac);
     let d = &mut d;
     match cmd {
-        PacCommand::PacOnline => simple(ctx, d, 0x0603, None, None),
-        PacCommand::PacOffline => simple(ctx, d, 0x0A81, None, None),
+        PacCommand::PacOnline => online(ctx, d),
+        PacCommand::PacOffline => offline(ctx, d),
         PacCommand::PacStop => stop(ctx, d, 0x0600, None, takeover.as_ref()),
         PacCommand::PacAutoStart => simple(ctx, d, 0x0602, None, None),
         PacCommand::PacAutoAbort => simple(ctx, d, 0x0A41, None, None),
@@ -55,9 +56,15 @@ pub fn run(ctx: &Ctx, cmd: PacCommand) -> anyhow::Result<()> {
         PacCommand::PacNoRef(a) => simple(ctx, d, 0x0A83, Some(a.axis), None),
         PacCommand::PacZero(a) => simple(ctx, d, 0x0A85, Some(a.axis), None),
         PacCommand::PacSetPos { axis, pos } => simple(ctx, d, 0x0A86, Some(axis.axis), Some(finite("POS", pos)?)),
-        PacCommand::PacSpeed { axis, speed } => simple(ctx, d, 0x0A8D, Some(axis.axis), Some(finite("speed", speed)?)),
+        PacCommand::PacSpeed { axis, speed } => {
+            let speed = finite("speed", speed)?;
+            limited(ctx, d, 0x0A8D, axis.axis, speed)?;
+            simple(ctx, d, 0x0A8D, Some(axis.axis), Some(speed))
+        }
         PacCommand::PacAccel { axis, accel } => {
-            simple(ctx, d, 0x0A8E, Some(axis.axis), Some(finite("acceleration", accel)?))
+            let accel = finite("acceleration", accel)?;
+            limited(ctx, d, 0x0A8E, axis.axis, accel)?;
+            simple(ctx, d, 0x0A8E, Some(axis.axis), Some(accel))
         }
         PacCommand::PacStopAxis { axis, wait, no_wait: _ } => {
             stop(ctx, d, if wait { 0x0A93 } else { 0x0A9A }, Some(axis.axis), takeover.as_ref())
@@ -88,7 +95,11 @@ pub fn run(ctx: &Ctx, cmd: PacCommand) -> anyhow::Result<()> {
         PacCommand::PacReg { register, value } => reg(ctx, d, &register, value.as_deref()),
         PacCommand::PacSysParam { param, access } => sys_param(ctx, d, &param, &access),
         PacCommand::PacAxisParam { axis, param, access } => axis_param(ctx, d, axis.axis, &param, &access),
-        PacCommand::PacRaw { code, par1, par2 } => raw(ctx, d, &code, par1, par2.as_deref()),
+        PacCommand::PacRaw { code, par1, par2 } => {
+            // A raw 0A8D / 0A8E is checked as pac-speed's (silently: raw is for those who know).
+            d.know_online_limits(pac_limits::load(ctx.link_for(Family::Pac)?).unwrap_or_default());
+            raw(ctx, d, &code, par1, par2.as_deref())
+        }
     }
 }
 
@@ -153,6 +164,49 @@ fn check_rule_name(r: CheckRule) -> &'static str {
 fn simple(ctx: &Ctx, d: &mut Controller, code: u16, axis: Option<u8>, value: Option<f64>) -> anyhow::Result<()> {
     let done = d.send(code, axis.map_or(0, i64::from), value)?;
     report(ctx, code, axis, value, done.ack, None);
+    Ok(())
+}
+
+/// `pac-online`: the device layer reads the limits of 0A8D / 0A8E on the
+/// way (home position only), and they are kept for the commands after it.
+fn online(ctx: &Ctx, d: &mut Controller) -> anyhow::Result<()> {
+    let done = d.online()?;
+    let spec = ctx.link_for(Family::Pac)?;
+    if d.online_limits().is_empty() {
+        // Online already, or nothing could be read: an older copy is kept.
+    } else if let (Err(e), false) = (pac_limits::store(spec, d.online_limits()), ctx.json) {
+        // (With --json stderr carries one error object or nothing.)
+        output::err_line(format_args!(
+            "axisctl: warning: the speed and acceleration limits read could not be kept ({e}): \
+             pac-speed and pac-accel will leave the check to the controller"
+        ));
+    }
+    report(ctx, 0x0603, None, None, done.ack, None);
+    Ok(())
+}
+
+/// `pac-offline`: the online values end, and with them the kept limits.
+fn offline(ctx: &Ctx, d: &mut Controller) -> anyhow::Result<()> {
+    let done = d.offline()?;
+    pac_limits::forget(ctx.link_for(Family::Pac)?);
+    report(ctx, 0x0A81, None, None, done.ack, None);
+    Ok(())
+}
+
+/// Hands the limits `pac-online` kept to the controller, which refuses a
+/// value outside them before sending. Without them the value goes out and
+/// the controller checks it; a note says so.
+fn limited(ctx: &Ctx, d: &mut Controller, code: u16, axis: u8, value: f64) -> anyhow::Result<()> {
+    let limits = pac_limits::load(ctx.link_for(Family::Pac)?).unwrap_or_default();
+    // A value that is not positive is refused anyway: no note before that.
+    // With --json stderr carries one error object or nothing (docs/json.md).
+    if limits.of(code, axis).is_none() && value > 0.0 && !ctx.json {
+        output::err_line(format_args!(
+            "axisctl: note: axis {axis}'s limits for {code:04X} are not known here (pac-online reads them in \
+             home position): the controller checks the value"
+        ));
+    }
+    d.know_online_limits(limits);
     Ok(())
 }
 
@@ -734,6 +788,19 @@ fn axis_param(ctx: &Ctx, d: &mut Controller, axis: u8, name: &str, access: &Para
         say!("axis {axis} parameter {} ({}) {what}: {value} {}", p.number, p.manual_name, p.unit);
     }
     Ok(())
+}
+
+/// `send CODE;PAR1;TYP;PAR2`: the command as `pac-raw` sends it (checked,
+/// followed to its end, printed decoded), after `send` refused motion
+/// without `--force`.
+pub(super) fn send_line(ctx: &Ctx, cmd: &Command) -> anyhow::Result<()> {
+    let mut d = Controller::new(ctx.pac()?);
+    d.know_online_limits(pac_limits::load(ctx.link_for(Family::Pac)?).unwrap_or_default());
+    let par2 = match cmd.par2 {
+        Par2::Int(i) => i.to_string(),
+        Par2::Float(f) => format!("{f:?}"),
+    };
+    raw(ctx, &mut d, &format!("{:04X}", cmd.code), cmd.par1, Some(&par2))
 }
 
 fn raw(ctx: &Ctx, d: &mut Controller, code_text: &str, par1: i64, par2: Option<&str>) -> anyhow::Result<()> {

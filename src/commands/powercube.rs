@@ -118,7 +118,12 @@ fn doc(ctx: &Ctx, m: ModuleId, body: serde_json::Value) -> serde_json::Value {
 }
 
 fn cubes(ctx: &Ctx) -> anyhow::Result<Cubes> {
-    Ok(Cubes::new(ctx.powercube()?))
+    let mut cubes = Cubes::new(ctx.powercube()?);
+    // With --json stderr carries one error object or nothing (docs/json.md).
+    if !ctx.json {
+        cubes.warn_with(|w| output::err_line(format_args!("axisctl: warning: {w}")));
+    }
+    Ok(cubes)
 }
 
 /// A read of each module asked for: one JSON object for `-m ID`, else
@@ -205,6 +210,26 @@ fn kind_of(config_word: u32) -> &'static str {
 /// (at least; a longer --timeout makes the scan proportionally patient).
 const SCAN_ANSWER_START: Duration = Duration::from_millis(8);
 
+/// A scan over RS232 that reads garbage: a PowerCube module never answers
+/// in anything but its frames, so the line is likely someone else's.
+#[derive(Debug, thiserror::Error)]
+#[error(
+    "{source}; another protocol on this line? A PA-CONTROL answers on RS232 too: try `axisctl --link {link} pac-state`"
+)]
+struct OtherProtocol {
+    source: Error,
+    link: String,
+}
+
+fn other_protocol(ctx: &Ctx, e: Error) -> anyhow::Error {
+    match ctx.link_for(Family::PowerCube) {
+        Ok(spec @ axisctl::link::LinkSpec::Serial { .. }) if e.kind() == axisctl::session::ErrorKind::Malformed => {
+            OtherProtocol { source: e, link: spec.to_string() }.into()
+        }
+        _ => e.into(),
+    }
+}
+
 fn scan(ctx: &Ctx, list: &IdList) -> anyhow::Result<()> {
     if super::bench::whole(ctx)? {
         return super::bench::scan(ctx, &list.to(Some));
@@ -215,7 +240,7 @@ fn scan(ctx: &Ctx, list: &IdList) -> anyhow::Result<()> {
     // An absent module never answers; a present one starts answering right
     // after the request, so a scan need not wait the whole timeout per id.
     pc.set_answer_start_timeout(Some(SCAN_ANSWER_START.max(pc.timeout() / 8)));
-    let found = cubes.scan(&ids)?;
+    let found = cubes.scan(&ids).map_err(|e| other_protocol(ctx, e))?;
     if found.is_empty() {
         return Err(Error::NoneAnswered { ids: list.to_string() }.into());
     }

@@ -223,7 +223,11 @@ fn save_history(ed: &mut Editor<Complete, rustyline::history::DefaultHistory>, p
     }
 }
 
-/// Completion of subcommands and flags from the parser's tree.
+/// Completion from the parser's tree, by the engine behind the shells'
+/// completion (`cli::complete`): subcommands, their flags, and values from
+/// the tables (parameter names, Config flags, decode kinds, record values,
+/// module ids of the bench file). The global options and the commands a
+/// line may not run are not offered: a line refuses them.
 struct Complete {
     tree: clap::Command,
 }
@@ -234,32 +238,43 @@ impl Complete {
         let start = before.rfind(char::is_whitespace).map_or(0, |i| i + 1);
         let word = &before[start..];
         let done: Vec<&str> = before[..start].split_whitespace().collect();
-        let sub = done.iter().find_map(|w| self.tree.find_subcommand(w));
-        let mut out: Vec<String> = Vec::new();
-        if word.starts_with('-') {
-            let args = sub.into_iter().flat_map(|s| s.get_arguments()).chain(self.tree.get_arguments());
-            for a in args.filter(|a| !a.is_hide_set()) {
-                out.extend(a.get_long().map(|l| format!("--{l}")));
-                out.extend(a.get_short().map(|s| format!("-{s}")));
-            }
-        } else if sub.is_none() {
-            out.extend(
-                self.tree
-                    .get_subcommands()
-                    .filter(|s| !s.is_hide_set() && !REFUSED.contains(&s.get_name()))
-                    .map(|s| s.get_name().to_string()),
-            );
-        } else if let Some(sub) = sub {
-            out.extend(sub.get_subcommands().map(|s| s.get_name().to_string()));
-        }
+        let mut words: Vec<std::ffi::OsString> = vec!["axisctl".into()];
+        words.extend(done.iter().map(std::ffi::OsString::from));
+        words.push(word.into());
+        let index = words.len() - 1;
+        let mut tree = self.tree.clone();
+        let here = std::env::current_dir().ok();
+        let found = clap_complete::engine::complete(&mut tree, words, index, here.as_deref()).unwrap_or_default();
+        let global: Vec<String> = self
+            .tree
+            .get_arguments()
+            .flat_map(|a| {
+                a.get_long().map(|l| format!("--{l}")).into_iter().chain(a.get_short().map(|s| format!("-{s}")))
+            })
+            .collect();
+        let first = done.is_empty();
+        let mut out: Vec<String> = found
+            .into_iter()
+            .filter(|c| !c.is_hide_set())
+            .map(|c| c.get_value().to_string_lossy().into_owned())
+            .filter(|c| !(first && (REFUSED.contains(&c.as_str()) || c == "help")))
+            .filter(|c| first || !global.contains(c) || self.sub_has(&done, c))
+            .filter(|c| c.starts_with(word) || c.to_ascii_lowercase().starts_with(&word.to_ascii_lowercase()))
+            .collect();
         out.sort();
         out.dedup();
-        let pairs = out
-            .into_iter()
-            .filter(|c| c.starts_with(word))
-            .map(|c| Pair { display: c.clone(), replacement: format!("{c} ") })
-            .collect();
+        let pairs = out.into_iter().map(|c| Pair { display: c.clone(), replacement: format!("{c} ") }).collect();
         (start, pairs)
+    }
+
+    /// Whether the line's subcommand has `flag` of its own (`-m` is both a
+    /// global short and no subcommand's, `--all` a subcommand's).
+    fn sub_has(&self, done: &[&str], flag: &str) -> bool {
+        let Some(sub) = done.iter().find_map(|w| self.tree.find_subcommand(w)) else { return false };
+        sub.get_arguments().any(|a| {
+            a.get_long().is_some_and(|l| flag == format!("--{l}"))
+                || a.get_short().is_some_and(|s| flag == format!("-{s}"))
+        })
     }
 }
 
@@ -300,7 +315,20 @@ mod tests {
         assert!(complete("pac-a").iter().all(|c| c.starts_with("pac-a")));
         assert!(!complete("").contains(&"dashboard".to_string()), "refused lines are not offered");
         assert!(complete("get-param --a").contains(&"--all".to_string()));
-        assert!(complete("get-param --").contains(&"--timeout".to_string()), "global options too");
+        assert!(!complete("get-param --").contains(&"--timeout".to_string()), "a line refuses global options");
         assert_eq!(complete("watchdog o"), ["off", "on"]);
+    }
+
+    #[test]
+    fn completes_values_from_the_tables_as_the_shells_do() {
+        assert!(complete("get-param -m 3 Act").contains(&"ActPos".to_string()), "{:?}", complete("get-param -m 3 Act"));
+        assert!(complete("get-param -m 3 act").iter().all(|c| c.to_ascii_lowercase().starts_with("act")));
+        assert!(complete("decode cube").contains(&"cube-state".to_string()), "{:?}", complete("decode cube"));
+        assert!(
+            complete("set-config -m 3 -bra").contains(&"-brake-present".to_string()),
+            "{:?}",
+            complete("set-config -m 3 -bra")
+        );
+        assert!(complete("move-ramp --").contains(&"--vel".to_string()), "{:?}", complete("move-ramp --"));
     }
 }

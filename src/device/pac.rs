@@ -8,7 +8,8 @@
 //!   then followed through every acknowledge) unless the command is valid in
 //!   every mode or is itself a mode change (5.2.1, 0A41, 0A81): those go out
 //!   as exactly one frame and the controller's QUIT says if the mode was
-//!   wrong.
+//!   wrong. [`Controller::online`] reads first: from home position, the
+//!   limits of 0A8D / 0A8E ([`OnlineLimits`]), which only that mode reads.
 //! - Moves start with 0A94 / 0A95, which answer BE = 1 at once, so the line
 //!   stays free for polls and stops (manual 5.2.6.6). Their target is
 //!   checked against the axis' traverse area (1913 / 1914) first.
@@ -20,6 +21,7 @@ mod elements;
 mod error;
 mod face;
 mod halt;
+mod limits;
 mod motion;
 #[cfg(test)]
 mod tests;
@@ -31,6 +33,7 @@ pub use elements::{Element, Register, RegisterKind};
 pub use error::Error;
 pub use face::Follow;
 pub use halt::{HaltStep, HaltTarget};
+pub use limits::OnlineLimits;
 pub use motion::{Halted, MoveProgress, MoveStart};
 
 /// How a stop asked for by hand went ([`Controller::stop_by_hand`]).
@@ -127,7 +130,8 @@ fn valid_in_every_mode(def: &CommandDef) -> bool {
 
 /// Speeds and accelerations (0A8D / 0A8E) must be positive. Their min / max
 /// (axis parameters 1 / 6) can only be read in home position, where these
-/// commands are not valid, so beyond that the controller checks (0x29).
+/// commands are not valid: [`Controller::online`] reads them on the way
+/// ([`limits`]); where they are not known the controller checks (0x29).
 fn check_positive(code: u16, value: Option<f64>) -> Result<()> {
     let what = match code {
         0x0A8D => "speed",
@@ -157,11 +161,30 @@ pub struct Controller {
     /// Read once per axis: the controller's traverse area changes only with
     /// its parameters, which are written in home position.
     areas: BTreeMap<u8, TraverseArea>,
+    /// The limits of 0A8D / 0A8E, read on the way online or handed over.
+    online_limits: OnlineLimits,
 }
 
 impl Controller {
     pub fn new(pac: Pac) -> Self {
-        Self { pac, limits: Context::default(), axes: Vec::new(), areas: BTreeMap::new() }
+        Self {
+            pac,
+            limits: Context::default(),
+            axes: Vec::new(),
+            areas: BTreeMap::new(),
+            online_limits: OnlineLimits::default(),
+        }
+    }
+
+    /// Limits read by another process on its way online (a stored copy):
+    /// 0A8D / 0A8E outside them are refused before sending.
+    pub fn know_online_limits(&mut self, limits: OnlineLimits) {
+        self.online_limits = limits;
+    }
+
+    /// The limits 0A8D / 0A8E are checked against (empty: none known).
+    pub fn online_limits(&self) -> &OnlineLimits {
+        &self.online_limits
     }
 
     /// The session underneath, for its settings and state.
@@ -226,6 +249,9 @@ impl Controller {
     pub fn build(&mut self, code: u16, par1: i64, value: Option<f64>) -> Result<Command> {
         let def = table::command(code).ok_or(validate::ValidationError::UnknownCommand { code })?;
         check_positive(code, value)?;
+        if let Some(why) = limits::check(&self.online_limits, code, par1, value) {
+            return Err(Error::Refused(why));
+        }
         let exempt = valid_in_every_mode(def) || MODE_CHANGES.contains(&code);
         self.limits.status = if exempt { None } else { Some(self.status()?) };
         Ok(validate::build(def, par1, value, &self.limits)?)
@@ -312,14 +338,44 @@ impl Controller {
         self.read_f64(0x1800, par1)
     }
 
-    /// 0603: home position to online mode.
+    /// 0603: home position to online mode. From home position the limits of
+    /// 0A8D / 0A8E are read first (the only mode they can be read in), and
+    /// kept ([`online_limits`](Self::online_limits)).
     pub fn online(&mut self) -> Result<Done> {
+        if self.busy().is_none() && table::mode_of_status(self.read_status()?) == Some(Mode::Home) {
+            self.online_limits = self.read_online_limits()?;
+        }
         self.send(0x0603, 0, None)
     }
 
-    /// 0A81: online mode back to home position (every axis stops where it is).
+    /// Axis parameters 1 and 6's min / max (1802 / 1801) of the axes to work
+    /// with, or of the configured ones. An axis whose limits the controller
+    /// refuses to give is left out: its values are then checked by the
+    /// controller alone.
+    fn read_online_limits(&mut self) -> Result<OnlineLimits> {
+        let axes = if self.axes.is_empty() { (1..=self.configured_axes()?).collect() } else { self.axes.clone() };
+        let mut found = OnlineLimits::default();
+        for axis in axes {
+            for param in limits::PARAMS {
+                let par1 = table::axis_param_par1(axis, param);
+                match (self.read_f64(0x1802, par1), self.read_f64(0x1801, par1)) {
+                    (Ok(min), Ok(max)) => found.insert(axis, param, min, max),
+                    (Err(Error::Session(e)), _) | (_, Err(Error::Session(e))) if e.refusal().is_none() => {
+                        return Err(e.into())
+                    }
+                    _ => {}
+                }
+            }
+        }
+        Ok(found)
+    }
+
+    /// 0A81: online mode back to home position (every axis stops where it
+    /// is). The online values, and so their limits, end there.
     pub fn offline(&mut self) -> Result<Done> {
-        self.send(0x0A81, 0, None)
+        let done = self.send(0x0A81, 0, None)?;
+        self.online_limits = OnlineLimits::default();
+        Ok(done)
     }
 
     /// 0600: stop the automatic program or the online axes (a mode change:

@@ -266,11 +266,21 @@ pub struct Cubes {
     /// The watchdog policy of supervised motions, and what the current one armed.
     deadman: Deadman,
     armed: Option<deadman::Armed>,
+    /// Told before a motion that goes out but deserves a word ([`Self::warn_with`]).
+    warn: Option<fn(&str)>,
 }
 
 impl Cubes {
     pub fn new(pc: PowerCube) -> Self {
-        Self { pc, versions: BTreeMap::new(), deadman: Deadman::default(), armed: None }
+        Self { pc, versions: BTreeMap::new(), deadman: Deadman::default(), armed: None, warn: None }
+    }
+
+    /// Where a warning goes before a motion is sent: a module that was never
+    /// homed (CubeState without HOME_OK) moves, but its position limits mean
+    /// nothing yet. A warning, not a refusal: moving it by hand is how one
+    /// gets it clear to home.
+    pub fn warn_with(&mut self, say: fn(&str)) {
+        self.warn = Some(say);
     }
 
     /// The module's firmware version (DefCubeVersion), read once.
@@ -449,10 +459,16 @@ impl Cubes {
     /// Motion is refused while the module reports an error or is halted: it
     /// would not move, and the user should reset it first.
     pub fn ensure_ready(&mut self, m: ModuleId) -> Result<(), Error> {
-        match limits::not_ready(self.state(m)?) {
-            Some(why) => Err(Error::NotReady { module: m, why }),
-            None => Ok(()),
+        let state = self.state(m)?;
+        if let Some(why) = limits::not_ready(state) {
+            return Err(Error::NotReady { module: m, why });
         }
+        if let Some(say) = self.warn.filter(|_| state & crate::proto::powercube::flags::state::HOME_OK == 0) {
+            say(&format!(
+                "module {m} was not homed (CubeState lacks HOME_OK): its position and limits mean nothing yet"
+            ));
+        }
+        Ok(())
     }
 
     /// The module's own limits (units, or encoder ticks).

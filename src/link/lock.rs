@@ -431,6 +431,13 @@ pub fn lock_path(device: &str) -> Option<PathBuf> {
     Some(lock_path_in(&dir, device))
 }
 
+/// A file of what else is known about a device (`kind`, e.g. `pac-limits`),
+/// beside its lock in this process's first private directory: the
+/// directories' checks (ours, 0700, no symlink) hold for it too.
+pub fn state_path(device: &str, kind: &str) -> Option<PathBuf> {
+    lock_path(device).map(|p| p.with_extension(kind))
+}
+
 /// The lock file of `device` in `dir`.
 pub fn lock_path_in(dir: &Path, device: &str) -> PathBuf {
     let name: String = device

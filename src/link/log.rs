@@ -20,7 +20,8 @@ use std::sync::{Arc, Mutex};
 use std::time::{Duration, SystemTime, UNIX_EPOCH};
 
 use super::{ByteLink, CanLink, LinkError, LinkSpec};
-use crate::proto::candump::format_candump_line;
+use crate::proto::can_error::{CanEvent, ErrorFrame};
+use crate::proto::candump::{format_candump_error, format_candump_line};
 use crate::proto::CanFrame;
 
 /// Which way serial bytes went.
@@ -91,6 +92,12 @@ impl TrafficLog {
     pub fn can_frame(&self, frame: &CanFrame) -> Result<(), LinkError> {
         let (secs, micros) = now();
         self.line(format_candump_line(secs, micros, &self.iface, frame))
+    }
+
+    /// One candump line for an error frame, as `candump -l -e` writes it.
+    pub fn can_error(&self, frame: &ErrorFrame) -> Result<(), LinkError> {
+        let (secs, micros) = now();
+        self.line(format_candump_error(secs, micros, &self.iface, frame))
     }
 
     /// One hex line for a chunk of serial bytes, timestamped now. Empty chunks are skipped.
@@ -186,6 +193,20 @@ impl<L: CanLink> CanLink for LoggedCanLink<L> {
         let got = self.inner.recv(timeout)?;
         if let Some(f) = &got {
             self.log.record(self.log.can_frame(f));
+        }
+        Ok(got)
+    }
+
+    fn report_errors(&mut self) -> bool {
+        self.inner.report_errors()
+    }
+
+    fn recv_event(&mut self, timeout: Duration) -> Result<Option<CanEvent>, LinkError> {
+        let got = self.inner.recv_event(timeout)?;
+        match &got {
+            Some(CanEvent::Frame(f)) => self.log.record(self.log.can_frame(f)),
+            Some(CanEvent::Error(e)) => self.log.record(self.log.can_error(e)),
+            None => {}
         }
         Ok(got)
     }

@@ -15,6 +15,7 @@ pub mod spec;
 
 pub use spec::{LinkSpec, PacStart, SerialFormat, SimStart, SpecError};
 
+use crate::proto::can_error::CanEvent;
 use crate::proto::CanFrame;
 
 #[derive(Debug, thiserror::Error)]
@@ -39,6 +40,16 @@ pub trait CanLink: Send {
     }
     /// The next frame, or `None` once `timeout` has passed without one.
     fn recv(&mut self, timeout: Duration) -> Result<Option<CanFrame>, LinkError>;
+    /// Asks for the bus's error frames too, for a listener (`monitor`);
+    /// `false` where the link has no way to report them. Device sessions
+    /// never ask: [`recv`](Self::recv) hands them nothing but data frames.
+    fn report_errors(&mut self) -> bool {
+        false
+    }
+    /// The next data frame or error frame (once [`report_errors`](Self::report_errors)).
+    fn recv_event(&mut self, timeout: Duration) -> Result<Option<CanEvent>, LinkError> {
+        Ok(self.recv(timeout)?.map(CanEvent::Frame))
+    }
 }
 
 /// Moves bytes (a serial port, a pty).
@@ -85,6 +96,12 @@ impl<T: CanLink + ?Sized> CanLink for Box<T> {
     }
     fn recv(&mut self, timeout: Duration) -> Result<Option<CanFrame>, LinkError> {
         (**self).recv(timeout)
+    }
+    fn report_errors(&mut self) -> bool {
+        (**self).report_errors()
+    }
+    fn recv_event(&mut self, timeout: Duration) -> Result<Option<CanEvent>, LinkError> {
+        (**self).recv_event(timeout)
     }
 }
 

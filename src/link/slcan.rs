@@ -21,6 +21,7 @@ use std::time::{Duration, Instant};
 
 use super::serial::SerialLink;
 use super::{ByteLink, CanLink, LinkError, SerialFormat};
+use crate::proto::can_error::CanEvent;
 use crate::proto::slcan::{Command, LineDecoder, SlcanEvent, RESYNC};
 use crate::proto::CanFrame;
 
@@ -317,9 +318,26 @@ impl<B: ByteLink> CanLink for SlcanLink<B> {
 
     fn recv(&mut self, timeout: Duration) -> Result<Option<CanFrame>, LinkError> {
         let deadline = Instant::now() + timeout;
+        loop {
+            match self.recv_event(deadline.saturating_duration_since(Instant::now()))? {
+                Some(CanEvent::Frame(f)) => return Ok(Some(f)),
+                Some(CanEvent::Error(_)) => {}
+                None => return Ok(None),
+            }
+        }
+    }
+
+    /// Adapters that report errors (`e…`, `s…` lines) always do.
+    fn report_errors(&mut self) -> bool {
+        true
+    }
+
+    fn recv_event(&mut self, timeout: Duration) -> Result<Option<CanEvent>, LinkError> {
+        let deadline = Instant::now() + timeout;
         while let Some(ev) = self.next_event(deadline)? {
             match ev {
-                SlcanEvent::Frame(f) => return Ok(Some(f)),
+                SlcanEvent::Frame(f) => return Ok(Some(CanEvent::Frame(f))),
+                SlcanEvent::BusError(e) => return Ok(Some(CanEvent::Error(e))),
                 SlcanEvent::Ack | SlcanEvent::TransmitAck { .. } => {
                     self.pending.pop_front();
                 }
@@ -666,5 +684,25 @@ mod tests {
         link.io.incoming.extend_from_slice(b"t0B\r\xff\xff\rt0B1103\r");
         assert_eq!(link.recv(Duration::from_millis(10)).unwrap(), Some(CanFrame::new(0x0B1, &[3]).unwrap()));
         assert_eq!(link.decode_errors(), 2);
+    }
+
+    #[test]
+    fn error_reports_reach_a_listener_and_never_a_device_session() {
+        let open =
+            || SlcanLink::new(scripted(&[b"V1013\r", b"\rV1013\r", b"\rV1013\r", b"\rV1013\r"]), 1_000_000).unwrap();
+        let mut link = open();
+        link.io.incoming.extend_from_slice(b"e1a\rsb256256\rt0B1103\r");
+        assert!(link.report_errors());
+        let ms = Duration::from_millis(10);
+        let Some(CanEvent::Error(e)) = link.recv_event(ms).unwrap() else { panic!("an error report") };
+        assert!(e.problems()[0].starts_with("no acknowledge"), "{:?}", e.problems());
+        let Some(CanEvent::Error(e)) = link.recv_event(ms).unwrap() else { panic!("a state change") };
+        assert_eq!(e.problems(), ["bus off", "error counters tx 255 rx 255"]);
+        assert_eq!(link.recv_event(ms).unwrap(), Some(CanEvent::Frame(CanFrame::new(0x0B1, &[3]).unwrap())));
+
+        let mut link = open();
+        link.io.incoming.extend_from_slice(b"e1a\rsb256256\rt0B1103\r");
+        assert_eq!(link.recv(ms).unwrap(), Some(CanFrame::new(0x0B1, &[3]).unwrap()), "recv skips them");
+        assert_eq!(link.decode_errors(), 0);
     }
 }

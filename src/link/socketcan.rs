@@ -3,9 +3,10 @@
 use std::io;
 use std::time::{Duration, Instant};
 
-use socketcan::{CanSocket, EmbeddedFrame, ExtendedId, Id, Socket, StandardId};
+use socketcan::{CanSocket, EmbeddedFrame, ExtendedId, Id, Socket, SocketOptions, StandardId};
 
 use super::{CanLink, LinkError};
+use crate::proto::can_error::{CanEvent, ErrorFrame};
 use crate::proto::CanFrame;
 
 /// How long a send retries while the interface's transmit queue is full (ENOBUFS).
@@ -92,11 +93,29 @@ impl CanLink for SocketCanLink {
     fn recv(&mut self, timeout: Duration) -> Result<Option<CanFrame>, LinkError> {
         let deadline = Instant::now() + timeout;
         loop {
+            match self.recv_event(deadline.saturating_duration_since(Instant::now()))? {
+                Some(CanEvent::Frame(f)) => return Ok(Some(f)),
+                Some(CanEvent::Error(_)) => {}
+                None => return Ok(None),
+            }
+        }
+    }
+
+    fn report_errors(&mut self) -> bool {
+        self.socket.set_error_filter_accept_all().is_ok()
+    }
+
+    fn recv_event(&mut self, timeout: Duration) -> Result<Option<CanEvent>, LinkError> {
+        let deadline = Instant::now() + timeout;
+        loop {
             let left = deadline.saturating_duration_since(Instant::now());
             match self.socket.read_frame_timeout(left) {
+                Ok(socketcan::CanFrame::Error(e)) => {
+                    return Ok(Some(CanEvent::Error(ErrorFrame::new(e.error_bits(), e.data()))));
+                }
                 Ok(f) => {
                     if let Some(f) = from_socketcan(&f) {
-                        return Ok(Some(f));
+                        return Ok(Some(CanEvent::Frame(f)));
                     }
                 }
                 Err(e) if matches!(e.kind(), io::ErrorKind::TimedOut | io::ErrorKind::WouldBlock) => {

@@ -7,12 +7,15 @@
 use std::collections::BTreeMap;
 
 mod filter;
+mod table;
 pub use filter::{passes_any, FilterError, IdFilter};
+pub use table::{Row, Table};
 
 use serde::Serialize;
 use serde_json::json;
 
 use crate::family::Family;
+use crate::proto::can_error::{CanEvent, ErrorFrame};
 use crate::proto::cdios::transport::{self as cdios_tp, AnswerKind, BusMessage};
 use crate::proto::cdios::{table as cdios_table, Address};
 use crate::proto::powercube::can::{self as pc_can, CanMessage};
@@ -105,6 +108,50 @@ pub fn describe(frame: &CanFrame) -> FrameInfo {
         return info;
     }
     FrameInfo::new(None, "raw", String::new())
+}
+
+/// An error frame of the bus (SocketCAN's, or an slcan adapter's report):
+/// kind `error` of no family, what happened in words.
+pub fn describe_error(frame: &ErrorFrame) -> FrameInfo {
+    let problems = frame.problems();
+    let mut i = FrameInfo::new(None, "error", format!("bus error: {}", problems.join("; ")));
+    i.details = json!({"error_class": frame.class, "problems": problems});
+    i
+}
+
+/// [`describe`] or [`describe_error`].
+pub fn describe_event(event: &CanEvent) -> FrameInfo {
+    match event {
+        CanEvent::Frame(f) => describe(f),
+        CanEvent::Error(e) => describe_error(e),
+    }
+}
+
+/// Why sending `frame` by hand may set something moving, if it may: a
+/// PowerCube motion request (Home, SetMotion, SetIStep) or Home / StartMotion
+/// broadcast, a Cdios GOTO or START, or a command of either family that does
+/// not decode (nothing can say it does not move).
+pub fn motion_of(frame: &CanFrame) -> Option<String> {
+    match pc_can::classify(frame) {
+        Ok(Some(CanMessage::Request { module, request })) if request.is_motion() => {
+            return Some(format!("{request} starts a motion of PowerCube module {module}"));
+        }
+        Ok(Some(CanMessage::Broadcast(b @ (pc_can::Broadcast::Home | pc_can::Broadcast::StartMotion)))) => {
+            return Some(format!("the {b} broadcast starts every PowerCube module on the bus"));
+        }
+        Ok(_) => {}
+        Err(e) => return Some(format!("a PowerCube frame that does not decode ({e}): it may move a module")),
+    }
+    match cdios_tp::classify(frame) {
+        Ok(Some(BusMessage::Command { node, data })) => match cdios_table::decode_command(&data) {
+            Ok(d) if [cdios_table::GOTO, cdios_table::START].contains(&d.def.code) => {
+                Some(format!("Cdios {} starts a motor of node {node}", d.def.key))
+            }
+            Ok(_) => None,
+            Err(e) => Some(format!("a Cdios command that does not decode ({e}): it may start a motor")),
+        },
+        _ => None,
+    }
 }
 
 fn powercube(frame: &CanFrame) -> Option<FrameInfo> {
@@ -277,12 +324,25 @@ pub struct Stats {
 
 impl Stats {
     pub fn add(&mut self, frame: &CanFrame, info: &FrameInfo) {
+        self.add_id(format!("{:03X}", frame.id()), info);
+    }
+
+    /// [`add`](Self::add) for a data or an error frame (counted under its
+    /// candump id, `20000004`).
+    pub fn add_event(&mut self, event: &CanEvent, info: &FrameInfo) {
+        match event {
+            CanEvent::Frame(f) => self.add(f, info),
+            CanEvent::Error(e) => self.add_id(format!("{:08X}", e.id()), info),
+        }
+    }
+
+    fn add_id(&mut self, id: String, info: &FrameInfo) {
         self.frames += 1;
         if info.error.is_some() {
             self.errors += 1;
         }
         *self.by_kind.entry(format!("{}/{}", family_name(info.family), info.kind)).or_default() += 1;
-        *self.by_id.entry(format!("{:03X}", frame.id())).or_default() += 1;
+        *self.by_id.entry(id).or_default() += 1;
     }
 }
 

@@ -3,6 +3,7 @@
 //! flag (` R` / ` T`); it is accepted and ignored. Remote (`123#R`) and CAN FD
 //! (`123##1...`) frames are rejected: axisctl's devices use neither.
 
+use super::can_error::{CanEvent, ErrorFrame};
 use super::{CanFrame, DecodeError};
 
 /// Formats one log line (no newline) the way `candump -l` does.
@@ -36,6 +37,26 @@ pub fn parse_candump_line(line: &str) -> Result<(f64, String, CanFrame), DecodeE
     Ok((timestamp, iface.to_string(), frame))
 }
 
+/// [`parse_candump_line`], and error frames too (`candump -e -L` writes
+/// them as an extended id with the error flag, `20000004#0004...`).
+pub fn parse_candump_event(line: &str) -> Result<(f64, String, CanEvent), DecodeError> {
+    let frame_text = line.split_ascii_whitespace().nth(2).unwrap_or("");
+    match ErrorFrame::parse_candump(frame_text) {
+        None => parse_candump_line(line).map(|(t, i, f)| (t, i, CanEvent::Frame(f))),
+        Some(error) => {
+            let error = error?;
+            // The rest of the line as a data frame's, so both are checked alike.
+            let (t, i, _) = parse_candump_line(&line.replacen(frame_text, "000#", 1))?;
+            Ok((t, i, CanEvent::Error(error)))
+        }
+    }
+}
+
+/// An error frame's log line, the way `candump -l -e` writes it.
+pub fn format_candump_error(secs: u64, micros: u32, iface: &str, frame: &ErrorFrame) -> String {
+    format!("({secs}.{micros:06}) {iface} {frame}")
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -58,6 +79,19 @@ mod tests {
         assert_eq!(f, CanFrame::new_extended(0x1234_5678, &[0xde, 0xad, 0xbe, 0xef]).unwrap());
         let (_, _, f) = parse_candump_line("(1.5) can1 100#").unwrap();
         assert_eq!(f.dlc(), 0);
+    }
+
+    #[test]
+    fn error_frames_are_read_from_a_log() {
+        let (t, iface, e) = parse_candump_event("(1.500000) can0 20000040#0000000000000000").unwrap();
+        assert_eq!((t, iface.as_str()), (1.5, "can0"));
+        let CanEvent::Error(e) = e else { panic!("an error frame: {e:?}") };
+        assert_eq!(e.problems(), ["bus off"]);
+        assert_eq!(format_candump_error(1, 500_000, "can0", &e), "(1.500000) can0 20000040#0000000000000000");
+        assert!(matches!(parse_candump_event("(1.5) can0 0F1#01").unwrap().2, CanEvent::Frame(_)));
+        assert!(parse_candump_event("(1.5) can0 20000040#000").is_err());
+        assert!(parse_candump_event("(x) can0 20000040#00").is_err());
+        assert!(parse_candump_event("").is_err());
     }
 
     #[test]

@@ -4,6 +4,7 @@
 //! frames in; typed frames come out, and typed frames encode to bytes.
 
 pub mod can;
+pub mod can_error;
 pub mod candump;
 pub mod cdios;
 pub mod pac;

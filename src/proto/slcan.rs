@@ -19,6 +19,7 @@
 use std::collections::VecDeque;
 use std::fmt;
 
+use super::can_error::ErrorFrame;
 use super::{CanFrame, DecodeError};
 
 pub const CR: u8 = b'\r';
@@ -266,6 +267,9 @@ pub enum SlcanEvent {
     Error,
     /// `Fxx`: status flags, see [`status`].
     Status(u8),
+    /// An error report (`e1a`) or bus state change (`sb256256`) of adapters
+    /// that report them, as the Linux slcan driver reads them.
+    BusError(ErrorFrame),
     /// Any other printable line, e.g. a `V1013` version or `NA123` serial number reply.
     Other(String),
 }
@@ -281,6 +285,7 @@ impl fmt::Display for SlcanEvent {
             }
             Self::Error => f.write_str("BEL (error)"),
             Self::Status(s) => write!(f, "status {s:#04x} {:?}", status::names(*s)),
+            Self::BusError(e) => write!(f, "bus error {}", e.problems().join(", ")),
             Self::Other(s) => write!(f, "{s:?}"),
         }
     }
@@ -403,6 +408,9 @@ fn parse_event(line: &[u8]) -> Result<SlcanEvent, DecodeError> {
         b't' | b'T' => parse_data_frame(line, true).map(SlcanEvent::Frame),
         b'r' | b'R' => parse_remote_frame(line, true).map(SlcanEvent::Remote),
         b'z' | b'Z' if rest.is_empty() => Ok(SlcanEvent::TransmitAck { extended: kind == b'Z' }),
+        b'e' | b's' if ErrorFrame::from_slcan(line).is_some() => {
+            Ok(SlcanEvent::BusError(ErrorFrame::from_slcan(line).expect("checked")))
+        }
         b'F' if rest.len() == 2 => {
             hex_number(rest).map(|s| SlcanEvent::Status(s as u8)).ok_or_else(|| malformed("status reply", line))
         }

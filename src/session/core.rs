@@ -43,6 +43,11 @@ impl Core {
         self.clock.now()
     }
 
+    /// Waits on the session's clock (virtual in tests).
+    pub fn sleep(&self, d: Duration) {
+        self.clock.sleep(d);
+    }
+
     /// Receives until `on` breaks (`Some`) or `deadline` passes (`None`).
     pub fn recv_until<T>(
         &mut self,

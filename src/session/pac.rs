@@ -63,6 +63,8 @@ pub const BASE_TIMEOUT: Duration = Duration::from_millis(30);
 /// Longest acknowledge we budget wire time for: SOH STX, six fields with a
 /// float of 10 integer digits and 4 decimals, ETX, 3 CHECK digits, EOT.
 const MAX_ACK_CHARS: u32 = 48;
+/// The shortest acknowledge: SOH STX `0;1;1;0;0;0` ETX, one CHECK digit, EOT.
+const MIN_ACK_CHARS: usize = 16;
 /// Overall limit for a command answering BE = 0 (moves, reference drives).
 pub const DEFAULT_BUSY_TIMEOUT: Duration = Duration::from_secs(600);
 
@@ -510,11 +512,13 @@ impl Pac {
         // would have to be stopped for want of it.
         let patient = (self.patient || t.polls() > 0) && !self.silent;
         let timeout = self.answer_timeout(24) + if patient { MAX_LATE } else { Duration::ZERO };
+        let char_time = Duration::from_micros(u64::from(self.bits_per_char) * 1_000_000 / u64::from(self.baud));
         let Self { link, core, decoder, line, owed, owed_until, silent, .. } = self;
         let deadline = core.now() + timeout;
-        let ack = core.read_until(&mut **link, deadline, |core, chunk, _| {
+        let ack = core.read_until(&mut **link, deadline, |core, chunk, until| {
             *silent &= chunk.is_empty();
             decoder.push(chunk);
+            let started = !chunk.is_empty();
             while let Some(item) = decoder.next() {
                 match item {
                     Ok(ack) if !t.could_answer(&ack) => {
@@ -536,6 +540,18 @@ impl Pac {
                         return ControlFlow::Break(Err(SessionError::Malformed { target: TARGET.into(), source }));
                     }
                 }
+            }
+            // An acknowledge has begun and is shorter than the shortest one:
+            // the rest cannot be on the line before its characters' wire
+            // time. Reading at once would wake this thread once per
+            // character (the dashboard's PA-CONTROL line is busy all the
+            // time); waiting out all but the last of them ends the exchange
+            // no later, and reads them in one piece.
+            let held = decoder.buffered();
+            if started && held > 0 && held + 1 < MIN_ACK_CHARS {
+                let rest = char_time * (MIN_ACK_CHARS - held - 1) as u32;
+                let left = until.saturating_duration_since(core.now());
+                core.sleep(rest.min(left));
             }
             ControlFlow::Continue(())
         });

@@ -30,6 +30,7 @@ mod output_failures;
 mod pac_cli;
 mod pac_sim;
 mod plot_cli;
+mod polish;
 mod powercube_cli;
 mod powercube_settings;
 mod python_interop;

@@ -109,8 +109,11 @@ fn wire_pac_online_sends_the_manual_frame() {
     let out = run(&["--link", &r.link(), "--json", "pac-online"]);
     assert_eq!(out.code, 0, "{}", out.stderr);
     let seen = r.seen();
-    assert_eq!(seen.len(), 1, "one frame: {seen:?}");
-    assert_eq!(seen[0].0, hex("01 02 30 36 30 33 3B 30 3B 30 3B 30 03 31 34 04"));
+    // Before it only the status read (190B): online already (31), so the
+    // speed limits, readable in home position only, are not read.
+    assert_eq!(seen.len(), 2, "the status read and 0603: {seen:?}");
+    assert_eq!(seen[0].0, hex("01 02 31 39 30 42 3B 30 3B 30 3B 30 03 31 31 33 04"));
+    assert_eq!(seen[1].0, hex("01 02 30 36 30 33 3B 30 3B 30 3B 30 03 31 34 04"));
     assert_eq!(out.json()["operating_status"], 31);
 }
 

@@ -177,14 +177,15 @@ fn a_log_that_fills_the_disk_mid_wait_never_blocks_the_halt() {
     assert!(cube_stands(link), "module 3 still moving");
 }
 
-/// pac-online (1 answer) and pac-no-ref (2) pass, then the state read of
-/// pac-move; the 0A94 acknowledge is lost. The axis took the move, so it
-/// must be stopped and the message must say so.
+/// 0603 sent raw (1 answer; pac-online reads the speed limits first) and
+/// pac-no-ref (2) pass, then the state read of pac-move; the 0A94
+/// acknowledge is lost. The axis took the move, so it must be stopped and
+/// the message must say so.
 #[test]
 fn pac_lost_move_acknowledge_under_wait_stops_the_axis_and_says_so() {
     let s = Sim::start(&["--pac", "pty-serial", "--fault", "drop=1,skip=4,count=1"], 1);
     let link = s.link("pac");
-    for args in [&["pac-online"][..], &["pac-no-ref", "2"][..]] {
+    for args in [&["pac-raw", "0603", "0"][..], &["pac-no-ref", "2"][..]] {
         let mut all = vec!["--link", link, "--timeout", "1000"];
         all.extend_from_slice(args);
         let r = run_bounded(&all);

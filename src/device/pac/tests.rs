@@ -553,3 +553,29 @@ fn a_stop_by_hand_in_home_position_sends_only_the_status_read() {
         assert_eq!(seen.lock().unwrap().last(), Some(&code), "online: the stop goes out");
     }
 }
+
+#[test]
+fn online_reads_the_speed_limits_and_refuses_values_outside_them_before_sending() {
+    let rig = Rig::new(3);
+    let mut ctl = rig.controller();
+    ctl.online().unwrap();
+    let limits = ctl.online_limits().clone();
+    assert_eq!(limits.axes(), [1, 2, 3], "every configured axis");
+    assert_eq!(limits.of(0x0A8D, 2), Some((0.1, 50_000.0)), "the simulated controller's 1802 / 1801 of parameter 1");
+    assert_eq!(limits.of(0x0A8E, 3), Some((1.0, 100_000.0)), "and of parameter 6");
+    for (code, v) in [(0x0A8D, 1e9), (0x0A8D, 0.05), (0x0A8E, 100_001.0)] {
+        let e = ctl.send(code, 1, Some(v)).unwrap_err();
+        assert_eq!(e.kind(), ErrorKind::Usage, "{e}");
+        assert!(e.nothing_sent() && e.to_string().contains("outside axis 1's limits"), "{e}");
+    }
+    ctl.send(0x0A8D, 1, Some(50_000.0)).unwrap();
+
+    // Handed to a controller of another process: checked before any frame.
+    let (mut other, seen) = fake(31, &[]);
+    other.know_online_limits(limits);
+    assert!(other.send(0x0A8D, 2, Some(1e9)).is_err());
+    assert!(codes(&seen).is_empty(), "nothing sent, not even the mode read");
+
+    ctl.offline().unwrap();
+    assert!(ctl.online_limits().is_empty(), "leaving online mode ends the online values and their limits");
+}
