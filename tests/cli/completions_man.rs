@@ -22,26 +22,7 @@ fn tool(name: &str, args: &[&str]) -> std::process::Output {
 
 /// Candidates that bash's completion function offers for `axisctl WORDS...`.
 fn complete_bash(words: &[&str]) -> Vec<String> {
-    let dir = tempfile::tempdir().unwrap();
-    let script = dir.path().join("axisctl.bash");
-    std::fs::write(&script, axisctl(&["completions", "bash"]).stdout).unwrap();
-    // An empty word (the cursor after a space) is kept as one.
-    let words = words.iter().map(|w| format!("'{w}'")).collect::<Vec<_>>().join(" ");
-    let program = format!(
-        r#"source '{}'
-complete -p axisctl | grep -q -- '-F _clap_complete_axisctl' || {{ echo 'not registered' >&2; exit 3; }}
-COMP_WORDS=(axisctl {words})
-COMP_CWORD=$(( ${{#COMP_WORDS[@]}} - 1 ))
-COMP_LINE="${{COMP_WORDS[*]}}"
-COMP_POINT=${{#COMP_LINE}}
-COMP_TYPE=9
-_clap_complete_axisctl axisctl "${{COMP_WORDS[COMP_CWORD]}}" "${{COMP_WORDS[COMP_CWORD-1]}}"
-printf '%s\n' "${{COMPREPLY[@]}}""#,
-        script.display()
-    );
-    let out = tool("bash", &["--norc", "--noprofile", "-c", &program]);
-    assert!(out.status.success(), "bash: {}", String::from_utf8_lossy(&out.stderr));
-    String::from_utf8_lossy(&out.stdout).lines().map(str::to_string).filter(|l| !l.is_empty()).collect()
+    common::bash_completion(words, &[])
 }
 
 #[test]

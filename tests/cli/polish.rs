@@ -291,36 +291,11 @@ fn moving_a_module_that_was_never_homed_warns_first_and_still_moves() {
 }
 
 /// Candidates bash's completion function offers for `axisctl WORDS...`, with
-/// `AXISCTL_BENCH` naming `bench` (as tests/completions_man.rs drives bash).
+/// `AXISCTL_BENCH` naming `bench`.
 fn complete_bash_on_bench(bench: &std::path::Path, words: &[&str]) -> Vec<String> {
-    let dir = tempfile::tempdir().unwrap();
-    let script = dir.path().join("axisctl.bash");
-    std::fs::write(&script, common::run(&["completions", "bash"]).stdout).unwrap();
-    let words = words.iter().map(|w| format!("'{w}'")).collect::<Vec<_>>().join(" ");
-    let program = format!(
-        r#"source '{}'
-COMP_WORDS=(axisctl {words})
-COMP_CWORD=$(( ${{#COMP_WORDS[@]}} - 1 ))
-COMP_LINE="${{COMP_WORDS[*]}}"
-COMP_POINT=${{#COMP_LINE}}
-COMP_TYPE=9
-_clap_complete_axisctl axisctl "${{COMP_WORDS[COMP_CWORD]}}" "${{COMP_WORDS[COMP_CWORD-1]}}"
-printf '%s\n' "${{COMPREPLY[@]}}""#,
-        script.display()
-    );
-    let bin_dir = std::path::Path::new(env!("CARGO_BIN_EXE_axisctl")).parent().unwrap().to_owned();
-    let path = format!("{}:{}", bin_dir.display(), std::env::var("PATH").unwrap_or_default());
-    let out = std::process::Command::new("bash")
-        .args(["--norc", "--noprofile", "-c", &program])
-        .env("PATH", path)
-        .env("AXISCTL_BENCH", bench)
-        .output()
-        .expect("bash");
-    assert!(out.status.success(), "bash: {}", String::from_utf8_lossy(&out.stderr));
-    String::from_utf8_lossy(&out.stdout)
-        .lines()
+    common::bash_completion(words, &[("AXISCTL_BENCH", bench.to_str().unwrap())])
+        .iter()
         .map(|l| l.split_whitespace().next().unwrap_or("").to_string())
-        .filter(|l| !l.is_empty())
         .collect()
 }
 

@@ -282,3 +282,38 @@ pub fn help_pages() -> Vec<(String, String)> {
     walk(&mut Vec::new(), &mut out);
     out
 }
+
+/// What bash offers for `axisctl WORDS...` (the last word is the one under
+/// the cursor; an empty one is the cursor after a space): the script
+/// `completions bash` generates, sourced in a plain bash with `env` set,
+/// its completion function called as bash calls it. One candidate per line.
+pub fn bash_completion(words: &[&str], env: &[(&str, &str)]) -> Vec<String> {
+    let dir = tempfile::tempdir().unwrap();
+    let script = dir.path().join("axisctl.bash");
+    let generated = run(&["completions", "bash"]);
+    assert_eq!(generated.code, 0, "completions bash: {}", generated.stderr);
+    std::fs::write(&script, generated.stdout).unwrap();
+    let words = words.iter().map(|w| format!("'{w}'")).collect::<Vec<_>>().join(" ");
+    let program = format!(
+        r#"source '{}'
+complete -p axisctl | grep -q -- '-F _clap_complete_axisctl' || {{ echo 'not registered' >&2; exit 3; }}
+COMP_WORDS=(axisctl {words})
+COMP_CWORD=$(( ${{#COMP_WORDS[@]}} - 1 ))
+COMP_LINE="${{COMP_WORDS[*]}}"
+COMP_POINT=${{#COMP_LINE}}
+COMP_TYPE=9
+_clap_complete_axisctl axisctl "${{COMP_WORDS[COMP_CWORD]}}" "${{COMP_WORDS[COMP_CWORD-1]}}"
+printf '%s\n' "${{COMPREPLY[@]}}""#,
+        script.display()
+    );
+    let bin_dir = std::path::Path::new(env!("CARGO_BIN_EXE_axisctl")).parent().unwrap().to_owned();
+    let path = format!("{}:{}", bin_dir.display(), std::env::var("PATH").unwrap_or_default());
+    let out = Command::new("bash")
+        .args(["--norc", "--noprofile", "-c", &program])
+        .env("PATH", path)
+        .envs(env.iter().copied())
+        .output()
+        .unwrap_or_else(|e| panic!("bash is needed by this test ({e}); scripts/test.sh installs it"));
+    assert!(out.status.success(), "bash: {}", String::from_utf8_lossy(&out.stderr));
+    String::from_utf8_lossy(&out.stdout).lines().map(str::to_string).filter(|l| !l.is_empty()).collect()
+}
