@@ -11,6 +11,7 @@ pub mod serial;
 pub mod slcan;
 #[cfg(target_os = "linux")]
 pub mod socketcan;
+pub mod socketcand;
 pub mod spec;
 
 pub use spec::{LinkSpec, PacStart, SerialFormat, SimStart, SpecError};
@@ -27,6 +28,10 @@ pub enum LinkError {
     Closed,
     #[error("adapter error: {0}")]
     Adapter(String),
+    /// The far end of a network link (a socketcand daemon) refused, went
+    /// away or spoke another protocol; the text names it.
+    #[error("{0}")]
+    Remote(String),
 }
 
 /// Moves CAN frames.
@@ -39,6 +44,12 @@ pub trait CanLink: Send {
     }
     /// The next frame, or `None` once `timeout` has passed without one.
     fn recv(&mut self, timeout: Duration) -> Result<Option<CanFrame>, LinkError>;
+    /// What the link itself adds to the time from a request to its answer
+    /// (a network's round trip); the sessions add it to their answer
+    /// timeouts. Zero for a local adapter.
+    fn round_trip(&self) -> Duration {
+        Duration::ZERO
+    }
 }
 
 /// Moves bytes (a serial port, a pty).
@@ -64,6 +75,7 @@ pub fn open_can(spec: &LinkSpec) -> Result<Box<dyn CanLink>, LinkError> {
         #[cfg(not(target_os = "linux"))]
         LinkSpec::SocketCan { iface } => Err(unsupported(iface, "SocketCAN exists only on Linux")),
         LinkSpec::Slcan { path, bitrate } => Ok(Box::new(slcan::open(path, *bitrate)?)),
+        LinkSpec::Socketcand { host, port, bus, rtt } => Ok(Box::new(socketcand::open(host, *port, bus, *rtt)?)),
         LinkSpec::Serial { path, .. } => {
             Err(unsupported(path, "a serial: link carries bytes, not CAN frames (use slcan: for a USB-CAN adapter)"))
         }
@@ -85,6 +97,9 @@ impl<T: CanLink + ?Sized> CanLink for Box<T> {
     }
     fn recv(&mut self, timeout: Duration) -> Result<Option<CanFrame>, LinkError> {
         (**self).recv(timeout)
+    }
+    fn round_trip(&self) -> Duration {
+        (**self).round_trip()
     }
 }
 
