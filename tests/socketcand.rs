@@ -215,6 +215,65 @@ impl Proxy {
     }
 }
 
+/// A network with `delay` each way: every chunk is forwarded that long
+/// after it was read, in order.
+fn slow_network(target: &str, delay: Duration) -> String {
+    let rest = target.strip_prefix("socketcand:").unwrap();
+    let (hostport, bus) = rest.split_once('/').unwrap();
+    let upstream = hostport.to_string();
+    let listener = TcpListener::bind("127.0.0.1:0").unwrap();
+    let link = format!("socketcand:{}/{bus}", listener.local_addr().unwrap());
+    std::thread::spawn(move || {
+        for client in listener.incoming() {
+            let Ok(client) = client else { return };
+            let server = TcpStream::connect(&upstream).unwrap();
+            for (mut from, mut to) in [(client.try_clone().unwrap(), server.try_clone().unwrap()), (server, client)] {
+                let (tx, rx) = std::sync::mpsc::channel::<(Instant, Vec<u8>)>();
+                std::thread::spawn(move || {
+                    let mut buf = [0u8; 4096];
+                    while let Ok(n @ 1..) = from.read(&mut buf) {
+                        let _ = tx.send((Instant::now() + delay, buf[..n].to_vec()));
+                    }
+                });
+                std::thread::spawn(move || {
+                    for (due, bytes) in rx {
+                        // The emulated wire's own time, not a wait for an event.
+                        std::thread::sleep(due.saturating_duration_since(Instant::now()));
+                        if to.write_all(&bytes).is_err() {
+                            break;
+                        }
+                    }
+                    let _ = to.shutdown(Shutdown::Both);
+                });
+            }
+        }
+    });
+    link
+}
+
+/// 150 ms each way, three times the 100 ms answer timeout: the round trip
+/// measured at the open is added to it, so the answers count; with the
+/// allowance set to nothing (`?rtt=0`) the same read times out (exit 4).
+#[test]
+fn a_slow_network_is_not_a_silent_device() {
+    let (_sim, link) = served();
+    let slow = slow_network(&link, Duration::from_millis(150));
+    let timeout_default = |args: &[&str]| {
+        let mut cmd = bin();
+        cmd.env_remove("AXISCTL_TIMEOUT").args(args).stdout(Stdio::piped()).stderr(Stdio::piped());
+        wait_bounded(cmd.spawn().unwrap(), 30, args).run()
+    };
+    let r = timeout_default(&["--link", &slow, "--json", "get-param", "-m", "3", "DefCubeVersion"]);
+    assert_eq!(r.code, 0, "{}", r.stderr);
+    assert_eq!(r.json()["params"]["DefCubeVersion"]["value"].as_u64(), Some(17921));
+    let fixed = format!("{slow}?rtt=0");
+    let r = timeout_default(&["--link", &fixed, "--retries", "0", "get-param", "-m", "3", "DefCubeVersion"]);
+    assert_eq!(r.code, 4, "{}", r.stderr);
+    let fixed = format!("{slow}?rtt=400");
+    let r = timeout_default(&["--link", &fixed, "get-param", "-m", "3", "DefCubeVersion"]);
+    assert_eq!(r.code, 0, "{}", r.stderr);
+}
+
 const COMM_ERROR: u64 = 0x20;
 const HALTED: u64 = 0x4;
 const MOTION: u64 = 0x800;
@@ -373,4 +432,27 @@ fn the_announcement_is_one_json_line_per_family() {
     let r = run(&["sim", "--socketcand", "not-an-address"]);
     assert_eq!(r.code, 2, "{}", r.stderr);
     assert!(r.stderr.contains("expected IP:PORT"), "{}", r.stderr);
+}
+
+/// The dashboard in a real terminal (tmux) on the served link: it finds the
+/// PowerCube modules and the Cdios node, homes module 3 over the network
+/// and sees it move, and quits back to the shell.
+#[test]
+fn the_dashboard_runs_over_a_socketcand_link() {
+    let (_sim, link) = served();
+    let t = common::tmux::Tmux::start("socketcand-dashboard", 100, 30, &[]);
+    t.wait_for("READY$");
+    t.keys(&[&format!("{} --link {link} dashboard", env!("CARGO_BIN_EXE_axisctl")), "Enter"]);
+    let screen = t.wait_for("module 17");
+    for want in ["PowerCube", "Cdios", "node 1 mod 1"] {
+        assert!(screen.contains(want), "{want:?} missing:\n{screen}");
+    }
+    t.keys(&["h"]);
+    t.wait_for("Home acknowledged");
+    t.wait_for("moving");
+    t.keys(&["q"]);
+    t.wait_until("the normal screen after quitting", |_| t.display("#{alternate_on}") == "0");
+    t.keys(&["echo exit=$?", "Enter"]);
+    let screen = t.wait_for("exit=");
+    assert!(screen.contains("exit=0"), "the dashboard exits 0:\n{screen}");
 }

@@ -136,21 +136,32 @@ impl Decoder {
             self.at = self.buf.len();
             return None;
         };
-        if rest[start] != b'<' {
-            // Garbage up to the next message start (or all of it).
-            let end = rest[start..].iter().position(|&b| b == b'<').map_or(rest.len(), |i| start + i);
-            let shown = String::from_utf8_lossy(&rest[start..end.min(start + 40)]).into_owned();
-            self.at += end;
-            return Some(Err(DecodeError::Malformed(format!("bytes outside a message: {shown:?}"))));
+        let garbage = |bytes: &[u8]| {
+            let shown = String::from_utf8_lossy(&bytes[..bytes.len().min(40)]).into_owned();
+            Some(Err(DecodeError::Malformed(format!("bytes outside a message: {shown:?}"))))
+        };
+        let message = &rest[start..];
+        if message[0] != b'<' {
+            let next = message.iter().position(|&b| b == b'<').unwrap_or(message.len());
+            self.at += start + next;
+            return garbage(&message[..next]);
         }
-        let Some(len) = rest[start..].iter().position(|&b| b == b'>') else {
-            if rest.len() - start > MAX_MESSAGE {
+        let end = message.iter().position(|&b| b == b'>');
+        // A `<` later than the first one (before any `>`) starts the real
+        // message: what lies before it is garbage, however it arrived.
+        let head = &message[..end.unwrap_or(message.len())];
+        if let Some(restart) = head.iter().rposition(|&b| b == b'<').filter(|&i| i > 0) {
+            self.at += start + restart;
+            return garbage(&message[..restart]);
+        }
+        let Some(len) = end else {
+            if message.len() > MAX_MESSAGE {
                 self.at = self.buf.len();
-                return Some(Err(DecodeError::TooLong { len: rest.len() - start }));
+                return Some(Err(DecodeError::TooLong { len: message.len() }));
             }
             return None;
         };
-        let body = &rest[start + 1..start + len];
+        let body = &message[1..len];
         self.at += start + len + 1;
         if len > MAX_MESSAGE {
             return Some(Err(DecodeError::TooLong { len }));
@@ -162,9 +173,6 @@ impl Decoder {
 /// The words between `<` and `>`.
 fn parse(body: &[u8]) -> Result<Message, DecodeError> {
     let text = std::str::from_utf8(body).map_err(|_| bad("not ASCII", body))?;
-    if text.contains('<') {
-        return Err(bad("a message inside a message", body));
-    }
     let mut words = text.split_ascii_whitespace();
     let verb = words.next().ok_or_else(|| bad("empty message", body))?;
     let rest: Vec<&str> = words.collect();
@@ -362,6 +370,10 @@ mod tests {
             let got = all(bad);
             assert!(matches!(got.as_slice(), [Err(_)]), "{:?}: {got:?}", String::from_utf8_lossy(bad));
         }
+        // A message cut short by another: the first part is garbage.
+        let got = all(b"< frame 0A3 < ok >");
+        assert!(matches!(&got[0], Err(DecodeError::Malformed(m)) if m.contains("frame 0A3")), "{got:?}");
+        assert_eq!(got[1], Ok(Message::Ok));
         // Words no raw client uses are messages, not garbage.
         assert_eq!(all(b"< stat 1 2 3 4 >"), vec![Ok(Message::Other("stat 1 2 3 4".into()))]);
         assert_eq!(all(b"< error 004 3.000001 >"), vec![Ok(Message::Error("004 3.000001".into()))]);
@@ -375,6 +387,26 @@ mod tests {
     }
 
     proptest! {
+        #[test]
+        fn chunking_changes_no_message(seed in any::<u64>(), bytes in proptest::collection::vec(
+            prop_oneof![Just(b'<'), Just(b'>'), Just(b' '), Just(b'o'), Just(b'k'), any::<u8>()], 0..700)) {
+            let whole: Vec<Message> = all(&bytes).into_iter().flatten().collect();
+            let mut d = Decoder::new();
+            let mut chunked = Vec::new();
+            let mut state = seed | 1;
+            let mut rest = &bytes[..];
+            while !rest.is_empty() {
+                state ^= state << 13;
+                state ^= state >> 7;
+                state ^= state << 17;
+                let (head, tail) = rest.split_at(((state % 40) as usize + 1).min(rest.len()));
+                d.push(head);
+                chunked.extend(std::iter::from_fn(|| d.next_message()).flatten());
+                rest = tail;
+            }
+            prop_assert_eq!(whole, chunked);
+        }
+
         #[test]
         fn never_panics_and_always_progresses(chunks in proptest::collection::vec(proptest::collection::vec(any::<u8>(), 0..64), 0..16)) {
             let mut d = Decoder::new();
