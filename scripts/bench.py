@@ -557,7 +557,7 @@ def run_all(args):
                     "half duplex: ~17-char command + ~19-char acknowledge at 9 bits ≈ 34 ms per read",
                 ),
                 (
-                    None,
+                    "socketcand_poll",
                     "full CAN link (PowerCube + Cdios) at 1 Mbit/s through socketcand on localhost (TCP)",
                     remote.links["powercube"],
                     [],
