@@ -9,14 +9,16 @@
 //! command is answered `< error unknown command >`; frames are stamped
 //! with the wall clock; a client's own frames are not sent back to it.
 
-use std::io::{self, Read, Write};
+use std::io::{self, Write};
 use std::net::{TcpListener, TcpStream};
+use std::os::fd::AsRawFd;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, SystemTime, UNIX_EPOCH};
 
 use super::{Tap, Traffic, Way, TICK};
 use crate::link::mem::{MemBus, MemCanLink};
+use crate::link::serial::read_fd;
 use crate::link::{CanLink, LinkError};
 use crate::proto::socketcand::{Decoder, Message, Stamp};
 
@@ -102,13 +104,11 @@ impl Client {
         let mut buf = [0u8; 4096];
         let mut out = Vec::new();
         while !stop.load(Ordering::Relaxed) {
-            self.stream.set_read_timeout(Some(self.link.until_next_due(TICK).max(Duration::from_micros(50))))?;
-            match self.stream.read(&mut buf) {
-                Ok(0) => return Ok(()),
+            // Woken when the frame on the bus ends (ppoll, to the microsecond), not a tick later.
+            match read_fd(self.stream.as_raw_fd(), &mut buf, self.link.until_next_due(TICK)) {
                 Ok(n) => decoder.push(&buf[..n]),
-                Err(e) if matches!(e.kind(), io::ErrorKind::WouldBlock | io::ErrorKind::TimedOut) => {}
-                Err(e) if e.kind() == io::ErrorKind::Interrupted => {}
-                Err(e) => return Err(LinkError::Io(e)),
+                Err(LinkError::Closed) => return Ok(()),
+                Err(e) => return Err(e),
             }
             out.clear();
             while let Some(m) = decoder.next_message() {
