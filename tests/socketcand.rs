@@ -456,3 +456,28 @@ fn the_dashboard_runs_over_a_socketcand_link() {
     let screen = t.wait_for("exit=");
     assert!(screen.contains("exit=0"), "the dashboard exits 0:\n{screen}");
 }
+
+/// A batch and a bench file take the link as any other: the batch's lines
+/// share one connection, and a bench file naming the remote bus and its
+/// devices scans them by name.
+#[test]
+fn a_batch_and_a_bench_file_use_the_remote_bus() {
+    let (_sim, link) = served();
+    let r = common::run_with_stdin(
+        &["--link", &link, "batch", "-"],
+        "get-param -m 3 DefCubeVersion\ncdios-status -m 0\nstate -m 17\n",
+    );
+    assert_eq!(r.code, 0, "{}", r.stderr);
+    assert!(r.stdout.contains("17921") && r.stdout.contains("READY_INPUT_ACTIVE"), "{}", r.stdout);
+    let dir = tempfile::tempdir().unwrap();
+    let bench = dir.path().join("remote.toml");
+    std::fs::write(
+        &bench,
+        format!("[[link]]\nspec = \"{link}\"\ndevices = {{ shoulder = \"powercube:3\", gripper = \"cdios:1/0\" }}\n"),
+    )
+    .unwrap();
+    let r = run(&["--bench", bench.to_str().unwrap(), "--json", "scan"]);
+    assert_eq!(r.code, 0, "{}", r.stderr);
+    let text = r.stdout;
+    assert!(text.contains("\"shoulder\"") && text.contains("\"gripper\""), "{text}");
+}
