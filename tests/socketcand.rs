@@ -423,6 +423,12 @@ fn the_announcement_is_one_json_line_per_family() {
     let mut lines = BufReader::new(child.stdout.take().unwrap()).lines();
     let first: serde_json::Value = serde_json::from_str(&lines.next().unwrap().unwrap()).unwrap();
     let second: serde_json::Value = serde_json::from_str(&lines.next().unwrap().unwrap()).unwrap();
+    // The address taken: exit 3 naming it, nothing announced.
+    let taken =
+        first["link"].as_str().unwrap().strip_prefix("socketcand:").unwrap().trim_end_matches("/can0").to_string();
+    let r = run(&["sim", "--socketcand", &taken]);
+    assert_eq!((r.code, r.stdout.as_str()), (3, ""), "{}", r.stderr);
+    assert!(r.stderr.contains(&taken), "{}", r.stderr);
     unsafe { libc::kill(child.id() as i32, libc::SIGTERM) };
     let ended = wait_bounded(child, 10, &["sim"]);
     assert_eq!(ended.code, 0);
