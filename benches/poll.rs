@@ -3,8 +3,8 @@
 //!
 //! Builds the dashboard's worker for LINK with the device sources the
 //! dashboard would give it (FAMILY: powercube, cdios, pac; by default
-//! powercube and cdios on `slcan:`, powercube on an 8N1 `serial:`, pac on a
-//! 7N1 `serial:`), discovers the devices, then runs polling rounds back to
+//! powercube and cdios on `slcan:` and `socketcand:` (a bus at 1 Mbit/s),
+//! powercube on an 8N1 `serial:`, pac on a 7N1 `serial:`), discovers the devices, then runs polling rounds back to
 //! back for SECONDS, as the worker does when the wanted rate is more than
 //! the link carries. Every frame or byte on the link is metered: the wire is
 //! busy for its length at the link's speed, so `busy / elapsed` is the
@@ -126,6 +126,13 @@ fn main() {
             let shared = CanBus::new(Box::new(MeteredCan(l, Arc::clone(&meter))), Arc::clone(&clock));
             (*bitrate, can_sources(&shared, families))
         }
+        LinkSpec::Socketcand { .. } => {
+            // The wire is the daemon's bus, which `axisctl sim --wire-speed --socketcand` runs
+            // at 1 Mbit/s; the network in between is the overhead measured.
+            let l = link::open_can(&spec).expect("open the socketcand link");
+            let shared = CanBus::new(Box::new(MeteredCan(l, Arc::clone(&meter))), Arc::clone(&clock));
+            (1_000_000, can_sources(&shared, families))
+        }
         LinkSpec::Serial { path, baud, format } => {
             let baud = baud.unwrap_or(9600);
             let format = format.unwrap_or(SerialFormat::F8N1);
@@ -161,7 +168,7 @@ fn main() {
                 (wire.bitrate, can_sources(&shared, families))
             }
         }
-        other => panic!("{other}: slcan:, serial: or sim only"),
+        other => panic!("{other}: slcan:, socketcand:, serial: or sim only"),
     };
     let mut worker = LinkWorker::new(0, sources, Arc::clone(&clock), MAX_RATE);
     let LinkEvent::Discovered { devices, errors, .. } = worker.discover() else { unreachable!("discover reports") };

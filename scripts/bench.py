@@ -536,6 +536,7 @@ def run_all(args):
     sample_load()
     full = Sim("--wire-speed")
     serial = Sim("--wire-speed", "--powercube", "pty-serial")
+    remote = Sim("--wire-speed", "--socketcand", "127.0.0.1:0")
     try:
         slcan = full.links["powercube"]
         scan_figures(serial.links["powercube"], slcan, max(5, args.runs // 4))
@@ -587,6 +588,15 @@ def run_all(args):
                     [],
                     "half duplex: ~17-char command + ~19-char acknowledge at 9 bits ≈ 34 ms per read",
                 ),
+                (
+                    "socketcand_poll",
+                    "full CAN link (PowerCube + Cdios) at 1 Mbit/s through socketcand on localhost (TCP)",
+                    remote.links["powercube"],
+                    [],
+                    "as the slcan row, with each burst and its answers crossing a TCP connection and the "
+                    "daemon's loop (axisctl sim --socketcand, one read per burst, one write for the frames due) "
+                    "instead of the pty",
+                ),
                 (None, f"PowerCube, {in_proc}, 1 Mbit/s", "sim", ["powercube"], "timer wake-up per answer frame"),
                 (None, f"Cdios, {in_proc}, 1 Mbit/s", "sim", ["cdios"], "timer wake-up per answer frame"),
                 (None, f"full CAN bench, {in_proc}, 1 Mbit/s", "sim", [], "timer wake-up per answer frame"),
@@ -599,6 +609,7 @@ def run_all(args):
     finally:
         full.stop()
         serial.stop()
+        remote.stop()
 
 
 if __name__ == "__main__":

@@ -20,7 +20,12 @@ class Sim:
     def __init__(self, *args):
         self.proc = subprocess.Popen([str(AXISCTL), "sim", *args], stdout=subprocess.PIPE, text=True)
         self.links = {}
-        expect = 3 if not any(a.startswith("--powercube") or a.startswith("--pac") for a in args) else 1
+        if "--socketcand" in args:
+            expect = 2  # the one bus, announced for PowerCube and Cdios
+        elif any(a.startswith("--powercube") or a.startswith("--pac") for a in args):
+            expect = 1
+        else:
+            expect = 3
         while len(self.links) < expect:
             line = self.proc.stdout.readline()
             if not line:

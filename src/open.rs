@@ -32,7 +32,7 @@ pub enum OpenError {
     /// The family is not reached over this kind of link: bad input, nothing opened.
     #[error("{spec} is a CAN link; the {family} talks RS232 (serial:TTY or sim)")]
     NeedsRs232 { spec: LinkSpec, family: Family },
-    #[error("{spec} is a serial link; {} (socketcan:, slcan: or sim)", needs_can(*.family))]
+    #[error("{spec} is a serial link; {} (socketcan:, slcan:, socketcand: or sim)", needs_can(*.family))]
     NeedsCan { spec: LinkSpec, family: Option<Family> },
     /// `AXISCTL_SIM_WIRE_SPEED` does not parse: bad input.
     #[error("{0}")]
@@ -367,11 +367,17 @@ impl Opener {
     }
 
     pub fn powercube_on(&self, link: OpenedLink, opts: &SessionOptions) -> PowerCube {
-        let pc = match link {
-            OpenedLink::Can(l) => PowerCube::over_can(l),
-            OpenedLink::Serial(s) => PowerCube::over_rs232(s.link, s.baud),
+        let (pc, rtt) = match link {
+            OpenedLink::Can(l) => {
+                let rtt = l.round_trip();
+                (PowerCube::over_can(l), rtt)
+            }
+            OpenedLink::Serial(s) => (PowerCube::over_rs232(s.link, s.baud), Duration::ZERO),
         };
-        configure!(pc.with_clock(Arc::clone(&self.clock)), opts)
+        let mut pc = configure!(pc.with_clock(Arc::clone(&self.clock)), opts);
+        // The timeout (default or --timeout) is the device's; the network's round trip comes on top.
+        pc.set_timeout(pc.timeout() + rtt);
+        pc
     }
 
     /// A PA-CONTROL session on a `serial:` line or the bench's (`sim`).
@@ -393,7 +399,10 @@ impl Opener {
     }
 
     pub fn cdios_on(&self, link: Box<dyn CanLink>, opts: &SessionOptions) -> Cdios {
-        configure!(Cdios::new(link).with_clock(Arc::clone(&self.clock)), opts)
+        let rtt = link.round_trip();
+        let mut cd = configure!(Cdios::new(link).with_clock(Arc::clone(&self.clock)), opts);
+        cd.set_timeout(cd.timeout() + rtt);
+        cd
     }
 }
 
@@ -512,6 +521,9 @@ impl CanLink for SharedCan {
     fn recv(&mut self, timeout: Duration) -> Result<Option<crate::proto::CanFrame>, LinkError> {
         locked(&self.0).recv(timeout)
     }
+    fn round_trip(&self) -> Duration {
+        locked(&self.0).round_trip()
+    }
 }
 
 /// One session's handle on a kept serial line.
@@ -555,10 +567,10 @@ mod tests {
         let e = o.open(&serial, Family::Cdios).err().unwrap();
         assert_eq!(
             e.to_string(),
-            "serial:/dev/axisctl-none is a serial link; the Cdios is on CAN (socketcan:, slcan: or sim)"
+            "serial:/dev/axisctl-none is a serial link; the Cdios is on CAN (socketcan:, slcan:, socketcand: or sim)"
         );
         let e = o.can(&serial, None).err().unwrap();
-        assert!(e.to_string().ends_with("this command needs CAN (socketcan:, slcan: or sim)"), "{e}");
+        assert!(e.to_string().ends_with("this command needs CAN (socketcan:, slcan:, socketcand: or sim)"), "{e}");
         assert!(!o.open(&serial, Family::PowerCube).err().unwrap().is_mismatch(), "a missing tty is a link error");
     }
 

@@ -84,9 +84,18 @@ SLCAN = [
     # Regression: an overlong line cut by BEL (proto::slcan unit test).
     b"x" * 100 + b"\x07t0F1101\r",
 ]
+# What socketcand and python-can's client put on the wire (proto::socketcand unit tests).
+SOCKETCAND = [
+    b"< hi >< ok >< ok >< echo >", b"< frame 0B1 23.424242 0A1D1835 >", b"< frame 123 1.000005  >",
+    b"< frame 1AAAAAAA 0.5 01F1 >", b"< frame 123 23.424242 11 22 33 44 >", b"< open can0 >< rawmode >",
+    b"< send 0E3 2 a 3c >", b"< send 1AAAAAAA 2 1 F1 >", b"< error could not open bus >",
+    b"< error 004 3.000001 >< stat 1 2 3 4 >", b"HTTP/1.1 400 Bad Request\r\n< hi >", b"< frame 0A3 < ok >",
+    b"< frame " + b"1" * 600 + b" >< ok >",
+]
 URIS = [
     "sim", "socketcan:can0", "socketcan:vcan0", "slcan:/dev/ttyACM0", "slcan:/dev/ttyACM0?bitrate=500000",
     "serial:/dev/ttyUSB0", "serial:/dev/pts/8?baud=9600&format=7N1", "serial:COM3?format=8N1&baud=38400",
+    "socketcand:10.0.0.7:29536/can0", "socketcand:[::1]/vcan0?rtt=40",
 ]
 CANDUMP = [
     "(1700000000.123456) can0 0F1#01", "(5.000007) slcan0 0F1#01", "(0.000001) vcan0 12345678#DEADBEEF R\n",
@@ -112,6 +121,7 @@ write("cdios_messages", [can_seed("201#" + v.replace(" ", "")) for v in CDIOS]
       + [can_seed(f) for f in ["201#2301008813000000", "181#2301000000000000", "181#A301000200000000",
                                "181#6601000000000000", "000#0101", "185#2601000000000000"]])
 write("slcan_stream", [bytes([i]) + s for i, s in enumerate(SLCAN)])
+write("socketcand_stream", [bytes([i]) + s for i, s in enumerate(SOCKETCAND)])
 write("link_uri", URIS)
 write("candump_line", CANDUMP)
 write("user_values", [b"\x00" + t.encode() for t in USER_TEXT]

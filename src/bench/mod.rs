@@ -70,6 +70,8 @@ pub fn default_families(spec: &LinkSpec) -> Vec<Family> {
 pub fn port(spec: &LinkSpec) -> String {
     match spec {
         LinkSpec::SocketCan { iface } => format!("socketcan:{iface}"),
+        // One bus of one daemon, whatever round trip each link allows for.
+        LinkSpec::Socketcand { host, port, bus, .. } => format!("socketcand:{host}:{port}/{bus}"),
         LinkSpec::Slcan { path, .. } | LinkSpec::Serial { path, .. } => crate::link::lock::canonical(path),
         LinkSpec::Sim(_) => "sim".into(),
     }

@@ -50,7 +50,7 @@ pub const MAX_RETRIES: u32 = 10;
 #[derive(Debug, Args)]
 #[command(next_help_heading = "Global options")]
 pub struct Global {
-    /// The link: socketcan:IFACE, slcan:TTY[?bitrate=N], serial:TTY[?baud=N&format=F] or sim; once per link of a bench (AXISCTL_LINK: separated by commas or spaces)
+    /// The link: socketcan:IFACE, slcan:TTY[?bitrate=N], socketcand:HOST[:PORT]/BUS[?rtt=MS], serial:TTY[?baud=N&format=F] or sim; once per link of a bench (AXISCTL_LINK: separated by commas or spaces)
     #[arg(long, global = true, env = "AXISCTL_LINK", value_name = "URI", action = clap::ArgAction::Append,
           add = complete::links())]
     pub link: Vec<String>,
@@ -66,7 +66,7 @@ pub struct Global {
     /// Machine output: one JSON document on stdout (JSON Lines for streams)
     #[arg(long, global = true)]
     pub json: bool,
-    /// How long to wait for each answer, in ms, 1 to 60000 (default 100 on CAN, 30 plus wire time on RS232)
+    /// How long to wait for each answer, in ms, 1 to 60000 (default 100 on CAN, 30 plus wire time on RS232; a socketcand: link adds its round trip)
     #[arg(long, global = true, env = "AXISCTL_TIMEOUT", value_name = "MS",
           value_parser = ids::number(1, MAX_TIMEOUT_MS, "ms"))]
     pub timeout: Option<u64>,
@@ -176,7 +176,7 @@ const TOP_EXAMPLES: &str = "Examples:
   axisctl params powercube                       # the names the commands take
   axisctl pac-move --help                        # every command's help ends with examples";
 
-const LINKS: &str = "Links: socketcan:IFACE, slcan:TTY[?bitrate=N], serial:TTY[?baud=N&format=8N1|7N1|7E1|7O1], sim";
+const LINKS: &str = "Links: socketcan:IFACE, slcan:TTY[?bitrate=N], socketcand:HOST[:PORT]/BUS[?rtt=MS], serial:TTY[?baud=N&format=8N1|7N1|7E1|7O1], sim";
 
 /// The parser, with what the registries know: `decode`'s kinds and the exit
 /// codes; every subcommand's examples; negative numbers as values everywhere.

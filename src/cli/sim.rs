@@ -16,6 +16,9 @@ pub struct SimArgs {
     /// Serve the Cdios node: pty-slcan or socketcan:IFACE
     #[arg(long, value_name = "WHERE")]
     pub cdios: Option<String>,
+    /// Serve the CAN bus (PowerCube modules and the Cdios node) as a socketcand daemon does, bus can0, at HOST:PORT (port 0: any free port); the link printed is socketcand:HOST:PORT/can0
+    #[arg(long, value_name = "ADDR")]
+    pub socketcand: Option<String>,
     /// PowerCube module addresses, e.g. 3,5,17 or 1-8 (empty: none)
     #[arg(short = 'm', long = "module", alias = "modules", value_name = "LIST", default_value = "3,5,17",
           value_parser = ids::list_or_none(POWERCUBE_MODULE))]

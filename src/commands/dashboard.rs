@@ -74,8 +74,10 @@ fn fits(spec: &LinkSpec, f: Family) -> Result<(), String> {
     let kind = f.link_kind();
     match spec {
         LinkSpec::Sim(_) => Ok(()),
-        LinkSpec::Serial { .. } if !kind.rs232() => Err(format!("the {f} is on CAN (socketcan:, slcan: or sim)")),
-        LinkSpec::SocketCan { .. } | LinkSpec::Slcan { .. } if !kind.can() => {
+        LinkSpec::Serial { .. } if !kind.rs232() => {
+            Err(format!("the {f} is on CAN (socketcan:, slcan:, socketcand: or sim)"))
+        }
+        LinkSpec::SocketCan { .. } | LinkSpec::Slcan { .. } | LinkSpec::Socketcand { .. } if !kind.can() => {
             Err(format!("the {f} talks RS232 (serial:TTY or sim)"))
         }
         _ => Ok(()),

@@ -79,6 +79,28 @@ fn serial_uri(path: &str, baud: u32, f: Family) -> String {
     LinkSpec::Serial { path: path.into(), baud, format: default.is_none().then(|| serial_format(f)) }.to_string()
 }
 
+/// The bus name the simulated daemon serves, as `socketcand -i can0` would.
+const SOCKETCAND_BUS: &str = "can0";
+
+/// Listens on `addr` (`HOST:PORT`, port 0 for any); the link a client
+/// passes. A wildcard address is announced as the loopback one.
+fn bind_socketcand(addr: &str) -> anyhow::Result<(std::net::TcpListener, String)> {
+    let parsed: std::net::SocketAddr = addr.parse().map_err(|_| {
+        usage(format!("--socketcand {addr:?}: expected IP:PORT, e.g. 127.0.0.1:29536 (port 0: any free port)"))
+    })?;
+    let listener = std::net::TcpListener::bind(parsed)
+        .map_err(|source| link::LinkError::Open { path: addr.to_string(), source })
+        .context("--socketcand")?;
+    let local = listener.local_addr()?;
+    let ip = match local.ip() {
+        std::net::IpAddr::V4(v4) if v4.is_unspecified() => std::net::Ipv4Addr::LOCALHOST.into(),
+        std::net::IpAddr::V6(v6) if v6.is_unspecified() => std::net::Ipv6Addr::LOCALHOST.into(),
+        ip => ip,
+    };
+    let spec = LinkSpec::Socketcand { host: ip.to_string(), port: local.port(), bus: SOCKETCAND_BUS.into(), rtt: None };
+    Ok((listener, spec.to_string()))
+}
+
 pub fn run(ctx: &Ctx, args: &SimArgs) -> anyhow::Result<()> {
     // Ids and their ranges were checked by clap.
     let cfg = BenchConfig {
@@ -88,7 +110,9 @@ pub fn run(ctx: &Ctx, args: &SimArgs) -> anyhow::Result<()> {
         cdios_modules: args.cdios_modules.0.clone(),
         axes: args.axes,
     };
-    let only_some = args.powercube.is_some() || args.pac.is_some() || args.cdios.is_some();
+    let only_some = args.powercube.is_some() || args.pac.is_some() || args.cdios.is_some() || args.socketcand.is_some();
+    // Bound before anything is served: a bad or taken address fails the start.
+    let socketcand = args.socketcand.as_deref().map(bind_socketcand).transpose()?;
     // What is served where: with no family option, PowerCube and Cdios share one slcan bus.
     let mut served: Vec<(Where, Vec<Family>)> = Vec::new();
     match (&args.powercube, &args.cdios) {
@@ -186,6 +210,13 @@ pub fn run(ctx: &Ctx, args: &SimArgs) -> anyhow::Result<()> {
                 threads.push(std::thread::spawn(move || serve::bridge(ext, client, &stop, tap)));
             }
         }
+    }
+    if let Some((listener, uri)) = socketcand {
+        announce(Family::PowerCube, &uri);
+        announce(Family::Cdios, &uri);
+        let tap = tap(&uri, Protocol::Can, log("socketcand")?);
+        let (bus, stop) = (bench.bus.clone(), Arc::clone(&stop));
+        threads.push(std::thread::spawn(move || serve::socketcand::serve(listener, bus, SOCKETCAND_BUS, &stop, tap)));
     }
     if let Some(Where::PtySerial) = pac_where {
         let (master, path) = link::pty::open_pair()?;

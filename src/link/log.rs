@@ -45,6 +45,8 @@ pub fn log_iface(spec: &LinkSpec) -> String {
     match spec {
         LinkSpec::SocketCan { iface } => iface.clone(),
         LinkSpec::Slcan { .. } => "slcan0".into(),
+        // The daemon's own name for the bus, as candump on that host shows it.
+        LinkSpec::Socketcand { bus, .. } => bus.clone(),
         LinkSpec::Sim(_) => "sim0".into(),
         LinkSpec::Serial { .. } => "serial0".into(),
     }
@@ -209,6 +211,10 @@ impl<L: CanLink> CanLink for LoggedCanLink<L> {
             None => {}
         }
         Ok(got)
+    }
+
+    fn round_trip(&self) -> Duration {
+        self.inner.round_trip()
     }
 }
 

@@ -11,6 +11,7 @@ pub mod serial;
 pub mod slcan;
 #[cfg(target_os = "linux")]
 pub mod socketcan;
+pub mod socketcand;
 pub mod spec;
 
 pub use spec::{LinkSpec, PacStart, SerialFormat, SimStart, SpecError};
@@ -28,6 +29,10 @@ pub enum LinkError {
     Closed,
     #[error("adapter error: {0}")]
     Adapter(String),
+    /// The far end of a network link (a socketcand daemon) refused, went
+    /// away or spoke another protocol; the text names it.
+    #[error("{0}")]
+    Remote(String),
 }
 
 /// Moves CAN frames.
@@ -49,6 +54,12 @@ pub trait CanLink: Send {
     /// The next data frame or error frame (once [`report_errors`](Self::report_errors)).
     fn recv_event(&mut self, timeout: Duration) -> Result<Option<CanEvent>, LinkError> {
         Ok(self.recv(timeout)?.map(CanEvent::Frame))
+    }
+    /// What the link itself adds to the time from a request to its answer
+    /// (a network's round trip); the sessions add it to their answer
+    /// timeouts. Zero for a local adapter.
+    fn round_trip(&self) -> Duration {
+        Duration::ZERO
     }
 }
 
@@ -75,6 +86,7 @@ pub fn open_can(spec: &LinkSpec) -> Result<Box<dyn CanLink>, LinkError> {
         #[cfg(not(target_os = "linux"))]
         LinkSpec::SocketCan { iface } => Err(unsupported(iface, "SocketCAN exists only on Linux")),
         LinkSpec::Slcan { path, bitrate } => Ok(Box::new(slcan::open(path, *bitrate)?)),
+        LinkSpec::Socketcand { host, port, bus, rtt } => Ok(Box::new(socketcand::open(host, *port, bus, *rtt)?)),
         LinkSpec::Serial { path, .. } => {
             Err(unsupported(path, "a serial: link carries bytes, not CAN frames (use slcan: for a USB-CAN adapter)"))
         }
@@ -102,6 +114,9 @@ impl<T: CanLink + ?Sized> CanLink for Box<T> {
     }
     fn recv_event(&mut self, timeout: Duration) -> Result<Option<CanEvent>, LinkError> {
         (**self).recv_event(timeout)
+    }
+    fn round_trip(&self) -> Duration {
+        (**self).round_trip()
     }
 }
 

@@ -1,7 +1,8 @@
 //! `--link` URIs: `socketcan:IFACE`, `slcan:TTY[?bitrate=N]`,
-//! `serial:TTY[?baud=N&format=F]`, `sim`.
+//! `socketcand:HOST[:PORT]/BUS[?rtt=MS]`, `serial:TTY[?baud=N&format=F]`, `sim`.
 
 use std::fmt;
+use std::time::Duration;
 
 use crate::proto::slcan::SLCAN_BITRATES;
 
@@ -66,6 +67,15 @@ pub enum LinkSpec {
         path: String,
         bitrate: u32,
     },
+    /// A bus of a socketcand daemon on another host, in raw mode. `rtt`:
+    /// the round trip the answer timeouts allow for; `None` measures it at
+    /// the open.
+    Socketcand {
+        host: String,
+        port: u16,
+        bus: String,
+        rtt: Option<Duration>,
+    },
     /// `baud` / `format` `None` means the device family's default.
     Serial {
         path: String,
@@ -92,7 +102,7 @@ pub struct SpecError(pub String);
 
 impl LinkSpec {
     pub fn is_can(&self) -> bool {
-        matches!(self, Self::SocketCan { .. } | Self::Slcan { .. } | Self::Sim(_))
+        matches!(self, Self::SocketCan { .. } | Self::Slcan { .. } | Self::Socketcand { .. } | Self::Sim(_))
     }
 }
 
@@ -106,9 +116,9 @@ impl std::str::FromStr for LinkSpec {
         if let Some(query) = uri.strip_prefix("sim?") {
             return sim_start(uri, query).map(Self::Sim);
         }
-        let (scheme, rest) = uri
-            .split_once(':')
-            .ok_or_else(|| SpecError(format!("{uri:?}: expected socketcan:IFACE, slcan:TTY, serial:TTY or sim")))?;
+        let (scheme, rest) = uri.split_once(':').ok_or_else(|| {
+            SpecError(format!("{uri:?}: expected socketcan:IFACE, slcan:TTY, socketcand:HOST/BUS, serial:TTY or sim"))
+        })?;
         let (path, query) = rest.split_once('?').unwrap_or((rest, ""));
         if path.is_empty() {
             return Err(SpecError(format!("{uri:?}: missing device after {scheme}:")));
@@ -148,6 +158,23 @@ impl std::str::FromStr for LinkSpec {
                 }
                 Ok(Self::Slcan { path: path.into(), bitrate })
             }
+            "socketcand" => {
+                let mut rtt = None;
+                for (k, v) in params {
+                    match k {
+                        "rtt" => {
+                            let ms = number(k, v)?;
+                            if ms > MAX_RTT_MS {
+                                return Err(SpecError(format!("{uri:?}: rtt {ms} ms out of range 0 to {MAX_RTT_MS}")));
+                            }
+                            rtt = Some(Duration::from_millis(ms.into()))
+                        }
+                        _ => return Err(unknown(k)),
+                    }
+                }
+                let (host, port, bus) = socketcand_address(path).map_err(|why| SpecError(format!("{uri:?}: {why}")))?;
+                Ok(Self::Socketcand { host, port, bus, rtt })
+            }
             "serial" => {
                 let (mut baud, mut format) = (None, None);
                 for (k, v) in params {
@@ -168,9 +195,53 @@ impl std::str::FromStr for LinkSpec {
             "sim" => Err(SpecError(format!(
                 "{uri:?}: the simulated bench takes no path: --link sim, or sim?pac=online&cdios=enabled"
             ))),
-            _ => Err(SpecError(format!("{uri:?}: unknown link type {scheme:?} (socketcan, slcan, serial or sim)"))),
+            _ => Err(SpecError(format!(
+                "{uri:?}: unknown link type {scheme:?} (socketcan, slcan, socketcand, serial or sim)"
+            ))),
         }
     }
+}
+
+/// socketcand's own default port.
+pub const SOCKETCAND_PORT: u16 = 29536;
+/// The largest `rtt=` taken, in ms: a round trip longer than that is no
+/// link to drive motion over.
+const MAX_RTT_MS: u32 = 10_000;
+
+/// `HOST[:PORT]/BUS`, an IPv6 address in brackets (`[::1]:29536/can0`).
+fn socketcand_address(path: &str) -> Result<(String, u16, String), String> {
+    let (hostport, bus) =
+        path.split_once('/').ok_or("expected socketcand:HOST[:PORT]/BUS, e.g. socketcand:10.0.0.7:29536/can0")?;
+    // The daemon reads the name up to a blank or `>`, at most 16 characters.
+    if bus.is_empty() || bus.len() > 16 || !bus.bytes().all(|b| b.is_ascii_graphic() && b != b'<' && b != b'>') {
+        return Err(format!("bus name {bus:?}: 1 to 16 characters, no blanks, < or >"));
+    }
+    let (host, port) = if let Some(v6) = hostport.strip_prefix('[') {
+        let (host, after) = v6.split_once(']').ok_or("an IPv6 address ends with ]")?;
+        match after {
+            "" => (host, None),
+            _ => (host, Some(after.strip_prefix(':').ok_or("expected :PORT after ]")?)),
+        }
+    } else {
+        match hostport.split_once(':') {
+            Some((h, _)) if h.contains(':') || hostport.matches(':').count() > 1 => {
+                return Err("an IPv6 address goes in brackets: socketcand:[::1]:29536/can0".into())
+            }
+            Some((h, p)) => (h, Some(p)),
+            None => (hostport, None),
+        }
+    };
+    if host.is_empty() || host.contains(char::is_whitespace) {
+        return Err("missing host before /BUS".into());
+    }
+    let port = match port {
+        None => SOCKETCAND_PORT,
+        Some(p) => match p.parse::<u16>() {
+            Ok(n) if n > 0 => n,
+            _ => return Err(format!("port {p:?} is not 1 to 65535")),
+        },
+    };
+    Ok((host.to_string(), port, bus.to_string()))
 }
 
 /// The PA-CONTROL's mode when the in-process bench starts.
@@ -208,6 +279,17 @@ impl fmt::Display for LinkSpec {
         match self {
             Self::SocketCan { iface } => write!(f, "socketcan:{iface}"),
             Self::Slcan { path, bitrate } => write!(f, "slcan:{path}?bitrate={bitrate}"),
+            Self::Socketcand { host, port, bus, rtt } => {
+                if host.contains(':') {
+                    write!(f, "socketcand:[{host}]:{port}/{bus}")?;
+                } else {
+                    write!(f, "socketcand:{host}:{port}/{bus}")?;
+                }
+                match rtt {
+                    Some(r) => write!(f, "?rtt={}", r.as_millis()),
+                    None => Ok(()),
+                }
+            }
             Self::Serial { path, baud, format } => {
                 write!(f, "serial:{path}")?;
                 let mut sep = '?';
@@ -284,9 +366,49 @@ mod tests {
             "serial:/dev/x?speed=1",
             "usb:/dev/x",
             "socketcan:a?x=1",
+            "socketcand:host",
+            "socketcand:/can0",
+            "socketcand:h:0/can0",
+            "socketcand:h:70000/can0",
+            "socketcand:h:x/can0",
+            "socketcand:h/",
+            "socketcand:h/can 0",
+            "socketcand:h/a>b",
+            "socketcand:::1/can0",
+            "socketcand:[::1/can0",
+            "socketcand:h/can0?rtt=x",
+            "socketcand:h/can0?rtt=10001",
+            "socketcand:h/can0?bitrate=5",
         ] {
             assert!(bad.parse::<LinkSpec>().is_err(), "{bad}");
         }
+    }
+
+    #[test]
+    fn socketcand_links_parse_and_print_with_their_port() {
+        let sc =
+            |host: &str, port, bus: &str, rtt| LinkSpec::Socketcand { host: host.into(), port, bus: bus.into(), rtt };
+        for (text, spec, shown) in [
+            ("socketcand:10.0.0.7:29536/can0", sc("10.0.0.7", 29536, "can0", None), "socketcand:10.0.0.7:29536/can0"),
+            ("socketcand:cell4/can1", sc("cell4", SOCKETCAND_PORT, "can1", None), "socketcand:cell4:29536/can1"),
+            ("socketcand:[::1]:4000/vcan0", sc("::1", 4000, "vcan0", None), "socketcand:[::1]:4000/vcan0"),
+            (
+                "socketcand:[fe80::1]/can0",
+                sc("fe80::1", SOCKETCAND_PORT, "can0", None),
+                "socketcand:[fe80::1]:29536/can0",
+            ),
+            (
+                "socketcand:h:1/can0?rtt=40",
+                sc("h", 1, "can0", Some(Duration::from_millis(40))),
+                "socketcand:h:1/can0?rtt=40",
+            ),
+        ] {
+            assert_eq!(text.parse(), Ok(spec.clone()), "{text}");
+            assert_eq!(spec.to_string(), shown);
+            assert_eq!(shown.parse(), Ok(spec), "{shown}");
+        }
+        let e = "socketcand:::1/can0".parse::<LinkSpec>().unwrap_err();
+        assert!(e.to_string().contains("brackets"), "{e}");
     }
 
     #[test]

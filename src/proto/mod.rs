@@ -11,6 +11,7 @@ pub mod pac;
 pub mod powercube;
 pub mod refusal;
 pub mod slcan;
+pub mod socketcand;
 
 pub use can::CanFrame;
 pub use refusal::Refusal;

@@ -7,6 +7,8 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
+pub mod socketcand;
+
 use super::fault::{ByteFaults, Trip};
 use crate::clock::Clock;
 use crate::link::mem::{ByteDevice, MemCanLink};

@@ -404,7 +404,7 @@ fn a_halt_that_cannot_reach_its_device_says_why_and_the_others_still_go_out() {
     assert_eq!(code, 143, "{err}");
     let failed = format!(
         "halted: `pac-stop`, `cdios-stop --node 1 -m 0 --option fast` failed: {} is a serial link; the Cdios is on \
-         CAN (socketcan:, slcan: or sim), `pac-stop-axis 2`\n",
+         CAN (socketcan:, slcan:, socketcand: or sim), `pac-stop-axis 2`\n",
         sim.link("pac")
     );
     assert!(err.contains(&failed), "{err}");

@@ -38,6 +38,7 @@ mod record_cli;
 mod refusal_json;
 mod shell_tmux;
 mod sim_trace;
+mod socketcand;
 mod supervisor_cli;
 mod wait_timeout_cli;
 mod wire_bytes;

@@ -152,6 +152,17 @@ impl Cubes {
         off
     }
 
+    /// What stops a module whose halt could not be sent (`failed`, the
+    /// reason; a lost link, say, a remote one most of all): its watchdog,
+    /// if this motion refreshes it, else nothing, said plainly.
+    pub(super) fn backstop(&self, failed: String) -> String {
+        if self.deadman_refreshing() {
+            format!("{failed}; its watchdog halts it 50 ms after the last refresh (dead-man)")
+        } else {
+            format!("{failed}; THE MODULE MAY STILL MOVE: no watchdog was refreshed (--deadman arms one)")
+        }
+    }
+
     /// Whether the refresh of a supervised motion is going on.
     pub fn deadman_refreshing(&self) -> bool {
         self.pc.refreshing()

@@ -67,14 +67,15 @@ impl Cubes {
         let start = clock.now();
         loop {
             if interrupted() {
-                let halt_failed = self.halt_retrying(m, spec.halt_attempts).err().map(|e| e.to_string());
+                let halt_failed = self.halt_retrying(m, spec.halt_attempts).err().map(|e| self.backstop(e.to_string()));
                 return Err(Error::Interrupted { module: m, halt_failed });
             }
             let vals = match self.get_many(m, &[param(ids::CUBE_STATE), param(ids::ACT_POS)]) {
                 Ok(v) => v,
                 // The module may still be moving: stop it before giving up.
                 Err(e) => {
-                    let halt_failed = self.halt_retrying(m, spec.halt_attempts).err().map(|e| e.to_string());
+                    let halt_failed =
+                        self.halt_retrying(m, spec.halt_attempts).err().map(|e| self.backstop(e.to_string()));
                     return Err(match e {
                         Error::Session(source) => {
                             Error::LostTrack { module: m, what: what.into(), halt_failed, source }
@@ -95,7 +96,7 @@ impl Cubes {
                 return Ok(WaitEnd { module: m, position: pos, cube, elapsed });
             }
             if elapsed >= spec.timeout {
-                let halt_failed = self.halt_retrying(m, spec.halt_attempts).err().map(|e| e.to_string());
+                let halt_failed = self.halt_retrying(m, spec.halt_attempts).err().map(|e| self.backstop(e.to_string()));
                 return Err(Error::Session(SessionError::wait_expired(
                     format!("module {m}"),
                     what,
