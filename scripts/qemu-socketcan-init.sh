@@ -98,6 +98,30 @@ run get-param get-param -m 17 ActPos
 run absent state -m 9
 run out-of-range move-ramp -m 3 1000
 
+# The monitor beside candump on the same traffic: one id/mask filter in both (the monitor
+# shows error frames whatever its id filters, as candump with the error mask #FFFFFFFF), and a bus
+# error frame (cansend of an id with CAN_ERR_FLAG; vcan hands it to error-filtered sockets).
+candump -L vcan0,0C3:7FF,#FFFFFFFF >/log/candump-filtered.txt 2>/log/candump-filtered.err &
+CDF=$!
+candump -L vcan0,#FFFFFFFF >/log/candump-errors.txt 2>/log/candump-errors.err &
+CDE=$!
+axisctl --link "$LINK" monitor --candump --filter 0C3:7FF --for 20 >/log/monitor-filtered.txt 2>/log/monitor-filtered.err &
+MONF=$!
+axisctl --link "$LINK" --json monitor --for 20 >/log/monitor-json.txt 2>/log/monitor-json.err &
+MONJ=$!
+sleep 2
+for args in "state -m 3" "state -m 17" "get-param -m 3 ActPos" "state -m 5"; do
+    axisctl --link "$LINK" --timeout 1000 $args >/dev/null 2>&1
+done
+cansend vcan0 20000040#0000000000000000 2>>/log/guest-stderr.txt
+wait "$MONF"
+echo $? >/log/monitor-filtered.rc
+wait "$MONJ"
+echo $? >/log/monitor-json.rc
+kill -TERM "$CDF" "$CDE"
+wait "$CDF"
+wait "$CDE"
+
 kill -INT "$SIM"
 wait "$SIM"
 echo $? >/log/sim.rc

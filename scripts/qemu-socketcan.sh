@@ -85,6 +85,7 @@ copy_with_libs "$axisctl" /bin/axisctl
 # Debug info is most of a debug build; the guest does not need it and the initramfs stays small.
 strip --strip-debug "$root/bin/axisctl" 2>/dev/null || true
 copy_with_libs "$(command -v candump)" /usr/bin/candump
+copy_with_libs "$(command -v cansend)" /usr/bin/cansend
 cp /bin/busybox "$root/bin/busybox"
 ln -s busybox "$root/bin/sh"
 
@@ -270,6 +271,15 @@ check "out-of-range move-ramp is a usage error naming MaxPos" jq_err out-of-rang
 check "out-of-range move-ramp: candump saw its limit query" some_frames out-of-range
 check "out-of-range move-ramp: no SetMotion frame (0E?#0B / 0F?#0B)" no_frame out-of-range '^0[EF][0-9A-F]#0B'
 check "failed commands print nothing on stdout" eval "is_empty absent.out && is_empty out-of-range.out"
+# ID#DATA of each candump -L line, in order.
+ids_data() { awk '{ print $3 }' "$out/$1"; }
+check "monitor --filter 0C3:7FF ran and ended (exit 0)" is_rc monitor-filtered 0
+check "monitor --filter 0C3:7FF saw frames" test -s "$out/monitor-filtered.txt"
+check "monitor --filter 0C3:7FF shows what candump vcan0,0C3:7FF,#FFFFFFFF shows (the error frame too), in order" \
+    eval 'diff <(ids_data monitor-filtered.txt) <(ids_data candump-filtered.txt) >&2'
+check "candump saw the bus-off error frame" eval "ids_data candump-errors.txt | grep -q '^20000040#'"
+check "monitor --json shows the error frame as kind error, bus off" \
+    eval "jq -se 'any(.[]; .kind == \"error\" and (tostring | test(\"bus off\")))' '$out/monitor-json.txt' >/dev/null"
 
 echo "candump: $(wc -l <"$out/candump.txt") frames captured"
 echo "timing: kernel boot to /init $(cat "$out/uptime-init.txt") s, to the report $(cat "$out/uptime-end.txt") s" \

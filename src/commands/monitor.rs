@@ -44,7 +44,8 @@ impl Filter {
     }
 
     /// Error frames are the bus's, not an id's: only `--family` (as
-    /// `other`) hides them, as candump -e shows them whatever its id filters.
+    /// `other`) hides them, as candump shows them with the error mask
+    /// `#FFFFFFFF` beside its id filters (compared in qemu: scripts/qemu-socketcan.sh).
     fn pass(&self, event: &CanEvent, i: &FrameInfo) -> bool {
         let family = self.families.is_empty() || self.families.iter().any(|f| f.pass(i));
         let CanEvent::Frame(f) = event else { return family };

@@ -487,3 +487,25 @@ fn a_batch_and_a_bench_file_use_the_remote_bus() {
     let text = r.stdout;
     assert!(text.contains("\"shoulder\"") && text.contains("\"gripper\""), "{text}");
 }
+
+/// Issue 24: the commissioning run works over a remote bus like over the
+/// local ones: every planned check of every module passes, moves recorded
+/// and halted over TCP.
+#[test]
+fn the_commissioning_run_passes_over_the_remote_bus() {
+    let (_sim, link) = served();
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("report");
+    let r = run(&["--link", &link, "commission", "--out", out.to_str().unwrap(), "--yes"]);
+    assert_eq!(r.code, 0, "{}\n{}", r.stdout, r.stderr);
+    let report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).unwrap()).unwrap();
+    assert_eq!((report["complete"].as_bool(), report["passed"].as_bool()), (Some(true), Some(true)), "{report}");
+    let checks = report["checks"].as_array().unwrap();
+    for m in ["powercube:3", "powercube:5", "powercube:17"] {
+        for name in ["identity", "settings", "limits", "home", "move_forward", "move_back", "halt", "backup"] {
+            let c = checks.iter().find(|c| c["device"] == m && c["check"] == name);
+            assert_eq!(c.map(|c| c["status"].clone()), Some(serde_json::json!("pass")), "{m} {name}");
+        }
+    }
+}
