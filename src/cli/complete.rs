@@ -88,16 +88,45 @@ pub fn params() -> ArgValueCompleter {
     ArgValueCompleter::new(|current: &OsStr| starting_with(current, cube_table::PARAMS.iter().map(|p| p.name)))
 }
 
-/// What `record` samples: PowerCube parameters, PA-CONTROL and Cdios values.
+/// What `record` samples: PowerCube parameters, PA-CONTROL and Cdios values,
+/// and `DEVICE.VALUE` with the devices of the bench file (their names and
+/// addresses), a device's values after its dot.
 pub fn record_values() -> ArgValueCompleter {
-    ArgValueCompleter::new(|current: &OsStr| {
-        let names = cube_table::PARAMS
-            .iter()
-            .map(|p| p.name)
-            .chain(PacValue::ALL.map(PacValue::name))
-            .chain(CdiosValue::ALL.map(CdiosValue::name));
-        starting_with(current, names)
-    })
+    ArgValueCompleter::new(|current: &OsStr| record_values_on(&bench_file(), current))
+}
+
+fn record_values_on(bench: &std::path::Path, current: &OsStr) -> Vec<CompletionCandidate> {
+    use axisctl::bench::{Address, Bench};
+    let devices: Vec<(String, Address)> = Bench::from_file(bench)
+        .map(|b| b.links().iter().flat_map(|l| l.devices.iter().map(|(n, a)| (n.clone(), *a))).collect())
+        .unwrap_or_default();
+    let typed = current.to_string_lossy();
+    if let Some((device, _)) = typed.split_once('.') {
+        let address = device.parse::<Address>().ok().or_else(|| devices.iter().find(|(n, _)| n == device).map(|d| d.1));
+        let Some(family) = address.map(Address::family) else { return Vec::new() };
+        let names: Vec<String> = values_of(family).map(|v| format!("{device}.{v}")).collect();
+        return starting_with(current, names.iter().map(String::as_str));
+    }
+    let mut names: Vec<String> =
+        [Family::PowerCube, Family::Pac, Family::Cdios].into_iter().flat_map(values_of).map(str::to_string).collect();
+    names.extend(devices.iter().flat_map(|(n, a)| [format!("{n}."), format!("{a}.")]));
+    starting_with(current, names.iter().map(String::as_str))
+}
+
+/// The values `record` samples of a family's device.
+fn values_of(family: Family) -> Box<dyn Iterator<Item = &'static str>> {
+    match family {
+        Family::PowerCube => Box::new(cube_table::PARAMS.iter().map(|p| p.name)),
+        Family::Pac => Box::new(PacValue::ALL.into_iter().map(PacValue::name)),
+        Family::Cdios => Box::new(CdiosValue::ALL.into_iter().map(CdiosValue::name)),
+    }
+}
+
+/// The bench file completion reads: `AXISCTL_BENCH`, else `./axisctl.toml`.
+fn bench_file() -> std::path::PathBuf {
+    std::env::var_os("AXISCTL_BENCH")
+        .filter(|v| !v.is_empty())
+        .map_or_else(|| std::path::PathBuf::from(crate::commands::BENCH_FILE), std::path::PathBuf::from)
 }
 
 /// `+FLAG` / `-FLAG` of `set-config`, manual and short names.
@@ -120,12 +149,7 @@ pub fn decode_kinds() -> ArgValueCompleter {
 /// (`AXISCTL_BENCH`, else `./axisctl.toml`), each with its name; nothing
 /// without a bench file (any id of the range is valid, none is likelier).
 pub fn bench_modules() -> ArgValueCompleter {
-    ArgValueCompleter::new(|current: &OsStr| {
-        let path = std::env::var_os("AXISCTL_BENCH")
-            .filter(|v| !v.is_empty())
-            .map_or_else(|| std::path::PathBuf::from(crate::commands::BENCH_FILE), std::path::PathBuf::from);
-        modules_in(&path, Family::PowerCube, current)
-    })
+    ArgValueCompleter::new(|current: &OsStr| modules_in(&bench_file(), Family::PowerCube, current))
 }
 
 /// The module ids of `family`'s devices in the bench file at `path`, those
@@ -224,6 +248,31 @@ mod tests {
         assert!(names(&config_changes(), "-brake").contains(&"-brake-present".to_string()));
         assert!(names(&config_changes(), "+CONFIGID_MOD_BRAKE").contains(&"+CONFIGID_MOD_BRAKE_PRESENT".to_string()));
         assert_eq!(names(&links(), "si"), ["sim"]);
+    }
+
+    #[test]
+    fn record_values_complete_the_bench_files_devices_and_each_ones_values() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("axisctl.toml");
+        std::fs::write(
+            &path,
+            "[[link]]\nspec = \"sim\"\ndevices = { wrist = \"powercube:17\", gripper = \"cdios:1/0\" }\n",
+        )
+        .unwrap();
+        let got = |typed: &str| -> Vec<String> {
+            record_values_on(&path, OsStr::new(typed))
+                .iter()
+                .map(|c| c.get_value().to_string_lossy().into_owned())
+                .collect()
+        };
+        assert_eq!(got("wr"), ["wrist."]);
+        assert_eq!(got("powercube:1"), ["powercube:17."]);
+        assert!(got("wrist.ActP").contains(&"wrist.ActPos".to_string()), "{:?}", got("wrist.ActP"));
+        assert!(got("gripper.").iter().all(|v| v.starts_with("gripper.")) && !got("gripper.").is_empty());
+        assert!(!got("gripper.").contains(&"gripper.ActPos".to_string()), "a Cdios device has no PowerCube parameters");
+        assert!(got("pac:2.").iter().any(|v| v == "pac:2.position"), "{:?}", got("pac:2."));
+        assert!(got("nobody.").is_empty());
+        assert!(got("ActP").contains(&"ActPos".to_string()));
     }
 
     #[test]
