@@ -118,7 +118,8 @@ fn run_measured(args: &[&str], endless: Option<u8>) -> (i32, String, i64, f64) {
 
 const BACKUP: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/docs/examples/module17.json");
 
-// Issue 22, item 7: an endless file or pipe given as a backup, a recording
+// Issue 22, item 7: an endless file or pipe given as a backup, a recording,
+// a bench file, a commissioning plan
 // or a batch line is refused at its ceiling (exit 2, nothing sent), in
 // bounded memory and at once; before, `diff /dev/zero x.json` grew by
 // about 1.4 GB/s until killed.
@@ -134,6 +135,16 @@ fn endless_input_is_refused_at_its_ceiling_in_bounded_memory() {
             "/dev/zero is larger than 32 MiB, the most a recording may be",
         ),
         (&["--link", "sim", "--trace", "batch", "-"], Some(b'x'), "line 1 is longer than 64 KiB"),
+        (
+            &["--bench", "/dev/zero", "--trace", "state", "-m", "3"],
+            None,
+            "larger than 1 MiB, the most a bench file may be",
+        ),
+        (
+            &["--link", "sim", "--trace", "commission", "--plan", "-", "--dry-run", "--out", "/nonexistent/report"],
+            Some(b'#'),
+            "standard input is larger than 1 MiB, the most a plan may be",
+        ),
     ] {
         let (code, err, rss_kib, secs) = run_measured(args, endless);
         assert_eq!(code, 2, "{args:?}: {err}");

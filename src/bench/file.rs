@@ -40,9 +40,20 @@ struct Link {
     devices: BTreeMap<Spanned<String>, Spanned<String>>,
 }
 
+/// The most a bench file may hold: one names a few links and their
+/// devices, a few KiB; an endless file (`/dev/zero`) stops here.
+pub const MAX_BYTES: u64 = 1 << 20;
+
 pub(super) fn read(path: &Path) -> Result<Vec<BenchLink>, FileError> {
-    let text = std::fs::read_to_string(path)
-        .map_err(|e| FileError::Read { path: path.to_path_buf(), error: e.to_string() })?;
+    use std::io::Read;
+    let failed = |error: String| FileError::Read { path: path.to_path_buf(), error };
+    let file = std::fs::File::open(path).map_err(|e| failed(e.to_string()))?;
+    let mut bytes = Vec::new();
+    file.take(MAX_BYTES + 1).read_to_end(&mut bytes).map_err(|e| failed(e.to_string()))?;
+    if bytes.len() as u64 > MAX_BYTES {
+        return Err(failed(format!("larger than {} MiB, the most a bench file may be", MAX_BYTES >> 20)));
+    }
+    let text = String::from_utf8(bytes).map_err(|_| failed("not UTF-8 text".into()))?;
     parse(&text, path)
 }
 

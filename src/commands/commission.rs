@@ -83,7 +83,8 @@ pub fn run(ctx: &Ctx, args: CommissionArgs) -> anyhow::Result<()> {
 }
 
 fn read_plan(path: &Path) -> anyhow::Result<Plan> {
-    let text = std::fs::read_to_string(path).map_err(|e| usage(format!("--plan {}: {e}", path.display())))?;
+    // `-` reads standard input, and a plan is bounded like every file read.
+    let text = super::input::read_text(path, super::input::PLAN, "a plan")?;
     Plan::parse(&text, &path.display().to_string()).map_err(|e| usage(e.to_string()))
 }
 
@@ -124,7 +125,8 @@ fn expected_files(plan: &Plan, dir: &Path) -> anyhow::Result<Vec<(PathBuf, Docum
         if out.iter().any(|(q, _)| *q == path) {
             continue;
         }
-        let text = std::fs::read_to_string(&path).map_err(|e| usage(format!("plan: {}: {e}", path.display())))?;
+        let text = super::input::read_text(&path, super::input::BACKUP, "a backup")
+            .map_err(|e| usage(format!("plan: {e:#}")))?;
         let doc = backup::parse(&path.display().to_string(), &text)?;
         out.push((path, doc));
     }

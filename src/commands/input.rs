@@ -15,6 +15,10 @@ pub const BACKUP: u64 = 4 << 20;
 /// A recording for `plot`: about 200 000 samples of JSON Lines.
 pub const RECORDING: u64 = 32 << 20;
 
+/// A commissioning plan or a bench file: a plan for 31 modules with every
+/// check and inline settings is about 60 KiB.
+pub const PLAN: u64 = 1 << 20;
+
 /// One line of a batch: a command line is a few hundred bytes.
 pub const BATCH_LINE: usize = 64 << 10;
 
