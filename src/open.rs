@@ -524,6 +524,9 @@ impl CanLink for SharedCan {
     fn round_trip(&self) -> Duration {
         locked(&self.0).round_trip()
     }
+    fn stamp(&self) -> Option<Duration> {
+        locked(&self.0).stamp()
+    }
 }
 
 /// One session's handle on a kept serial line.

@@ -239,7 +239,10 @@ pub fn run(ctx: &Ctx, a: &MonitorArgs) -> anyhow::Result<()> {
         let stop = a.duration.map(|s| Duration::from_secs_f64(s.max(0.0)));
         while !interrupted() && stop.is_none_or(|d| start.elapsed() < d) {
             if let Some(event) = link.recv_event(Duration::from_millis(50))? {
-                if !handle(now_secs(), &event, &mut p)? {
+                // A remote daemon stamps frames when its bus received them;
+                // the host's clock would add the network's delay.
+                let at = link.stamp().map_or_else(now_secs, |d| d.as_secs_f64());
+                if !handle(at, &event, &mut p)? {
                     break;
                 }
             }

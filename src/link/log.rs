@@ -216,6 +216,10 @@ impl<L: CanLink> CanLink for LoggedCanLink<L> {
     fn round_trip(&self) -> Duration {
         self.inner.round_trip()
     }
+
+    fn stamp(&self) -> Option<Duration> {
+        self.inner.stamp()
+    }
 }
 
 /// A [`ByteLink`] that logs every chunk written and read.

@@ -61,6 +61,12 @@ pub trait CanLink: Send {
     fn round_trip(&self) -> Duration {
         Duration::ZERO
     }
+    /// When the bus's own clock stamped the last frame received, since the
+    /// Unix epoch, where the link hands it over (a socketcand daemon's
+    /// stamp); `None`: the host's clock is as good.
+    fn stamp(&self) -> Option<Duration> {
+        None
+    }
 }
 
 /// Moves bytes (a serial port, a pty).
@@ -117,6 +123,9 @@ impl<T: CanLink + ?Sized> CanLink for Box<T> {
     }
     fn round_trip(&self) -> Duration {
         (**self).round_trip()
+    }
+    fn stamp(&self) -> Option<Duration> {
+        (**self).stamp()
     }
 }
 

@@ -249,6 +249,10 @@ impl CanLink for SocketcandLink {
     fn round_trip(&self) -> Duration {
         self.round_trip
     }
+
+    fn stamp(&self) -> Option<Duration> {
+        self.last_stamp.map(|s| Duration::new(s.secs, s.micros.min(999_999) * 1000))
+    }
 }
 
 impl Drop for SocketcandLink {

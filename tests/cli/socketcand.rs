@@ -509,3 +509,38 @@ fn the_commissioning_run_passes_over_the_remote_bus() {
         }
     }
 }
+
+/// The monitor stamps a remote frame with the daemon's time, when its bus
+/// received it, not when it crossed the network: a daemon of our own sends
+/// one frame stamped 1000.5 s.
+#[test]
+fn the_monitor_shows_the_daemons_time_stamp() {
+    let listener = TcpListener::bind("127.0.0.1:0").unwrap();
+    let port = listener.local_addr().unwrap().port();
+    std::thread::spawn(move || {
+        let Ok((mut s, _)) = listener.accept() else { return };
+        let _ = s.write_all(b"< hi >");
+        let (mut seen, mut buf, mut echoes) = (String::new(), [0u8; 512], 0);
+        while let Ok(n @ 1..) = s.read(&mut buf) {
+            seen.push_str(&String::from_utf8_lossy(&buf[..n]));
+            while let Some(end) = seen.find('>') {
+                let msg: String = seen.drain(..=end).collect();
+                let reply: &[u8] = match msg.trim() {
+                    "< echo >" => b"< echo >",
+                    _ => b"< ok >",
+                };
+                let _ = s.write_all(reply);
+                // Once the link has measured the round trip (its echoes), a frame.
+                echoes += usize::from(msg.trim() == "< echo >");
+                if echoes == 4 {
+                    let _ = s.write_all(b"< frame 0A3 1000.500000 0A1D0146 >");
+                }
+            }
+        }
+    });
+    let link = format!("socketcand:127.0.0.1:{port}/can0");
+    let r = run(&["--link", &link, "--json", "monitor", "--count", "1", "--for", "20"]);
+    assert_eq!(r.code, 0, "{}", r.stderr);
+    let line: serde_json::Value = serde_json::from_str(r.stdout.lines().next().unwrap_or("")).unwrap();
+    assert_eq!((line["frame"].as_str(), line["timestamp"].as_f64()), (Some("0A3#0A1D0146"), Some(1000.5)), "{line}");
+}
