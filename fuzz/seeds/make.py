@@ -96,6 +96,8 @@ URIS = [
     "sim", "socketcan:can0", "socketcan:vcan0", "slcan:/dev/ttyACM0", "slcan:/dev/ttyACM0?bitrate=500000",
     "serial:/dev/ttyUSB0", "serial:/dev/pts/8?baud=9600&format=7N1", "serial:COM3?format=8N1&baud=38400",
     "socketcand:10.0.0.7:29536/can0", "socketcand:[::1]/vcan0?rtt=40",
+    # Regression: a bracket inside a host printed back as another spec (link::spec::tests::rejects_bad_uris).
+    "socketcand:[[\x1d\x001]//dev40",
 ]
 CANDUMP = [
     "(1700000000.123456) can0 0F1#01", "(5.000007) slcan0 0F1#01", "(0.000001) vcan0 12345678#DEADBEEF R\n",

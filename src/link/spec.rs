@@ -234,6 +234,11 @@ fn socketcand_address(path: &str) -> Result<(String, u16, String), String> {
     if host.is_empty() || host.contains(char::is_whitespace) {
         return Err("missing host before /BUS".into());
     }
+    // A name or an address: printable ASCII, brackets only around an IPv6
+    // address (the spec prints back as it was read).
+    if !host.bytes().all(|b| b.is_ascii_graphic() && b != b'[' && b != b']') {
+        return Err(format!("host {host:?}: a name or an address (an IPv6 address in brackets)"));
+    }
     let port = match port {
         None => SOCKETCAND_PORT,
         Some(p) => match p.parse::<u16>() {
@@ -374,6 +379,9 @@ mod tests {
             "socketcand:h/",
             "socketcand:h/can 0",
             "socketcand:h/a>b",
+            // Found by the link_uri fuzz target: it printed back as another spec.
+            "socketcand:[[\u{1d}\u{0}1]//dev40",
+            "socketcand:h\u{7}st/can0",
             "socketcand:::1/can0",
             "socketcand:[::1/can0",
             "socketcand:h/can0?rtt=x",
