@@ -60,37 +60,9 @@ const HALTED: u64 = 0x4;
 const MOTION: u64 = 0x800;
 const WATCHDOG_ENABLE: u64 = 0x0100_0000;
 
-/// One line of the `--log` file: when, and the frame (`0A3#0A3C...`).
-fn frames(log: &Path) -> Vec<(f64, String)> {
-    let text = std::fs::read_to_string(log).unwrap_or_default();
-    text.lines()
-        .filter_map(|l| {
-            let (ts, rest) = l.strip_prefix('(')?.split_once(')')?;
-            let frame = rest.split_whitespace().nth(1)?;
-            Some((ts.parse().ok()?, frame.to_string()))
-        })
-        .collect()
-}
-
 /// When each watchdog refresh went out.
 fn refreshes(log: &Path) -> Vec<f64> {
-    frames(log).into_iter().filter(|(_, f)| f == "100#0700").map(|(t, _)| t).collect()
-}
-
-/// Module 3's ActPos answers (`0A3#0A3C` + float): when, and where.
-fn positions(log: &Path) -> Vec<(f64, f32)> {
-    frames(log)
-        .into_iter()
-        .filter_map(|(t, f)| {
-            let hex = f.strip_prefix("0A3#0A3C")?;
-            let bytes: Vec<u8> = (0..4).map(|i| u8::from_str_radix(&hex[2 * i..2 * i + 2], 16).unwrap()).collect();
-            Some((t, f32::from_le_bytes(bytes.try_into().unwrap())))
-        })
-        .collect()
-}
-
-fn max_gap(times: &[f64]) -> f64 {
-    times.windows(2).map(|w| w[1] - w[0]).fold(0.0, f64::max)
+    common::logged_frames(log).into_iter().filter(|(_, f)| f == "100#0700").map(|(t, _)| t).collect()
 }
 
 /// Whether the bench rather than the tool was too slow during `log`: the
@@ -102,7 +74,7 @@ fn max_gap(times: &[f64]) -> f64 {
 /// simulated module late as well, and its watchdog tripped on them.
 fn bench_starved(log: &Path) -> bool {
     let mut asked: Option<f64> = None;
-    for (t, f) in frames(log) {
+    for (t, f) in common::logged_frames(log) {
         if f.starts_with("0C") || f.starts_with("0E") {
             asked.get_or_insert(t);
         } else if f.starts_with("0A") && asked.take().is_some_and(|a| t - a > 0.025) {
@@ -124,7 +96,7 @@ fn spoiled(log: &Path, tripped: bool, what: &str) -> Result<(), String> {
     }
     let sent = refreshes(log);
     assert!(!sent.is_empty(), "{what}: the module tripped and no refresh was sent");
-    let gap = max_gap(&sent);
+    let gap = common::max_gap(&sent);
     if gap >= 0.050 {
         return Err(format!("{what}: the tool was not run for {:.1} ms (an overloaded host)", gap * 1e3));
     }
@@ -202,12 +174,12 @@ fn sigkill_mid_motion() -> Result<(), String> {
         .unwrap();
     // Moving at full speed (the ramp up lasts 67 ms): ActPos past 0.1 rad.
     let deadline = Instant::now() + Duration::from_secs(30);
-    while !positions(&log).iter().any(|(_, p)| *p > 0.1) {
+    while !common::logged_positions_of_module_3(&log).iter().any(|(_, p)| *p > 0.1) {
         if let Some(st) = child.try_wait().unwrap() {
             spoiled(&log, st.code() == Some(5), "before the kill")?;
             panic!("the move ended before the kill: {st}");
         }
-        assert!(Instant::now() < deadline, "never saw module 3 move: {:?}", frames(&log));
+        assert!(Instant::now() < deadline, "never saw module 3 move: {:?}", common::logged_frames(&log));
         std::thread::sleep(Duration::from_millis(5));
     }
     unsafe {
@@ -236,14 +208,14 @@ fn sigkill_mid_motion() -> Result<(), String> {
     assert_eq!(stood, again, "the module still moves");
 
     let refreshed = refreshes(&log);
-    let (t_pos, p) = *positions(&log).last().unwrap();
+    let (t_pos, p) = *common::logged_positions_of_module_3(&log).last().unwrap();
     let stopped = t_pos + (stood - f64::from(p)) / vel;
     let last_refresh = *refreshed.last().unwrap();
     eprintln!(
         "refreshes {} (longest gap {:.1} ms); SIGKILL {:.1} ms after the last refresh; module stopped {:.1} ms \
          after the SIGKILL, {:.1} ms after the last refresh",
         refreshed.len(),
-        max_gap(&refreshed) * 1e3,
+        common::max_gap(&refreshed) * 1e3,
         (killed - last_refresh) * 1e3,
         (stopped - killed) * 1e3,
         (stopped - last_refresh) * 1e3
@@ -301,7 +273,7 @@ fn waited_move() -> Result<(), String> {
     assert_eq!(raw & COMM_ERROR, 0, "state at the end {raw:#x}");
     assert!(stderr.contains("watchdog refresh every 20 ms from here"), "{stderr}");
     let refreshed = refreshes(&log);
-    let gap = max_gap(&refreshed);
+    let gap = common::max_gap(&refreshed);
     eprintln!("{} refreshes, longest gap {:.1} ms", refreshed.len(), gap * 1e3);
     assert!(refreshed.len() >= 20, "{} refreshes over a 1 s ramp", refreshed.len());
     assert!(gap < 0.050, "longest gap between refreshes {:.1} ms", gap * 1e3);
@@ -333,7 +305,7 @@ fn home_wait() -> Result<(), String> {
     assert_eq!(doc["state"]["raw"].as_u64().unwrap() & COMM_ERROR, 0, "{doc}");
     let refreshed = refreshes(&log);
     assert!(refreshed.len() >= 40, "homing takes about 1.7 s: {} refreshes", refreshed.len());
-    assert!(max_gap(&refreshed) < 0.050, "longest gap {:.1} ms", max_gap(&refreshed) * 1e3);
+    assert!(common::max_gap(&refreshed) < 0.050, "longest gap {:.1} ms", common::max_gap(&refreshed) * 1e3);
     assert_eq!(config(link) & WATCHDOG_ENABLE, 0, "switched off again");
     Ok(())
 }
@@ -361,13 +333,13 @@ fn synchronized_move() -> Result<(), String> {
         assert_eq!(d["state"]["raw"].as_u64().unwrap() & COMM_ERROR, 0, "{d}");
     }
     // Both toggles in one burst, then the refreshes.
-    let sent: Vec<String> = frames(&log).into_iter().map(|(_, f)| f).collect();
+    let sent: Vec<String> = common::logged_frames(&log).into_iter().map(|(_, f)| f).collect();
     let first_refresh = sent.iter().position(|f| f == "100#0700").expect("refreshed");
     let toggles: Vec<usize> =
         sent.iter().enumerate().filter(|(_, f)| *f == "0E3#07" || *f == "0E5#07").map(|(i, _)| i).collect();
     assert_eq!(toggles.len(), 2, "one 0x07 each, never again: {sent:?}");
     assert!(toggles.iter().all(|i| *i < first_refresh), "{sent:?}");
-    assert!(max_gap(&refreshes(&log)) < 0.050);
+    assert!(common::max_gap(&refreshes(&log)) < 0.050);
     for m in ["3", "5"] {
         let c = ok(run(&["--link", link, "--json", "get-config", "-m", m]))["config"]["raw"].as_u64().unwrap();
         assert_eq!(c & WATCHDOG_ENABLE, 0, "module {m} switched off again");
@@ -417,7 +389,7 @@ fn stopped_wait() -> Result<(), String> {
         .spawn()
         .unwrap();
     let deadline = Instant::now() + Duration::from_secs(30);
-    while !positions(&log).iter().any(|(_, p)| *p > 0.1) {
+    while !common::logged_positions_of_module_3(&log).iter().any(|(_, p)| *p > 0.1) {
         if let Some(st) = child.try_wait().unwrap() {
             spoiled(&log, st.code() == Some(5), "before the stop")?;
             panic!("the move ended before the stop: {st}");
@@ -472,7 +444,7 @@ fn auto_refresh() -> Result<(), String> {
     let log = dir.path().join("traffic.log");
     let lines = "watchdog on -m 3\nmove-ramp -m 3 0.5 --wait\n";
     let r = common::run_with_stdin(&["--link", link, "--log", log.to_str().unwrap(), "batch"], lines);
-    let sent = frames(&log);
+    let sent = common::logged_frames(&log);
     let online = sent.iter().find(|(_, f)| f == "0E3#07").expect("0x07 sent").0;
     let first = refreshes(&log).first().copied();
     if r.code == 5 && first.is_some_and(|t| t - online >= 0.050) {
@@ -485,7 +457,7 @@ fn auto_refresh() -> Result<(), String> {
     assert!(r.stdout.contains("move-ramp done"), "{}", r.stdout);
     let refreshed = refreshes(&log);
     assert!(refreshed.len() >= 20, "{} refreshes", refreshed.len());
-    assert!(max_gap(&refreshed) < 0.050);
+    assert!(common::max_gap(&refreshed) < 0.050);
     assert_ne!(config(link) & WATCHDOG_ENABLE, 0, "left on");
     let deadline = Instant::now() + Duration::from_secs(5);
     while state(link) & COMM_ERROR == 0 {

@@ -9,7 +9,6 @@ use crate::common;
 
 use std::io::{BufRead, BufReader, Read, Write};
 use std::net::{Shutdown, TcpListener, TcpStream};
-use std::path::Path;
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 
@@ -278,33 +277,6 @@ const COMM_ERROR: u64 = 0x20;
 const HALTED: u64 = 0x4;
 const MOTION: u64 = 0x800;
 
-/// `--log` lines: when, and the frame.
-fn frames(log: &Path) -> Vec<(f64, String)> {
-    let text = std::fs::read_to_string(log).unwrap_or_default();
-    text.lines()
-        .filter_map(|l| {
-            let (ts, rest) = l.strip_prefix('(')?.split_once(')')?;
-            Some((ts.parse().ok()?, rest.split_whitespace().nth(1)?.to_string()))
-        })
-        .collect()
-}
-
-/// Module 3's ActPos answers: when, and where.
-fn positions(log: &Path) -> Vec<(f64, f32)> {
-    frames(log)
-        .into_iter()
-        .filter_map(|(t, f)| {
-            let hex = f.strip_prefix("0A3#0A3C")?;
-            let bytes: Vec<u8> = (0..4).map(|i| u8::from_str_radix(&hex[2 * i..2 * i + 2], 16).unwrap()).collect();
-            Some((t, f32::from_le_bytes(bytes.try_into().unwrap())))
-        })
-        .collect()
-}
-
-fn max_gap(times: &[f64]) -> f64 {
-    times.windows(2).map(|w| w[1] - w[0]).fold(0.0, f64::max)
-}
-
 fn state(link: &str) -> u64 {
     ok(&["--link", link, "--json", "state", "-m", "3"])["state"]["raw"].as_u64().unwrap()
 }
@@ -336,21 +308,22 @@ fn cut_during_move(sim_link: &str, deadman: bool) -> Result<Cut, String> {
     let mut child = bin().args(&args).stdout(Stdio::null()).stderr(Stdio::piped()).spawn().unwrap();
     let deadline = Instant::now() + Duration::from_secs(30);
     // Cruising (the ramp up lasts 67 ms): ActPos past 0.1 rad.
-    while !positions(&log).iter().any(|(_, p)| *p > 0.1) {
+    while !common::logged_positions_of_module_3(&log).iter().any(|(_, p)| *p > 0.1) {
         if child.try_wait().unwrap().is_some() {
             let mut err = String::new();
             child.stderr.take().unwrap().read_to_string(&mut err).unwrap();
             return Err(format!("the move ended before the cut: {err}"));
         }
-        assert!(Instant::now() < deadline, "never saw module 3 move: {:?}", frames(&log));
+        assert!(Instant::now() < deadline, "never saw module 3 move: {:?}", common::logged_frames(&log));
         std::thread::yield_now();
     }
     let at = proxy.cut();
     let ended = wait_bounded(child, 20, &["move-ramp over a cut link"]);
     if deadman {
-        let refreshes: Vec<f64> = frames(&log).into_iter().filter(|(_, f)| f == "100#0700").map(|(t, _)| t).collect();
-        if max_gap(&refreshes) >= 0.050 {
-            return Err(format!("the tool was not run for {:.1} ms", max_gap(&refreshes) * 1e3));
+        let refreshes: Vec<f64> =
+            common::logged_frames(&log).into_iter().filter(|(_, f)| f == "100#0700").map(|(t, _)| t).collect();
+        if common::max_gap(&refreshes) >= 0.050 {
+            return Err(format!("the tool was not run for {:.1} ms", common::max_gap(&refreshes) * 1e3));
         }
     }
     Ok(Cut { code: ended.code, stderr: ended.stderr, at, log: dir })
@@ -394,7 +367,7 @@ fn a_connection_cut_mid_move_with_the_deadman_leaves_the_module_halted_by_its_wa
     assert_eq!(raw & (COMM_ERROR | HALTED | MOTION), COMM_ERROR | HALTED, "state {raw:#x}");
     let stood = act_pos(&link);
     assert_eq!(stood, act_pos(&link), "the module still moves");
-    let (t_pos, p) = *positions(&cut.log.path().join("traffic.log")).last().unwrap();
+    let (t_pos, p) = *common::logged_positions_of_module_3(&cut.log.path().join("traffic.log")).last().unwrap();
     let stopped = t_pos + (stood - f64::from(p)) / 0.2;
     eprintln!("module 3 at rest {:.1} ms after the cut", (stopped - cut.at) * 1e3);
     assert!(stopped - cut.at <= 0.100, "at rest {:.1} ms after the cut", (stopped - cut.at) * 1e3);

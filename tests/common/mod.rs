@@ -317,3 +317,32 @@ printf '%s\n' "${{COMPREPLY[@]}}""#,
     assert!(out.status.success(), "bash: {}", String::from_utf8_lossy(&out.stderr));
     String::from_utf8_lossy(&out.stdout).lines().map(str::to_string).filter(|l| !l.is_empty()).collect()
 }
+
+/// The frames of a `--log` file (candump -l lines): when, and `ID#DATA`.
+pub fn logged_frames(log: &std::path::Path) -> Vec<(f64, String)> {
+    let text = std::fs::read_to_string(log).unwrap_or_default();
+    text.lines()
+        .filter_map(|l| {
+            let (ts, rest) = l.strip_prefix('(')?.split_once(')')?;
+            Some((ts.parse().ok()?, rest.split_whitespace().nth(1)?.to_string()))
+        })
+        .collect()
+}
+
+/// Module 3's ActPos answers in a `--log` file (`0A3#0A3C` + float): when, and where.
+pub fn logged_positions_of_module_3(log: &std::path::Path) -> Vec<(f64, f32)> {
+    logged_frames(log)
+        .into_iter()
+        .filter_map(|(t, f)| {
+            let hex = f.strip_prefix("0A3#0A3C")?;
+            let bytes: Vec<u8> =
+                (0..4).map(|i| u8::from_str_radix(hex.get(2 * i..2 * i + 2)?, 16).ok()).collect::<Option<_>>()?;
+            Some((t, f32::from_le_bytes(bytes.try_into().ok()?)))
+        })
+        .collect()
+}
+
+/// The longest step between consecutive times.
+pub fn max_gap(times: &[f64]) -> f64 {
+    times.windows(2).map(|w| w[1] - w[0]).fold(0.0, f64::max)
+}
