@@ -172,7 +172,9 @@ impl Bench {
     }
 
     /// Faults on the CAN bus (the answers of every device on it) and, with
-    /// `trip`, a watcher that faults moving PowerCube and Cdios devices.
+    /// `trip`, a watcher that faults moving PowerCube and Cdios devices;
+    /// `overshoot` and `slow-halt` change the PowerCube modules' response
+    /// (on every link to them: CAN and RS232 reach the same modules).
     /// Returns the injector (its stats count what was hit).
     pub fn inject_faults(&self, spec: FaultSpec, seed: u64) -> Shared<Injector> {
         let inj = Arc::new(Mutex::new(Injector::new(spec, seed)));
@@ -182,6 +184,13 @@ impl Bench {
         if let Some(after) = spec.trip {
             let trip = Trip::new(after).powercube(Arc::clone(&self.powercube)).cdios(Arc::clone(&self.cdios));
             self.bus.attach(Box::new(trip));
+        }
+        if spec.overshoot > 0.0 || spec.slow_halt.is_some() {
+            let fault = super::powercube::ResponseFault {
+                overshoot: spec.overshoot / 100.0,
+                halt_time: spec.slow_halt.map_or(0.0, |d| d.as_secs_f64()),
+            };
+            lock(&self.powercube).modules_mut().for_each(|m| m.set_response_fault(fault));
         }
         inj
     }

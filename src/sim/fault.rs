@@ -27,6 +27,10 @@
 //! - `trip=DUR`: a device that has been moving for DUR faults: a PowerCube
 //!   module gets STATE_TOW_ERROR, a Cdios 6168 "motor does not run", a
 //!   PA-CONTROL axis its limit switch (see [`Trip`]).
+//! - `overshoot=PCT`: a PowerCube ramp rings about its target after its
+//!   end, its first swing PCT % of the step past it (a badly tuned drive).
+//! - `slow-halt=DUR`: a moving PowerCube module told to Halt brakes to
+//!   rest over DUR instead of at once (a worn brake).
 //!
 //! Unplugging the adapter is not a fault here: end the serving process (or
 //! drop the pty master) and the client's link reports it closed.
@@ -62,6 +66,9 @@ pub struct FaultSpec {
     pub skip: u64,
     pub count: Option<u64>,
     pub trip: Option<Duration>,
+    /// Percent of a ramp's step its first swing goes past the target.
+    pub overshoot: f64,
+    pub slow_halt: Option<Duration>,
 }
 
 impl FaultSpec {
@@ -121,10 +128,17 @@ impl FromStr for FaultSpec {
                 "skip" => s.skip = count(value)?,
                 "count" => s.count = Some(count(value)?),
                 "trip" => s.trip = Some(parse_duration(value)?),
+                "overshoot" => {
+                    s.overshoot = match value.trim().parse::<f64>() {
+                        Ok(p) if (0.0..=100.0).contains(&p) => p,
+                        _ => return Err(format!("overshoot={value}: expected a percentage 0..100")),
+                    }
+                }
+                "slow-halt" => s.slow_halt = Some(parse_duration(value)?),
                 other => {
                     return Err(format!(
                         "unknown fault {other:?}: drop, delay, garbage, truncate, duplicate, wrong-module, \
-                         skip, count or trip"
+                         skip, count, trip, overshoot or slow-halt"
                     ))
                 }
             }
@@ -158,6 +172,12 @@ impl fmt::Display for FaultSpec {
         }
         if let Some(t) = self.trip {
             parts.push(format!("trip={}ms", t.as_secs_f64() * 1e3));
+        }
+        if self.overshoot > 0.0 {
+            parts.push(format!("overshoot={}", self.overshoot));
+        }
+        if let Some(t) = self.slow_halt {
+            parts.push(format!("slow-halt={}ms", t.as_secs_f64() * 1e3));
         }
         f.write_str(&parts.join(","))
     }

@@ -543,3 +543,42 @@ fn a_planned_module_that_does_not_answer_fails_and_its_other_checks_are_said_ski
     );
     assert!(check(&report, "powercube:9", "identity")["detail"].as_str().unwrap().contains("no answer from module 9"));
 }
+
+/// A module that overshoots (`sim --fault overshoot=20`: each ramp rings
+/// 20 % of its step past the target) and halts slowly (`slow-halt=800ms`)
+/// fails exactly its overshoot figures and its halt time, with the
+/// measured values, exit 5; everything else of the default plan passes.
+#[test]
+fn an_overshooting_module_that_halts_slowly_fails_exactly_those_figures() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut plan = default_plan();
+    plan["device"].as_array_mut().unwrap().retain(|d| d["address"].as_str() == Some("powercube:17"));
+    let file = dir.path().join("plan.toml");
+    std::fs::write(&file, toml::to_string(&plan).unwrap()).unwrap();
+    let sim = common::Sim::start(&["--fault", "overshoot=20,slow-halt=800ms"], 3);
+    let out = dir.path().join("r");
+    let args = ["--link", sim.link("powercube"), "commission", "--plan", file.to_str().unwrap()];
+    let r = run(&[&args[..], &["--out", out.to_str().unwrap(), "--yes"]].concat());
+    assert_eq!(r.code, 5, "{}\n{}", r.stdout, r.stderr);
+    let report = read_report(&out);
+    assert_eq!(
+        with_status(&report, "fail"),
+        BTreeSet::from(["move_forward", "move_back", "halt"].map(|c| format!("powercube:17 {c}")))
+    );
+    let failing = |c: &Value| -> Vec<String> {
+        c["measured"].as_array().unwrap().iter().filter(|m| m["pass"] == false).map(|m| m["name"].to_string()).collect()
+    };
+    for mv in ["move_forward", "move_back"] {
+        let c = check(&report, "powercube:17", mv);
+        assert_eq!(failing(c), ["\"overshoot\""], "{c}");
+        let o = measured(c, "overshoot");
+        let v = o["value"].as_f64().unwrap();
+        assert!((v - 20.0).abs() <= 1.0, "{mv}: overshoot {v} %");
+        assert_eq!(o["limit"], "<= 5");
+    }
+    let halt = check(&report, "powercube:17", "halt");
+    assert_eq!(failing(halt), ["\"time_to_standstill\""], "{halt}");
+    let secs = measured(halt, "time_to_standstill")["value"].as_f64().unwrap();
+    let tol = 2.0 * largest_gap(&out, halt) + 1e-3;
+    assert!((secs - 0.8).abs() <= tol, "halt time {secs} s, the fault's 0.8 s within {tol}");
+}

@@ -28,9 +28,24 @@ fn the_issue_example_parses() {
     assert_eq!((s.delay, s.delay_p, s.skip, s.count), (Duration::from_millis(1500), 0.25, 3, Some(2)));
     assert_eq!(s.trip, Some(Duration::from_millis(300)));
     assert_eq!(spec(&s.to_string()), s, "Display reads back");
+    let s = spec("overshoot=12.5,slow-halt=400ms");
+    assert_eq!((s.overshoot, s.slow_halt), (12.5, Some(Duration::from_millis(400))));
+    assert_eq!(spec(&s.to_string()), s, "Display reads back");
+    assert!(!s.touches_answers());
     assert!(!spec("trip=1s").touches_answers());
     assert!(spec("delay=10ms").touches_answers());
-    for bad in ["drop=1.5", "drop", "lose=0.1", "delay=-3ms", "delay=fast", "count=x", "drop=0.1@2"] {
+    for bad in [
+        "drop=1.5",
+        "drop",
+        "lose=0.1",
+        "delay=-3ms",
+        "delay=fast",
+        "count=x",
+        "drop=0.1@2",
+        "overshoot=150",
+        "overshoot=x",
+        "slow-halt=-1s",
+    ] {
         assert!(bad.parse::<FaultSpec>().is_err(), "{bad}");
     }
 }

@@ -154,7 +154,7 @@ mod tests;
 use std::time::Instant;
 
 pub use defaults::{Defaults, DEFAULT_VERSION, LEGACY_MODULE, LEGACY_VERSION};
-pub use module::{Module, SERVO_CYCLE_S, WATCHDOG_PERIOD_S};
+pub use module::{Module, ResponseFault, SERVO_CYCLE_S, WATCHDOG_PERIOD_S};
 pub use params::{LOGIC_SUPPLY_V, MOTOR_SUPPLY_V, TEMPERATURE_C};
 
 use module::Iface;

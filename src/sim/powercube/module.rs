@@ -49,7 +49,27 @@ pub(super) enum Activity {
     },
     Velocity,
     Current,
+    /// The overshoot fault's ring after a ramp: still in motion.
+    Settling,
+    /// The slow-halt fault: a Halt brakes over its time instead of at once.
+    Braking,
 }
+
+/// Faults of the module's own response (`sim --fault overshoot=PCT,
+/// slow-halt=DUR`): what a badly tuned or worn drive does, so that the
+/// commissioning checks of overshoot and halt time can be seen to fail.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct ResponseFault {
+    /// A ramp rings about its target after its end, the first swing this
+    /// fraction of the step past it.
+    pub overshoot: f64,
+    /// A Halt brakes at constant deceleration to rest in this time (s).
+    pub halt_time: f64,
+}
+
+/// The half period of the overshoot fault's ring (s), and how many.
+const RING_HALF_S: f64 = 0.15;
+const RING_HALVES: u32 = 6;
 
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub(super) struct Limits {
@@ -137,6 +157,9 @@ pub struct Module {
     pub(super) saved_pos: f64,
     /// ResetTime: the origin of ActFPosTime's millisecond stamp.
     pub(super) time_zero: f64,
+    pub(super) response: ResponseFault,
+    /// Where the running ramp started: the overshoot fault's step.
+    ramp_from: f64,
 }
 
 /// CubeState flags the manual classes as errors.
@@ -215,6 +238,8 @@ impl Module {
             },
             saved_pos: start,
             time_zero: 0.0,
+            response: ResponseFault::default(),
+            ramp_from: start,
             def,
         }
     }
@@ -260,7 +285,7 @@ impl Module {
                 Some(Response::Simple(CommandId::Home))
             }
             Request::Halt => {
-                self.halt();
+                self.halt_commanded();
                 Some(Response::Simple(CommandId::Halt))
             }
             Request::RecalcPidParam => Some(Response::Simple(CommandId::RecalcPidParam)),
@@ -303,7 +328,7 @@ impl Module {
         match b {
             Broadcast::Reset => self.reset(),
             Broadcast::Home => self.home(),
-            Broadcast::Halt => self.halt(),
+            Broadcast::Halt => self.halt_commanded(),
             Broadcast::WatchdogRefresh => self.wd_refresh = self.t,
             // The simulated bus has no bit rate.
             Broadcast::ChangeBaudrate(_) => {}
@@ -383,6 +408,12 @@ impl Module {
             let pow = if errs & POW_FLAGS != 0 { state::POWERFAULT } else { 0 };
             self.trip(errs | pow);
         }
+    }
+
+    /// Bench side: the response faults from now on (the next ramp, the
+    /// next Halt).
+    pub fn set_response_fault(&mut self, fault: ResponseFault) {
+        self.response = fault;
     }
 
     /// Bench side: the four digital inputs (bits 0..3).
@@ -492,7 +523,12 @@ impl Module {
                     self.start_ramp(0.0, v, a);
                 }
             }
-            Activity::Ramp => self.ramp_end = true,
+            Activity::Ramp if self.response.overshoot > 0.0 && pos != self.ramp_from => {
+                let amp = self.response.overshoot * (pos - self.ramp_from);
+                self.traj = Traj::Ring { t0: self.t, target: pos, amp, half: RING_HALF_S, halves: RING_HALVES };
+                self.activity = Activity::Settling;
+            }
+            Activity::Ramp | Activity::Settling => self.ramp_end = true,
             Activity::RampLoop { from, to, vmax, amax } => {
                 self.traj = Traj::RampLoop {
                     t0: self.t,
@@ -507,6 +543,7 @@ impl Module {
             | Activity::Velocity
             | Activity::Current
             | Activity::CosLoop
+            | Activity::Braking
             | Activity::Idle => {}
         }
     }
@@ -528,6 +565,23 @@ impl Module {
         self.pending = None;
         self.halted = true;
         self.brake_engaged = true;
+    }
+
+    /// A Halt the host sent. With the slow-halt fault a moving module
+    /// brakes to rest over the fault's time (MOTION set until then); a
+    /// trip stays an instant stop, so a soft limit crossed while braking
+    /// still holds the module on it.
+    fn halt_commanded(&mut self) {
+        let k = self.kin();
+        let dur = self.response.halt_time;
+        if dur <= 0.0 || k.vel == 0.0 || matches!(self.activity, Activity::Idle | Activity::Braking) {
+            return self.halt();
+        }
+        self.halt();
+        let segs = vec![Seg { dur, acc: -k.vel / dur, phase: Phase::Dec }];
+        self.traj = Traj::Segs { t0: self.t, p0: k.pos, v0: k.vel, segs, end: End::Stop { snap: None } };
+        self.activity = Activity::Braking;
+        self.brake_engaged = false;
     }
 
     fn reset(&mut self) {
@@ -610,6 +664,7 @@ impl Module {
         let target = self.clamp_pos(target);
         self.target.pos = target;
         let segs = traj::plan_ramp(k.pos, k.vel, target, vmax, amax);
+        self.ramp_from = k.pos;
         self.begin_motion();
         self.traj = Traj::Segs { t0: self.t, p0: k.pos, v0: k.vel, segs, end: End::Stop { snap: Some(target) } };
         self.activity = Activity::Ramp;

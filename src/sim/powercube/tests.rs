@@ -395,6 +395,70 @@ fn halt_and_reset() {
     assert!(b.bus.modules().all(|m| m.cube_state() & (state::HALTED | state::ERROR) == 0));
 }
 
+/// `--fault overshoot=20`: after the ramp's end the module rings about its
+/// target, its first swing 20 % of the step past it, in motion until the
+/// ring has died out, then on the target exactly.
+#[test]
+fn the_overshoot_fault_rings_past_the_target_by_its_percentage() {
+    let mut b = Bench::new();
+    b.homed(17);
+    b.bus.module_mut(17).unwrap().set_response_fault(ResponseFault { overshoot: 0.2, halt_time: 0.0 });
+    let start = b.pos(17);
+    b.ramp(17, 0.1);
+    let (mut peak, mut t) = (f64::MIN, 0.0);
+    let mut ended_in_motion = None;
+    while t < 30.0 {
+        t += 0.001;
+        b.wait(0.001);
+        peak = peak.max(b.pos(17));
+        if ended_in_motion.is_none() && b.state(17) & state::MOTION == 0 {
+            ended_in_motion = Some(t);
+        }
+    }
+    let step = 0.1f32 as f64 - start;
+    let overshoot = (peak - 0.1f32 as f64) / step;
+    assert!((overshoot - 0.2).abs() < 1e-3, "overshoot {overshoot}");
+    assert_eq!(b.pos(17), 0.1f32 as f64, "at rest on the target");
+    assert_eq!(b.state(17) & (state::MOTION | state::RAMP_END), state::RAMP_END);
+    // Without the fault the same ramp never passes its target.
+    let mut b = Bench::new();
+    b.homed(17);
+    b.ramp(17, 0.1);
+    let mut peak = f64::MIN;
+    for _ in 0..30_000 {
+        b.wait(0.001);
+        peak = peak.max(b.pos(17));
+    }
+    assert!(peak <= 0.1f32 as f64, "{peak}");
+}
+
+/// `--fault slow-halt=300ms`: a moving module told to Halt brakes to rest
+/// in 300 ms, in motion until then; a module at rest halts at once.
+#[test]
+fn the_slow_halt_fault_brakes_over_its_time() {
+    let mut b = Bench::new();
+    b.homed(17);
+    b.bus.module_mut(17).unwrap().set_response_fault(ResponseFault { overshoot: 0.0, halt_time: 0.3 });
+    b.ramp(17, 0.5);
+    b.wait(1.0);
+    let v = b.getf(17, ids::ACT_VEL);
+    assert!(v > 0.0);
+    b.req(17, Request::Halt);
+    let p = b.pos(17);
+    b.wait(0.299);
+    assert!(has(b.state(17), state::MOTION | state::HALTED), "{:#x}", b.state(17));
+    b.wait(0.002);
+    assert_eq!(b.state(17) & state::MOTION, 0);
+    assert_eq!(b.getf(17, ids::ACT_VEL), 0.0);
+    // Constant deceleration: half the speed times the braking time.
+    assert!((b.pos(17) - p - v * 0.3 / 2.0).abs() < 1e-5, "{} from {p}", b.pos(17));
+    b.ramp(17, 0.6);
+    b.wait(1.0);
+    assert_eq!(b.state(17) & state::MOTION, 0, "halted: no motion until a Reset");
+    b.req(17, Request::Halt);
+    assert_eq!(b.state(17) & state::MOTION, 0, "at rest: halted at once");
+}
+
 #[test]
 fn steps_buffer_one_command() {
     let mut b = Bench::new();

@@ -76,7 +76,22 @@ pub enum Traj {
         to: f64,
         half: f64,
     },
+    /// The overshoot fault's ring after a ramp: `target + amp * d^k *
+    /// sin(pi t / half)` in the k-th half period (`d` = [`RING_DECAY`]),
+    /// for `halves` half periods, then rest on `target`. The first peak is
+    /// exactly `amp` past the target, so the overshoot a recording measures
+    /// is the one the fault asked for.
+    Ring {
+        t0: f64,
+        target: f64,
+        amp: f64,
+        half: f64,
+        halves: u32,
+    },
 }
+
+/// How much of its swing the ring keeps from one half period to the next.
+pub const RING_DECAY: f64 = 0.25;
 
 fn step(p: f64, v: f64, a: f64, dt: f64) -> (f64, f64) {
     (p + v * dt + 0.5 * a * dt * dt, v + a * dt)
@@ -134,6 +149,21 @@ impl Traj {
                     phase: None,
                 }
             }
+            Self::Ring { t0, target, amp, half, halves } => {
+                let dt = (t - t0).max(0.0);
+                let k = (dt / half).floor();
+                if k >= f64::from(*halves) {
+                    return Kin::rest(*target);
+                }
+                let w = std::f64::consts::PI / half;
+                let a = amp * RING_DECAY.powf(k);
+                Kin {
+                    pos: target + a * (w * dt).sin(),
+                    vel: a * w * (w * dt).cos(),
+                    acc: -a * w * w * (w * dt).sin(),
+                    phase: None,
+                }
+            }
         }
     }
 
@@ -141,6 +171,7 @@ impl Traj {
     pub fn end_pos(&self) -> Option<f64> {
         match self {
             Self::Segs { end: End::Stop { snap }, .. } => *snap,
+            Self::Ring { target, .. } => Some(*target),
             _ => None,
         }
     }
@@ -149,6 +180,7 @@ impl Traj {
     pub fn end_time(&self) -> Option<f64> {
         match self {
             Self::Segs { t0, segs, end: End::Stop { .. }, .. } => Some(t0 + duration(segs)),
+            Self::Ring { t0, half, halves, .. } => Some(t0 + half * f64::from(*halves)),
             _ => None,
         }
     }
@@ -156,7 +188,9 @@ impl Traj {
     /// The first time, not before `from_t`, at which the trajectory moves out
     /// of `[min, max]` (moving outward beyond a bound; a module already beyond
     /// a bound may move back in). Only segment profiles can leave the range:
-    /// loops run between targets already clamped into it.
+    /// loops run between targets already clamped into it, and the overshoot
+    /// fault's ring is a fault of the simulation, not a motion the limits
+    /// supervise.
     pub fn first_exit(&self, min: f64, max: f64, from_t: f64) -> Option<f64> {
         let Self::Segs { t0, p0, v0, segs, end } = self else { return None };
         let (mut p, mut v) = (*p0, *v0);
