@@ -20,6 +20,8 @@ use axisctl::family::Family;
 use axisctl::proto::powercube::ModuleId;
 use serde_json::json;
 
+mod out_dir;
+
 use super::{usage, Ctx, DeviceFault, Interrupted};
 use crate::cli::commission::CommissionArgs;
 use crate::output::{self, say};
@@ -35,6 +37,7 @@ pub fn run(ctx: &Ctx, args: CommissionArgs) -> anyhow::Result<()> {
         return Ok(());
     }
     let out = args.out.clone().ok_or_else(|| usage("--out DIR is needed: where the report is written"))?;
+    let earlier = out_dir::inspect(&out).map_err(usage)?;
     let (plan, plan_dir) = match &args.plan {
         Some(p) => (read_plan(p)?, p.parent().map(Path::to_path_buf).unwrap_or_default()),
         None => (default_plan(ctx)?, PathBuf::new()),
@@ -55,6 +58,11 @@ pub fn run(ctx: &Ctx, args: CommissionArgs) -> anyhow::Result<()> {
     }
     let devices: Vec<(ModuleId, DevicePlan)> = devices.into_iter().map(|(m, d)| (m, d.clone())).collect();
     let (report, written) = execute(ctx, &args, plan, &devices, &files, motions)?;
+    out_dir::clear(&earlier).map_err(anyhow::Error::msg)?;
+    if !earlier.foreign.is_empty() && !ctx.json {
+        let kept = earlier.foreign.join(", ");
+        output::err_line(format_args!("note: {} also holds {kept}: not the run's, left as they are", out.display()));
+    }
     write_report(&out, &report, written)?;
     if ctx.json {
         output::json(&json!({

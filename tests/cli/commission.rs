@@ -582,3 +582,56 @@ fn an_overshooting_module_that_halts_slowly_fails_exactly_those_figures() {
     let tol = 2.0 * largest_gap(&out, halt) + 1e-3;
     assert!((secs - 0.8).abs() <= tol, "halt time {secs} s, the fault's 0.8 s within {tol}");
 }
+
+fn files_in(dir: &Path) -> BTreeSet<String> {
+    std::fs::read_dir(dir).unwrap().map(|e| e.unwrap().file_name().to_string_lossy().into_owned()).collect()
+}
+
+/// A rerun into the same `--out` replaces the earlier report whole: the
+/// earlier run's recordings and backup are gone when the new plan makes
+/// none, a file of the user's is kept (and said), and a directory holding
+/// no report is refused before anything is sent.
+#[test]
+fn a_rerun_into_the_same_out_leaves_no_file_of_the_earlier_run() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("r");
+    let mut plan = default_plan();
+    plan["device"].as_array_mut().unwrap().retain(|d| d["address"].as_str() == Some("powercube:3"));
+    device(&mut plan, "powercube:3").remove("halt");
+    let moving = dir.path().join("moving.toml");
+    std::fs::write(&moving, toml::to_string(&plan).unwrap()).unwrap();
+    let commission = |plan: &Path, extra: &[&str]| {
+        let args = ["--link", "sim", "commission", "--plan", plan.to_str().unwrap(), "--out", out.to_str().unwrap()];
+        run(&[&args[..], extra].concat())
+    };
+    let r = commission(&moving, &["--yes"]);
+    assert_eq!(r.code, 0, "{}", r.stderr);
+    let first = files_in(&out);
+    let csvs: Vec<&String> = first.iter().filter(|f| f.ends_with(".csv")).collect();
+    assert_eq!(csvs.len(), 2, "{first:?}");
+    assert!(first.contains("backup.json"));
+    std::fs::write(out.join("notes.txt"), "signed by").unwrap();
+    // The second plan reads one module and moves nothing, backs nothing up.
+    let reading = dir.path().join("reading.toml");
+    std::fs::write(&reading, "[[device]]\naddress = \"powercube:5\"\nbackup = false\n").unwrap();
+    let r = commission(&reading, &[]);
+    assert_eq!(r.code, 0, "{}", r.stderr);
+    assert_eq!(
+        files_in(&out),
+        BTreeSet::from(["notes.txt", "plan.toml", "report.html", "report.json", "report.md"].map(String::from))
+    );
+    assert!(r.stderr.contains("also holds notes.txt"), "{}", r.stderr);
+    let report = read_report(&out);
+    assert!(checks(&report).iter().all(|c| c["device"] == "powercube:5"));
+    // A directory of other files is nobody's report: refused, nothing sent.
+    let foreign = dir.path().join("photos");
+    std::fs::create_dir(&foreign).unwrap();
+    std::fs::write(foreign.join("bench.jpg"), "").unwrap();
+    let log = dir.path().join("refused.log");
+    let args = ["--link", "sim", "--log", log.to_str().unwrap(), "commission", "--out", foreign.to_str().unwrap()];
+    let r = run(&[&args[..], &["--yes"]].concat());
+    assert_eq!(r.code, 2, "{}", r.stderr);
+    assert!(r.stderr.contains("bench.jpg") && r.stderr.contains("nothing was sent"), "{}", r.stderr);
+    assert_eq!(std::fs::read_to_string(&log).unwrap_or_default(), "", "nothing sent");
+    assert_eq!(files_in(&foreign), BTreeSet::from(["bench.jpg".to_string()]));
+}
