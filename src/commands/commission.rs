@@ -10,19 +10,16 @@ use std::path::{Path, PathBuf};
 use std::time::SystemTime;
 
 use axisctl::backup::{self, Document};
-use axisctl::bench::{Address, DeviceRef};
-use axisctl::commission::plan::{Band, DevicePlan, Home, Identity, Moves, Plan, Settings};
+use axisctl::commission::devices::{self, Planned};
+use axisctl::commission::plan::Plan;
 use axisctl::commission::report::{self, Check, Report};
-use axisctl::commission::{powercube as cube_plan, Run, BACKUP_FILE};
-use axisctl::device::powercube::Cubes;
+use axisctl::commission::{Run, BACKUP_FILE};
 use axisctl::device::supervisor;
-use axisctl::family::Family;
-use axisctl::proto::powercube::ModuleId;
 use serde_json::json;
 
 mod out_dir;
 
-use super::{usage, Ctx, DeviceFault, Interrupted};
+use super::{usage, Ctx, DeviceFault, Interrupted, OnBench};
 use crate::cli::commission::CommissionArgs;
 use crate::output::{self, say};
 
@@ -43,20 +40,16 @@ pub fn run(ctx: &Ctx, args: CommissionArgs) -> anyhow::Result<()> {
         None => (default_plan(ctx)?, PathBuf::new()),
     };
     // Every address and file of the plan is checked before anything is sent.
-    let devices = resolve(ctx, &plan)?;
+    let devices = devices::resolve(ctx.bench()?, &plan).map_err(usage)?;
     let files = expected_files(&plan, &plan_dir)?;
     std::fs::create_dir_all(&out).map_err(|e| usage(format!("--out {}: {e}", out.display())))?;
-    let motions: Vec<String> = devices
-        .iter()
-        .flat_map(|(_, d)| cube_plan::motions(&d.address, d, cube_plan::unit_of(d.identity.kind.as_deref())))
-        .collect();
+    let motions = devices::motions(&devices);
     if args.dry_run {
         list("The plan would make these motions (not made: --dry-run):", &motions);
     } else if !motions.is_empty() {
         confirm(&motions, args.yes)?;
         super::arm_interrupt()?;
     }
-    let devices: Vec<(ModuleId, DevicePlan)> = devices.into_iter().map(|(m, d)| (m, d.clone())).collect();
     let (report, written) = execute(ctx, &args, plan, &devices, &files, motions)?;
     out_dir::clear(&earlier).map_err(anyhow::Error::msg)?;
     if !earlier.foreign.is_empty() && !ctx.json {
@@ -96,34 +89,6 @@ fn read_plan(path: &Path) -> anyhow::Result<Plan> {
     Plan::parse(&text, &path.display().to_string()).map_err(|e| usage(e.to_string()))
 }
 
-/// Each planned device's address on the bench; only PowerCube modules are
-/// commissioned yet, so any other family is refused before anything is sent.
-fn resolve<'p>(ctx: &Ctx, plan: &'p Plan) -> anyhow::Result<Vec<(ModuleId, &'p DevicePlan)>> {
-    let bench = ctx.bench()?;
-    let mut out = Vec::new();
-    for d in &plan.device {
-        let r: DeviceRef = d.address.parse().map_err(|e| usage(format!("plan: {e}")))?;
-        match bench.resolve(&r).map_err(|e| usage(format!("plan: {e}")))? {
-            Address::PowerCube { module } => {
-                out.push((ModuleId::new(module).ok_or_else(|| usage("module id out of range"))?, d));
-            }
-            other => {
-                return Err(usage(format!(
-                    "plan: {} is a {} device: commission runs PowerCube modules only so far",
-                    d.address,
-                    other.family().display_name()
-                )))
-            }
-        }
-        if let Some(s) = &d.settings {
-            if let Some(name) = s.values.keys().find(|n| !cube_plan::known_setting(n)) {
-                return Err(usage(format!("plan: {}: no PowerCube parameter {name:?}", d.address)));
-            }
-        }
-    }
-    Ok(out)
-}
-
 /// The backup files the plan's settings name, read once; relative paths
 /// are the plan file's.
 fn expected_files(plan: &Plan, dir: &Path) -> anyhow::Result<Vec<(PathBuf, Document)>> {
@@ -139,12 +104,6 @@ fn expected_files(plan: &Plan, dir: &Path) -> anyhow::Result<Vec<(PathBuf, Docum
         out.push((path, doc));
     }
     Ok(out)
-}
-
-fn expected_for<'f>(d: &DevicePlan, m: ModuleId, dir_files: &'f [(PathBuf, Document)]) -> Option<&'f backup::Device> {
-    let name = d.settings.as_ref()?.backup.as_ref()?;
-    let (_, doc) = dir_files.iter().find(|(p, _)| p.ends_with(name))?;
-    doc.devices.iter().find(|dev| dev.family == Family::PowerCube && dev.module == Some(m.get()))
 }
 
 fn list(title: &str, motions: &[String]) {
@@ -181,12 +140,12 @@ fn execute(
     ctx: &Ctx,
     args: &CommissionArgs,
     plan: Plan,
-    devices: &[(ModuleId, DevicePlan)],
+    devices: &[Planned],
     files: &[(PathBuf, Document)],
     motions: Vec<String>,
 ) -> anyhow::Result<(Report, Files)> {
     let started = SystemTime::now();
-    let total = devices.iter().map(|(_, d)| cube_plan::planned(d).len()).sum::<usize>().max(1);
+    let total = devices.iter().map(|d| devices::planned(d).len()).sum::<usize>().max(1);
     let done = std::cell::Cell::new(0usize);
     let json = ctx.json;
     let mut on_step = |device: &str, check: &str| {
@@ -208,26 +167,9 @@ fn execute(
     let mut run = Run::new(ctx.clock.clone(), &ctx.link_text, &stop, &mut on_step, &mut on_check);
     run.dry_run = args.dry_run;
     run.halt_attempts = 1 + ctx.retry.read_retries;
-    let mut ended = None;
-    if !devices.is_empty() {
-        match ctx.powercube() {
-            Ok(pc) => {
-                let mut cubes = Some(Cubes::new(pc));
-                for (m, d) in devices {
-                    if run.interrupted {
-                        break;
-                    }
-                    let cs = match cubes.take() {
-                        Some(c) => c,
-                        None => Cubes::new(ctx.powercube()?),
-                    };
-                    let expected = expected_for(d, *m, files);
-                    cubes = cube_plan::run_module(cs, *m, &d.address, d, expected, &mut run);
-                }
-            }
-            Err(e) => ended = Some(format!("the PowerCube link could not be opened: {e:#}")),
-        }
-    }
+    // A PowerCube bus and a Cdios node on one adapter share it.
+    ctx.opener().keep_links_open();
+    let mut ended = devices::run_all(&mut OnBench(ctx), devices, files, &mut run).err();
     if run.interrupted {
         let why = supervisor::stop_reason().map_or_else(|| "stopped".to_string(), |r| r.to_string());
         ended = Some(format!("{why}: what moved was halted; later checks were not run"));
@@ -322,72 +264,12 @@ fn print_summary(ctx: &Ctx, report: &Report, out: &Path) {
     );
 }
 
-/// The default plan for every PowerCube module found: its identity and
-/// limits as they are, homing, a move of a tenth of its range each way at
-/// half its speed and acceleration inside its limits, with bands from the
-/// ramp's own duration, and a halt test half-way into such a move.
+/// The default plan for every device of every family the bench carries.
 fn default_plan(ctx: &Ctx) -> anyhow::Result<Plan> {
-    let mut cubes = Cubes::new(ctx.powercube()?);
-    let mut device = Vec::new();
-    for m in cubes.present()? {
-        let live = backup::powercube::capture(&mut cubes, m, &ctx.link_text)?;
-        device.push(default_device(m, &live));
-    }
-    Ok(Plan { device })
-}
-
-fn default_device(m: ModuleId, live: &backup::Device) -> DevicePlan {
-    let num = |n: &str| live.settings.get(n).and_then(|s| s.value.as_f64()).unwrap_or(f64::NAN);
-    let text = |k: &str| live.identity.get(k).and_then(|v| v.as_str()).map(str::to_string);
-    let (lo, hi) = (num("MinPos"), num("MaxPos"));
-    let (vel, acc) = (sig(num("MaxVel") / 2.0), sig(num("MaxAcc") / 2.0));
-    let distance = sig((hi - lo) / 10.0);
-    // A trapezoid's duration (a triangle when the speed is never reached).
-    let ramp = if distance >= vel * vel / acc { distance / vel + vel / acc } else { 2.0 * (distance / acc).sqrt() };
-    let values = ["MinPos", "MaxPos", "MaxVel", "MaxAcc", "MaxCur"]
-        .into_iter()
-        .map(|n| (n.to_string(), axisctl::commission::plan::Expected { value: sig7(num(n)), tolerance: None }))
-        .collect();
-    let slack = sig(ramp + 1.0);
-    DevicePlan {
-        address: format!("powercube:{m}"),
-        identity: Identity {
-            kind: text("type"),
-            serial: live.identity.get("serial").and_then(|v| v.as_u64()),
-            firmware: text("version"),
-        },
-        settings: Some(Settings { backup: None, tolerance: 1e-6, values }),
-        limits: true,
-        home: Some(Home { timeout_s: 30.0 }),
-        moves: Some(Moves {
-            distance,
-            window: [sig7(lo), sig7(hi)],
-            vel: Some(vel),
-            acc: Some(acc),
-            band_percent: 2.0,
-            timeout_s: sig(ramp * 3.0 + 5.0),
-            rise_time_s: Some(Band::max(sig(ramp))),
-            overshoot_percent: Some(Band::max(5.0)),
-            settling_time_s: Some(Band::max(slack)),
-            steady_state_error: Some(Band { min: Some(-sig(distance / 100.0)), max: Some(sig(distance / 100.0)) }),
-            time_to_reach_s: Some(Band::max(slack)),
-        }),
-        halt: Some(axisctl::commission::plan::Halt {
-            distance,
-            after_s: sig(ramp / 2.0),
-            standstill_s: Band::max(0.5),
-        }),
-        watchdog: false,
-        backup: true,
-    }
-}
-
-/// Three significant digits: a plan a person reads and edits.
-fn sig(v: f64) -> f64 {
-    format!("{v:.2e}").parse().unwrap_or(v)
-}
-
-/// Seven: a float setting as the module holds it (f32).
-fn sig7(v: f64) -> f64 {
-    format!("{v:.6e}").parse().unwrap_or(v)
+    ctx.opener().keep_links_open();
+    let link = |f| ctx.link_text_for(f);
+    devices::default_plan(ctx.bench()?, &mut OnBench(ctx), &link).map_err(|e| match e {
+        axisctl::commission::DefaultPlanError::Open(e) => e,
+        axisctl::commission::DefaultPlanError::Read(e) => e.into(),
+    })
 }

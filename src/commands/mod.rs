@@ -390,6 +390,24 @@ impl device::registry::Sessions for On<'_> {
     }
 }
 
+/// The sessions of the whole bench, each family on the link that carries
+/// it (`Ctx::powercube` and its siblings): where a run over devices of
+/// several families, each on its own link, gets them.
+pub struct OnBench<'a>(pub &'a Ctx);
+
+impl device::registry::Sessions for OnBench<'_> {
+    type Error = anyhow::Error;
+    fn powercube(&mut self) -> anyhow::Result<PowerCube> {
+        self.0.powercube()
+    }
+    fn pac(&mut self) -> anyhow::Result<Pac> {
+        self.0.pac()
+    }
+    fn cdios(&mut self) -> anyhow::Result<Cdios> {
+        self.0.cdios()
+    }
+}
+
 /// A trace line on stderr. A failed write (a closed pipe, a full disk)
 /// must not panic in the middle of a motion: it is recorded, and a
 /// supervised wait halts on it.

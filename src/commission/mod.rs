@@ -10,7 +10,10 @@
 //! or is interrupted leaves the device's later motion checks unrun. The
 //! library reads and computes; the binary writes the files.
 
+pub mod cdios;
+pub mod devices;
 pub mod figures;
+pub mod pac;
 pub mod plan;
 pub mod powercube;
 pub mod report;
@@ -20,6 +23,7 @@ use std::time::Instant;
 
 use crate::backup;
 use crate::clock::Clock;
+use crate::family::Family;
 use report::Check;
 
 /// What one run shares across devices: options, the clock, the results so
@@ -96,6 +100,50 @@ impl<'a> Run<'a> {
 /// The final backups of every device, in one `axisctl-backup/1` document.
 pub const BACKUP_FILE: &str = "backup.json";
 
+/// Why the default plan could not be made: a link that did not open (the
+/// caller's own error), or a device that could not be read (its family's
+/// error kept as the source, so its kind still decides the exit status).
+#[derive(Debug)]
+pub enum DefaultPlanError<E> {
+    Open(E),
+    Read(ReadFailed),
+}
+
+#[derive(Debug, thiserror::Error)]
+#[error("the default plan: {family}: {source}")]
+pub struct ReadFailed {
+    pub family: &'static str,
+    #[source]
+    pub source: Box<dyn std::error::Error + Send + Sync>,
+}
+
+impl<E> DefaultPlanError<E> {
+    /// A read of `family`'s device failed.
+    pub fn read(family: Family, e: impl std::error::Error + Send + Sync + 'static) -> Self {
+        Self::Read(ReadFailed { family: family.display_name(), source: Box::new(e) })
+    }
+}
+
+/// A trapezoid's duration over `distance` at `vel` and `acc` (a triangle
+/// when the speed is never reached): the default plans' bands.
+pub fn ramp_duration(distance: f64, vel: f64, acc: f64) -> f64 {
+    if distance >= vel * vel / acc {
+        distance / vel + vel / acc
+    } else {
+        2.0 * (distance / acc).sqrt()
+    }
+}
+
+/// Three significant digits: a plan a person reads and edits.
+pub fn sig(v: f64) -> f64 {
+    format!("{v:.2e}").parse().unwrap_or(v)
+}
+
+/// Seven: a float setting as a device holds it (f32).
+pub fn sig7(v: f64) -> f64 {
+    format!("{v:.6e}").parse().unwrap_or(v)
+}
+
 /// The device's settings against the plan's: those the backup file's
 /// device restores (compared as `diff` compares them, within the plan's
 /// relative tolerance), then the inline values (within their own
@@ -139,7 +187,6 @@ pub fn settings_check(at: &str, plan: &plan::Settings, file: Option<&backup::Dev
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::family::Family;
     use plan::{Expected, Settings};
     use report::Status;
 

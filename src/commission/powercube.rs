@@ -11,12 +11,16 @@ use std::time::Duration;
 use serde_json::{json, Value};
 
 use super::figures;
-use super::plan::{Band, DevicePlan, Moves};
+use super::plan::{Band, DevicePlan, Expected, Halt, Home, Identity, Moves, Settings};
 use super::report::{Check, Status};
+use super::DefaultPlanError;
 use super::Run;
+use super::{sig, sig7};
 use crate::backup::{self, Device};
 use crate::device::face::{MotionTarget, Moving};
 use crate::device::powercube::{self as cube_dev, Cubes, Goal, Move, WaitSpec};
+use crate::device::registry::Sessions;
+use crate::family::Family;
 use crate::plot;
 use crate::proto::powercube::flags::{state, CUBE_STATE};
 use crate::proto::powercube::table::{self, ids};
@@ -26,8 +30,17 @@ use crate::record::{self, Address, CubeSampler, Sample, Sampler, Until};
 /// Motion checks of a device, in order.
 const MOTION_CHECKS: [&str; 4] = ["home", "move_forward", "move_back", "halt"];
 
+/// What a PowerCube plan may not ask: a setting the module does not have.
+pub fn check_plan(plan: &DevicePlan) -> Result<(), String> {
+    match plan.settings.as_ref().and_then(|s| s.values.keys().find(|n| !known_setting(n))) {
+        Some(name) => Err(format!("no PowerCube parameter {name:?}")),
+        None => Ok(()),
+    }
+}
+
 /// The motions the plan makes on module `at`, as the confirmation lists them.
-pub fn motions(at: &str, plan: &DevicePlan, unit: &str) -> Vec<String> {
+pub fn motions(at: &str, plan: &DevicePlan) -> Vec<String> {
+    let unit = unit_of(plan.identity.kind.as_deref());
     let mut out = Vec::new();
     if plan.home.is_some() {
         out.push(format!("{at}: home"));
@@ -63,10 +76,100 @@ pub fn planned(plan: &DevicePlan) -> Vec<&'static str> {
     asked.into_iter().filter(|(_, on)| *on).map(|(name, _)| name).collect()
 }
 
+/// The PowerCube bus of the run: opened for the first module, kept for the
+/// next, opened again after a module lost it.
+#[derive(Default)]
+pub struct Open(Option<Cubes>);
+
+impl Open {
+    /// Runs module `module`'s plan; `Err` when the bus cannot be opened.
+    pub fn run<S>(
+        &mut self,
+        sessions: &mut S,
+        module: u8,
+        plan: &DevicePlan,
+        expected: Option<&Device>,
+        run: &mut Run,
+    ) -> Result<(), String>
+    where
+        S: Sessions,
+        S::Error: std::fmt::Display,
+    {
+        let m = ModuleId::new(module).ok_or_else(|| format!("module id {module} out of range"))?;
+        let cubes = match self.0.take() {
+            Some(c) => c,
+            None => {
+                Cubes::new(sessions.powercube().map_err(|e| format!("the PowerCube link could not be opened: {e:#}"))?)
+            }
+        };
+        self.0 = run_module(cubes, m, &plan.address, plan, expected, run);
+        Ok(())
+    }
+}
+
+/// The default plan for every module found: its identity and limits as
+/// they are, homing, a move of a tenth of its range each way at half its
+/// speed and acceleration inside its limits, with bands from the ramp's
+/// own duration, and a halt test half-way into such a move.
+pub fn default_plan<S>(sessions: &mut S, link: &str) -> Result<Vec<DevicePlan>, DefaultPlanError<S::Error>>
+where
+    S: Sessions,
+{
+    let read = |e| DefaultPlanError::read(Family::PowerCube, e);
+    let mut cubes = Cubes::new(sessions.powercube().map_err(DefaultPlanError::Open)?);
+    let mut device = Vec::new();
+    for m in cubes.present().map_err(read)? {
+        let live = backup::powercube::capture(&mut cubes, m, link).map_err(read)?;
+        device.push(default_device(m, &live));
+    }
+    Ok(device)
+}
+
+fn default_device(m: ModuleId, live: &Device) -> DevicePlan {
+    let num = |n: &str| live.settings.get(n).and_then(|s| s.value.as_f64()).unwrap_or(f64::NAN);
+    let text = |k: &str| live.identity.get(k).and_then(|v| v.as_str()).map(str::to_string);
+    let (lo, hi) = (num("MinPos"), num("MaxPos"));
+    let (vel, acc) = (sig(num("MaxVel") / 2.0), sig(num("MaxAcc") / 2.0));
+    let distance = sig((hi - lo) / 10.0);
+    let ramp = super::ramp_duration(distance, vel, acc);
+    let values = ["MinPos", "MaxPos", "MaxVel", "MaxAcc", "MaxCur"]
+        .into_iter()
+        .map(|n| (n.to_string(), Expected { value: sig7(num(n)), tolerance: None }))
+        .collect();
+    let slack = sig(ramp + 1.0);
+    DevicePlan {
+        address: crate::bench::Address::PowerCube { module: m.get() }.to_string(),
+        identity: Identity {
+            kind: text("type"),
+            serial: live.identity.get("serial").and_then(|v| v.as_u64()),
+            firmware: text("version"),
+        },
+        settings: Some(Settings { backup: None, tolerance: 1e-6, values }),
+        limits: true,
+        home: Some(Home { timeout_s: 30.0 }),
+        moves: Some(Moves {
+            distance,
+            window: [sig7(lo), sig7(hi)],
+            vel: Some(vel),
+            acc: Some(acc),
+            band_percent: 2.0,
+            timeout_s: sig(ramp * 3.0 + 5.0),
+            rise_time_s: Some(Band::max(sig(ramp))),
+            overshoot_percent: Some(Band::max(5.0)),
+            settling_time_s: Some(Band::max(slack)),
+            steady_state_error: Some(Band { min: Some(-sig(distance / 100.0)), max: Some(sig(distance / 100.0)) }),
+            time_to_reach_s: Some(Band::max(slack)),
+        }),
+        halt: Some(Halt { distance, after_s: sig(ramp / 2.0), standstill_s: Band::max(0.5) }),
+        watchdog: false,
+        backup: true,
+    }
+}
+
 /// Runs the plan's checks on module `m` (`at` is its address as the report
 /// says it); `expected`: the plan's backup file's device, if any. Returns
 /// the handle for the next module, `None` when the link was lost with it.
-pub fn run_module(
+fn run_module(
     mut cubes: Cubes,
     m: ModuleId,
     at: &str,
@@ -629,7 +732,7 @@ fn round(v: f64) -> f64 {
 
 /// The unit of a module's positions, for the motions' list before anything
 /// is read: the plan does not say whether a module is linear.
-pub fn unit_of(kind: Option<&str>) -> &'static str {
+fn unit_of(kind: Option<&str>) -> &'static str {
     match kind {
         Some("linear") => "m",
         Some("rotary") => "rad",
@@ -638,7 +741,7 @@ pub fn unit_of(kind: Option<&str>) -> &'static str {
 }
 
 /// Whether `name` is a PowerCube parameter a plan may expect.
-pub fn known_setting(name: &str) -> bool {
+fn known_setting(name: &str) -> bool {
     table::param_by_name(name).is_some()
 }
 
