@@ -167,6 +167,7 @@ fn execute(
     let mut run = Run::new(ctx.clock.clone(), &ctx.link_text, &stop, &mut on_step, &mut on_check);
     run.dry_run = args.dry_run;
     run.halt_attempts = 1 + ctx.retry.read_retries;
+    run.retry = ctx.retry;
     // A PowerCube bus and a Cdios node on one adapter share it.
     ctx.opener().keep_links_open();
     let mut ended = devices::run_all(&mut OnBench(ctx), devices, files, &mut run).err();

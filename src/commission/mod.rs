@@ -33,6 +33,8 @@ pub struct Run<'a> {
     pub dry_run: bool,
     /// How often a halt whose acknowledge is lost is sent.
     pub halt_attempts: u32,
+    /// The read retries of sessions the run opens itself (a Cdios node).
+    pub retry: crate::session::RetryPolicy,
     /// The link the devices are on, for the backup's envelope.
     pub link: String,
     pub clock: Arc<dyn Clock>,
@@ -64,6 +66,7 @@ impl<'a> Run<'a> {
         Self {
             dry_run: false,
             halt_attempts: 3,
+            retry: Default::default(),
             link: link.into(),
             clock,
             start,
@@ -121,6 +124,94 @@ impl<E> DefaultPlanError<E> {
     /// A read of `family`'s device failed.
     pub fn read(family: Family, e: impl std::error::Error + Send + Sync + 'static) -> Self {
         Self::Read(ReadFailed { family: family.display_name(), source: Box::new(e) })
+    }
+}
+
+/// The step-response figures of a recorded move (`t`, `y` from the sample
+/// before the motion started) against the plan's bands, each measured
+/// value beside its limit; no figure at all fails the check.
+pub(crate) fn step_measures(c: &mut Check, plan: &plan::Moves, t: &[f64], y: &[f64], target: f64, unit: &str) {
+    let band = |b: &Option<plan::Band>, name: &str, v: Option<f64>, unit: &str, c: &mut Check| {
+        let limit = b.map_or_else(|| "any".to_string(), |b| b.text());
+        let ok = match (b, v) {
+            (Some(b), Some(v)) => b.holds(v),
+            (Some(_), None) => false,
+            (None, _) => true,
+        };
+        c.measure(name, serde_json::json!(v.map(round6)), limit, unit, ok);
+    };
+    match figures::step(t, y, target, plan.band_percent / 100.0) {
+        Ok(f) => {
+            band(&plan.rise_time_s, "rise_time", f.rise_time, "s", c);
+            band(&plan.overshoot_percent, "overshoot", Some(f.overshoot_percent), "%", c);
+            band(&plan.settling_time_s, "settling_time", f.settling_time, "s", c);
+            band(&plan.steady_state_error, "steady_state_error", Some(f.steady_state_error), unit, c);
+            band(&plan.time_to_reach_s, "time_to_reach", f.time_to_reach, "s", c);
+        }
+        Err(e) => {
+            c.status = report::Status::Fail;
+            c.detail = format!("no figures: {e}");
+        }
+    }
+}
+
+/// One column of a recording: its name, unit and values.
+pub(crate) struct Column<'a> {
+    pub name: &'a str,
+    pub unit: &'a str,
+    pub values: &'a [f64],
+    /// Drawn in the report's plot (a status word is not).
+    pub plotted: bool,
+}
+
+/// Points per line of a report's plot.
+const PLOT_POINTS: usize = 1500;
+
+/// A recording as CSV beside the report (every sample) and its plot for
+/// the HTML (at most [`PLOT_POINTS`] per line).
+pub(crate) fn attach_recording(c: &mut Check, at: &str, t: &[f64], columns: &[Column], run: &mut Run) {
+    let file = format!("{}-{}.csv", at.replace([':', '/'], "-"), c.check);
+    let mut csv = String::from("t [s]");
+    for col in columns {
+        csv += &if col.unit.is_empty() { format!(",{}", col.name) } else { format!(",{} [{}]", col.name, col.unit) };
+    }
+    csv.push('\n');
+    for (i, ti) in t.iter().enumerate() {
+        csv += &ti.to_string();
+        for col in columns {
+            csv += &format!(",{}", col.values.get(i).copied().unwrap_or(f64::NAN));
+        }
+        csv.push('\n');
+    }
+    run.files.push((file.clone(), csv));
+    c.recording = Some(file);
+    let every = t.len().div_ceil(PLOT_POINTS).max(1);
+    let series = columns
+        .iter()
+        .filter(|col| col.plotted)
+        .map(|col| crate::plot::Series {
+            name: format!("{at} {}", col.name),
+            unit: Some(col.unit.to_string()),
+            points: t
+                .iter()
+                .copied()
+                .zip(col.values.iter().copied())
+                .enumerate()
+                .filter(|(i, _)| i % every == 0 || i + 1 == t.len())
+                .map(|(_, p)| p)
+                .collect(),
+        })
+        .collect();
+    let chart = crate::plot::Chart { title: format!("{at} {}", c.check), x_label: "t (s)".into(), series };
+    c.svg = crate::plot::svg(&chart, 900, 520).ok();
+}
+
+/// Six decimals, and no -0: what a report shows.
+pub(crate) fn round6(v: f64) -> f64 {
+    if v.is_finite() {
+        (v * 1e6).round() / 1e6 + 0.0
+    } else {
+        v
     }
 }
 
