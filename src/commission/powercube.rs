@@ -687,10 +687,23 @@ fn halt_test(
     // a finding, so a Reset leaves the module ready as it was found (a run
     // after this one moves it again).
     let Some(mut cubes) = back else { return (None, c) };
-    if let Err(e) = cubes.simple(Some(m), cube_dev::Simple::Reset) {
+    if let Err(e) = reset(&mut cubes, m, run.halt_attempts) {
         c = c.fail(format!("standstill measured; the Reset after it failed: {e}"));
     }
     (Some(cubes), c)
+}
+
+/// A Reset, sent again while its acknowledge is lost: it moves nothing,
+/// and resetting twice is harmless (a loaded bus loses one now and then).
+fn reset(cubes: &mut Cubes, m: ModuleId, attempts: u32) -> Result<(), cube_dev::Error> {
+    let mut left = attempts.max(1);
+    loop {
+        left -= 1;
+        match cubes.simple(Some(m), cube_dev::Simple::Reset) {
+            Err(e) if left > 0 && e.kind() == crate::session::ErrorKind::Timeout => continue,
+            other => return other,
+        }
+    }
 }
 
 /// The watchdog trips (CubeState COMM_ERROR) once refreshes stop, and the
@@ -712,7 +725,7 @@ fn watchdog(cubes: &mut Cubes, m: ModuleId, at: &str) -> Check {
         let trip = tripped & state::COMM_ERROR != 0;
         c.measure("tripped", json!(trip), "true".into(), "", trip);
         step(cubes.watchdog_off(m), "switching the watchdog off")?;
-        cubes.simple(Some(m), cube_dev::Simple::Reset).map_err(|e| format!("Reset: {e}"))?;
+        reset(cubes, m, 1).map_err(|e| format!("Reset: {e}"))?;
         let after = cubes.state(m).map_err(|e| format!("CubeState: {e}"))?;
         let clear = after & (state::ERROR | state::COMM_ERROR) == 0;
         c.measure("recovered after reset", json!(clear), "true".into(), "", clear);

@@ -385,7 +385,12 @@ fn ctrl_c_during_the_second_test_move_halts_it_and_leaves_an_incomplete_report()
     let text = std::fs::read_to_string(&log).unwrap();
     let frames: Vec<&str> = text.lines().filter_map(|l| l.split_whitespace().nth(2)).collect();
     let last_motion = frames.iter().rposition(|f| f.starts_with("0E3#0B")).unwrap();
-    assert!(frames[last_motion..].contains(&"0E3#02"), "a Halt to module 3 after its last SetMotion");
+    let after: Vec<&&str> = frames[last_motion..].iter().take(40).collect();
+    assert!(
+        frames[last_motion..].contains(&"0E3#02"),
+        "a Halt to module 3 after its last SetMotion: {after:?}\n{}",
+        ended.stderr
+    );
     let report = read_report(&out);
     assert_eq!((report["complete"].as_bool(), report["passed"].as_bool()), (Some(false), Some(false)));
     assert!(report["ended"].as_str().unwrap().contains("SIGINT"), "{}", report["ended"]);
@@ -469,6 +474,40 @@ fn the_guides_plan_runs_as_written() {
     assert_eq!(measured(settings, "MaxVel")["limit"], "0.1 ± 0.001");
 }
 
+/// The guide's second plan, of a PA-CONTROL axis and a Cdios module, runs
+/// as written on the simulated bench and passes every check it names.
+#[test]
+fn the_guides_plan_of_the_other_families_runs_as_written() {
+    let guide = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/docs/guide.md")).unwrap();
+    let section = guide.split("\n## Commissioning\n").nth(1).unwrap().split("\n## ").next().unwrap();
+    let plan = section.split("```toml\n").nth(2).unwrap().split("```").next().unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("plan.toml");
+    std::fs::write(&file, plan).unwrap();
+    let out = dir.path().join("r");
+    let r = run(&[
+        "--link",
+        "sim",
+        "commission",
+        "--plan",
+        file.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--yes",
+    ]);
+    assert_eq!(r.code, 0, "{}\n{}", r.stdout, r.stderr);
+    let report = read_report(&out);
+    let names = |at: &str| -> Vec<String> {
+        checks(&report).iter().filter(|c| c["device"] == at).map(|c| c["check"].as_str().unwrap().to_string()).collect()
+    };
+    assert_eq!(
+        names("pac:1"),
+        ["identity", "settings", "limits", "home", "move_forward", "move_back", "halt", "backup"]
+    );
+    assert_eq!(names("cdios:1/0"), ["identity", "settings", "limits", "move_forward", "move_back", "halt", "backup"]);
+    assert_eq!(measured(check(&report, "cdios:1/0", "identity"), "kind")["value"], "0x44");
+}
+
 #[test]
 fn the_watchdog_check_sees_it_trip_and_recover() {
     let dir = tempfile::tempdir().unwrap();
@@ -528,6 +567,39 @@ fn a_served_bench_gives_the_same_report_as_the_in_process_one() {
     }
 }
 
+/// The issue's done-when for every family: a bench served by `axisctl
+/// sim`, its CAN families on one slcan pty and the PA-CONTROL on a serial
+/// pty, gives the report `--link sim` gives, within the tolerances.
+#[test]
+fn a_served_slcan_and_serial_bench_gives_the_same_report_for_every_family() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut plan = default_plan();
+    let wanted = ["powercube:17", "pac", "pac:1", "cdios:1/0"];
+    plan["device"].as_array_mut().unwrap().retain(|d| wanted.contains(&d["address"].as_str().unwrap_or("")));
+    assert_eq!(plan["device"].as_array().unwrap().len(), wanted.len());
+    let file = dir.path().join("plan.toml");
+    std::fs::write(&file, toml::to_string(&plan).unwrap()).unwrap();
+    let sim = common::Sim::start(&[], 3);
+    assert_eq!(sim.link("powercube"), sim.link("cdios"), "the CAN families share one slcan pty");
+    let served = [sim.link("powercube"), sim.link("pac")];
+    assert!(served[0].starts_with("slcan:") && served[1].starts_with("serial:"), "{served:?}");
+    let mut reports = Vec::new();
+    for (name, links) in [("in-process", vec!["sim"]), ("served", served.to_vec())] {
+        let out = dir.path().join(name);
+        let mut args: Vec<&str> = links.iter().flat_map(|l| ["--link", *l]).collect();
+        args.extend(["commission", "--plan", file.to_str().unwrap(), "--out", out.to_str().unwrap(), "--yes"]);
+        let r = run(&args);
+        assert_eq!(r.code, 0, "{name}: {}\n{}", r.stdout, r.stderr);
+        reports.push(read_report(&out));
+    }
+    let devices: BTreeSet<&str> = checks(&reports[1]).iter().map(|c| c["device"].as_str().unwrap()).collect();
+    assert_eq!(devices, BTreeSet::from(wanted));
+    same_within_tolerance(
+        (&dir.path().join("in-process"), checks(&reports[0])),
+        (&dir.path().join("served"), checks(&reports[1])),
+    );
+}
+
 /// The largest step between two samples of a check's recording, in s.
 fn largest_gap(dir: &Path, c: &Value) -> f64 {
     let Some(file) = c["recording"].as_str() else { return 0.0 };
@@ -539,7 +611,9 @@ fn largest_gap(dir: &Path, c: &Value) -> f64 {
 /// The same checks and verdicts; each time figure within two sampling
 /// steps of each recording (a crossing is interpolated between the two
 /// samples around it, so each side is off by at most a step of its own),
-/// positions within 1e-4, the overshoot within 1 %.
+/// positions within 1e-4, the overshoot within 1 %. A 6168's speed is
+/// read as it ramps (no plateau to sample), so its peak is compared within
+/// 5 %.
 fn same_within_tolerance((a_dir, a): (&Path, &[Value]), (b_dir, b): (&Path, &[Value])) {
     assert_eq!(a.len(), b.len());
     let times = ["rise_time", "settling_time", "time_to_reach", "time_to_standstill"];
@@ -548,10 +622,12 @@ fn same_within_tolerance((a_dir, a): (&Path, &[Value]), (b_dir, b): (&Path, &[Va
         assert_eq!((&x["check"], &x["status"]), (&y["check"], &y["status"]));
         let steps = 2.0 * (largest_gap(a_dir, x) + largest_gap(b_dir, y)) + 1e-3;
         let all = times.iter().map(|f| (*f, steps)).chain(fixed);
+        let ramping = x["device"].as_str().is_some_and(|d| d.starts_with("cdios"));
         for (fig, tol) in all {
             let find = |c: &Value| c["measured"].as_array().and_then(|m| m.iter().find(|m| m["name"] == fig).cloned());
             if let (Some(p), Some(q)) = (find(x), find(y)) {
                 let (p, q) = (p["value"].as_f64().unwrap(), q["value"].as_f64().unwrap());
+                let tol = if ramping && fig == "peak_speed" { 0.05 * p.abs() } else { tol };
                 assert!((p - q).abs() <= tol, "{} {fig}: in-process {p}, served {q} (tolerance {tol})", x["check"]);
             }
         }
