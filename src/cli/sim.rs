@@ -45,7 +45,7 @@ pub struct SimArgs {
     /// CAN bitrate of the simulated bus (with --wire-speed)
     #[arg(long, default_value_t = 1_000_000)]
     pub bitrate: u32,
-    /// Inject faults into the devices' answers, e.g. drop=0.2,delay=150ms,garbage=0.1,truncate=0.05,duplicate=0.1,wrong-module=0.05 (also delay=DUR@P, skip=N, count=N, trip=DUR: fault a device moving that long; overshoot=PCT, slow-halt=DUR: PowerCube ramps ring PCT % past their target, a Halt brakes over DUR)
+    /// Inject faults into the devices' answers, e.g. drop=0.2,delay=150ms,garbage=0.1,truncate=0.05,duplicate=0.1,wrong-module=0.05 (also delay=DUR@P, skip=N, count=N, trip=DUR: fault a device moving that long; overshoot=PCT, slow-halt=DUR: PowerCube ramps and PA-CONTROL positionings ring PCT % past their target, a halt or stop brakes over DUR)
     #[arg(long, value_name = "SPEC")]
     pub fault: Option<String>,
     /// Seed of the fault decisions: the same seed replays the same faults

@@ -173,8 +173,9 @@ impl Bench {
 
     /// Faults on the CAN bus (the answers of every device on it) and, with
     /// `trip`, a watcher that faults moving PowerCube and Cdios devices;
-    /// `overshoot` and `slow-halt` change the PowerCube modules' response
-    /// (on every link to them: CAN and RS232 reach the same modules).
+    /// `overshoot` and `slow-halt` change the response of the PowerCube
+    /// modules (on every link to them: CAN and RS232 reach the same
+    /// modules) and of the PA-CONTROL axes.
     /// Returns the injector (its stats count what was hit).
     pub fn inject_faults(&self, spec: FaultSpec, seed: u64) -> Shared<Injector> {
         let inj = Arc::new(Mutex::new(Injector::new(spec, seed)));
@@ -191,6 +192,7 @@ impl Bench {
                 halt_time: spec.slow_halt.map_or(0.0, |d| d.as_secs_f64()),
             };
             lock(&self.powercube).modules_mut().for_each(|m| m.set_response_fault(fault));
+            lock(&self.pac).set_response_fault(fault);
         }
         inj
     }

@@ -27,10 +27,11 @@
 //! - `trip=DUR`: a device that has been moving for DUR faults: a PowerCube
 //!   module gets STATE_TOW_ERROR, a Cdios 6168 "motor does not run", a
 //!   PA-CONTROL axis its limit switch (see [`Trip`]).
-//! - `overshoot=PCT`: a PowerCube ramp rings about its target after its
-//!   end, its first swing PCT % of the step past it (a badly tuned drive).
-//! - `slow-halt=DUR`: a moving PowerCube module told to Halt brakes to
-//!   rest over DUR instead of at once (a worn brake).
+//! - `overshoot=PCT`: a PowerCube ramp or a PA-CONTROL positioning rings
+//!   about its target after its end, its first swing PCT % of the step
+//!   past it (a badly tuned drive).
+//! - `slow-halt=DUR`: a moving PowerCube module told to Halt, or a
+//!   PA-CONTROL axis told to stop, brakes to rest over DUR (a worn brake).
 //!
 //! Unplugging the adapter is not a fault here: end the serving process (or
 //! drop the pty master) and the client's link reports it closed.

@@ -804,3 +804,40 @@ fn a_rerun_into_the_same_out_leaves_no_file_of_the_earlier_run() {
     assert_eq!(std::fs::read_to_string(&log).unwrap_or_default(), "", "nothing sent");
     assert_eq!(files_in(&foreign), BTreeSet::from(["bench.jpg".to_string()]));
 }
+
+/// The same faults on a PA-CONTROL axis (`overshoot=20`: each positioning
+/// rings 20 % of its step past the target; `slow-halt=1500ms`: a stop
+/// brakes over 1.5 s, past the default plan's 1.2 s): exactly its two
+/// moves' overshoot and its halt time fail, with the measured values.
+#[test]
+fn a_pa_control_axis_that_overshoots_and_stops_slowly_fails_exactly_those_figures() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut plan = default_plan();
+    plan["device"].as_array_mut().unwrap().retain(|d| d["address"].as_str() == Some("pac:1"));
+    let file = dir.path().join("plan.toml");
+    std::fs::write(&file, toml::to_string(&plan).unwrap()).unwrap();
+    let sim = common::Sim::start(&["--fault", "overshoot=20,slow-halt=1500ms"], 3);
+    let out = dir.path().join("r");
+    let args = ["--link", sim.link("pac"), "commission", "--plan", file.to_str().unwrap()];
+    let r = run(&[&args[..], &["--out", out.to_str().unwrap(), "--yes"]].concat());
+    assert_eq!(r.code, 5, "{}\n{}", r.stdout, r.stderr);
+    let report = read_report(&out);
+    assert_eq!(
+        with_status(&report, "fail"),
+        BTreeSet::from(["move_forward", "move_back", "halt"].map(|c| format!("pac:1 {c}")))
+    );
+    let failing = |c: &Value| -> Vec<String> {
+        c["measured"].as_array().unwrap().iter().filter(|m| m["pass"] == false).map(|m| m["name"].to_string()).collect()
+    };
+    for mv in ["move_forward", "move_back"] {
+        let c = check(&report, "pac:1", mv);
+        assert_eq!(failing(c), ["\"overshoot\""], "{c}");
+        let v = measured(c, "overshoot")["value"].as_f64().unwrap();
+        assert!((v - 20.0).abs() <= 1.0, "{mv}: overshoot {v} %");
+    }
+    let halt = check(&report, "pac:1", "halt");
+    assert_eq!(failing(halt), ["\"time_to_standstill\""], "{halt}");
+    let secs = measured(halt, "time_to_standstill")["value"].as_f64().unwrap();
+    let tol = 2.0 * largest_gap(&out, halt) + 1e-3;
+    assert!((secs - 1.5).abs() <= tol, "stop time {secs} s, the fault's 1.5 s within {tol}");
+}

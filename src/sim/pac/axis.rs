@@ -8,6 +8,7 @@
 use super::config;
 use crate::proto::pac::table::Condition;
 use crate::sim::powercube::traj::{self, End, Kin, Traj};
+use crate::sim::powercube::ResponseFault;
 
 /// What an axis does while its trajectory runs.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -80,7 +81,19 @@ pub struct Axis {
     pub last_target: f64,
     /// SR51..: counter position when the axis was last switched off.
     pub off_position: f64,
+    /// `sim --fault overshoot=PCT,slow-halt=DUR`: a positioning rings past
+    /// its target (moving until the ring ends), a stop brakes over DUR.
+    pub response: ResponseFault,
+    /// Where the running positioning started (physical): the ring's step.
+    move_from: f64,
+    /// The ring after a positioning runs: its end is the motion's end.
+    ringing: bool,
 }
+
+/// The half period and number of half periods of the overshoot ring (as a
+/// PowerCube module's).
+const RING_HALF_S: f64 = 0.15;
+const RING_HALVES: u32 = 6;
 
 impl Axis {
     pub fn new(number: u8) -> Self {
@@ -109,6 +122,9 @@ impl Axis {
             active_condition: None,
             last_target: pos,
             off_position: pos,
+            response: ResponseFault::default(),
+            move_from: pos,
+            ringing: false,
         }
     }
 
@@ -202,6 +218,8 @@ impl Axis {
         let end = t + traj::duration(&segs);
         self.traj = Traj::Segs { t0: t, p0, v0: 0.0, segs, end: End::Stop { snap: Some(from) } };
         self.motion = Some(Motion { id, kind, end });
+        self.move_from = p0;
+        self.ringing = false;
     }
 
     /// Brakes to standstill at the axis' acceleration.
@@ -210,7 +228,11 @@ impl Axis {
             return;
         }
         let k = self.kin(t);
-        let segs = traj::plan_velocity(k.vel, 0.0, self.acceleration().max(f64::MIN_POSITIVE));
+        self.ringing = false;
+        let segs = match self.response.halt_time {
+            d if d > 0.0 && k.vel != 0.0 => vec![traj::Seg { dur: d, acc: -k.vel / d, phase: traj::Phase::Dec }],
+            _ => traj::plan_velocity(k.vel, 0.0, self.acceleration().max(f64::MIN_POSITIVE)),
+        };
         let end = t + traj::duration(&segs);
         self.traj = Traj::Segs { t0: t, p0: k.pos, v0: k.vel, segs, end: End::Stop { snap: None } };
         self.motion = Some(Motion { id, kind: MotionKind::Stop, end });
@@ -250,6 +272,15 @@ impl Axis {
     /// The trajectory ended at `t`.
     pub fn finish(&mut self, t: f64) {
         let Some(m) = self.motion else { return };
+        let here = self.physical(t);
+        if m.kind == MotionKind::Move && !self.ringing && self.response.overshoot > 0.0 && here != self.move_from {
+            let amp = self.response.overshoot * (here - self.move_from);
+            self.traj = Traj::Ring { t0: t, target: here, amp, half: RING_HALF_S, halves: RING_HALVES };
+            self.motion = Some(Motion { end: t + RING_HALF_S * f64::from(RING_HALVES), ..m });
+            self.ringing = true;
+            return;
+        }
+        self.ringing = false;
         self.halt(t, if m.kind == MotionKind::Stop { Rest::Stopped } else { Rest::InPosition });
         if m.kind == MotionKind::Reference {
             // Manual 5.2.6.3: the counter is set to zero when the flag is set.

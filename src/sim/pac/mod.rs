@@ -463,6 +463,11 @@ impl PacController {
     /// now (as with a jammed or misplaced switch): it halts with status 4 and
     /// E_LIMIT_*, exactly as when the switch is reached. A standing axis is
     /// left alone.
+    /// Bench side: the response faults of every axis from now on.
+    pub fn set_response_fault(&mut self, fault: crate::sim::powercube::ResponseFault) {
+        self.axes.iter_mut().for_each(|a| a.response = fault);
+    }
+
     pub fn trip_axis(&mut self, now: Instant, axis: u8) {
         self.advance(now);
         let t = self.t;
