@@ -168,6 +168,7 @@ fn execute(
     run.dry_run = args.dry_run;
     run.halt_attempts = 1 + ctx.retry.read_retries;
     run.retry = ctx.retry;
+    run.links = axisctl::device::registry::FACES.into_iter().map(|f| (f, ctx.link_text_for(f))).collect();
     // A PowerCube bus and a Cdios node on one adapter share it.
     ctx.opener().keep_links_open();
     let mut ended = devices::run_all(&mut OnBench(ctx), devices, files, &mut run).err();

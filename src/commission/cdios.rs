@@ -263,7 +263,7 @@ fn run_module(node: &mut Node, m: ModuleId, plan: &DevicePlan, expected: Option<
     let names = planned(plan);
     let t = run.begin(at, "identity");
     let read = node.identify().map(|slots| slot_of(&slots, m)).and_then(|slot| {
-        let live = backup::cdios::capture(node, m, slot.ty, slot.version, &run.link)?;
+        let live = backup::cdios::capture(node, m, slot.ty, slot.version, &run.link_of(Family::Cdios))?;
         Ok((slot, live))
     });
     let (slot, live) = match read {
@@ -302,7 +302,7 @@ fn run_module(node: &mut Node, m: ModuleId, plan: &DevicePlan, expected: Option<
     }
     if plan.backup && !run.interrupted {
         let t = run.begin(at, "backup");
-        let ck = match backup::cdios::capture(node, m, slot.ty, slot.version, &run.link) {
+        let ck = match backup::cdios::capture(node, m, slot.ty, slot.version, &run.link_of(Family::Cdios)) {
             Ok(d) => {
                 run.backups.push(d);
                 let mut c = Check::new(at, "backup");

@@ -120,7 +120,6 @@ where
             Address::Cdios { node, module } => open.cdios.run(sessions, node, module, &d.plan, expected, run)?,
         }
     }
-    open.pac.finish(run);
     Ok(())
 }
 

@@ -35,8 +35,11 @@ pub struct Run<'a> {
     pub halt_attempts: u32,
     /// The read retries of sessions the run opens itself (a Cdios node).
     pub retry: crate::session::RetryPolicy,
-    /// The link the devices are on, for the backup's envelope.
+    /// The links as given, for the backup's envelope.
     pub link: String,
+    /// Each family's own link, where the bench says (a device's backup
+    /// names the link it is on, not every link joined).
+    pub links: Vec<(Family, String)>,
     pub clock: Arc<dyn Clock>,
     pub start: Instant,
     /// A signal or a failed output: stop now, halt what moves.
@@ -68,6 +71,7 @@ impl<'a> Run<'a> {
             halt_attempts: 3,
             retry: Default::default(),
             link: link.into(),
+            links: Vec::new(),
             clock,
             start,
             stop,
@@ -78,6 +82,11 @@ impl<'a> Run<'a> {
             files: Vec::new(),
             interrupted: false,
         }
+    }
+
+    /// The link a device of `family` is on.
+    pub fn link_of(&self, family: Family) -> String {
+        self.links.iter().find(|(f, _)| *f == family).map_or_else(|| self.link.clone(), |(_, l)| l.clone())
     }
 
     /// Seconds since the run started.

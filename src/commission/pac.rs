@@ -215,10 +215,6 @@ impl Open {
         }
         Ok(())
     }
-
-    /// Nothing is left to the run's end: each axis's motions end in home
-    /// position already. Kept for the families' common shape.
-    pub fn finish(&mut self, _run: &mut Run) {}
 }
 
 /// The rest of a device's plan said, not silently dropped.
@@ -233,7 +229,7 @@ fn run_controller(c: &mut Controller, plan: &DevicePlan, expected: Option<&Devic
     let at = plan.address.as_str();
     let names = planned(Address::Pac { axis: None }, plan);
     let t = run.begin(at, "identity");
-    let live = match backup::pac::capture_controller(c, &run.link) {
+    let live = match backup::pac::capture_controller(c, &run.link_of(Family::Pac)) {
         Ok(d) => d,
         Err(e) => {
             run.end(Check::new(at, "identity").fail(format!("the controller could not be read: {e}")), t);
@@ -287,7 +283,7 @@ fn run_axis(c: &mut Controller, axis: u8, plan: &DevicePlan, expected: Option<&D
         skip_rest(run, at, &names[1..], "not run: the identity is not the planned one");
         return;
     }
-    let live = match backup::pac::capture_axis(c, axis, &run.link) {
+    let live = match backup::pac::capture_axis(c, axis, &run.link_of(Family::Pac)) {
         Ok(d) => d,
         Err(e) => {
             run.end(id.fail(format!("axis {axis} could not be read: {e}")), t);
@@ -310,7 +306,7 @@ fn run_axis(c: &mut Controller, axis: u8, plan: &DevicePlan, expected: Option<&D
     }
     if plan.backup && !run.interrupted {
         let t = run.begin(at, "backup");
-        let c = match backup::pac::capture_axis(c, axis, &run.link) {
+        let c = match backup::pac::capture_axis(c, axis, &run.link_of(Family::Pac)) {
             Ok(d) => {
                 run.backups.push(d);
                 let mut c = Check::new(at, "backup");

@@ -179,7 +179,7 @@ fn run_module(
 ) -> Option<Cubes> {
     // Identity, settings and limits come from one read of the module.
     let t = run.begin(at, "identity");
-    let live = match backup::powercube::capture(&mut cubes, m, &run.link) {
+    let live = match backup::powercube::capture(&mut cubes, m, &run.link_of(Family::PowerCube)) {
         Ok(d) => d,
         Err(e) => {
             run.end(Check::new(at, "identity").fail(format!("module {m} could not be read: {e}")), t);
@@ -269,7 +269,7 @@ fn run_module(
     }
     if plan.backup && !run.interrupted {
         let t = run.begin(at, "backup");
-        let c = match backup::powercube::capture(&mut cubes, m, &run.link) {
+        let c = match backup::powercube::capture(&mut cubes, m, &run.link_of(Family::PowerCube)) {
             Ok(d) => {
                 run.backups.push(d);
                 let mut c = Check::new(at, "backup");

@@ -594,6 +594,13 @@ fn a_served_slcan_and_serial_bench_gives_the_same_report_for_every_family() {
     }
     let devices: BTreeSet<&str> = checks(&reports[1]).iter().map(|c| c["device"].as_str().unwrap()).collect();
     assert_eq!(devices, BTreeSet::from(wanted));
+    // Each device of the final backup names the link it is on.
+    let text = std::fs::read_to_string(dir.path().join("served").join("backup.json")).unwrap();
+    let backup: Value = serde_json::from_str(&text).unwrap();
+    for d in backup["devices"].as_array().unwrap() {
+        let want = if d["family"] == "pac" { served[1] } else { served[0] };
+        assert_eq!(d["link"], want, "{d}");
+    }
     same_within_tolerance(
         (&dir.path().join("in-process"), checks(&reports[0])),
         (&dir.path().join("served"), checks(&reports[1])),
