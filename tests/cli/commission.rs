@@ -848,3 +848,86 @@ fn a_pa_control_axis_that_overshoots_and_stops_slowly_fails_exactly_those_figure
     let tol = 2.0 * largest_gap(&out, halt) + 1e-3;
     assert!((secs - 1.5).abs() <= tol, "stop time {secs} s, the fault's 1.5 s within {tol}");
 }
+
+/// The PA-CONTROL command codes a `--log` shows sent, in order.
+fn pac_codes_sent(log: &Path) -> Vec<String> {
+    let text = std::fs::read_to_string(log).unwrap_or_default();
+    text.lines()
+        .filter_map(|line| {
+            let mut words = line.split_whitespace().skip(1);
+            (words.next() == Some("tx")).then(|| {
+                let bytes: Vec<u8> = words.filter_map(|w| u8::from_str_radix(w, 16).ok()).collect();
+                let ascii = String::from_utf8_lossy(&bytes).into_owned();
+                ascii.trim_start_matches(['\x01', '\x02']).split(';').next().unwrap_or("").to_string()
+            })
+        })
+        .collect()
+}
+
+/// The CAN frames of a `--log`, in order.
+fn can_frames(log: &Path) -> Vec<String> {
+    let text = std::fs::read_to_string(log).unwrap_or_default();
+    text.lines().filter_map(|l| l.split_whitespace().nth(2)).filter(|f| f.contains('#')).map(str::to_string).collect()
+}
+
+/// Runs `plan` on `--link sim` with `--log`, sends SIGINT once `moving`
+/// sees the motion in the log, and returns the log and the report.
+fn interrupted_run(plan: &str, moving: &dyn Fn(&Path) -> bool) -> (tempfile::TempDir, std::path::PathBuf, Value) {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("plan.toml");
+    std::fs::write(&file, plan).unwrap();
+    let (out, log) = (dir.path().join("r"), dir.path().join("run.log"));
+    let mut child = bin()
+        .args(["--link", "sim", "--log", log.to_str().unwrap(), "commission", "--plan", file.to_str().unwrap()])
+        .args(["--out", out.to_str().unwrap(), "--yes"])
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let deadline = Instant::now() + Duration::from_secs(60);
+    while !moving(&log) {
+        assert!(Instant::now() < deadline, "no motion within 60 s");
+        assert!(child.try_wait().unwrap().is_none(), "the run ended before its motion");
+        // Polls the log (the event); the motion lasts seconds.
+        std::thread::sleep(Duration::from_millis(2));
+    }
+    unsafe {
+        libc::kill(child.id() as i32, libc::SIGINT);
+    }
+    let ended = common::wait_bounded(child, 30, &["commission"]);
+    assert_eq!(ended.code, 130, "{}", ended.stderr);
+    let report = read_report(&out);
+    assert_eq!((report["complete"].as_bool(), report["passed"].as_bool()), (Some(false), Some(false)));
+    (dir, log, report)
+}
+
+/// Ctrl-C during a PA-CONTROL axis's move stops the axis (0A93 after the
+/// move's 0A94), takes the controller back to home position (0A81), and
+/// leaves a report marked incomplete; the same during a Cdios goto
+/// fast-stops the motor (25h option 2 after the goto's 23h) and disables
+/// it again (the run had enabled it).
+#[test]
+fn ctrl_c_during_a_pa_control_move_or_a_cdios_goto_stops_it() {
+    let plan = "[[device]]\naddress = \"pac:1\"\nbackup = false\n\
+                move = { distance = 5000.0, window = [0.0, 10000.0], timeout_s = 60 }\n";
+    let (_dir, log, report) = interrupted_run(plan, &|log| pac_codes_sent(log).iter().any(|c| c == "0A94"));
+    let codes = pac_codes_sent(&log);
+    let moved = codes.iter().position(|c| c == "0A94").unwrap();
+    let stop = codes[moved..].iter().position(|c| c == "0A93").map(|i| moved + i);
+    assert!(stop.is_some(), "a stop 0A93 after the move: {:?}", &codes[moved..]);
+    assert!(codes[stop.unwrap()..].contains(&"0A81".to_string()), "back to home position after the stop");
+    let c = check(&report, "pac:1", "move_forward");
+    assert!(c["detail"].as_str().unwrap().starts_with("interrupted, stopped (0A93)"), "{c}");
+
+    let plan = "[[device]]\naddress = \"cdios:1/0\"\nbackup = false\n\
+                move = { distance = 10000.0, window = [-20000.0, 20000.0], vel = 200 }\n";
+    let goto = |f: &String| f.starts_with("201#23");
+    let (_dir, log, report) = interrupted_run(plan, &|log| can_frames(log).iter().any(goto));
+    let frames = can_frames(&log);
+    let moved = frames.iter().position(goto).unwrap();
+    let after: Vec<&String> = frames[moved..].iter().filter(|f| f.starts_with("201#25")).collect();
+    assert!(after.first().is_some_and(|f| f.starts_with("201#25000002")), "a fast stop first: {after:?}");
+    assert!(after.iter().any(|f| f.starts_with("201#25000005")), "then disabled again: {after:?}");
+    let c = check(&report, "cdios:1/0", "move_forward");
+    assert!(c["detail"].as_str().unwrap().starts_with("interrupted, fast-stopped"), "{c}");
+}
