@@ -6,7 +6,7 @@
 use std::fmt;
 
 use crate::link::SerialFormat;
-use crate::proto::{cdios, pac, powercube};
+use crate::proto::{cdios, pac, powercube, CanFrame};
 
 /// A family of motion hardware axisctl talks to.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, serde::Serialize, serde::Deserialize)]
@@ -100,6 +100,9 @@ struct Info {
     serial: Option<SerialDefault>,
     ids: &'static [IdRange],
     capabilities: &'static [Capability],
+    /// Whether a CAN frame is one of the family's answers, by its id
+    /// (`None`: not on CAN). What a shared bus routes by.
+    can_answer: Option<fn(&CanFrame) -> bool>,
 }
 
 const POWERCUBE: Info = Info {
@@ -110,6 +113,7 @@ const POWERCUBE: Info = Info {
     serial: Some(SerialDefault { baud: 9600, format: SerialFormat::F8N1 }),
     ids: &[POWERCUBE_MODULE],
     capabilities: &[Capability::Halt, Capability::Reset, Capability::Home, Capability::Jog, Capability::GoTo],
+    can_answer: Some(|f| powercube::session::ack_module(f).is_some()),
 };
 
 const PAC: Info = Info {
@@ -128,6 +132,7 @@ const PAC: Info = Info {
         Capability::GoTo,
         Capability::OnlineOffline,
     ],
+    can_answer: None,
 };
 
 const CDIOS: Info = Info {
@@ -138,6 +143,7 @@ const CDIOS: Info = Info {
     serial: None,
     ids: &[CDIOS_NODE, CDIOS_MODULE],
     capabilities: &[Capability::Halt, Capability::Reset, Capability::EnableDisable, Capability::Jog, Capability::GoTo],
+    can_answer: Some(|f| cdios::transport::answer_node(f).is_some()),
 };
 
 impl Family {
@@ -184,6 +190,12 @@ impl Family {
 
     pub fn can(self, c: Capability) -> bool {
         self.capabilities().contains(&c)
+    }
+
+    /// The family whose answer a CAN frame is, by its id; `None` for a
+    /// frame that answers nobody (a request of another master, NMT).
+    pub fn of_can_answer(frame: &CanFrame) -> Option<Family> {
+        Self::ALL.into_iter().find(|f| f.info().can_answer.is_some_and(|answers| answers(frame)))
     }
 
     /// The `decode` kinds the family owns, read from its proto tables.

@@ -7,6 +7,7 @@ pub mod can;
 pub mod can_error;
 pub mod candump;
 pub mod cdios;
+pub mod flag_word;
 pub mod pac;
 pub mod powercube;
 pub mod refusal;
