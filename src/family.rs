@@ -6,6 +6,7 @@
 use std::fmt;
 
 use crate::link::SerialFormat;
+use crate::proto::bus::BusFrame;
 use crate::proto::{cdios, pac, powercube, CanFrame};
 
 /// A family of motion hardware axisctl talks to.
@@ -100,9 +101,18 @@ struct Info {
     serial: Option<SerialDefault>,
     ids: &'static [IdRange],
     capabilities: &'static [Capability],
-    /// Whether a CAN frame is one of the family's answers, by its id
-    /// (`None`: not on CAN). What a shared bus routes by.
-    can_answer: Option<fn(&CanFrame) -> bool>,
+    /// How the family's CAN frames are told apart and read (`None`: not on CAN).
+    can: Option<CanFrames>,
+}
+
+/// A CAN family's frames, as the bus sees them.
+struct CanFrames {
+    /// Whether a frame is one of its answers, by its id: what a shared bus routes by.
+    answer: fn(&CanFrame) -> bool,
+    /// A frame of its in words (`monitor`, `send`); `None` when not its.
+    describe: fn(&CanFrame) -> Option<BusFrame>,
+    /// Why a frame of its may start a motion, if it may.
+    motion: fn(&CanFrame) -> Option<String>,
 }
 
 const POWERCUBE: Info = Info {
@@ -113,7 +123,11 @@ const POWERCUBE: Info = Info {
     serial: Some(SerialDefault { baud: 9600, format: SerialFormat::F8N1 }),
     ids: &[POWERCUBE_MODULE],
     capabilities: &[Capability::Halt, Capability::Reset, Capability::Home, Capability::Jog, Capability::GoTo],
-    can_answer: Some(|f| powercube::session::ack_module(f).is_some()),
+    can: Some(CanFrames {
+        answer: |f| powercube::session::ack_module(f).is_some(),
+        describe: powercube::bus::describe,
+        motion: powercube::bus::motion_of,
+    }),
 };
 
 const PAC: Info = Info {
@@ -132,7 +146,7 @@ const PAC: Info = Info {
         Capability::GoTo,
         Capability::OnlineOffline,
     ],
-    can_answer: None,
+    can: None,
 };
 
 const CDIOS: Info = Info {
@@ -143,7 +157,11 @@ const CDIOS: Info = Info {
     serial: None,
     ids: &[CDIOS_NODE, CDIOS_MODULE],
     capabilities: &[Capability::Halt, Capability::Reset, Capability::EnableDisable, Capability::Jog, Capability::GoTo],
-    can_answer: Some(|f| cdios::transport::answer_node(f).is_some()),
+    can: Some(CanFrames {
+        answer: |f| cdios::transport::answer_node(f).is_some(),
+        describe: cdios::bus::describe,
+        motion: cdios::bus::motion_of,
+    }),
 };
 
 impl Family {
@@ -195,7 +213,17 @@ impl Family {
     /// The family whose answer a CAN frame is, by its id; `None` for a
     /// frame that answers nobody (a request of another master, NMT).
     pub fn of_can_answer(frame: &CanFrame) -> Option<Family> {
-        Self::ALL.into_iter().find(|f| f.info().can_answer.is_some_and(|answers| answers(frame)))
+        Self::ALL.into_iter().find(|f| f.info().can.as_ref().is_some_and(|c| (c.answer)(frame)))
+    }
+
+    /// `frame` in the family's words, if it is one of the family's CAN frames.
+    pub fn describe_can(self, frame: &CanFrame) -> Option<BusFrame> {
+        (self.info().can.as_ref()?.describe)(frame)
+    }
+
+    /// Why sending `frame` may start a motion of the family's devices, if it may.
+    pub fn can_motion(self, frame: &CanFrame) -> Option<String> {
+        (self.info().can.as_ref()?.motion)(frame)
     }
 
     /// The `decode` kinds the family owns, read from its proto tables.

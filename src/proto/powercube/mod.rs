@@ -5,6 +5,7 @@
 //! [`table`] the command, motion and parameter tables and [`flags`] the state,
 //! config, setup and DIO words.
 
+pub mod bus;
 pub mod can;
 mod display;
 pub mod flags;
