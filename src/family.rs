@@ -103,6 +103,9 @@ struct Info {
     capabilities: &'static [Capability],
     /// How the family's CAN frames are told apart and read (`None`: not on CAN).
     can: Option<CanFrames>,
+    /// Its RS232 answers as another of its devices sends them (`None`: a
+    /// serial protocol without addresses, or none).
+    serial_readdress: Option<ReaddressBytes>,
 }
 
 /// A CAN family's frames, as the bus sees them.
@@ -113,7 +116,17 @@ struct CanFrames {
     describe: fn(&CanFrame) -> Option<BusFrame>,
     /// Why a frame of its may start a motion, if it may.
     motion: fn(&CanFrame) -> Option<String>,
+    /// One of its answers as another of its devices sends it, the device
+    /// picked by `other(current, lowest, highest)` (the simulator's
+    /// `wrong-module` fault); `None` when not one of its answers.
+    readdress: Readdress<CanFrame>,
 }
+
+/// How an answer is made to name another device: `other(current, lowest,
+/// highest)` picks the device.
+type Readdress<T> = fn(&T, &mut dyn FnMut(u8, u8, u8) -> u8) -> Option<T>;
+/// The same for a serial line's answers (bytes that do not frame are dropped).
+type ReaddressBytes = fn(&[u8], &mut dyn FnMut(u8, u8, u8) -> u8) -> Vec<u8>;
 
 const POWERCUBE: Info = Info {
     name: "powercube",
@@ -127,7 +140,9 @@ const POWERCUBE: Info = Info {
         answer: |f| powercube::session::ack_module(f).is_some(),
         describe: powercube::bus::describe,
         motion: powercube::bus::motion_of,
+        readdress: powercube::bus::readdressed,
     }),
+    serial_readdress: Some(powercube::bus::readdressed_rs232),
 };
 
 const PAC: Info = Info {
@@ -147,6 +162,7 @@ const PAC: Info = Info {
         Capability::OnlineOffline,
     ],
     can: None,
+    serial_readdress: None,
 };
 
 const CDIOS: Info = Info {
@@ -161,7 +177,9 @@ const CDIOS: Info = Info {
         answer: |f| cdios::transport::answer_node(f).is_some(),
         describe: cdios::bus::describe,
         motion: cdios::bus::motion_of,
+        readdress: cdios::bus::readdressed,
     }),
+    serial_readdress: None,
 };
 
 impl Family {
@@ -219,6 +237,19 @@ impl Family {
     /// `frame` in the family's words, if it is one of the family's CAN frames.
     pub fn describe_can(self, frame: &CanFrame) -> Option<BusFrame> {
         (self.info().can.as_ref()?.describe)(frame)
+    }
+
+    /// One of the family's CAN answers as another of its devices sends it
+    /// (`other(current, lowest, highest)` picks it); `None` when `frame` is
+    /// not one of its answers.
+    pub fn readdress_can(self, frame: &CanFrame, other: &mut dyn FnMut(u8, u8, u8) -> u8) -> Option<CanFrame> {
+        (self.info().can.as_ref()?.readdress)(frame, other)
+    }
+
+    /// The family's RS232 answers as another of its devices sends them;
+    /// `None` when its serial protocol names no device.
+    pub fn readdress_serial(self, bytes: &[u8], other: &mut dyn FnMut(u8, u8, u8) -> u8) -> Option<Vec<u8>> {
+        Some((self.info().serial_readdress?)(bytes, other))
     }
 
     /// Why sending `frame` may start a motion of the family's devices, if it may.

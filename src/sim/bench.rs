@@ -180,7 +180,7 @@ impl Bench {
             self.bus.set_fault(Some(Box::new(CanFaults::new(Arc::clone(&inj)))));
         }
         if let Some(after) = spec.trip {
-            let trip = Trip::new(after).powercube(Arc::clone(&self.powercube)).cdios(Arc::clone(&self.cdios));
+            let trip = Trip::new(after).watch(self.powercube.clone()).watch(self.cdios.clone());
             self.bus.attach(Box::new(trip));
         }
         inj

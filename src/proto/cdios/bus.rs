@@ -99,3 +99,15 @@ fn fields_text(fields: &[table::FieldValue]) -> String {
         .collect::<Vec<_>>()
         .join(" ")
 }
+
+/// An answer as another 6168 module of the node sends it, its module
+/// picked by `other(current, lowest, highest)`; `None` for a frame that is
+/// no module's answer. What the simulator's `wrong-module` fault sends.
+pub fn readdressed(f: &CanFrame, other: &mut dyn FnMut(u8, u8, u8) -> u8) -> Option<CanFrame> {
+    if transport::answer_node(f).is_none() || f.data().len() < 2 || f.data()[1] > 15 {
+        return None;
+    }
+    let mut data = f.data().to_vec();
+    data[1] = other(data[1], 0, 15);
+    CanFrame::new(f.id(), &data)
+}

@@ -8,6 +8,7 @@ use serde_json::json;
 use super::can::{self, Broadcast, CanMessage};
 use super::flags;
 use super::frame::Value;
+use super::rs232;
 use super::{table, Response};
 use crate::proto::bus::BusFrame;
 use crate::proto::CanFrame;
@@ -115,4 +116,36 @@ pub fn describe_ack(resp: &Response) -> (String, serde_json::Value) {
         }
         Response::Simple(cmd) => (format!("{} ok", cmd.name()), serde_json::Value::Null),
     }
+}
+
+/// An acknowledge on CAN as another module sends it, its module picked by
+/// `other(current, lowest, highest)`; `None` for a frame that is no
+/// module's acknowledge. What the simulator's `wrong-module` fault sends.
+pub fn readdressed(f: &CanFrame, other: &mut dyn FnMut(u8, u8, u8) -> u8) -> Option<CanFrame> {
+    let id = f.id();
+    if f.is_extended() || !(can::ACK_BASE + 1..can::ACK_BASE + 32).contains(&id) {
+        return None;
+    }
+    let m = other((id - can::ACK_BASE) as u8, 1, 31);
+    CanFrame::new(can::ACK_BASE + u32::from(m), f.data())
+}
+
+/// RS232 answers re-framed as if another module had sent them (module
+/// picked by `other(current, lowest, highest)`); broadcasts stay as they
+/// are, bytes that do not frame are dropped.
+pub fn readdressed_rs232(bytes: &[u8], other: &mut dyn FnMut(u8, u8, u8) -> u8) -> Vec<u8> {
+    let mut d = rs232::Decoder::new();
+    d.push(bytes);
+    let mut out = Vec::with_capacity(bytes.len() + 4);
+    while let Some(item) = d.next_frame() {
+        match item {
+            Ok(mut f) if !f.is_broadcast() => {
+                f.module = other(f.module, 1, 31);
+                rs232::encode(f.dir, f.module, f.payload.as_slice(), &mut out);
+            }
+            Ok(f) => f.encode(&mut out),
+            Err(_) => {}
+        }
+    }
+    out
 }

@@ -427,3 +427,16 @@ impl CdiosNode {
 fn motor_reply(key: &str, module: u8) -> Option<[u8; 8]> {
     table::encode_reply(table::command(key)?, module, 0, &[]).ok()
 }
+
+/// `trip=`: a 6168 that runs too long reports "motor does not run".
+impl crate::sim::fault::Jams for CdiosNode {
+    fn moving(&mut self, _now: Instant) -> Vec<(u8, bool)> {
+        self.modules().map(|m| (m.id(), m.running())).collect()
+    }
+
+    fn jam(&mut self, _now: Instant, id: u8) {
+        if let Some(m) = self.module_mut(id) {
+            m.inject(Fault::DoesNotRun);
+        }
+    }
+}

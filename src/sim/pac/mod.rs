@@ -1207,3 +1207,15 @@ fn frame_error_quit(e: &FrameError) -> Option<u16> {
         FrameError::BadField { .. } | FrameError::NotOneFrame(_) => quit::RANGE,
     })
 }
+
+/// `trip=`: an axis that moves too long runs onto its limit switch.
+impl crate::sim::fault::Jams for PacController {
+    fn moving(&mut self, now: Instant) -> Vec<(u8, bool)> {
+        self.advance(now);
+        (1..=self.axes()).map(|a| (a, self.axis_status(a) == Some(1))).collect()
+    }
+
+    fn jam(&mut self, now: Instant, id: u8) {
+        self.trip_axis(now, id);
+    }
+}
