@@ -29,6 +29,7 @@
 pub mod bus;
 pub mod command;
 mod display;
+pub mod refusal;
 pub mod session;
 pub mod table;
 pub mod transport;

@@ -11,6 +11,7 @@ mod display;
 pub mod flags;
 pub mod frame;
 pub mod limits;
+pub mod refusal;
 pub mod rs232;
 pub mod session;
 pub mod table;
