@@ -440,3 +440,22 @@ impl crate::sim::fault::Jams for CdiosNode {
         }
     }
 }
+
+impl CdiosNode {
+    /// Enables every motor through the node's own inputs, as a client
+    /// would: its NMT start, then each motor the start with option 5
+    /// (enable).
+    pub fn enable_all(&mut self, now: Instant) {
+        use crate::proto::cdios::{Address, Command, Direction, StartOption};
+        let id = self.node();
+        self.handle_can(now, &transport::nmt_start(id), &mut Vec::new());
+        let enable =
+            Command::Start { sync: false, direction: Direction::Forward, option: StartOption::Enable, motor_speed: 0 };
+        let modules: Vec<u8> = self.modules().map(|m| m.id()).collect();
+        for m in modules.into_iter().filter_map(ModuleId::new) {
+            if let Ok(data) = enable.encode(Address::Module(m)) {
+                self.handle_can(now, &transport::command_frame(id, &data), &mut Vec::new());
+            }
+        }
+    }
+}
