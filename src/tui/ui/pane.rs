@@ -3,8 +3,9 @@
 //! family's own values behind [`Pane`], implemented in the family's pane
 //! module (`ui::powercube`, `ui::pac`, `ui::cdios`): the list, the
 //! overview, the chart, the detail pane and the target prompt ask it and
-//! hold no family's code, so a new family adds its pane and its source and
-//! touches none of them.
+//! hold no family's code: a new family adds its pane and its source, and
+//! only the device key (`source::DeviceKey`, one variant per family until
+//! the one device address replaces it) gets a variant.
 
 use std::any::Any;
 use std::fmt;
