@@ -381,8 +381,8 @@ fn motions_of(node: &mut Node, m: ModuleId, plan: &DevicePlan, names: &[&'static
     // As it was found: a motor the run enabled is disabled again.
     if !was_enabled {
         if let Err(e) = node.send(m, &[dev::stop_command(StopOption::Disable, false)]) {
-            let t = run.begin(at, "backup");
-            run.end(Check::new(at, "backup").fail(format!("the motor was not disabled again: {e}")), t);
+            let t = run.begin(at, "disable");
+            run.end(Check::new(at, "disable").fail(format!("the motor was not disabled again: {e}")), t);
         }
     }
 }
