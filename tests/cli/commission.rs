@@ -931,3 +931,28 @@ fn ctrl_c_during_a_pa_control_move_or_a_cdios_goto_stops_it() {
     let c = check(&report, "cdios:1/0", "move_forward");
     assert!(c["detail"].as_str().unwrap().starts_with("interrupted, fast-stopped"), "{c}");
 }
+
+/// The PA-CONTROL limits check fails when the traverse area is none (its
+/// minimum set above its maximum on a served controller), with the
+/// measured width beside its limit, and nothing else fails.
+#[test]
+fn a_pa_control_axis_whose_traverse_area_is_none_fails_its_limits() {
+    let sim = common::Sim::start(&[], 3);
+    let link = sim.link("pac");
+    let r = run(&["--link", link, "pac-axis-param", "1", "traverse-area-min", "20000"]);
+    assert_eq!(r.code, 0, "{}", r.stderr);
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("plan.toml");
+    std::fs::write(&file, "[[device]]\naddress = \"pac:1\"\nlimits = true\nbackup = false\n").unwrap();
+    let out = dir.path().join("r");
+    let r =
+        run(&["--link", link, "commission", "--plan", file.to_str().unwrap(), "--out", out.to_str().unwrap(), "--yes"]);
+    assert_eq!(r.code, 5, "{}\n{}", r.stdout, r.stderr);
+    let report = read_report(&out);
+    assert_eq!(with_status(&report, "fail"), BTreeSet::from(["pac:1 limits".to_string()]));
+    let width = measured(check(&report, "pac:1", "limits"), "traverse-area-max - traverse-area-min");
+    assert_eq!(
+        (width["value"].as_f64(), width["limit"].as_str(), width["pass"].as_bool()),
+        (Some(-10000.0), Some("> 0"), Some(false))
+    );
+}
