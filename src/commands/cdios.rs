@@ -7,7 +7,7 @@ use std::time::{Duration, Instant};
 
 use axisctl::device::cdios::config::{self as servo, Request as ConfigRequest};
 use axisctl::device::cdios::{self as device, EventChange, Goal, Node, WaitEnd, WaitSpec};
-use axisctl::device::face::{Face, MotionTarget};
+use axisctl::device::face::{Face, Halt, Manner, MotionTarget, StopHow};
 use axisctl::family::Family;
 use axisctl::proto::cdios::table::{self, STATUS_FLAGS};
 use axisctl::proto::cdios::{
@@ -330,11 +330,26 @@ fn stop(ctx: &Ctx, t: ModuleTarget, option: StopOption, latched: bool) -> anyhow
     device::check(&[device::stop_command(option, latched)], m)?;
     let (session, takeover) = super::takeover::open(ctx, |o, spec, opts| o.cdios(spec, opts))?;
     let mut s = node(session, &t.node, ctx);
-    let (confirmed, already) = match s.stop(m, option, latched) {
-        Ok(device::Stopped::FastStop { confirmed }) => (confirmed, false),
-        Ok(device::Stopped::NotRunning) => (true, true),
-        Err(e) => return Err(super::takeover::failed(e, takeover.as_ref())),
+    let manner = match option {
+        StopOption::FastStop => Some(Manner::Fast),
+        StopOption::DecelerateAndStop => Some(Manner::Decelerate),
+        StopOption::DecelerateToMinimum => Some(Manner::DecelerateToMinimum),
+        _ => None,
     };
+    let sent = match manner {
+        Some(manner) => {
+            let at = MotionTarget::Cdios { node: s.id(), module: m };
+            match Face::stop_with(&mut s, at, StopHow { manner, on_sync: latched, at_standstill: false }) {
+                Ok(Halt::AtRest) => Ok((true, true)),
+                Ok(h) => Ok((h != Halt::FastStop { confirmed: false }, false)),
+                Err(e) => Err(anyhow::Error::from(e)),
+            }
+        }
+        // Not a stop (release the emergency stop, clear a hold): sent as
+        // it is, its refusal is an answer to keep.
+        None => s.send(m, &[device::stop_command(option, latched)]).map(|c| (c, false)).map_err(Into::into),
+    };
+    let (confirmed, already) = sent.map_err(|e| super::takeover::failed(e, takeover.as_ref()))?;
     let mut extra = json!({});
     if let Some(h) = HolderReport::after_halt(takeover.as_ref()) {
         if !ctx.json {

@@ -50,6 +50,50 @@ pub enum Halt {
     Steps(String),
 }
 
+/// How hard a person's stop is made. `Default` is the family's own stop
+/// (its face's [`Face::stop`]); the others are manners some families offer
+/// and the rest refuse, before sending.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub enum Manner {
+    #[default]
+    Default,
+    /// Stop as fast as the device can.
+    Fast,
+    /// Decelerate on the set ramp, then stop.
+    Decelerate,
+    /// Decelerate to the minimum speed, then stop.
+    DecelerateToMinimum,
+}
+
+/// A person's stop as the command line asked for it, in words every family
+/// reads the same way ([`Face::stop_with`]).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct StopHow {
+    pub manner: Manner,
+    /// Stop on the next SYNC instead of now.
+    pub on_sync: bool,
+    /// Answer only once the device stands still.
+    pub at_standstill: bool,
+}
+
+impl std::fmt::Display for StopHow {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self.manner {
+            Manner::Default => "stop",
+            Manner::Fast => "fast stop",
+            Manner::Decelerate => "decelerating stop",
+            Manner::DecelerateToMinimum => "stop through the minimum speed",
+        })?;
+        if self.on_sync {
+            f.write_str(" on the next SYNC")?;
+        }
+        if self.at_standstill {
+            f.write_str(" answered at standstill")?;
+        }
+        Ok(())
+    }
+}
+
 /// One step of a halt of everything, and how it went. `target: None`:
 /// the whole family on the link (a broadcast, or a probe that failed).
 #[derive(Debug)]
@@ -79,6 +123,16 @@ pub trait Face {
 
     /// A person's stop: idempotent, a device at rest is [`Halt::AtRest`].
     fn stop(&mut self, at: MotionTarget) -> Result<Halt, FaceError>;
+
+    /// [`Face::stop`] made the way `how` says. A family that has no such
+    /// manner refuses it before sending anything: a stop that silently
+    /// became another could surprise the person who chose it.
+    fn stop_with(&mut self, at: MotionTarget, how: StopHow) -> Result<Halt, FaceError> {
+        if how == StopHow::default() {
+            return self.stop(at);
+        }
+        Err(FaceError::Unsupported(format!("the {} has no {how}", self.family().display_name())))
+    }
 
     /// Stops every device of the family on the link, each step tried
     /// whatever the others did. `known`: the devices the caller knows
