@@ -170,7 +170,7 @@ pub trait Face {
 /// [`Moving::release`]d (the motion is left running on purpose, or the
 /// family's wait halted it already and said so).
 pub struct Moving<'a, F: Face + ?Sized> {
-    dev: &'a mut F,
+    dev: Dev<'a, F>,
     targets: Vec<MotionTarget>,
     attempts: u32,
     armed: bool,
@@ -179,7 +179,35 @@ pub struct Moving<'a, F: Face + ?Sized> {
 impl<'a, F: Face + ?Sized> Moving<'a, F> {
     /// Armed from now on: create it before the first motion byte leaves.
     pub fn new(dev: &'a mut F, targets: Vec<MotionTarget>, attempts: u32) -> Self {
-        Self { dev, targets, attempts: attempts.max(1), armed: true }
+        Self { dev: Dev::Borrowed(dev), targets, attempts: attempts.max(1), armed: true }
+    }
+
+    /// A handle that owns its face: for a motion that outlives the code
+    /// that started it (a `batch` line without `--wait`), kept by whoever
+    /// answers for it until the end.
+    pub fn owning(dev: Box<F>, targets: Vec<MotionTarget>, attempts: u32) -> Self {
+        Self { dev: Dev::Owned(dev), targets, attempts: attempts.max(1), armed: true }
+    }
+
+    /// Another device of this face set moving: halted with the others,
+    /// once however often it is added.
+    pub fn add(&mut self, target: MotionTarget) {
+        if !self.targets.contains(&target) {
+            self.targets.push(target);
+        }
+    }
+
+    /// The devices this handle halts, in the order they were added.
+    pub fn targets(&self) -> &[MotionTarget] {
+        &self.targets
+    }
+
+    /// Halts one of its devices now and forgets it (`None`: not one of
+    /// its devices), so that several handles can halt in one given order.
+    pub fn halt_one(&mut self, target: MotionTarget) -> Option<Result<Halt, FaceError>> {
+        let at = self.targets.iter().position(|t| *t == target)?;
+        self.targets.remove(at);
+        Some(self.dev.halt(target, self.attempts))
     }
 
     /// The motion ended at a known standstill: nothing to halt.
@@ -209,6 +237,32 @@ impl<'a, F: Face + ?Sized> Moving<'a, F> {
     }
 }
 
+/// The face a handle halts through: borrowed from the code that waits on
+/// the motion, or owned by the handle when the motion outlives that code.
+enum Dev<'a, F: ?Sized> {
+    Borrowed(&'a mut F),
+    Owned(Box<F>),
+}
+
+impl<F: ?Sized> Deref for Dev<'_, F> {
+    type Target = F;
+    fn deref(&self) -> &F {
+        match self {
+            Dev::Borrowed(d) => d,
+            Dev::Owned(d) => d,
+        }
+    }
+}
+
+impl<F: ?Sized> DerefMut for Dev<'_, F> {
+    fn deref_mut(&mut self) -> &mut F {
+        match self {
+            Dev::Borrowed(d) => d,
+            Dev::Owned(d) => d,
+        }
+    }
+}
+
 fn halt_each<F: Face + ?Sized>(
     dev: &mut F,
     targets: &[MotionTarget],
@@ -220,13 +274,13 @@ fn halt_each<F: Face + ?Sized>(
 impl<F: Face + ?Sized> Deref for Moving<'_, F> {
     type Target = F;
     fn deref(&self) -> &F {
-        self.dev
+        &self.dev
     }
 }
 
 impl<F: Face + ?Sized> DerefMut for Moving<'_, F> {
     fn deref_mut(&mut self) -> &mut F {
-        self.dev
+        &mut self.dev
     }
 }
 
