@@ -1,6 +1,8 @@
 //! The PowerCube subcommands, as typed (clap derive only). Flattened into
 //! [`super::Command`]; `commands::powercube` gives them meaning.
 
+mod motion;
+
 use clap::{Args, Subcommand};
 
 use super::ids::{self, IdList};
