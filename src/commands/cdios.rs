@@ -837,3 +837,21 @@ fn decode_error(ctx: &Ctx, value: &str) -> anyhow::Result<()> {
     }
     Ok(())
 }
+
+/// A Cdios refusal in the error document: the general code and the error
+/// status bits the node set.
+impl super::error_json::DeviceDoc for axisctl::proto::refusal::CdiosRefusal {
+    fn device_doc(&self) -> Value {
+        // Error status byte 1 is the low byte of the mask, byte 2 the next.
+        let mask = |status: u8, bit: u8| 1u64 << (8 * u32::from(status.saturating_sub(1)) + u32::from(bit));
+        let details: Vec<_> = self
+            .errors
+            .iter()
+            .map(|b| json!({"name": b.name, "mask": mask(b.status, b.bit), "class": "error", "description": b.meaning}))
+            .collect();
+        let unknown = self.unknown_bits.iter().fold(0, |m, b| m | mask(b.status, b.bit));
+        json!({"family": "cdios", "command_code": format!("{:02X}", self.command), "code": self.general,
+               "name": self.general_name, "text": self.general_text.unwrap_or("not in the manual's table"),
+               "details": details, "unknown_bits": unknown})
+    }
+}

@@ -1013,3 +1013,17 @@ fn raise_priority() -> &'static str {
     }
     "normal"
 }
+
+/// A PowerCube refusal in the error document: the CubeState word read, its
+/// error flags.
+impl super::error_json::DeviceDoc for axisctl::proto::refusal::PowerCubeRefusal {
+    fn device_doc(&self) -> serde_json::Value {
+        let state = output::flag_word(&axisctl::proto::powercube::flags::CUBE_STATE, self.cube_state);
+        let details: Vec<serde_json::Value> = state["details"]
+            .as_array()
+            .map(|d| d.iter().filter(|d| d["class"] == "error").cloned().collect())
+            .unwrap_or_default();
+        json!({"family": "powercube", "command_code": null, "code": self.cube_state, "name": null,
+               "text": self.errors.join(", "), "details": details, "unknown_bits": state["unknown_bits"]})
+    }
+}
