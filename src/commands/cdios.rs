@@ -1,6 +1,8 @@
 //! Cdios 6168 commands (`cdios-*`). Every command is built and range-checked
 //! with the protocol table before the link is opened: bad input sends nothing.
 
+pub mod names;
+
 use clap::ValueEnum;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
@@ -534,7 +536,7 @@ fn print_wait_end(ctx: &Ctx, (node, m): (NodeId, ModuleId), what: &str, end: &Wa
 
 fn config(ctx: &Ctx, t: ModuleTarget, items: &[String]) -> anyhow::Result<()> {
     // Every name and value is resolved and checked before anything is sent.
-    items.iter().try_for_each(|i| super::names::check_cdios_config_item(i))?;
+    items.iter().try_for_each(|i| names::check_config_item(i))?;
     match ConfigRequest::parse(items)? {
         ConfigRequest::Show(groups) => show_config(ctx, &mut open(ctx, &t.node)?, t, &groups),
         ConfigRequest::Set(changes) => {

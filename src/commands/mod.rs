@@ -430,6 +430,16 @@ pub fn stopped_by_output(err: anyhow::Error) -> anyhow::Error {
     }
 }
 
+/// The names each family lists (`params`, `flags`): the binary's side of
+/// the family registry, beside the dispatch that names every family anyway.
+pub fn names_of(family: Family) -> &'static dyn names::Names {
+    match family {
+        Family::PowerCube => &powercube::names::PowerCubeNames,
+        Family::Pac => &pac::names::PacNames,
+        Family::Cdios => &cdios::names::CdiosNames,
+    }
+}
+
 pub fn run(cli: Cli) -> anyhow::Result<()> {
     let ctx = Ctx::resolve(&cli.global)?;
     dispatch(&ctx, &cli.name, cli.command)

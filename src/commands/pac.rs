@@ -12,6 +12,8 @@
 //! start-and-return form: `pac-ref --wait` polls it and shows elapsed time;
 //! Ctrl-C abandons it and sends 0A93 anyway.
 
+pub mod names;
+
 use std::io::IsTerminal;
 use std::time::Duration;
 

@@ -1,6 +1,8 @@
 //! PowerCube commands: scan, info, state, home, reset, halt, move-*,
 //! get-param, set-param, get-config, set-config, dio, watchdog.
 
+pub mod names;
+
 use std::time::Duration;
 
 use axisctl::device::powercube::{
@@ -723,7 +725,7 @@ struct ParamRead {
 impl ParamRead {
     /// Every name is resolved before the link opens: a typo sends nothing.
     fn new(devices: &Devices, params: &[String], all: bool) -> anyhow::Result<Self> {
-        params.iter().try_for_each(|n| super::names::check_powercube_param(n))?;
+        params.iter().try_for_each(|n| names::check_param(n))?;
         let mut defs = device::readable_params(params, all)?;
         defs.push(param(ids::CONFIG));
         Ok(Self { defs, all, several: !matches!(devices, Devices::One(_)) })
@@ -840,7 +842,7 @@ impl PipelinedRead {
 }
 
 fn set_param(ctx: &Ctx, m: ModuleId, name: &str, text: &str, force: bool) -> anyhow::Result<()> {
-    super::names::check_powercube_param(name)?;
+    names::check_param(name)?;
     let (d, value) = device::param_write(name, text)?;
     let held = cubes(ctx)?.write_param(m, d, value, force)?;
     if ctx.json {
@@ -882,7 +884,7 @@ fn set_config(ctx: &Ctx, m: ModuleId, changes: &[String], raw: Option<&str>, for
     // arrives as one of them.
     let force = force || changes.iter().any(|c| c == "--force");
     let changes: Vec<String> = changes.iter().filter(|c| *c != "--force").cloned().collect();
-    changes.iter().try_for_each(|c| super::names::check_config_flag(c))?;
+    changes.iter().try_for_each(|c| names::check_config_flag(c))?;
     let change = ConfigChange::parse(&changes, raw)?;
     change.check_safeties(force)?;
     match cubes(ctx)?.write_config(m, change) {

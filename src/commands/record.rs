@@ -174,7 +174,7 @@ fn selection(args: &RecordArgs) -> anyhow::Result<Selection> {
         }
         (Some(modules), None, None) => {
             let modules = list(modules, POWERCUBE_MODULE)?.to(ModuleId::new);
-            args.values.iter().try_for_each(|n| super::names::check_powercube_param(n))?;
+            args.values.iter().try_for_each(|n| super::powercube::names::check_param(n))?;
             let params = cube_dev::readable_params(&args.values, false)?;
             Ok(Selection::PowerCube { modules, params })
         }

@@ -68,7 +68,7 @@ fn devices<'b>(bench: &'b Bench, values: &[String]) -> anyhow::Result<Vec<Device
         .map(|(address, given)| {
             let values = match address {
                 Address::PowerCube { .. } => {
-                    given.iter().try_for_each(|n| super::super::names::check_powercube_param(n))?;
+                    given.iter().try_for_each(|n| super::super::powercube::names::check_param(n))?;
                     Values::PowerCube(cube_dev::readable_params(&given, false)?)
                 }
                 Address::Pac { axis: None } => {
