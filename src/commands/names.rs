@@ -101,6 +101,8 @@ pub trait Names {
     fn param_rows(&self, family: Family) -> Vec<Value>;
     /// Every flag and bit field of the family's status words.
     fn flag_rows(&self) -> Vec<FlagRow>;
+    /// The values `record` samples of one of its devices (completion).
+    fn record_values(&self) -> Vec<&'static str>;
 }
 
 /// `axisctl flags [WORD]`: WORD is a `decode` kind (every flag of that

@@ -23,6 +23,10 @@ impl Names for CdiosNames {
             .collect()
     }
 
+    fn record_values(&self) -> Vec<&'static str> {
+        axisctl::record::CdiosValue::ALL.into_iter().map(axisctl::record::CdiosValue::name).collect()
+    }
+
     fn flag_rows(&self) -> Vec<FlagRow> {
         cdios_table::STATUS_FLAGS
             .iter()

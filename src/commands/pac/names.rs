@@ -24,6 +24,10 @@ impl Names for PacNames {
         system.chain(axis).collect()
     }
 
+    fn record_values(&self) -> Vec<&'static str> {
+        axisctl::record::PacValue::ALL.into_iter().map(axisctl::record::PacValue::name).collect()
+    }
+
     fn flag_rows(&self) -> Vec<FlagRow> {
         profibus::WORDS
             .iter()

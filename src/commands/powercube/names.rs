@@ -27,6 +27,10 @@ impl Names for PowerCubeNames {
             .collect()
     }
 
+    fn record_values(&self) -> Vec<&'static str> {
+        cube_table::PARAMS.iter().map(|p| p.name).collect()
+    }
+
     fn flag_rows(&self) -> Vec<FlagRow> {
         cube_flags::WORDS
             .iter()
