@@ -1,6 +1,7 @@
 //! Cdios 6168 commands (`cdios-*`). Every command is built and range-checked
 //! with the protocol table before the link is opened: bad input sends nothing.
 
+mod dashboard;
 pub mod names;
 
 use clap::ValueEnum;
@@ -857,3 +858,6 @@ impl super::error_json::DeviceDoc for axisctl::proto::refusal::CdiosRefusal {
                "details": details, "unknown_bits": unknown})
     }
 }
+
+/// What this folder answers for the family (`super::family_cli`).
+pub const CLI: super::FamilyCli = super::FamilyCli { names: &names::CdiosNames, dashboard_source: dashboard::source };

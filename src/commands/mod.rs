@@ -430,14 +430,30 @@ pub fn stopped_by_output(err: anyhow::Error) -> anyhow::Error {
     }
 }
 
-/// The names each family lists (`params`, `flags`): the binary's side of
-/// the family registry, beside the dispatch that names every family anyway.
-pub fn names_of(family: Family) -> &'static dyn names::Names {
+/// The binary's side of the family registry (the library's is
+/// `device::registry`): what each family's folder in `commands/` answers
+/// for, picked by family here, beside the dispatch that names every family
+/// anyway. A fourth family gives its `CLI`.
+pub struct FamilyCli {
+    /// Its names (`params`, `flags`, completion).
+    pub names: &'static dyn names::Names,
+    /// Its dashboard source on a link that fits it.
+    pub dashboard_source: fn(&dashboard::Setup, &Opener, axisctl::open::OpenedLink) -> DashboardSource,
+}
+
+type DashboardSource = Box<dyn axisctl::tui::source::DeviceSource>;
+
+pub fn family_cli(family: Family) -> &'static FamilyCli {
     match family {
-        Family::PowerCube => &powercube::names::PowerCubeNames,
-        Family::Pac => &pac::names::PacNames,
-        Family::Cdios => &cdios::names::CdiosNames,
+        Family::PowerCube => &powercube::CLI,
+        Family::Pac => &pac::CLI,
+        Family::Cdios => &cdios::CLI,
     }
+}
+
+/// The names `family` lists (`params`, `flags`, completion).
+pub fn names_of(family: Family) -> &'static dyn names::Names {
+    family_cli(family).names
 }
 
 pub fn run(cli: Cli) -> anyhow::Result<()> {

@@ -12,6 +12,7 @@
 //! start-and-return form: `pac-ref --wait` polls it and shows elapsed time;
 //! Ctrl-C abandons it and sends 0A93 anyway.
 
+mod dashboard;
 pub mod names;
 
 use std::io::IsTerminal;
@@ -899,6 +900,9 @@ impl super::error_json::DeviceDoc for axisctl::proto::refusal::PacRefusal {
                "code": self.quit, "name": null, "text": self.text, "details": [], "unknown_bits": 0})
     }
 }
+
+/// What this folder answers for the family (`super::family_cli`).
+pub const CLI: super::FamilyCli = super::FamilyCli { names: &names::PacNames, dashboard_source: dashboard::source };
 
 #[cfg(test)]
 mod tests {

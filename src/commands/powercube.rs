@@ -1,6 +1,7 @@
 //! PowerCube commands: scan, info, state, home, reset, halt, move-*,
 //! get-param, set-param, get-config, set-config, dio, watchdog.
 
+mod dashboard;
 pub mod names;
 
 use std::time::Duration;
@@ -1029,3 +1030,7 @@ impl super::error_json::DeviceDoc for axisctl::proto::refusal::PowerCubeRefusal 
                "text": self.errors.join(", "), "details": details, "unknown_bits": state["unknown_bits"]})
     }
 }
+
+/// What this folder answers for the family (`super::family_cli`).
+pub const CLI: super::FamilyCli =
+    super::FamilyCli { names: &names::PowerCubeNames, dashboard_source: dashboard::source };
