@@ -860,4 +860,5 @@ impl super::error_json::DeviceDoc for axisctl::proto::refusal::CdiosRefusal {
 }
 
 /// What this folder answers for the family (`super::family_cli`).
-pub const CLI: super::FamilyCli = super::FamilyCli { names: &names::CdiosNames, dashboard_source: dashboard::source };
+pub const CLI: super::FamilyCli =
+    super::FamilyCli { names: &names::CdiosNames, dashboard_source: dashboard::source, serial_trace: None };

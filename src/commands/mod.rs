@@ -439,6 +439,8 @@ pub struct FamilyCli {
     pub names: &'static dyn names::Names,
     /// Its dashboard source on a link that fits it.
     pub dashboard_source: fn(&dashboard::Setup, &Opener, axisctl::open::OpenedLink) -> DashboardSource,
+    /// How `sim --trace` says its own serial line, if it has one.
+    pub serial_trace: Option<fn() -> Box<dyn sim_tap::SerialTrace>>,
 }
 
 type DashboardSource = Box<dyn axisctl::tui::source::DeviceSource>;

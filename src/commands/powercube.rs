@@ -3,6 +3,7 @@
 
 mod dashboard;
 pub mod names;
+mod tap;
 
 use std::time::Duration;
 
@@ -1032,5 +1033,8 @@ impl super::error_json::DeviceDoc for axisctl::proto::refusal::PowerCubeRefusal 
 }
 
 /// What this folder answers for the family (`super::family_cli`).
-pub const CLI: super::FamilyCli =
-    super::FamilyCli { names: &names::PowerCubeNames, dashboard_source: dashboard::source };
+pub const CLI: super::FamilyCli = super::FamilyCli {
+    names: &names::PowerCubeNames,
+    dashboard_source: dashboard::source,
+    serial_trace: Some(tap::trace),
+};
