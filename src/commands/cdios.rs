@@ -3,6 +3,7 @@
 
 mod dashboard;
 pub mod names;
+mod record;
 
 use clap::ValueEnum;
 use std::sync::Arc;
@@ -860,5 +861,9 @@ impl super::error_json::DeviceDoc for axisctl::proto::refusal::CdiosRefusal {
 }
 
 /// What this folder answers for the family (`super::family_cli`).
-pub const CLI: super::FamilyCli =
-    super::FamilyCli { names: &names::CdiosNames, dashboard_source: dashboard::source, serial_trace: None };
+pub const CLI: super::FamilyCli = super::FamilyCli {
+    names: &names::CdiosNames,
+    dashboard_source: dashboard::source,
+    record_plan: record::plan,
+    serial_trace: None,
+};

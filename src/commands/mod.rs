@@ -18,7 +18,7 @@ mod pac;
 mod pac_limits;
 mod plot;
 mod powercube;
-mod record;
+pub(crate) mod record;
 mod send;
 mod shell;
 mod sim;
@@ -441,9 +441,12 @@ pub struct FamilyCli {
     pub dashboard_source: fn(&dashboard::Setup, &Opener, axisctl::open::OpenedLink) -> DashboardSource,
     /// How `sim --trace` says its own serial line, if it has one.
     pub serial_trace: Option<fn() -> Box<dyn sim_tap::SerialTrace>>,
+    /// The values of one of its devices for `record DEVICE.VALUE`, checked.
+    pub record_plan: fn(axisctl::bench::Address, &[String]) -> anyhow::Result<RecordPlan>,
 }
 
 type DashboardSource = Box<dyn axisctl::tui::source::DeviceSource>;
+type RecordPlan = Box<dyn record::several::Plan>;
 
 pub fn family_cli(family: Family) -> &'static FamilyCli {
     match family {

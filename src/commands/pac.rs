@@ -14,6 +14,7 @@
 
 mod dashboard;
 pub mod names;
+mod record;
 mod tap;
 
 use std::io::IsTerminal;
@@ -903,8 +904,12 @@ impl super::error_json::DeviceDoc for axisctl::proto::refusal::PacRefusal {
 }
 
 /// What this folder answers for the family (`super::family_cli`).
-pub const CLI: super::FamilyCli =
-    super::FamilyCli { names: &names::PacNames, dashboard_source: dashboard::source, serial_trace: Some(tap::trace) };
+pub const CLI: super::FamilyCli = super::FamilyCli {
+    names: &names::PacNames,
+    dashboard_source: dashboard::source,
+    record_plan: record::plan,
+    serial_trace: Some(tap::trace),
+};
 
 #[cfg(test)]
 mod tests {

@@ -3,6 +3,7 @@
 
 mod dashboard;
 pub mod names;
+mod record;
 mod tap;
 
 use std::time::Duration;
@@ -1036,5 +1037,6 @@ impl super::error_json::DeviceDoc for axisctl::proto::refusal::PowerCubeRefusal 
 pub const CLI: super::FamilyCli = super::FamilyCli {
     names: &names::PowerCubeNames,
     dashboard_source: dashboard::source,
+    record_plan: record::plan,
     serial_trace: Some(tap::trace),
 };

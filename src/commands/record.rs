@@ -28,7 +28,7 @@ use crate::cli::record::{Format, RecordArgs};
 use crate::cli::{cdios::CdiosCommand, pac::PacCommand, Cli, Command, PowerCubeCommand};
 use crate::output::{self, say};
 
-mod several;
+pub(in crate::commands) mod several;
 
 /// What is recorded: one family's devices and values, checked before the
 /// link opens.
@@ -185,7 +185,11 @@ fn selection(args: &RecordArgs) -> anyhow::Result<Selection> {
     }
 }
 
-fn names<T>(given: &[String], parse: fn(&str) -> Option<T>, known: &[&str]) -> anyhow::Result<Vec<T>> {
+pub(in crate::commands) fn names<T>(
+    given: &[String],
+    parse: fn(&str) -> Option<T>,
+    known: &[&str],
+) -> anyhow::Result<Vec<T>> {
     given
         .iter()
         .map(|n| parse(n).ok_or_else(|| usage(format!("no value {n:?} to record here; known: {}", known.join(", ")))))
@@ -324,7 +328,7 @@ fn go<S: HaltMotion>(
 
 /// The device layer's own error, so that its exit-code class and refusal
 /// are found in the chain (a transparent wrapper would hide its type).
-pub(super) fn device_error(e: RecordError) -> anyhow::Error {
+pub(in crate::commands) fn device_error(e: RecordError) -> anyhow::Error {
     match e {
         RecordError::PowerCube(e) => (*e).into(),
         RecordError::Pac(e) => (*e).into(),
