@@ -3,7 +3,7 @@
 //! write order live there), over every link of the bench and every family
 //! on it.
 
-mod live;
+pub(in crate::commands) mod live;
 
 use std::collections::BTreeSet;
 use std::path::Path;

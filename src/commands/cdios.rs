@@ -1,6 +1,7 @@
 //! Cdios 6168 commands (`cdios-*`). Every command is built and range-checked
 //! with the protocol table before the link is opened: bad input sends nothing.
 
+mod backup;
 mod dashboard;
 pub mod names;
 mod record;
@@ -864,6 +865,7 @@ impl super::error_json::DeviceDoc for axisctl::proto::refusal::CdiosRefusal {
 pub const CLI: super::FamilyCli = super::FamilyCli {
     names: &names::CdiosNames,
     dashboard_source: dashboard::source,
+    backup_live: backup::live,
     record_plan: record::plan,
     serial_trace: None,
 };

@@ -1,7 +1,7 @@
 //! The subcommands. Each resolves what the user typed, validates it before
 //! anything is sent, talks to the device through a session and prints.
 
-mod backup;
+pub(crate) mod backup;
 mod batch;
 mod bench;
 mod cdios;
@@ -441,6 +441,8 @@ pub struct FamilyCli {
     pub dashboard_source: fn(&dashboard::Setup, &Opener, axisctl::open::OpenedLink) -> DashboardSource,
     /// How `sim --trace` says its own serial line, if it has one.
     pub serial_trace: Option<fn() -> Box<dyn sim_tap::SerialTrace>>,
+    /// Its devices on one link of a backup, a diff or a restore.
+    pub backup_live: fn() -> Box<dyn backup::live::LiveFamily>,
     /// The values of one of its devices for `record DEVICE.VALUE`, checked.
     pub record_plan: fn(axisctl::bench::Address, &[String]) -> anyhow::Result<RecordPlan>,
 }

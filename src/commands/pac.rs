@@ -12,6 +12,7 @@
 //! start-and-return form: `pac-ref --wait` polls it and shows elapsed time;
 //! Ctrl-C abandons it and sends 0A93 anyway.
 
+mod backup;
 mod dashboard;
 pub mod names;
 mod record;
@@ -907,6 +908,7 @@ impl super::error_json::DeviceDoc for axisctl::proto::refusal::PacRefusal {
 pub const CLI: super::FamilyCli = super::FamilyCli {
     names: &names::PacNames,
     dashboard_source: dashboard::source,
+    backup_live: backup::live,
     record_plan: record::plan,
     serial_trace: Some(tap::trace),
 };

@@ -1,6 +1,7 @@
 //! PowerCube commands: scan, info, state, home, reset, halt, move-*,
 //! get-param, set-param, get-config, set-config, dio, watchdog.
 
+mod backup;
 mod dashboard;
 pub mod names;
 mod record;
@@ -1037,6 +1038,7 @@ impl super::error_json::DeviceDoc for axisctl::proto::refusal::PowerCubeRefusal 
 pub const CLI: super::FamilyCli = super::FamilyCli {
     names: &names::PowerCubeNames,
     dashboard_source: dashboard::source,
+    backup_live: backup::live,
     record_plan: record::plan,
     serial_trace: Some(tap::trace),
 };
