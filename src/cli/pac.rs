@@ -2,6 +2,7 @@
 //! [`super::Command`]; `commands::pac` gives them meaning.
 
 mod motion;
+pub mod send;
 
 use clap::{Args, Subcommand};
 

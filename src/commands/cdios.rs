@@ -867,5 +867,6 @@ pub const CLI: super::FamilyCli = super::FamilyCli {
     dashboard_source: dashboard::source,
     backup_live: backup::live,
     record_plan: record::plan,
+    line: None,
     serial_trace: None,
 };

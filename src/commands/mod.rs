@@ -445,6 +445,8 @@ pub struct FamilyCli {
     pub backup_live: fn() -> Box<dyn backup::live::LiveFamily>,
     /// The values of one of its devices for `record DEVICE.VALUE`, checked.
     pub record_plan: fn(axisctl::bench::Address, &[String]) -> anyhow::Result<RecordPlan>,
+    /// Its commands typed on its own line for `send`, if it has one.
+    pub line: Option<crate::cli::send::LineCommand>,
 }
 
 type DashboardSource = Box<dyn axisctl::tui::source::DeviceSource>;

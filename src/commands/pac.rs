@@ -806,29 +806,27 @@ fn axis_param(ctx: &Ctx, d: &mut Controller, axis: u8, name: &str, access: &Para
 /// `send CODE;PAR1;TYP;PAR2`: the command shown, refused without
 /// `--force` when it may start a motion, then sent as `pac-raw` sends it
 /// (checked, followed to its end, printed decoded).
-impl super::send::SendByHand for Command {
-    fn send_by_hand(&self, ctx: &Ctx, force: bool) -> anyhow::Result<()> {
-        let cmd = self;
-        let def = table::command(cmd.code);
-        let name = def.map_or("unknown code", |d| d.name);
-        if !ctx.json {
-            output::err_line(format_args!("-> {:04X};{};{};{}  {name}", cmd.code, cmd.par1, cmd.par2.typ(), cmd.par2));
-        }
-        // An unknown code may be anything: it is treated as motion.
-        if def.is_none_or(|d| d.motion) && !force {
-            return Err(usage(format!(
-                "{:04X} ({name}) may start a motion: not sent (--force sends it; nothing then stops it but you)",
-                cmd.code
-            )));
-        }
-        let mut d = Controller::new(ctx.pac()?);
-        d.know_online_limits(pac_limits::load(ctx.link_for(Family::Pac)?).unwrap_or_default());
-        let par2 = match cmd.par2 {
-            Par2::Int(i) => i.to_string(),
-            Par2::Float(f) => format!("{f:?}"),
-        };
-        raw(ctx, &mut d, &format!("{:04X}", cmd.code), cmd.par1, Some(&par2))
+fn send_line(ctx: &Ctx, text: &str, force: bool) -> anyhow::Result<()> {
+    let cmd = &crate::cli::pac::send::parse(text).map_err(usage)?;
+    let def = table::command(cmd.code);
+    let name = def.map_or("unknown code", |d| d.name);
+    if !ctx.json {
+        output::err_line(format_args!("-> {:04X};{};{};{}  {name}", cmd.code, cmd.par1, cmd.par2.typ(), cmd.par2));
     }
+    // An unknown code may be anything: it is treated as motion.
+    if def.is_none_or(|d| d.motion) && !force {
+        return Err(usage(format!(
+            "{:04X} ({name}) may start a motion: not sent (--force sends it; nothing then stops it but you)",
+            cmd.code
+        )));
+    }
+    let mut d = Controller::new(ctx.pac()?);
+    d.know_online_limits(pac_limits::load(ctx.link_for(Family::Pac)?).unwrap_or_default());
+    let par2 = match cmd.par2 {
+        Par2::Int(i) => i.to_string(),
+        Par2::Float(f) => format!("{f:?}"),
+    };
+    raw(ctx, &mut d, &format!("{:04X}", cmd.code), cmd.par1, Some(&par2))
 }
 
 fn raw(ctx: &Ctx, d: &mut Controller, code_text: &str, par1: i64, par2: Option<&str>) -> anyhow::Result<()> {
@@ -910,6 +908,11 @@ pub const CLI: super::FamilyCli = super::FamilyCli {
     dashboard_source: dashboard::source,
     backup_live: backup::live,
     record_plan: record::plan,
+    line: Some(crate::cli::send::LineCommand {
+        check: |text| crate::cli::pac::send::parse(text).map(drop),
+        moves: crate::cli::pac::send::moves,
+        send: send_line,
+    }),
     serial_trace: Some(tap::trace),
 };
 

@@ -17,7 +17,10 @@ use crate::output::{self, say};
 
 pub fn run(ctx: &Ctx, a: &SendArgs) -> anyhow::Result<()> {
     match a.parsed().map_err(usage)? {
-        Frame::Pac(cmd) => cmd.send_by_hand(ctx, a.force),
+        Frame::Line(family, text) => match &super::family_cli(family).line {
+            Some(line) => (line.send)(ctx, &text, a.force),
+            None => unreachable!("parsed only for a family with a line of its own"),
+        },
         Frame::Can(frame) => {
             let event = CanEvent::Frame(frame);
             let sent = describe_event(&event);
@@ -56,13 +59,6 @@ pub fn run(ctx: &Ctx, a: &SendArgs) -> anyhow::Result<()> {
             Ok(())
         }
     }
-}
-
-/// A frame of a family with a line of its own (not CAN), sent the way its
-/// family's raw command sends it: shown, refused without `force` when it
-/// may start a motion, then sent. Each such family says it in its folder.
-pub trait SendByHand {
-    fn send_by_hand(&self, ctx: &Ctx, force: bool) -> anyhow::Result<()>;
 }
 
 /// `0C3#0A3C  powercube:3  request  GetExtended ActPos`
