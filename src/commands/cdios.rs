@@ -845,7 +845,7 @@ fn decode_error(ctx: &Ctx, value: &str) -> anyhow::Result<()> {
 
 /// A Cdios refusal in the error document: the general code and the error
 /// status bits the node set.
-impl super::error_json::DeviceDoc for axisctl::proto::refusal::CdiosRefusal {
+impl super::error_json::DeviceDoc for axisctl::proto::cdios::refusal::CdiosRefusal {
     fn device_doc(&self) -> Value {
         // Error status byte 1 is the low byte of the mask, byte 2 the next.
         let mask = |status: u8, bit: u8| 1u64 << (8 * u32::from(status.saturating_sub(1)) + u32::from(bit));

@@ -1,8 +1,8 @@
 //! `axisctl decode KIND VALUE`: take a raw word apart offline.
 
 use axisctl::family::{self, Family};
-use axisctl::monitor::describe_ack;
 use axisctl::proto::pac::profibus as pac_profibus;
+use axisctl::proto::powercube::bus::describe_ack;
 use axisctl::proto::powercube::flags::{self, ProfibusInput};
 use serde_json::json;
 

@@ -895,7 +895,7 @@ fn raw(ctx: &Ctx, d: &mut Controller, code_text: &str, par1: i64, par2: Option<&
 }
 
 /// A PA-CONTROL refusal in the error document: the QUIT and its text.
-impl super::error_json::DeviceDoc for axisctl::proto::refusal::PacRefusal {
+impl super::error_json::DeviceDoc for axisctl::proto::pac::refusal::PacRefusal {
     fn device_doc(&self) -> serde_json::Value {
         json!({"family": "pac", "command_code": format!("{:04X}", self.command),
                "code": self.quit, "name": null, "text": self.text, "details": [], "unknown_bits": 0})

@@ -24,7 +24,7 @@ impl Names for CdiosNames {
     }
 
     fn record_values(&self) -> Vec<&'static str> {
-        axisctl::record::CdiosValue::ALL.into_iter().map(axisctl::record::CdiosValue::name).collect()
+        axisctl::record::cdios::CdiosValue::ALL.into_iter().map(axisctl::record::cdios::CdiosValue::name).collect()
     }
 
     fn flag_rows(&self) -> Vec<FlagRow> {

@@ -3,7 +3,7 @@
 
 use axisctl::device::cdios::Node;
 use axisctl::proto::cdios::{ModuleId, NodeId};
-use axisctl::record::{CdiosSampler, CdiosValue};
+use axisctl::record::cdios::{CdiosSampler, CdiosValue};
 
 use axisctl::bench::Address;
 use axisctl::link::LinkSpec;

@@ -25,7 +25,7 @@ impl Names for PacNames {
     }
 
     fn record_values(&self) -> Vec<&'static str> {
-        axisctl::record::PacValue::ALL.into_iter().map(axisctl::record::PacValue::name).collect()
+        axisctl::record::pac::PacValue::ALL.into_iter().map(axisctl::record::pac::PacValue::name).collect()
     }
 
     fn flag_rows(&self) -> Vec<FlagRow> {

@@ -2,7 +2,7 @@
 //! link opens.
 
 use axisctl::device::pac::Controller;
-use axisctl::record::{PacSampler, PacValue};
+use axisctl::record::pac::{PacSampler, PacValue};
 
 use axisctl::bench::Address;
 use axisctl::link::LinkSpec;

@@ -4,7 +4,7 @@
 use axisctl::device::powercube::{self as cube_dev, Cubes};
 use axisctl::proto::powercube::table::ParamDef;
 use axisctl::proto::powercube::ModuleId;
-use axisctl::record::CubeSampler;
+use axisctl::record::powercube::CubeSampler;
 
 use axisctl::bench::Address;
 use axisctl::link::LinkSpec;

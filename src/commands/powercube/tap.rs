@@ -1,7 +1,7 @@
 //! The PowerCube's RS232 line in `sim --trace`: requests and answers cut
 //! into frames and decoded.
 
-use axisctl::monitor::describe_ack;
+use axisctl::proto::powercube::bus::describe_ack;
 use axisctl::proto::powercube::can::Broadcast;
 use axisctl::proto::powercube::rs232::{self, Decoder};
 use axisctl::sim::serve::Way;
