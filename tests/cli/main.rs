@@ -18,7 +18,6 @@ mod completions_man;
 mod dashboard_tmux;
 mod decode_cli;
 mod emergency_halt;
-mod facecmd;
 mod faults_cli;
 mod flags_cli;
 mod guide_walkthrough;
