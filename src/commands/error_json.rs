@@ -49,7 +49,7 @@ pub fn usage(e: &clap::Error, exit_code: u8) -> Value {
 /// What the device answered, one shape for every family: the refused
 /// command's wire code, the device's code and the manual's text for it, and
 /// the set error bits in the `state` detail shape.
-fn device(r: &Refusal) -> Value {
+pub(super) fn device(r: &Refusal) -> Value {
     match r {
         Refusal::PaControl(p) => json!({"family": "pac", "command_code": format!("{:04X}", p.command),
             "code": p.quit, "name": null, "text": p.text, "details": [], "unknown_bits": 0}),

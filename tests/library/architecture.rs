@@ -545,8 +545,9 @@ fn names_a_family(code: &str) -> bool {
 /// so far, a ratchet: it may only go down (lower it when a change moves
 /// family code behind the device face). 26 after the face; the bench-wide
 /// backup's sessions, the several-link record, the PowerCube-only
-/// commission run and `send` (its arguments and its command) added five.
-const FAMILY_NAMING_FILES_AT_MOST: usize = 31;
+/// commission run and `send` (its arguments and its command) added five;
+/// `decode` left it (each family's words in its own file under commands/decode/).
+const FAMILY_NAMING_FILES_AT_MOST: usize = 30;
 
 #[test]
 fn outside_the_family_folders_few_files_name_a_family() {
