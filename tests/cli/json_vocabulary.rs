@@ -123,3 +123,33 @@ fn the_targets_unit_is_read_before_the_motion_frame() {
     assert!(config < motion, "{sent:#?}");
     assert_eq!(motion, sent.len() - 1, "nothing is sent after the motion: {sent:#?}");
 }
+
+/// The other status words the commands give: CubeState (`state`) and the
+/// Cdios status bytes (`cdios-status`, status 1 the low byte of `raw`).
+#[test]
+fn state_and_cdios_status_give_what_decode_gives_for_their_word() {
+    // Homed, so that CubeState has a flag set (one bench for both lines).
+    let mut child = common::bin()
+        .args(["--link", "sim", "--json", "batch"])
+        .stdin(std::process::Stdio::piped())
+        .stdout(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    use std::io::Write;
+    child.stdin.take().unwrap().write_all(b"home -m 3 --wait\nstate -m 3\n").unwrap();
+    let out = child.wait_with_output().unwrap();
+    assert!(out.status.success(), "{out:?}");
+    let last: Value = serde_json::from_str(String::from_utf8_lossy(&out.stdout).lines().last().unwrap()).unwrap();
+    let state = &last["result"]["state"];
+    assert!(state["flags"].as_array().unwrap().iter().any(|f| f == "STATE_HOME_OK"), "{state}");
+    let raw = state["raw"].as_u64().unwrap();
+    assert_eq!(&state_part(&run(&["--json", "decode", "cube-state", &raw.to_string()]).json()), state);
+
+    let r = run(&["--link", "sim?cdios=enabled", "--json", "cdios-status", "-m", "0"]);
+    assert_eq!(r.code, 0, "{}", r.stderr);
+    let state = &r.json()["state"];
+    let raw = u32::try_from(state["raw"].as_u64().unwrap()).unwrap();
+    assert!(state["flags"].as_array().unwrap().iter().any(|f| f == "ENABLED"), "{state}");
+    let bytes: String = raw.to_le_bytes().iter().map(|b| format!("{b:02x}")).collect();
+    assert_eq!(&state_part(&run(&["--json", "decode", "cdios-status", &bytes]).json()), state, "{bytes}");
+}
