@@ -153,3 +153,21 @@ fn state_and_cdios_status_give_what_decode_gives_for_their_word() {
     let bytes: String = raw.to_le_bytes().iter().map(|b| format!("{b:02x}")).collect();
     assert_eq!(&state_part(&run(&["--json", "decode", "cdios-status", &bytes]).json()), state, "{bytes}");
 }
+
+/// An extended motion acknowledge (`monitor`, `send`, `decode
+/// profibus-image`) gives its short state and DIO byte in the state shape,
+/// as `decode short-state` and `decode dio` give them.
+#[test]
+fn a_motion_acknowledges_short_state_and_dio_are_state_objects() {
+    let log = tempfile::Builder::new().suffix(".log").tempfile().unwrap();
+    // FRAMP_ACK of module 17: position 0.75, short state 0x20, DIO 0x11.
+    std::fs::write(log.path(), "(1.000000) can0 0B1#0B0E0000403F2011\n").unwrap();
+    let r = run(&["--json", "monitor", "--from-log", log.path().to_str().unwrap()]);
+    assert_eq!(r.code, 0, "{}", r.stderr);
+    let details = &r.json()["details"];
+    for (key, kind, raw) in [("short_state", "short-state", "0x20"), ("dio", "dio", "0x11")] {
+        let decoded = run(&["--json", "decode", kind, raw]).json();
+        assert_eq!(&state_part(&decoded), &details[key], "{key}");
+    }
+    assert!(common::schema_errors(&common::schema("stream_line"), &r.json()).is_none(), "{}", r.stdout);
+}
