@@ -186,6 +186,13 @@ fn schema_rejects_broken_conventions() {
         serde_json::json!({"devices": [{"module": 3}]}),
         serde_json::json!({"family": "pac", "link": "sim", "axis": 2, "position": 200.5}),
         serde_json::json!({"family": "cdios", "link": "sim", "node": 1, "module": 0, "motor_speed": 300}),
+        // A broadcast names no module; a module's command is no broadcast.
+        serde_json::json!({"family": "powercube", "link": "sim", "module": 17, "command": "home",
+                           "acknowledged": false, "broadcast": true}),
+        serde_json::json!({"family": "powercube", "link": "sim", "module": null, "command": "home", "acknowledged": true}),
+        // A PA-CONTROL move always says where it goes.
+        serde_json::json!({"family": "pac", "link": "sim", "axis": 2, "command": "pac-move", "manual_command": "move-absolute",
+                           "command_code": "0A94", "acknowledged": true, "done": false}),
         // A PowerCube move's old bare target.
         serde_json::json!({"family": "powercube", "link": "sim", "module": 17, "command": "move-ramp",
                            "acknowledged": true, "target": 0.1}),
