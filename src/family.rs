@@ -6,7 +6,8 @@
 use std::fmt;
 
 use crate::link::SerialFormat;
-use crate::proto::{cdios, pac, powercube};
+use crate::proto::bus::BusFrame;
+use crate::proto::{cdios, pac, powercube, CanFrame};
 
 /// A family of motion hardware axisctl talks to.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, serde::Serialize, serde::Deserialize)]
@@ -100,7 +101,32 @@ struct Info {
     serial: Option<SerialDefault>,
     ids: &'static [IdRange],
     capabilities: &'static [Capability],
+    /// How the family's CAN frames are told apart and read (`None`: not on CAN).
+    can: Option<CanFrames>,
+    /// Its RS232 answers as another of its devices sends them (`None`: a
+    /// serial protocol without addresses, or none).
+    serial_readdress: Option<ReaddressBytes>,
 }
+
+/// A CAN family's frames, as the bus sees them.
+struct CanFrames {
+    /// Whether a frame is one of its answers, by its id: what a shared bus routes by.
+    answer: fn(&CanFrame) -> bool,
+    /// A frame of its in words (`monitor`, `send`); `None` when not its.
+    describe: fn(&CanFrame) -> Option<BusFrame>,
+    /// Why a frame of its may start a motion, if it may.
+    motion: fn(&CanFrame) -> Option<String>,
+    /// One of its answers as another of its devices sends it, the device
+    /// picked by `other(current, lowest, highest)` (the simulator's
+    /// `wrong-module` fault); `None` when not one of its answers.
+    readdress: Readdress<CanFrame>,
+}
+
+/// How an answer is made to name another device: `other(current, lowest,
+/// highest)` picks the device.
+type Readdress<T> = fn(&T, &mut dyn FnMut(u8, u8, u8) -> u8) -> Option<T>;
+/// The same for a serial line's answers (bytes that do not frame are dropped).
+type ReaddressBytes = fn(&[u8], &mut dyn FnMut(u8, u8, u8) -> u8) -> Vec<u8>;
 
 const POWERCUBE: Info = Info {
     name: "powercube",
@@ -110,6 +136,13 @@ const POWERCUBE: Info = Info {
     serial: Some(SerialDefault { baud: 9600, format: SerialFormat::F8N1 }),
     ids: &[POWERCUBE_MODULE],
     capabilities: &[Capability::Halt, Capability::Reset, Capability::Home, Capability::Jog, Capability::GoTo],
+    can: Some(CanFrames {
+        answer: |f| powercube::session::ack_module(f).is_some(),
+        describe: powercube::bus::describe,
+        motion: powercube::bus::motion_of,
+        readdress: powercube::bus::readdressed,
+    }),
+    serial_readdress: Some(powercube::bus::readdressed_rs232),
 };
 
 const PAC: Info = Info {
@@ -128,6 +161,8 @@ const PAC: Info = Info {
         Capability::GoTo,
         Capability::OnlineOffline,
     ],
+    can: None,
+    serial_readdress: None,
 };
 
 const CDIOS: Info = Info {
@@ -138,6 +173,13 @@ const CDIOS: Info = Info {
     serial: None,
     ids: &[CDIOS_NODE, CDIOS_MODULE],
     capabilities: &[Capability::Halt, Capability::Reset, Capability::EnableDisable, Capability::Jog, Capability::GoTo],
+    can: Some(CanFrames {
+        answer: |f| cdios::transport::answer_node(f).is_some(),
+        describe: cdios::bus::describe,
+        motion: cdios::bus::motion_of,
+        readdress: cdios::bus::readdressed,
+    }),
+    serial_readdress: None,
 };
 
 impl Family {
@@ -184,6 +226,35 @@ impl Family {
 
     pub fn can(self, c: Capability) -> bool {
         self.capabilities().contains(&c)
+    }
+
+    /// The family whose answer a CAN frame is, by its id; `None` for a
+    /// frame that answers nobody (a request of another master, NMT).
+    pub fn of_can_answer(frame: &CanFrame) -> Option<Family> {
+        Self::ALL.into_iter().find(|f| f.info().can.as_ref().is_some_and(|c| (c.answer)(frame)))
+    }
+
+    /// `frame` in the family's words, if it is one of the family's CAN frames.
+    pub fn describe_can(self, frame: &CanFrame) -> Option<BusFrame> {
+        (self.info().can.as_ref()?.describe)(frame)
+    }
+
+    /// One of the family's CAN answers as another of its devices sends it
+    /// (`other(current, lowest, highest)` picks it); `None` when `frame` is
+    /// not one of its answers.
+    pub fn readdress_can(self, frame: &CanFrame, other: &mut dyn FnMut(u8, u8, u8) -> u8) -> Option<CanFrame> {
+        (self.info().can.as_ref()?.readdress)(frame, other)
+    }
+
+    /// The family's RS232 answers as another of its devices sends them;
+    /// `None` when its serial protocol names no device.
+    pub fn readdress_serial(self, bytes: &[u8], other: &mut dyn FnMut(u8, u8, u8) -> u8) -> Option<Vec<u8>> {
+        Some((self.info().serial_readdress?)(bytes, other))
+    }
+
+    /// Why sending `frame` may start a motion of the family's devices, if it may.
+    pub fn can_motion(self, frame: &CanFrame) -> Option<String> {
+        (self.info().can.as_ref()?.motion)(frame)
     }
 
     /// The `decode` kinds the family owns, read from its proto tables.

@@ -6,7 +6,8 @@
 //! - [`clock`]: real and virtual time.
 //! - [`link`]: transports (SocketCAN, slcan, serial, in-memory) behind small traits.
 //! - [`family`]: the families, declared once (names, links, serial defaults, id ranges,
-//!   decode kinds, dashboard capabilities).
+//!   decode kinds, dashboard capabilities, and for a CAN family its answer ids and how its
+//!   frames read).
 //! - [`session`]: one core (timeouts, retries, tracing, the pipelined CAN burst) and a thin
 //!   session per family; [`session::bus`] shares one CAN link between families.
 //! - [`sim`]: clock-driven simulators of the devices.

@@ -3,7 +3,7 @@
 use std::io::{IsTerminal, Write};
 
 use axisctl::device::supervisor;
-use axisctl::proto::powercube::flags::FlagClass;
+use axisctl::proto::flag_word::{FlagClass, FlagWord};
 
 #[derive(Debug, Clone, Copy)]
 pub struct Style {
@@ -338,8 +338,8 @@ pub fn state(raw: u64, set: &[Detail], unknown_bits: u64) -> serde_json::Value {
                        "warnings": names(Some("warning")), "details": details, "unknown_bits": unknown_bits})
 }
 
-/// A PowerCube flag word (CubeState, Config, DioSetup) in the `state` shape.
-pub fn flag_word(word: &axisctl::proto::powercube::flags::FlagWord, raw: u32) -> serde_json::Value {
+/// A flag word (the PowerCube's CubeState, Config, DioSetup) in the `state` shape.
+pub fn flag_word(word: &FlagWord, raw: u32) -> serde_json::Value {
     word.state_json(raw)
 }
 

@@ -203,6 +203,13 @@ impl Bench {
         self.links.iter().flat_map(|l| l.families.iter().map(move |f| (l, *f)))
     }
 
+    /// The link a device is reached on: the one the bench file names it
+    /// on, else the one carrying its family.
+    pub fn link_of(&self, at: Address) -> Result<&BenchLink, BenchError> {
+        let named = self.links.iter().find(|l| l.carries(at.family()) && l.devices.values().any(|a| *a == at));
+        named.map_or_else(|| self.link_for(at.family()), Ok)
+    }
+
     /// The name the bench file gives `address`, if any.
     pub fn name_of(&self, address: Address) -> Option<&str> {
         self.links.iter().flat_map(|l| &l.devices).find(|(_, a)| **a == address).map(|(n, _)| n.as_str())

@@ -11,7 +11,8 @@ use clap_complete::engine::{ArgValueCompleter, CompletionCandidate};
 
 use axisctl::family::Family;
 use axisctl::proto::powercube::{flags as cube_flags, table as cube_table};
-use axisctl::record::{CdiosValue, PacValue};
+use axisctl::record::cdios::CdiosValue;
+use axisctl::record::pac::PacValue;
 
 /// The variable that asks the binary for completions (in the registration
 /// script `axisctl completions SHELL` prints).

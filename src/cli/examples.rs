@@ -9,7 +9,7 @@ pub const EXAMPLES: &[(&str, &[&str])] = &[
     ("state", &["--link sim state -m 17", "--link sim --json state -m 17"]),
     ("home", &["--link sim home -m 17 --wait", "--link sim home --all"]),
     ("reset", &["--link sim reset -m 17", "--link sim reset --all"]),
-    ("halt", &["--link sim halt -m 17", "--link sim halt --all"]),
+    ("halt", &["--link sim halt -m 17", "--link sim halt --all", "--link sim halt -d powercube:3,pac:2,cdios:1/0"]),
     (
         "move-ramp",
         &[

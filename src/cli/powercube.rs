@@ -5,6 +5,7 @@ use clap::{Args, Subcommand};
 
 use super::ids::{self, IdList};
 use super::WaitArgs;
+use axisctl::bench::DeviceRef;
 use axisctl::family::POWERCUBE_MODULE;
 
 #[derive(Debug, Args, Clone, Copy)]
@@ -32,6 +33,29 @@ pub struct Target {
     /// Broadcast to every module on the bus (not acknowledged)
     #[arg(long)]
     pub all: bool,
+}
+
+/// What `halt` stops: `-m ID`, `--all` (the broadcast; over a bench every
+/// device of every family) or `-d DEVICE,...` (those devices, any family).
+#[derive(Debug, Args, Clone)]
+#[group(required = true, multiple = false)]
+pub struct HaltTarget {
+    /// PowerCube module address, 1 to 31
+    #[arg(short, long, value_name = "ID", value_parser = ids::id(POWERCUBE_MODULE), add = super::complete::bench_modules())]
+    pub module: Option<u8>,
+    /// Broadcast to every module on the bus (not acknowledged); over a bench, every device of every family
+    #[arg(long)]
+    pub all: bool,
+    /// Devices of the bench, any family: powercube:3, pac:2, cdios:1/0 or a bench file's name; each is stopped through its family (exit 0 when already at rest)
+    #[arg(short, long, value_name = "DEVICE[,DEVICE...]", value_delimiter = ',', num_args = 1)]
+    pub device: Option<Vec<DeviceRef>>,
+}
+
+impl HaltTarget {
+    /// The PowerCube target of `-m` or `--all`; `None` with `-d`.
+    pub fn powercube(&self) -> Option<Target> {
+        self.device.is_none().then_some(Target { module: self.module, all: self.all })
+    }
 }
 
 /// Module ids in the order typed (`3,5,17`): positions pair with them by
@@ -78,10 +102,10 @@ pub enum PowerCubeCommand {
         #[command(flatten)]
         target: Target,
     },
-    /// Stop immediately; --all over a bench stops every device of every family
+    /// Stop immediately; --all over a bench stops every device of every family, -d the devices named
     Halt {
         #[command(flatten)]
-        target: Target,
+        target: HaltTarget,
     },
     /// Ramp (trapezoidal) motion to a position; with --sync several modules started together
     MoveRamp {

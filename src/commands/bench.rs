@@ -1,11 +1,11 @@
-//! The whole-bench `scan` and `halt --all`: over every link of the bench and
+//! The whole-bench `scan`, `halt --all` and `halt -d`: over every link of the bench and
 //! every family on it, with the device layer's own scans and halts. They run
 //! when the bench is more than the one `--link` of old (several links, or a
 //! bench file); with one `--link` the PowerCube commands stay as they were.
 
 use std::collections::BTreeSet;
 
-use axisctl::bench::{Address, Bench, BenchLink};
+use axisctl::bench::{Address, Bench, BenchLink, DeviceRef};
 use axisctl::device::face::{Halt, MotionTarget};
 use axisctl::device::registry;
 use axisctl::family::Family;
@@ -194,10 +194,53 @@ pub fn halt_all(ctx: &Ctx) -> anyhow::Result<()> {
             holders.extend(HolderReport::after_halt(t.as_ref()));
         }
     }
-    print_halt(ctx, bench, &steps, &holders);
+    print_halt(ctx, bench, &steps, &holders, true);
     let failed = steps.iter().filter(|s| s.result.is_err()).count();
     match steps.into_iter().find_map(|s| s.result.err()) {
         Some(first) => Err(first.context(format!("halt --all: {failed} step(s) failed; see the report above"))),
+        None => Ok(()),
+    }
+}
+
+/// `halt -d DEVICE,...`: a person's stop of each device named, through its
+/// family's face on its link; a device at rest is "already at rest". Every
+/// address is checked before the first link opens, so a bad one sends
+/// nothing. Each device is tried whatever the others did.
+pub fn halt_devices(ctx: &Ctx, devices: &[DeviceRef]) -> anyhow::Result<()> {
+    let bench = ctx.bench()?;
+    let mut named: Vec<(Address, &BenchLink, MotionTarget)> = Vec::new();
+    for d in devices {
+        let at = bench.resolve(d)?;
+        let (first, second) = at.ids();
+        let target = registry::target(at.family(), first, second)
+            .ok_or_else(|| super::usage(format!("{at} is not a device its family can stop")))?;
+        if !named.iter().any(|(a, ..)| *a == at) {
+            named.push((at, bench.link_of(at)?, target));
+        }
+    }
+    share_links(ctx);
+    let mut steps = Vec::new();
+    let mut holders = Vec::new();
+    for (at, link, target) in named {
+        let node = target.node();
+        let step = |result| Step { link: link.text.clone(), family: at.family(), address: Some(at), node, result };
+        let opened = ctx.opener().take_over(|o| {
+            let mut sessions = On { opener: o, spec: &link.spec, opts: ctx.session_options() };
+            registry::open(at.family(), node, &mut sessions, ctx.retry)
+        });
+        match opened {
+            Ok((mut face, t)) => {
+                let result = face.stop(target).map(said).map_err(|e| takeover::failed(e, t.as_ref()));
+                steps.push(step(result));
+                holders.extend(HolderReport::after_halt(t.as_ref()));
+            }
+            Err(e) => steps.push(step(Err(e.into()))),
+        }
+    }
+    print_halt(ctx, bench, &steps, &holders, false);
+    let failed = steps.iter().filter(|s| s.result.is_err()).count();
+    match steps.into_iter().find_map(|s| s.result.err()) {
+        Some(first) => Err(first.context(format!("halt -d: {failed} device(s) not stopped; see the report above"))),
         None => Ok(()),
     }
 }
@@ -218,7 +261,7 @@ fn named_node(link: &BenchLink, node: u8) -> bool {
     link.devices.values().any(|a| matches!(a, Address::Cdios { node: n, .. } if *n == node))
 }
 
-fn print_halt(ctx: &Ctx, bench: &Bench, steps: &[Step], holders: &[HolderReport]) {
+fn print_halt(ctx: &Ctx, bench: &Bench, steps: &[Step], holders: &[HolderReport], all: bool) {
     let address = |s: &Step| match (s.address, s.node) {
         (Some(a), _) => a.to_string(),
         (None, Some(n)) => format!("{}:{n}/*", s.family.name()),
@@ -239,7 +282,7 @@ fn print_halt(ctx: &Ctx, bench: &Bench, steps: &[Step], holders: &[HolderReport]
             })
             .collect();
         let holders: Vec<Value> = holders.iter().map(HolderReport::json).collect();
-        output::json(&json!({"command": "halt", "all": true, "steps": list, "holders": holders}));
+        output::json(&json!({"command": "halt", "all": all, "steps": list, "holders": holders}));
         return;
     }
     for h in holders {

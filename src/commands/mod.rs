@@ -442,7 +442,7 @@ pub fn dispatch(ctx: &Ctx, name: &str, command: Command) -> anyhow::Result<()> {
     let family = match &command {
         // Whole-bench commands: every family (crate::commands::bench).
         Command::PowerCube(PowerCubeCommand::Scan { .. }) => None,
-        Command::PowerCube(PowerCubeCommand::Halt { target }) if target.all => None,
+        Command::PowerCube(PowerCubeCommand::Halt { target }) if target.all || target.device.is_some() => None,
         Command::PowerCube(_) => Some(Family::PowerCube),
         Command::Pac(_) => Some(Family::Pac),
         Command::Cdios(_) => Some(Family::Cdios),

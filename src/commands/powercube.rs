@@ -31,7 +31,10 @@ pub fn run(ctx: &Ctx, cmd: Command) -> anyhow::Result<()> {
         Command::State(m) => read_each(ctx, &m.module, show_state),
         Command::Home { target, wait, deadman } => home(ctx, target, wait, policy(deadman)),
         Command::Reset { target } => simple(ctx, target, Simple::Reset),
-        Command::Halt { target } => halt(ctx, target),
+        Command::Halt { target } => match (target.powercube(), target.device) {
+            (Some(target), _) => halt(ctx, target),
+            (None, devices) => super::bench::halt_devices(ctx, &devices.unwrap_or_default()),
+        },
         Command::MoveRamp { modules, pos, vel, acc, ticks, relative, force, sync, wait, deadman } => {
             let deadman = policy(deadman);
             let ms: Vec<ModuleId> = modules.0.iter().map(|id| module(*id)).collect();

@@ -7,6 +7,7 @@
 use std::time::Duration;
 
 use axisctl::device::cdios::{self as cdios_dev, Node};
+use axisctl::device::face::FaceError;
 use axisctl::device::face::Moving;
 use axisctl::device::pac::Controller;
 use axisctl::device::powercube::{self as cube_dev, Cubes, Move};
@@ -15,10 +16,10 @@ use axisctl::family::{Family, CDIOS_MODULE, PAC_AXIS, POWERCUBE_MODULE};
 use axisctl::proto::cdios::{GotoMode, ModuleId as CdiosModule, NodeId};
 use axisctl::proto::powercube::table::ids;
 use axisctl::proto::powercube::ModuleId;
-use axisctl::record::{
-    self, Address, CdiosSampler, CdiosValue, Channel, CubeSampler, End, HaltMotion, HaltWhen, PacSampler, PacValue,
-    RecordError, Recording, Sample, Until,
-};
+use axisctl::record::cdios::{CdiosSampler, CdiosValue};
+use axisctl::record::pac::{PacSampler, PacValue};
+use axisctl::record::powercube::CubeSampler;
+use axisctl::record::{self, Address, Channel, End, HaltMotion, HaltWhen, RecordError, Recording, Sample, Until};
 use clap::Parser;
 use serde_json::{json, Map, Value};
 
@@ -325,10 +326,11 @@ fn go<S: HaltMotion>(
 /// The device layer's own error, so that its exit-code class and refusal
 /// are found in the chain (a transparent wrapper would hide its type).
 pub(super) fn device_error(e: RecordError) -> anyhow::Error {
-    match e {
-        RecordError::PowerCube(e) => (*e).into(),
-        RecordError::Pac(e) => (*e).into(),
-        RecordError::Cdios(e) => (*e).into(),
+    match e.into_face() {
+        FaceError::PowerCube(e) => e.into(),
+        FaceError::Pac(e) => e.into(),
+        FaceError::Cdios(e) => e.into(),
+        other => other.into(),
     }
 }
 

@@ -154,8 +154,8 @@ pub fn run(ctx: &Ctx, args: &SimArgs) -> anyhow::Result<()> {
         Some(spec) => {
             let inj = Arc::new(std::sync::Mutex::new(Injector::new(spec, args.fault_seed.wrapping_add(seed_offset))));
             let trip = spec.trip.map(|d| match protocol {
-                ByteProtocol::PowerCube => Trip::new(d).powercube(Arc::clone(&bench.powercube)),
-                ByteProtocol::Pac => Trip::new(d).pac(Arc::clone(&bench.pac)),
+                ByteProtocol::PowerCube => Trip::new(d).watch(bench.powercube.clone()),
+                ByteProtocol::Pac => Trip::new(d).watch(bench.pac.clone()),
             });
             serve::Noise { faults: spec.touches_answers().then(|| ByteFaults::new(inj, protocol)), trip }
         }

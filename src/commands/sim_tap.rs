@@ -18,7 +18,8 @@ use axisctl::proto::CanFrame;
 use axisctl::sim::serve::{Tap, Traffic, Way};
 
 use crate::output::err_line;
-use axisctl::monitor::{describe, describe_ack};
+use axisctl::monitor::describe;
+use axisctl::proto::powercube::bus::describe_ack;
 
 /// How the bytes of a served serial line are cut into frames for the trace.
 pub enum Protocol {

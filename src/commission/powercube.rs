@@ -21,7 +21,8 @@ use crate::plot;
 use crate::proto::powercube::flags::{state, CUBE_STATE};
 use crate::proto::powercube::table::{self, ids};
 use crate::proto::powercube::ModuleId;
-use crate::record::{self, Address, CubeSampler, Sample, Sampler, Until};
+use crate::record::powercube::CubeSampler;
+use crate::record::{self, Address, Sample, Sampler, Until};
 
 /// Motion checks of a device, in order.
 const MOTION_CHECKS: [&str; 4] = ["home", "move_forward", "move_back", "halt"];

@@ -66,6 +66,12 @@ pub struct SlcanLink<B: ByteLink> {
     /// Transmit lines being written, kept to spare an allocation per frame.
     out: Vec<u8>,
     timing: SetupTiming,
+    /// `V` commands written during the setup whose answer has not come yet.
+    /// Replies read before those answers belong to earlier commands: a
+    /// starved adapter answers later than the setup waits.
+    unanswered_v: u32,
+    /// The adapter has answered a `V` since this open began.
+    answers_v: bool,
 }
 
 impl<B: ByteLink> std::fmt::Debug for SlcanLink<B> {
@@ -107,6 +113,8 @@ impl<B: ByteLink> SlcanLink<B> {
             adapter_errors: 0,
             out: Vec::new(),
             timing,
+            unanswered_v: 0,
+            answers_v: false,
         };
         link.io.clear_input()?;
         link.handshake(set_bitrate)?;
@@ -155,32 +163,59 @@ impl<B: ByteLink> SlcanLink<B> {
 
     /// Sends a setup command and, with `marked`, `V`, and sorts what comes
     /// back: until the `V` line (at most [`SETUP_REPLY`]), or without
-    /// `marked` until the first reply (at most `wait`). Frames are stale
-    /// traffic from before the channel was (re)opened, dropped.
+    /// `marked` until the first reply (at most `wait`). Replies before the
+    /// answers to earlier `V`s are theirs, not this command's; frames are
+    /// stale traffic from before the channel was (re)opened. Both are dropped.
     fn ask(&mut self, cmd: Command, marked: bool, wait: Duration) -> Result<SetupReply, LinkError> {
         let mut bytes = cmd.to_bytes();
+        let mut earlier = self.unanswered_v;
         if marked {
             bytes.extend_from_slice(&Command::Version.to_bytes());
+            self.unanswered_v += 1;
         }
         self.io.write_all(&bytes)?;
         let deadline = Instant::now() + if marked { self.timing.reply } else { wait };
+        let (errors, mut noise, mut own_v) = (self.decode_errors, false, false);
         let mut r = SetupReply::default();
         while let Some(ev) = self.next_event(deadline)? {
+            if matches!(&ev, SlcanEvent::Other(line) if line.starts_with('V')) {
+                self.unanswered_v = self.unanswered_v.saturating_sub(1);
+                if earlier == 0 && marked {
+                    own_v = true;
+                    break;
+                }
+                // An earlier command's `V`: what came before it was that command's.
+                earlier = earlier.saturating_sub(1);
+                r = SetupReply::default();
+                continue;
+            }
             match ev {
                 SlcanEvent::Ack | SlcanEvent::TransmitAck { .. } => r.oks += 1,
                 SlcanEvent::Error => {
                     self.adapter_errors += 1;
                     r.bels += 1;
                 }
-                SlcanEvent::Other(line) if line.starts_with('V') => break,
-                SlcanEvent::Other(_) => r.stray += 1,
+                SlcanEvent::Other(_) => {
+                    r.stray += 1;
+                    noise = true;
+                }
                 _ => {}
             }
             if !marked && r.answered() {
                 break;
             }
         }
+        self.forgive_garbled_v(marked && !own_v, noise || self.decode_errors > errors);
         Ok(r)
+    }
+
+    /// A `V` whose answer did not come in time is late, and still counted,
+    /// unless the line was noisy meanwhile: then noise garbled its answer,
+    /// which will never come.
+    fn forgive_garbled_v(&mut self, missing: bool, noisy: bool) {
+        if missing && noisy {
+            self.unanswered_v = self.unanswered_v.saturating_sub(1);
+        }
     }
 
     pub fn bitrate(&self) -> u32 {
@@ -207,15 +242,35 @@ impl<B: ByteLink> SlcanLink<B> {
     /// dead client's half line is rejected, the channel stays open and `S<n>`
     /// is refused. An adapter that does not answer `V` costs [`PROBE`], and its
     /// stale replies (if any) are left for the setup, as before.
+    ///
+    /// A starved adapter answers an earlier resync's `V` while this one
+    /// waits: the wait then runs until every `V` is answered, [`SETUP_REPLY`]
+    /// after the last answer. `V` answers that never come were garbled by
+    /// line noise, and are no longer waited for.
     fn resync(&mut self) -> Result<bool, LinkError> {
         self.io.write_all(RESYNC)?;
-        let deadline = Instant::now() + self.timing.probe;
+        self.unanswered_v += 1;
+        let mut deadline = Instant::now() + if self.answers_v { self.timing.reply } else { self.timing.probe };
+        let (errors, mut noise, mut answered) = (self.decode_errors, false, false);
         while let Some(ev) = self.next_event(deadline)? {
-            if matches!(&ev, SlcanEvent::Other(line) if line.starts_with('V')) {
-                return Ok(true);
+            match &ev {
+                SlcanEvent::Other(line) if line.starts_with('V') => {
+                    (answered, self.answers_v) = (true, true);
+                    self.unanswered_v = self.unanswered_v.saturating_sub(1);
+                    if self.unanswered_v == 0 {
+                        break;
+                    }
+                    deadline = Instant::now() + self.timing.reply;
+                }
+                SlcanEvent::Other(_) => noise = true,
+                _ => {}
             }
         }
-        Ok(false)
+        if answered {
+            self.unanswered_v = 0;
+        }
+        self.forgive_garbled_v(!answered, noise || self.decode_errors > errors);
+        Ok(answered)
     }
 
     fn command(&mut self, cmd: Command) -> Result<(), LinkError> {
@@ -675,6 +730,63 @@ mod tests {
         let err = link.recv(Duration::from_millis(10)).unwrap_err();
         assert!(matches!(&err, LinkError::Adapter(m) if m.contains("0F1#01")), "{err}");
         assert_eq!(link.recv(Duration::from_millis(10)).unwrap(), None);
+    }
+
+    /// An adapter whose every reply comes `delay` after the command, as a
+    /// pty served by a starved process does. Its replies are real: a closed
+    /// channel answers `C` with BEL.
+    struct Late {
+        adapter: Adapter,
+        delay: Duration,
+        coming: VecDeque<(Instant, Vec<u8>)>,
+    }
+
+    impl ByteLink for Late {
+        fn write_all(&mut self, bytes: &[u8]) -> Result<(), LinkError> {
+            self.adapter.handle_host_bytes(bytes);
+            while let Some(out) = self.adapter.poll_output() {
+                self.coming.push_back((Instant::now() + self.delay, out));
+            }
+            Ok(())
+        }
+        fn read(&mut self, buf: &mut [u8], timeout: Duration) -> Result<usize, LinkError> {
+            let Some(&(at, _)) = self.coming.front() else {
+                thread::sleep(timeout);
+                return Ok(0);
+            };
+            let now = Instant::now();
+            if at > now + timeout {
+                thread::sleep(timeout);
+                return Ok(0);
+            }
+            thread::sleep(at.saturating_duration_since(now));
+            let (_, bytes) = self.coming.pop_front().unwrap();
+            buf[..bytes.len()].copy_from_slice(&bytes);
+            Ok(bytes.len())
+        }
+        fn clear_input(&mut self) -> Result<(), LinkError> {
+            Ok(())
+        }
+    }
+
+    /// Replies later than the resync waits (the flake "adapter rejected
+    /// bitrate (S8)" under load): the answer to the resync's `V` arrives
+    /// while the next command waits, so `C`'s BEL used to be read as the
+    /// answer to `S8`. Each reply is matched to its own command by counting
+    /// the `V` answers still to come, so the open works at every delay.
+    #[test]
+    fn replies_later_than_the_resync_waits_are_not_taken_for_the_next_commands() {
+        for delay_ms in [150, 250] {
+            let late = Late {
+                adapter: Adapter::new(AckStyle::Lawicel),
+                delay: Duration::from_millis(delay_ms),
+                coming: VecDeque::new(),
+            };
+            let link = SlcanLink::new(late, 1_000_000).unwrap_or_else(|e| panic!("{delay_ms} ms: {e}"));
+            assert!(link.adapter_acks(), "{delay_ms} ms");
+            assert!(link.io.adapter.is_open(), "{delay_ms} ms: the channel is open");
+            assert_eq!(link.io.adapter.bitrate(), 1_000_000, "{delay_ms} ms");
+        }
     }
 
     #[test]

@@ -1,6 +1,7 @@
 //! Passive bus decoding: what any CAN frame on a commissioning bus means.
-//! PowerCube ids (0x0A1..0x0FF, 0x100) and Cdios ids (NMT 0x000, 0x181.., 0x201..)
-//! do not overlap; everything else is shown raw. Sans-IO: frames in, [`FrameInfo`] out.
+//! Each CAN family of the registry reads its own frames (`proto::<family>::bus`,
+//! through `Family::describe_can`); their ids do not overlap, and everything
+//! else is shown raw. Sans-IO: frames in, [`FrameInfo`] out.
 //!
 //! Above `proto/` only because it names frames by the family registry.
 
@@ -15,17 +16,9 @@ use serde::Serialize;
 use serde_json::json;
 
 use crate::family::Family;
+use crate::proto::bus::BusFrame;
 use crate::proto::can_error::{CanEvent, ErrorFrame};
-use crate::proto::cdios::transport::{self as cdios_tp, AnswerKind, BusMessage};
-use crate::proto::cdios::{table as cdios_table, Address};
-use crate::proto::powercube::can::{self as pc_can, CanMessage};
-use crate::proto::powercube::flags;
-use crate::proto::powercube::frame::Value;
-use crate::proto::powercube::{table as pc_table, Response};
 use crate::proto::CanFrame;
-
-const PC: Option<Family> = Some(Family::PowerCube);
-const CD: Option<Family> = Some(Family::Cdios);
 
 /// Which frames a `--family` filter keeps: a family on CAN, or the rest.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -96,18 +89,21 @@ impl FrameInfo {
     fn new(family: Option<Family>, kind: &'static str, summary: String) -> Self {
         Self { family, kind, module: None, node: None, summary, error: None, details: serde_json::Value::Null }
     }
+
+    /// A frame `family` decoded.
+    fn of(family: Family, b: BusFrame) -> Self {
+        let BusFrame { kind, module, node, summary, error, details } = b;
+        Self { family: Some(family), kind, module, node, summary, error, details }
+    }
 }
 
 /// Decodes one frame. Never panics; undecodable frames of a known family
 /// carry `error`.
 pub fn describe(frame: &CanFrame) -> FrameInfo {
-    if let Some(info) = powercube(frame) {
-        return info;
-    }
-    if let Some(info) = cdios(frame) {
-        return info;
-    }
-    FrameInfo::new(None, "raw", String::new())
+    Family::ALL
+        .into_iter()
+        .find_map(|f| f.describe_can(frame).map(|b| FrameInfo::of(f, b)))
+        .unwrap_or_else(|| FrameInfo::new(None, "raw", String::new()))
 }
 
 /// An error frame of the bus (SocketCAN's, or an slcan adapter's report):
@@ -127,192 +123,12 @@ pub fn describe_event(event: &CanEvent) -> FrameInfo {
     }
 }
 
-/// Why sending `frame` by hand may set something moving, if it may: a
-/// PowerCube motion request (Home, SetMotion, SetIStep) or Home / StartMotion
-/// broadcast, a Cdios GOTO or START, or a command of either family that does
-/// not decode (nothing can say it does not move).
+/// Why sending `frame` by hand may set something moving, if it may: the
+/// registry's CAN families each say it of their own frames (a PowerCube
+/// motion request or broadcast, a Cdios GOTO or START, or a frame of
+/// either that does not decode: nothing can say it does not move).
 pub fn motion_of(frame: &CanFrame) -> Option<String> {
-    match pc_can::classify(frame) {
-        Ok(Some(CanMessage::Request { module, request })) if request.is_motion() => {
-            return Some(format!("{request} starts a motion of PowerCube module {module}"));
-        }
-        Ok(Some(CanMessage::Broadcast(b @ (pc_can::Broadcast::Home | pc_can::Broadcast::StartMotion)))) => {
-            return Some(format!("the {b} broadcast starts every PowerCube module on the bus"));
-        }
-        Ok(_) => {}
-        Err(e) => return Some(format!("a PowerCube frame that does not decode ({e}): it may move a module")),
-    }
-    match cdios_tp::classify(frame) {
-        Ok(Some(BusMessage::Command { node, data })) => match cdios_table::decode_command(&data) {
-            Ok(d) if [cdios_table::GOTO, cdios_table::START].contains(&d.def.code) => {
-                Some(format!("Cdios {} starts a motor of node {node}", d.def.key))
-            }
-            Ok(_) => None,
-            Err(e) => Some(format!("a Cdios command that does not decode ({e}): it may start a motor")),
-        },
-        _ => None,
-    }
-}
-
-fn powercube(frame: &CanFrame) -> Option<FrameInfo> {
-    let id = frame.id();
-    let ours = !frame.is_extended() && (id == pc_can::BROADCAST_ID || (0x0A1..=0x0FF).contains(&id) && id & 0x1F != 0);
-    if !ours {
-        return None;
-    }
-    Some(match pc_can::classify(frame) {
-        Ok(Some(CanMessage::Request { module, request })) => {
-            let mut i = FrameInfo::new(PC, "request", request.to_string());
-            i.module = Some(module.get());
-            i
-        }
-        Ok(Some(CanMessage::Ack { module, response })) => {
-            let (summary, details) = describe_ack(&response);
-            let mut i = FrameInfo::new(PC, "ack", summary);
-            i.module = Some(module.get());
-            i.details = details;
-            i
-        }
-        Ok(Some(CanMessage::Broadcast(b))) => {
-            let mut i = FrameInfo::new(PC, "broadcast", format!("{b} to all"));
-            i.details = json!({"command": b.command().name()});
-            if let pc_can::Broadcast::ChangeBaudrate(p) = b {
-                i.details["bitrate"] = json!(pc_can::Broadcast::bitrate(p));
-            }
-            i
-        }
-        Ok(None) => return None,
-        Err(e) => {
-            let mut i = FrameInfo::new(PC, "raw", String::new());
-            i.module = Some((id & 0x1F) as u8).filter(|m| *m != 0);
-            i.error = Some(e.to_string());
-            i
-        }
-    })
-}
-
-/// An acknowledge for humans and as JSON details: the parameter's value by
-/// its table type (flag words with their flags), the motion by name.
-pub fn describe_ack(resp: &Response) -> (String, serde_json::Value) {
-    match resp {
-        Response::Get { param, data } => {
-            let Some(def) = pc_table::param(*param) else {
-                return (format!("GetExtended {param:#04x} = {data:?}"), serde_json::Value::Null);
-            };
-            match Value::decode(def.ty, data.as_slice()) {
-                Ok(v) => {
-                    let mut details = json!({"param": def.name, "id": def.id, "value": v});
-                    let mut text = format!("{} = {v}", def.name);
-                    if let (Some(word), Some(raw)) = (flags::word_for_param(*param), v.as_f64()) {
-                        let d = word.decode(raw as u32);
-                        text.push_str(&format!(" [{}]", d.flags.join(" ")));
-                        details["flags"] = json!(d.flags);
-                        details["errors"] = json!(d.errors);
-                    }
-                    (text, details)
-                }
-                Err(e) => (format!("{} = {data:?} ({e})", def.name), serde_json::Value::Null),
-            }
-        }
-        Response::SetAck { param } => {
-            (format!("SetExtended {} ok", pc_table::param(*param).map_or("?", |d| d.name)), serde_json::Value::Null)
-        }
-        Response::MotionAck { motion } => {
-            (format!("SetMotion {} ok", pc_table::motion(*motion).map_or("?", |d| d.name)), serde_json::Value::Null)
-        }
-        Response::MotionAckExt { motion, pos, short_state, dio } => {
-            let def = pc_table::motion(*motion);
-            let float = def.is_some_and(|d| d.name.starts_with('F'));
-            let pos = if float { f64::from(f32::from_le_bytes(*pos)) } else { f64::from(i32::from_le_bytes(*pos)) };
-            let st = flags::SHORT_STATE.decode(u32::from(*short_state));
-            let io = flags::DIO.decode(u32::from(*dio));
-            (
-                format!(
-                    "SetMotion {} ok, pos {pos} [{}] dio [{}]",
-                    def.map_or("?", |d| d.name),
-                    st.flags.join(" "),
-                    io.flags.join(" ")
-                ),
-                // The one state shape, as `state` gives its short state.
-                json!({"position": pos, "short_state": flags::SHORT_STATE.state_json(u32::from(*short_state)),
-                       "dio": flags::DIO.state_json(u32::from(*dio))}),
-            )
-        }
-        Response::Simple(cmd) => (format!("{} ok", cmd.name()), serde_json::Value::Null),
-    }
-}
-
-fn cdios(frame: &CanFrame) -> Option<FrameInfo> {
-    let msg = match cdios_tp::classify(frame) {
-        Ok(Some(m)) => m,
-        Ok(None) => return None,
-        Err(e) => {
-            let mut i = FrameInfo::new(CD, "raw", String::new());
-            i.error = Some(e.to_string());
-            return Some(i);
-        }
-    };
-    Some(match msg {
-        BusMessage::Nmt { command, node } => {
-            let what = if command == 0x01 { "start".to_string() } else { format!("command {command:#04x}") };
-            let target = if node == 0 { "all nodes".to_string() } else { format!("node {node}") };
-            FrameInfo::new(CD, "nmt", format!("NMT {what} {target}"))
-        }
-        BusMessage::Command { node, data } => {
-            let mut i = match cdios_table::decode_command(&data) {
-                Ok(d) => {
-                    let mut i = FrameInfo::new(CD, "command", format!("{} {}", d.def.key, fields_text(&d.fields)));
-                    i.module = Some(match d.address {
-                        Address::Module(m) => m.get(),
-                        Address::Controller => 0xFF,
-                    });
-                    i.details = json!({"command": d.def.key, "selector": d.selector, "fields": d.fields});
-                    i
-                }
-                Err(e) => {
-                    let mut i = FrameInfo::new(CD, "command", format!("{:02x?}", data));
-                    i.error = Some(e.to_string());
-                    i
-                }
-            };
-            i.node = Some(node.get());
-            i
-        }
-        BusMessage::Answer(a) => {
-            let kind = match a.kind {
-                AnswerKind::Reply => "reply",
-                AnswerKind::Event => "event",
-                AnswerKind::Error => "error",
-            };
-            let mut i = FrameInfo::new(CD, kind, String::new());
-            i.node = Some(a.node.get());
-            i.module = Some(a.module);
-            if let Some(err) = a.error() {
-                i.summary = format!("error to {:#04x}: {}", a.command, err.describe());
-                i.details = json!({"command": a.command, "general": err.general, "status1": err.status1, "status2": err.status2});
-            } else if let Some(r) = a.reply() {
-                match r {
-                    Ok(r) => {
-                        i.summary = format!("{} {}", r.def.map_or("?", |d| d.key), fields_text(&r.fields));
-                        i.details = serde_json::to_value(&r).unwrap_or_default();
-                    }
-                    Err(e) => i.error = Some(e.to_string()),
-                }
-            }
-            i
-        }
-    })
-}
-
-fn fields_text(fields: &[cdios_table::FieldValue]) -> String {
-    fields
-        .iter()
-        .map(|f| match (f.value, f.value_unit) {
-            (Some(v), Some(u)) => format!("{}={v}{u}", f.key),
-            _ => format!("{}={}", f.key, f.raw),
-        })
-        .collect::<Vec<_>>()
-        .join(" ")
+    Family::ALL.into_iter().find_map(|f| f.can_motion(frame))
 }
 
 /// Frame counts by family and kind, plus decode errors.
@@ -351,6 +167,9 @@ impl Stats {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    const PC: Option<Family> = Some(Family::PowerCube);
+    const CD: Option<Family> = Some(Family::Cdios);
 
     fn d(s: &str) -> FrameInfo {
         describe(&s.parse().unwrap())

@@ -3,10 +3,12 @@
 //! Nothing in here performs I/O or reads a clock. Links feed bytes or CAN
 //! frames in; typed frames come out, and typed frames encode to bytes.
 
+pub mod bus;
 pub mod can;
 pub mod can_error;
 pub mod candump;
 pub mod cdios;
+pub mod flag_word;
 pub mod pac;
 pub mod powercube;
 pub mod refusal;

@@ -1,8 +1,9 @@
 //! Cdios 6168 modules: the chosen reads of each module in one pipelined
 //! burst (the node answers them in order), as the dashboard polls it.
 
-use super::{Address, Channel, RecordError, Sampler};
+use super::{Address, Channel, HaltMotion, RecordError, Sampler};
 use crate::device::cdios::{Error, Node};
+use crate::device::face::{Face, FaceError};
 use crate::proto::cdios::{Address as CdiosAddress, Command, ModuleId, PositionSource, StatusSelector};
 
 /// A module value that can be recorded.
@@ -115,5 +116,17 @@ impl Sampler for CdiosSampler {
             }
         }
         Ok(out)
+    }
+}
+
+impl From<Error> for RecordError {
+    fn from(e: Error) -> Self {
+        FaceError::from(e).into()
+    }
+}
+
+impl HaltMotion for CdiosSampler {
+    fn face(&mut self) -> &mut dyn Face {
+        self.node()
     }
 }

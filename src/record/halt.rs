@@ -8,7 +8,7 @@
 //! read (the device's state is then unknown). The halt sequences are the
 //! device layer's, the ones the supervised waits use.
 
-use super::{Address, CdiosSampler, CubeSampler, End, PacSampler, RecordError, Sampler};
+use super::{Address, End, RecordError, Sampler};
 use crate::device::face::{Face, FaceError, Found, Halt, HaltStep, MotionTarget, State};
 use crate::device::registry;
 use crate::family::Family;
@@ -144,28 +144,6 @@ pub fn halt_motion<S: HaltMotion + ?Sized>(
 /// pairs them before the link opens, so this never holds a device.
 fn foreign(at: Address) -> String {
     format!("HALT FAILED: {} is not a device of this recording", at.label())
-}
-
-impl HaltMotion for CubeSampler {
-    fn face(&mut self) -> &mut dyn Face {
-        self.cubes()
-    }
-
-    fn release(&mut self) -> Result<(), String> {
-        self.cubes().release_deadman().map_err(|e| e.to_string())
-    }
-}
-
-impl HaltMotion for PacSampler {
-    fn face(&mut self) -> &mut dyn Face {
-        self.controller()
-    }
-}
-
-impl HaltMotion for CdiosSampler {
-    fn face(&mut self) -> &mut dyn Face {
-        self.node()
-    }
 }
 
 #[cfg(test)]

@@ -9,21 +9,19 @@
 //! request at a time. The sampler owns the device handle, so a motion
 //! started through [`crate::device`] goes out on the same open link.
 
-mod cdios;
+pub mod cdios;
 mod halt;
-mod pac;
-mod powercube;
+pub mod pac;
+pub mod powercube;
 mod several;
 
 use std::time::{Duration, Instant};
 
 use crate::clock::Clock;
+use crate::device::face::FaceError;
 use crate::family::Family;
 
-pub use cdios::{CdiosSampler, CdiosValue};
 pub use halt::{halt_motion, motion_target, HaltMotion, HaltWhen, Recording};
-pub use pac::{PacSampler, PacValue};
-pub use powercube::CubeSampler;
 pub use several::Several;
 
 /// Which device a channel belongs to, in the envelope's address form.
@@ -73,32 +71,24 @@ pub struct Channel {
     pub unit: String,
 }
 
-/// The device layer's error, boxed: a sample's result stays small.
+/// The device layer's error as the device face carries it (the family's
+/// own typed error kept whole), boxed: a sample's result stays small. Each
+/// sampler's module converts its family's error.
 #[derive(Debug, thiserror::Error)]
-pub enum RecordError {
-    #[error(transparent)]
-    PowerCube(Box<crate::device::powercube::Error>),
-    #[error(transparent)]
-    Pac(Box<crate::device::pac::Error>),
-    #[error(transparent)]
-    Cdios(Box<crate::device::cdios::Error>),
-}
+#[error(transparent)]
+pub struct RecordError(Box<FaceError>);
 
-impl From<crate::device::powercube::Error> for RecordError {
-    fn from(e: crate::device::powercube::Error) -> Self {
-        Self::PowerCube(Box::new(e))
+impl RecordError {
+    /// The face's error, with the family's own inside (its exit-code
+    /// class, its refusal).
+    pub fn into_face(self) -> FaceError {
+        *self.0
     }
 }
 
-impl From<crate::device::pac::Error> for RecordError {
-    fn from(e: crate::device::pac::Error) -> Self {
-        Self::Pac(Box::new(e))
-    }
-}
-
-impl From<crate::device::cdios::Error> for RecordError {
-    fn from(e: crate::device::cdios::Error) -> Self {
-        Self::Cdios(Box::new(e))
+impl From<FaceError> for RecordError {
+    fn from(e: FaceError) -> Self {
+        Self(Box::new(e))
     }
 }
 

@@ -1,8 +1,9 @@
 //! PA-CONTROL axes: the half-duplex line takes one request at a time, so a
 //! sample is one read after the other, as fast as the line allows.
 
-use super::{Address, Channel, RecordError, Sampler};
-use crate::device::pac::Controller;
+use super::{Address, Channel, HaltMotion, RecordError, Sampler};
+use crate::device::face::{Face, FaceError};
+use crate::device::pac::{Controller, Error};
 
 /// An axis value that can be recorded, with the command that reads it.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -79,5 +80,17 @@ impl Sampler for PacSampler {
             out.push(self.ctl.read_f64(v.code(), i64::from(*axis))?);
         }
         Ok(out)
+    }
+}
+
+impl From<Error> for RecordError {
+    fn from(e: Error) -> Self {
+        FaceError::from(e).into()
+    }
+}
+
+impl HaltMotion for PacSampler {
+    fn face(&mut self) -> &mut dyn Face {
+        self.controller()
     }
 }

@@ -6,8 +6,9 @@
 
 use std::time::{Duration, Instant};
 
-use super::{Address, Channel, RecordError, Sampler};
+use super::{Address, Channel, HaltMotion, RecordError, Sampler};
 use crate::clock::Clock;
+use crate::device::face::{Face, FaceError};
 use crate::device::powercube::{is_linear, Cubes, Error};
 use crate::proto::powercube::table::{self, ids, ParamDef};
 use crate::proto::powercube::{ModuleId, Request};
@@ -132,6 +133,22 @@ impl Sampler for CubeSampler {
         if let Some(b) = self.next.take() {
             self.cubes.session().abandon(b);
         }
+    }
+}
+
+impl From<Error> for RecordError {
+    fn from(e: Error) -> Self {
+        FaceError::from(e).into()
+    }
+}
+
+impl HaltMotion for CubeSampler {
+    fn face(&mut self) -> &mut dyn Face {
+        self.cubes()
+    }
+
+    fn release(&mut self) -> Result<(), String> {
+        self.cubes().release_deadman().map_err(|e| e.to_string())
     }
 }
 

@@ -15,9 +15,8 @@ use super::shared::{lock, Shared};
 use crate::clock::Clock;
 use crate::family::Family;
 use crate::link::mem::{ByteDevice, CanDevice, MemBus, MemByteLink};
-use crate::link::{PacStart, SimStart};
-use crate::proto::cdios::{self, NodeId};
-use crate::proto::pac;
+use crate::link::SimStart;
+use crate::proto::cdios::NodeId;
 use crate::proto::powercube::ModuleId;
 use crate::proto::CanFrame;
 
@@ -180,7 +179,7 @@ impl Bench {
             self.bus.set_fault(Some(Box::new(CanFaults::new(Arc::clone(&inj)))));
         }
         if let Some(after) = spec.trip {
-            let trip = Trip::new(after).powercube(Arc::clone(&self.powercube)).cdios(Arc::clone(&self.cdios));
+            let trip = Trip::new(after).watch(self.powercube.clone()).watch(self.cdios.clone());
             self.bus.attach(Box::new(trip));
         }
         inj
@@ -207,42 +206,12 @@ impl Bench {
     }
 
     /// Puts the bench in `start`'s state through the devices' own inputs,
-    /// as a client would: the PA-CONTROL gets start online (0603) and "no
-    /// reference run" (0A83) for each axis, or start automatic (0602); the
-    /// Cdios node its NMT start and each motor the start with option 5
-    /// (enable).
+    /// as a client would (each simulator says how: [`PacController::start`],
+    /// [`CdiosNode::enable_all`]).
     pub fn start(&self, now: Instant, start: SimStart) {
-        let mut pac = lock(&self.pac);
-        let axes = pac.axes();
-        let cmds: Vec<pac::Command> = match start.pac {
-            PacStart::Home => Vec::new(),
-            PacStart::Online => std::iter::once(pac::Command::new(0x0603, 0, pac::Par2::Int(0)))
-                .chain((1..=axes).map(|a| pac::Command::new(0x0A83, a.into(), pac::Par2::Int(0))))
-                .collect(),
-            PacStart::Automatic => vec![pac::Command::new(0x0602, 0, pac::Par2::Int(0))],
-        };
-        for cmd in cmds {
-            if let Ok(bytes) = cmd.encode() {
-                pac.handle_bytes(now, &bytes, &mut Vec::new());
-            }
-        }
-        drop(pac);
+        lock(&self.pac).start(now, start.pac);
         if start.cdios_enabled {
-            let mut node = lock(&self.cdios);
-            let id = node.node();
-            node.handle_can(now, &cdios::transport::nmt_start(id), &mut Vec::new());
-            let enable = cdios::Command::Start {
-                sync: false,
-                direction: cdios::Direction::Forward,
-                option: cdios::StartOption::Enable,
-                motor_speed: 0,
-            };
-            let modules: Vec<u8> = node.modules().map(|m| m.id()).collect();
-            for m in modules.into_iter().filter_map(cdios::ModuleId::new) {
-                if let Ok(data) = enable.encode(cdios::Address::Module(m)) {
-                    node.handle_can(now, &cdios::transport::command_frame(id, &data), &mut Vec::new());
-                }
-            }
+            lock(&self.cdios).enable_all(now);
         }
     }
 
@@ -278,7 +247,7 @@ mod tests {
         let clock = Arc::new(VirtualClock::new());
         let bench = Bench::contract(clock.clone());
         let mut link = bench.pac_link(clock.clone());
-        assert_eq!(transact(&mut link, &Command::new(0x0603, 0, pac::Par2::Int(0)).encode().unwrap()).status, 31);
+        assert_eq!(transact(&mut link, &Command::new(0x0603, 0, Par2::Int(0)).encode().unwrap()).status, 31);
         transact(&mut link, &Command::new(0x0A96, 3, Par2::Float(0.0)).encode().unwrap());
         let first = transact(&mut link, &Command::new(0x0A87, 3, Par2::Float(2000.0)).encode().unwrap());
         assert!(!first.be);

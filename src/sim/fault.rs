@@ -37,15 +37,9 @@ use std::str::FromStr;
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
-use super::cdios::CdiosNode;
-use super::pac::PacController;
-use super::powercube::PowerCubeBus;
 use super::shared::{lock, Shared};
+use crate::family::Family;
 use crate::link::mem::{ByteDevice, CanDevice, Delivery, Fault};
-use crate::proto::cdios::transport as cdios_transport;
-use crate::proto::powercube::can::ACK_BASE;
-use crate::proto::powercube::flags::state;
-use crate::proto::powercube::rs232::{self, Decoder};
 use crate::proto::CanFrame;
 
 /// How often each fault hits an answer. The default injects nothing.
@@ -303,28 +297,18 @@ fn foreign_frame(r: &mut Rng) -> CanFrame {
     CanFrame::new(r.range(0x300, 0x600) as u32, &data).expect("standard id, <= 8 bytes")
 }
 
-/// Another PowerCube module in 1..=31, or another Cdios 6168 in 0..=15.
+/// Another device id than `current` in `lo..=hi` (the family's range: a
+/// PowerCube module in 1..=31, a Cdios 6168 in 0..=15).
 fn other(r: &mut Rng, current: u8, lo: u8, hi: u8) -> u8 {
     let span = u64::from(hi - lo) + 1;
     let k = r.range(1, span) as u8;
     lo + (current.wrapping_sub(lo).wrapping_add(k)) % (span as u8)
 }
 
+/// The answer as another device of its family sends it: each CAN family
+/// of the registry says how its answers name their device.
 fn wrong_module_frame(f: CanFrame, r: &mut Rng) -> CanFrame {
-    if f.is_extended() {
-        return f;
-    }
-    let id = f.id();
-    if (ACK_BASE + 1..ACK_BASE + 32).contains(&id) {
-        let m = other(r, (id - ACK_BASE) as u8, 1, 31);
-        return CanFrame::new(ACK_BASE + u32::from(m), f.data()).unwrap_or(f);
-    }
-    if cdios_transport::answer_node(&f).is_some() && f.data().len() >= 2 && f.data()[1] <= 15 {
-        let mut data = f.data().to_vec();
-        data[1] = other(r, data[1], 0, 15);
-        return CanFrame::new(id, &data).unwrap_or(f);
-    }
-    f
+    Family::ALL.into_iter().find_map(|fam| fam.readdress_can(&f, &mut |cur, lo, hi| other(r, cur, lo, hi))).unwrap_or(f)
 }
 
 fn truncated_frame(f: CanFrame, r: &mut Rng) -> CanFrame {
@@ -384,6 +368,17 @@ pub enum ByteProtocol {
     Pac,
 }
 
+impl ByteProtocol {
+    /// The family whose protocol it is: the registry says how its serial
+    /// answers name their device.
+    pub fn family(self) -> Family {
+        match self {
+            Self::PowerCube => Family::PowerCube,
+            Self::Pac => Family::Pac,
+        }
+    }
+}
+
 /// Faults on the answers of a device behind a serial line. Each chunk a
 /// device writes in one go is one answer.
 pub struct ByteFaults {
@@ -419,8 +414,11 @@ impl ByteFaults {
             bytes.extend((0..n).map(|_| r.next_u64() as u8));
         }
         let mut body = answer;
-        if plan.wrong_module && self.protocol == ByteProtocol::PowerCube {
-            body = readdressed(&body, r);
+        if plan.wrong_module {
+            let pick = &mut |cur, lo, hi| other(r, cur, lo, hi);
+            if let Some(b) = self.protocol.family().readdress_serial(&body, pick) {
+                body = b;
+            }
         }
         if plan.truncate && !body.is_empty() {
             let keep = r.range(0, body.len() as u64) as usize;
@@ -443,24 +441,6 @@ impl ByteFaults {
             out.extend_from_slice(&bytes);
         }
     }
-}
-
-/// PowerCube RS232 answers re-framed as if another module had sent them.
-fn readdressed(bytes: &[u8], r: &mut Rng) -> Vec<u8> {
-    let mut d = Decoder::new();
-    d.push(bytes);
-    let mut out = Vec::with_capacity(bytes.len() + 4);
-    while let Some(item) = d.next_frame() {
-        match item {
-            Ok(mut f) if !f.is_broadcast() => {
-                f.module = other(r, f.module, 1, 31);
-                rs232::encode(f.dir, f.module, f.payload.as_slice(), &mut out);
-            }
-            Ok(f) => f.encode(&mut out),
-            Err(_) => {}
-        }
-    }
-    out
 }
 
 /// A [`ByteDevice`] whose answers go through [`ByteFaults`] (for
@@ -492,45 +472,41 @@ impl<D: ByteDevice> ByteDevice for FaultyByteDevice<D> {
     }
 }
 
+/// A simulated family as `trip=` sees it, implemented beside each
+/// simulator: which of its devices move, and the fault one gets when its
+/// load jams (a PowerCube module STATE_TOW_ERROR, a Cdios 6168 "motor does
+/// not run", a PA-CONTROL axis its limit switch).
+pub trait Jams: Send {
+    /// Every device by its id, and whether it moves at `now`.
+    fn moving(&mut self, now: Instant) -> Vec<(u8, bool)>;
+    /// Faults device `id` as its load jamming does.
+    fn jam(&mut self, now: Instant, id: u8);
+}
+
 /// `trip=DUR`: faults a device that has been moving for `after`, as a real
 /// module does when its load jams. Each device trips once per motion.
 pub struct Trip {
     after: Duration,
-    powercube: Option<Shared<PowerCubeBus>>,
-    cdios: Option<Shared<CdiosNode>>,
-    pac: Option<Shared<PacController>>,
-    /// (family, id) -> moving since.
-    moving: Vec<(u8, u8, Instant)>,
+    watched: Vec<Shared<dyn Jams>>,
+    /// (index in `watched`, id) -> moving since.
+    moving: Vec<(usize, u8, Instant)>,
 }
-
-const PC: u8 = 0;
-const CD: u8 = 1;
-const PA: u8 = 2;
 
 impl Trip {
     pub fn new(after: Duration) -> Self {
-        Self { after, powercube: None, cdios: None, pac: None, moving: Vec::new() }
+        Self { after, watched: Vec::new(), moving: Vec::new() }
     }
 
-    pub fn powercube(mut self, bus: Shared<PowerCubeBus>) -> Self {
-        self.powercube = Some(bus);
+    /// Watches the devices of one simulator too.
+    pub fn watch(mut self, sim: Shared<dyn Jams>) -> Self {
+        self.watched.push(sim);
         self
     }
 
-    pub fn cdios(mut self, node: Shared<CdiosNode>) -> Self {
-        self.cdios = Some(node);
-        self
-    }
-
-    pub fn pac(mut self, pac: Shared<PacController>) -> Self {
-        self.pac = Some(pac);
-        self
-    }
-
-    /// True when `(family, id)` has moved for `after` by `now`; forgets it
+    /// True when `(sim, id)` has moved for `after` by `now`; forgets it
     /// once it stands.
-    fn due(&mut self, family: u8, id: u8, moving: bool, now: Instant) -> bool {
-        let at = self.moving.iter().position(|(f, i, _)| (*f, *i) == (family, id));
+    fn due(&mut self, sim: usize, id: u8, moving: bool, now: Instant) -> bool {
+        let at = self.moving.iter().position(|(s, i, _)| (*s, *i) == (sim, id));
         match (moving, at) {
             (false, Some(k)) => {
                 self.moving.swap_remove(k);
@@ -538,7 +514,7 @@ impl Trip {
             }
             (false, None) => false,
             (true, None) => {
-                self.moving.push((family, id, now));
+                self.moving.push((sim, id, now));
                 self.after.is_zero()
             }
             (true, Some(k)) => now.saturating_duration_since(self.moving[k].2) >= self.after,
@@ -547,37 +523,11 @@ impl Trip {
 
     /// Looks at every device at `now` and faults the ones due.
     pub fn check(&mut self, now: Instant) {
-        if let Some(bus) = self.powercube.clone() {
-            let mut bus = lock(&bus);
-            bus.advance(now);
-            let ids: Vec<(u8, bool)> =
-                bus.modules().map(|m| (m.id().get(), m.cube_state() & state::MOTION != 0)).collect();
-            for (id, moving) in ids {
-                if self.due(PC, id, moving, now) {
-                    if let Some(m) = bus.module_mut(id) {
-                        m.inject_error(state::TOW_ERROR);
-                    }
-                }
-            }
-        }
-        if let Some(node) = self.cdios.clone() {
-            let mut node = lock(&node);
-            let ids: Vec<(u8, bool)> = node.modules().map(|m| (m.id(), m.running())).collect();
-            for (id, moving) in ids {
-                if self.due(CD, id, moving, now) {
-                    if let Some(m) = node.module_mut(id) {
-                        m.inject(super::cdios::Fault::DoesNotRun);
-                    }
-                }
-            }
-        }
-        if let Some(pac) = self.pac.clone() {
-            let mut pac = lock(&pac);
-            pac.advance(now);
-            for axis in 1..=pac.axes() {
-                let moving = pac.axis_status(axis) == Some(1);
-                if self.due(PA, axis, moving, now) {
-                    pac.trip_axis(now, axis);
+        for (k, sim) in self.watched.clone().iter().enumerate() {
+            let mut sim = lock(sim);
+            for (id, moving) in sim.moving(now) {
+                if self.due(k, id, moving, now) {
+                    sim.jam(now, id);
                 }
             }
         }

@@ -7,6 +7,6 @@ pub type Shared<T> = Arc<Mutex<T>>;
 
 /// Locks `m`; a panic elsewhere while it was held does not make the
 /// simulated device unusable (its state stays consistent per call).
-pub fn lock<T>(m: &Mutex<T>) -> MutexGuard<'_, T> {
+pub fn lock<T: ?Sized>(m: &Mutex<T>) -> MutexGuard<'_, T> {
     m.lock().unwrap_or_else(|e| e.into_inner())
 }

@@ -12,8 +12,6 @@ use super::history::{self, History, Trace};
 use super::keys::{self, KeyAction};
 use super::source::{Action, DeviceKey, Health, Snapshot};
 use crate::family::Family;
-use crate::proto::powercube::limits;
-use crate::proto::powercube::ModuleId;
 
 /// How long a changed value stays highlighted.
 pub const HIGHLIGHT: Duration = Duration::from_millis(1500);
@@ -624,19 +622,11 @@ impl App {
     /// checks again against freshly read ones before sending.
     fn check_target(&self, d: &DeviceView, text: &str) -> Result<f64, String> {
         let pos: f64 = text.trim().parse().map_err(|_| format!("{text:?} is not a number; nothing was sent"))?;
-        limits::check_finite("target position", pos).map_err(|e| e.to_string())?;
-        match (&d.key, &d.snap) {
-            (DeviceKey::Cube(m), Some(Snapshot::Cube(c))) => {
-                let m = ModuleId::new(*m).ok_or("bad module id")?;
-                crate::device::powercube::Move::check_ramp_target(&c.limits, m, pos).map_err(|e| e.to_string())?;
-            }
-            (DeviceKey::PacAxis(a), Some(Snapshot::PacAxis(s))) => {
-                super::pac::check_target(*a, pos, s)?;
-            }
-            (DeviceKey::Cdios { .. }, _) => {
-                super::cdios::check_position("goto", pos)?;
-            }
-            _ => {}
+        if !pos.is_finite() {
+            return Err(format!("target position {pos} is not a finite number"));
+        }
+        if let (Some(snap), Some(at)) = (&d.snap, d.key.target()) {
+            snap.check_target(at, pos)?;
         }
         Ok(pos)
     }
@@ -662,40 +652,5 @@ pub fn applies(key: DeviceKey, action: Action) -> Result<(), &'static str> {
 
 /// The fields that differ between two snapshots of one device.
 pub fn changed_fields(old: &Snapshot, new: &Snapshot) -> Vec<&'static str> {
-    let mut out = Vec::new();
-    let mut cmp = |name: &'static str, a: f64, b: f64| {
-        if a != b && !(a.is_nan() && b.is_nan()) {
-            out.push(name);
-        }
-    };
-    match (old, new) {
-        (Snapshot::Cube(a), Snapshot::Cube(b)) => {
-            cmp("pos", a.pos, b.pos);
-            cmp("vel", a.vel, b.vel);
-            cmp("cur", a.cur, b.cur);
-            cmp("temp", a.temp, b.temp);
-            cmp("motor_v", a.motor_v, b.motor_v);
-            cmp("logic_v", a.logic_v, b.logic_v);
-            cmp("state", f64::from(a.cube_state), f64::from(b.cube_state));
-        }
-        (Snapshot::PacController(a), Snapshot::PacController(b)) => {
-            cmp("status", f64::from(a.status), f64::from(b.status));
-            cmp("error", f64::from(a.error), f64::from(b.error));
-        }
-        (Snapshot::PacAxis(a), Snapshot::PacAxis(b)) => {
-            cmp("pos", a.position, b.position);
-            cmp("speed", a.speed, b.speed);
-            cmp("status", a.status as f64, b.status as f64);
-            cmp("ext", f64::from(a.ext_status), f64::from(b.ext_status));
-        }
-        (Snapshot::Cdios(a), Snapshot::Cdios(b)) => {
-            cmp("pos", a.position as f64, b.position as f64);
-            cmp("setpoint", a.setpoint as f64, b.setpoint as f64);
-            cmp("speed", a.speed as f64, b.speed as f64);
-            cmp("rpm_error", a.rpm_error as f64, b.rpm_error as f64);
-            cmp("status", f64::from(u32::from_le_bytes(a.status)), f64::from(u32::from_le_bytes(b.status)));
-        }
-        _ => {}
-    }
-    out
+    new.changed_fields(&**old)
 }

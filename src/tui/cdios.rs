@@ -4,7 +4,8 @@
 //! ([`DeviceSource::poll_ahead`]). Every action is a
 //! [`crate::device::cdios`] operation; this file only words it.
 
-use super::source::{Action, CdiosSnap, DeviceKey, DeviceSource, HaltReport, Snapshot, SourceError};
+use super::source::{Action, DeviceKey, DeviceSource, HaltReport, Snapshot, SourceError};
+use super::ui::cdios::CdiosSnap;
 use crate::device::cdios::{self as device, Node, SentPoll};
 use crate::device::face::Face;
 use crate::family::Family;
@@ -24,11 +25,6 @@ pub struct CdiosSource {
 /// Polls sent ahead at most: the next module's, and the one after it when
 /// the worker sends the current one ahead too.
 const AHEAD: usize = 2;
-
-/// A goto position as the CLI checks it: the table's range for the field.
-pub fn check_position(row: &str, v: f64) -> Result<i32, String> {
-    device::check_position(row, v).map_err(|e| e.to_string())
-}
 
 impl From<device::Error> for SourceError {
     fn from(e: device::Error) -> Self {
@@ -78,13 +74,6 @@ impl CdiosSource {
     }
 }
 
-/// The range a Cdios goto position takes (the table's goto field).
-pub fn target_range() -> (i64, i64) {
-    crate::proto::cdios::table::command("goto")
-        .and_then(|c| c.field("position"))
-        .map_or((i64::from(i32::MIN), i64::from(i32::MAX)), |f| (f.min, f.max))
-}
-
 impl DeviceSource for CdiosSource {
     fn family(&self) -> Family {
         Family::Cdios
@@ -112,7 +101,7 @@ impl DeviceSource for CdiosSource {
             }
             None => self.node.poll(m)?,
         };
-        Ok(Snapshot::Cdios(CdiosSnap {
+        Ok(Snapshot::new(CdiosSnap {
             position: r.position,
             setpoint: r.setpoint,
             speed: r.speed,

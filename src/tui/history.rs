@@ -8,9 +8,6 @@ use std::time::{Duration, Instant};
 
 use super::source::Snapshot;
 use super::worker::MAX_RATE;
-use crate::proto::cdios::table as cdios;
-use crate::proto::pac::table as pac;
-use crate::proto::powercube::table::{self, ids};
 
 /// How far back the chart looks.
 pub const WINDOW: Duration = Duration::from_secs(30);
@@ -29,38 +26,12 @@ pub struct Sample {
     pub cur: Option<f64>,
 }
 
-/// What a family calls its motion values, and their units.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct Units {
-    pub pos: &'static str,
-    pub vel: &'static str,
-    pub cur: Option<&'static str>,
-    /// Decimals worth showing of a position / velocity.
-    pub decimals: usize,
-}
+pub use super::ui::pane::Units;
 
 /// The motion values of a snapshot and their units; `None` for a device
 /// that does not move (the PA-CONTROL controller line).
 pub fn motion(snap: &Snapshot) -> Option<(Units, [f64; 2], Option<f64>)> {
-    match snap {
-        Snapshot::Cube(c) => {
-            let unit = |id| table::param(id).map_or("", |d| d.unit_for(c.linear));
-            let (pos, vel) = (unit(ids::ACT_POS), unit(ids::ACT_VEL));
-            Some((Units { pos, vel, cur: Some("A"), decimals: 4 }, [c.pos, c.vel], Some(c.cur)))
-        }
-        // The manual's user units (AE), as `pac-state` reports them.
-        Snapshot::PacAxis(a) => Some((
-            Units { pos: pac::POSITION_UNIT, vel: pac::SPEED_UNIT, cur: None, decimals: 3 },
-            [a.position, a.speed],
-            None,
-        )),
-        Snapshot::Cdios(c) => Some((
-            Units { pos: cdios::POSITION_UNIT, vel: cdios::SPEED_UNIT, cur: None, decimals: 0 },
-            [c.position as f64, c.speed as f64],
-            None,
-        )),
-        Snapshot::PacController(_) => None,
-    }
+    snap.motion()
 }
 
 /// A bounded ring of samples, oldest first.

@@ -7,9 +7,10 @@
 //! While a reference drive runs the controller takes only polls, so the
 //! controller line polls it and the axes show as stale with that reason.
 
-use super::source::{Action, DeviceKey, DeviceSource, HaltReport, PacAxisSnap, PacCtrlSnap, Snapshot, SourceError};
+use super::source::{Action, DeviceKey, DeviceSource, HaltReport, Snapshot, SourceError};
+use super::ui::pac::{PacAxisSnap, PacCtrlSnap};
 use crate::device::face::Face;
-use crate::device::pac::{self, Controller, Error, TraverseArea};
+use crate::device::pac::{Controller, Error};
 use crate::family::Family;
 use crate::session::pac::Pac;
 
@@ -30,12 +31,6 @@ fn err(e: Error) -> SourceError {
         Error::Session(s) => SourceError::Session(s),
         other => SourceError::Refused(other.to_string()),
     }
-}
-
-/// A target as `pac-move` checks it, against the traverse area last polled.
-pub fn check_target(axis: u8, target: f64, s: &PacAxisSnap) -> Result<(), String> {
-    let area = s.min_pos.zip(s.max_pos).map(|(min, max)| TraverseArea { min, max });
-    pac::check_target(axis, target, area).map_err(|e| e.to_string())
 }
 
 impl PacSource {
@@ -68,7 +63,7 @@ impl DeviceSource for PacSource {
         match dev {
             DeviceKey::PacController => {
                 let ack = self.ctl.poll_state().map_err(err)?;
-                Ok(Snapshot::PacController(PacCtrlSnap {
+                Ok(Snapshot::new(PacCtrlSnap {
                     status: ack.status,
                     error: ack.error,
                     axes: self.ctl.axes().len() as u8,
@@ -80,7 +75,7 @@ impl DeviceSource for PacSource {
                 }
                 let s = self.ctl.axis_state(axis).map_err(err)?;
                 let area = self.ctl.traverse_area(axis).ok();
-                Ok(Snapshot::PacAxis(PacAxisSnap {
+                Ok(Snapshot::new(PacAxisSnap {
                     position: s.position,
                     speed: s.speed,
                     status: s.status,

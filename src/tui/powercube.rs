@@ -7,7 +7,8 @@
 
 use std::collections::BTreeMap;
 
-use super::source::{Action, CubeSnap, DeviceKey, DeviceSource, HaltReport, Snapshot, SourceError};
+use super::source::{Action, DeviceKey, DeviceSource, HaltReport, Snapshot, SourceError};
+use super::ui::powercube::CubeSnap;
 use crate::device::face::Face;
 use crate::device::powercube::{self as device, Cubes, SentRead, Simple, Target};
 use crate::family::Family;
@@ -114,7 +115,7 @@ impl DeviceSource for CubeSource {
             }
             None => self.cubes.read_now(m, &device::LIVE)?,
         };
-        Ok(Snapshot::Cube(CubeSnap {
+        Ok(Snapshot::new(CubeSnap {
             linear: s.linear,
             pos: v[0],
             vel: v[1],

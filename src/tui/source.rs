@@ -3,10 +3,14 @@
 //! worker of a link ([`super::worker`]) drives its sources one call at a
 //! time, so a source never waits on anything but its own transactions.
 
+use std::fmt;
+use std::ops::Deref;
+use std::sync::Arc;
+
+use super::ui::pane::Pane;
 use crate::device::face::{Face, FaceError, Halt, MotionTarget};
 use crate::device::registry;
 use crate::family::Family;
-use crate::proto::powercube::limits::Limits;
 use crate::session::SessionError;
 
 /// One device on the dashboard.
@@ -42,61 +46,40 @@ impl DeviceKey {
     }
 }
 
-/// A PowerCube module as last read.
-#[derive(Debug, Clone, PartialEq)]
-pub struct CubeSnap {
-    pub linear: bool,
-    pub pos: f64,
-    pub vel: f64,
-    pub cur: f64,
-    pub temp: f64,
-    pub motor_v: f64,
-    pub logic_v: f64,
-    pub cube_state: u32,
-    pub limits: Limits,
+/// What one poll of one device returns: the family's own reading (its
+/// pane module's type, e.g. `ui::powercube::CubeSnap`) behind the
+/// questions every part of the screen asks of it ([`Pane`]).
+#[derive(Clone)]
+pub struct Snapshot(Arc<dyn Pane>);
+
+impl Snapshot {
+    pub fn new(reading: impl Pane) -> Self {
+        Self(Arc::new(reading))
+    }
+
+    /// The reading as its family's type, for that family's code.
+    pub fn get<T: Pane>(&self) -> Option<&T> {
+        self.0.as_any().downcast_ref()
+    }
 }
 
-/// The PA-CONTROL controller as last read.
-#[derive(Debug, Clone, PartialEq)]
-pub struct PacCtrlSnap {
-    /// Operating status (manual 6.4), e.g. 31 online.
-    pub status: u16,
-    /// PA-CONTROL error number; 0 = none.
-    pub error: u16,
-    pub axes: u8,
+impl Deref for Snapshot {
+    type Target = dyn Pane;
+    fn deref(&self) -> &dyn Pane {
+        &*self.0
+    }
 }
 
-/// One PA-CONTROL axis as last read.
-#[derive(Debug, Clone, PartialEq)]
-pub struct PacAxisSnap {
-    pub position: f64,
-    pub speed: f64,
-    /// 1910: 0 in position, 1 moving, 2 stopped, 4 fault, 8 measuring.
-    pub status: i64,
-    /// 1921: extended status word.
-    pub ext_status: u32,
-    /// Traverse area (1913 / 1914), when the controller reports it.
-    pub min_pos: Option<f64>,
-    pub max_pos: Option<f64>,
+impl PartialEq for Snapshot {
+    fn eq(&self, other: &Self) -> bool {
+        self.0.same(&*other.0)
+    }
 }
 
-/// A Cdios 6168 module as last read.
-#[derive(Debug, Clone, PartialEq)]
-pub struct CdiosSnap {
-    pub position: i64,
-    pub setpoint: i64,
-    pub speed: i64,
-    pub rpm_error: i64,
-    pub status: [u8; 4],
-}
-
-/// What one poll of one device returns.
-#[derive(Debug, Clone, PartialEq)]
-pub enum Snapshot {
-    Cube(CubeSnap),
-    PacController(PacCtrlSnap),
-    PacAxis(PacAxisSnap),
-    Cdios(CdiosSnap),
+impl fmt::Debug for Snapshot {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        self.0.fmt(f)
+    }
 }
 
 /// What the user asks of the selected device.

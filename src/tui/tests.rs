@@ -17,6 +17,9 @@ use super::pac::PacSource;
 use super::powercube::CubeSource;
 use super::source::{DeviceKey, DeviceSource, Snapshot};
 use super::ui;
+use super::ui::cdios::CdiosSnap;
+use super::ui::pac::{PacAxisSnap, PacCtrlSnap};
+use super::ui::powercube::CubeSnap;
 use super::worker::LinkWorker;
 use crate::clock::{Clock, VirtualClock};
 use crate::family::Family;
@@ -355,13 +358,14 @@ fn snapshots_keep_their_family() {
     let mut rig = Rig::new();
     rig.round();
     for d in &rig.app.devices {
-        match (&d.key, &d.snap) {
-            (DeviceKey::Cube(_), Some(Snapshot::Cube(_))) => assert_eq!(d.key.family(), Family::PowerCube),
-            (DeviceKey::Cdios { .. }, Some(Snapshot::Cdios(_))) => assert_eq!(d.key.family(), Family::Cdios),
-            (DeviceKey::PacController, Some(Snapshot::PacController(_)))
-            | (DeviceKey::PacAxis(_), Some(Snapshot::PacAxis(_))) => assert_eq!(d.key.family(), Family::Pac),
-            (k, s) => panic!("{k:?} has {s:?}"),
-        }
+        let snap = d.snap.as_ref().unwrap_or_else(|| panic!("{:?} has no reading", d.key));
+        let of_its_family = match d.key {
+            DeviceKey::Cube(_) => snap.get::<CubeSnap>().is_some(),
+            DeviceKey::Cdios { .. } => snap.get::<CdiosSnap>().is_some(),
+            DeviceKey::PacController => snap.get::<PacCtrlSnap>().is_some(),
+            DeviceKey::PacAxis(_) => snap.get::<PacAxisSnap>().is_some(),
+        };
+        assert!(of_its_family, "{:?} has {snap:?}", d.key);
     }
 }
 
@@ -1197,19 +1201,12 @@ fn chart_shows_the_motion_of_the_selected_device() {
 }
 
 fn axis_poll(link: usize, axis: u8, at: std::time::Instant, position: f64) -> Event {
-    let snap = super::source::PacAxisSnap {
-        position,
-        speed: 1.0,
-        status: 1,
-        ext_status: 0x0101_0101,
-        min_pos: None,
-        max_pos: None,
-    };
+    let snap = PacAxisSnap { position, speed: 1.0, status: 1, ext_status: 0x0101_0101, min_pos: None, max_pos: None };
     Event::Link(LinkEvent::Polled {
         link,
         device: DeviceKey::PacAxis(axis),
         at,
-        result: Ok(Snapshot::PacAxis(snap)),
+        result: Ok(Snapshot::new(snap)),
         health: super::source::Health::Answer,
     })
 }
@@ -1530,7 +1527,9 @@ fn a_round_sends_the_next_modules_reads_before_the_current_answers_are_read() {
     assert_eq!(polled.iter().map(|p| p.0).collect::<Vec<_>>(), devices);
     assert!(polled.iter().all(|p| p.1.is_ok()), "{polled:?}");
     for (d, p) in devices.iter().zip(&polled) {
-        let (DeviceKey::Cube(m), Ok(Snapshot::Cube(snap))) = (d, &p.1) else { panic!("{p:?}") };
+        let (DeviceKey::Cube(m), Some(snap)) = (d, p.1.as_ref().ok().and_then(|s| s.get::<CubeSnap>())) else {
+            panic!("{p:?}")
+        };
         assert!(snap.limits.max_pos > snap.limits.min_pos, "module {m}: {snap:?}");
     }
     let lines = trace.lock().unwrap().clone();
@@ -1579,7 +1578,7 @@ fn a_round_sends_the_next_cdios_modules_reads_before_the_current_replies_are_rea
         });
     }
     assert_eq!(polled.iter().map(|p| p.0).collect::<Vec<_>>(), devices);
-    assert!(polled.iter().all(|p| matches!(p.1, Ok(Snapshot::Cdios(_)))), "{polled:?}");
+    assert!(polled.iter().all(|p| p.1.as_ref().is_ok_and(|s| s.get::<CdiosSnap>().is_some())), "{polled:?}");
     let lines = trace.lock().unwrap().clone();
     let first_reply = lines.iter().position(|l| l == "received").expect("replies read");
     assert!(

@@ -313,6 +313,78 @@ fn the_documented_bench_file_runs() {
     let r = run(&["--bench", "docs/sim-bench.toml", "--json", "halt", "--all"]);
     ok(&r, "halt --all");
     valid(&r.json());
+    let r = run(&["--bench", "docs/sim-bench.toml", "--json", "halt", "-d", "slide,shoulder"]);
+    ok(&r, "halt -d");
+    let doc = r.json();
+    valid(&doc);
+    let steps: Vec<(&str, &str, &str)> = doc["steps"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|s| (s["name"].as_str().unwrap(), s["address"].as_str().unwrap(), s["result"].as_str().unwrap()))
+        .collect();
+    assert_eq!(steps, [("slide", "pac:2", "already at rest"), ("shoulder", "powercube:3", "halted")], "{doc}");
+    assert_eq!(doc["all"], false, "{doc}");
+}
+
+/// `halt -d` stops exactly the devices named, of every family and link,
+/// and nothing else: with a move running on each family, naming the
+/// PA-CONTROL axis and the Cdios motor stops those two while the PowerCube
+/// module runs on, until it is named too (by its bench file name). Named
+/// again at rest, each is stopped again or "already at rest", exit 0.
+#[test]
+fn halt_d_stops_exactly_the_devices_named() {
+    let (_sim, can, serial) = served();
+    let links = [can.as_str(), serial.as_str()];
+    start_moves(&links);
+    let r = run(&["--link", &can, "--link", &serial, "--json", "halt", "-d", "pac:2,cdios:1/0"]);
+    ok(&r, "halt -d pac:2,cdios:1/0");
+    let doc = r.json();
+    valid(&doc);
+    let said: Vec<(&str, bool)> =
+        doc["steps"].as_array().unwrap().iter().map(|s| (s["address"].as_str().unwrap(), s["ok"] == true)).collect();
+    assert_eq!(said, [("pac:2", true), ("cdios:1/0", true)], "{doc}");
+    until("the axis and the motor at rest, the module still moving", || {
+        let m = moving(&links);
+        (m[0].is_none() || m[1].is_some() || m[2].is_some()).then(|| format!("{m:?}"))
+    });
+    let dir = tempfile::tempdir().unwrap();
+    let file = bench_file(
+        dir.path(),
+        &format!(
+            "[[link]]\nspec = \"{can}\"\ndevices = {{ elbow = \"powercube:5\" }}\n[[link]]\nspec = \"{serial}\"\n"
+        ),
+    );
+    ok(&run(&["--bench", &file, "halt", "-d", "elbow"]), "halt -d elbow");
+    until("every device at rest", || {
+        let m = moving(&links);
+        m.iter().any(Option::is_some).then(|| format!("{m:?}"))
+    });
+    let r = run(&["--bench", &file, "halt", "-d", "elbow,pac:2,cdios:1/0"]);
+    ok(&r, "halt -d at rest");
+    // The PA-CONTROL in online mode sends its axis stop again (harmless at rest).
+    for (row, result) in [("powercube:5", "halted"), ("pac:2", ""), ("cdios:1/0", "already at rest")] {
+        assert!(r.stdout.lines().any(|l| l.starts_with(row) && l.ends_with(result)), "{row}: {}", r.stdout);
+    }
+    assert!(!r.stdout.contains("FAILED"), "{}", r.stdout);
+}
+
+/// A bad device anywhere in the list is refused before any link opens:
+/// exit 2, not one frame in the trace, and the good devices are not stopped
+/// either (the list is one command).
+#[test]
+fn halt_d_with_a_bad_device_sends_nothing() {
+    let (_sim, can, serial) = served();
+    for (bad, says) in [
+        ("powercube:3,powercube:40", "module id 1 to 31"),
+        ("pac:2,wrist", "\"wrist\" is not a device of the bench"),
+        ("cdios:1/0,cdios:0/0", "cdios:0/0"),
+    ] {
+        let r = run(&["--link", &can, "--link", &serial, "--trace", "halt", "-d", bad]);
+        assert_eq!(r.code, 2, "{bad}: {}", r.stderr);
+        assert!(r.stderr.contains(says), "{bad}: {}", r.stderr);
+        assert!(!r.stderr.lines().any(|l| l.starts_with("-> ")), "{bad}: a frame went out: {}", r.stderr);
+    }
 }
 
 /// A port held by another axisctl process (a `pac-move --wait`) is taken

@@ -346,8 +346,10 @@ fn every_sim_example_of_every_help_runs_as_written_and_ends() {
     let path = format!("{}:{}", bin_dir.display(), std::env::var("PATH").unwrap_or_default());
     let cwd = tempfile::tempdir().unwrap();
     std::os::unix::fs::symlink(concat!(env!("CARGO_MANIFEST_DIR"), "/docs"), cwd.path().join("docs")).unwrap();
-    let mut failed = Vec::new();
-    for line in examples.iter().filter(|l| !l.contains(" dashboard")) {
+    // A few at a time; a line that names a file an earlier line wrote runs after it.
+    let examples: Vec<String> = examples.into_iter().filter(|l| !l.contains(" dashboard")).collect();
+    let failed = std::sync::Mutex::new(Vec::new());
+    common::pool::each_after(&examples, &common::pool::after_their_files(&examples), |line| {
         let mut child = std::process::Command::new("bash")
             .args(["--norc", "--noprofile", "-c", line])
             .current_dir(cwd.path())
@@ -372,12 +374,50 @@ fn every_sim_example_of_every_help_runs_as_written_and_ends() {
         let out = child.wait_with_output().unwrap();
         if !out.status.success() {
             let err = String::from_utf8_lossy(&out.stderr);
-            failed.push(format!(
+            failed.lock().unwrap().push(format!(
                 "{line}: {:?} {}",
                 out.status.code(),
                 err.lines().next().unwrap_or("(ended by the deadline)")
             ));
         }
-    }
+    });
+    let failed = failed.into_inner().unwrap();
     assert!(failed.is_empty(), "help examples that fail as written:\n{}", failed.join("\n"));
+}
+
+#[test]
+fn the_example_pool_orders_by_files_and_runs_everything() {
+    let lines: Vec<String> = [
+        "axisctl --link sim backup --out bench.json",
+        "axisctl --link sim state -m 3",
+        "axisctl --link sim diff bench.json",
+        "axisctl --link sim commission --print-plan > plan.toml",
+        "axisctl --link sim commission --plan plan.toml --out handover --yes",
+        "axisctl --link sim backup --out - | axisctl --link sim diff -",
+    ]
+    .map(String::from)
+    .to_vec();
+    let after = common::pool::after_their_files(&lines);
+    assert_eq!(after, [vec![], vec![], vec![0], vec![], vec![3], vec![]]);
+    let order = std::sync::Mutex::new(Vec::new());
+    common::pool::each_after(&lines, &after, |l| {
+        std::thread::sleep(std::time::Duration::from_millis(if l.contains("backup --out bench") { 50 } else { 1 }));
+        order.lock().unwrap().push(l.clone());
+    });
+    let order = order.into_inner().unwrap();
+    assert_eq!(order.len(), lines.len());
+    let at = |s: &str| order.iter().position(|l| l == s).unwrap();
+    assert!(at(&lines[0]) < at(&lines[2]), "{order:?}");
+    assert!(at(&lines[3]) < at(&lines[4]), "{order:?}");
+    // A panic is raised after every item ran, not lost and not a deadlock.
+    let ran = std::sync::Mutex::new(0);
+    let caught = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+        common::pool::each_after(&lines, &after, |l| {
+            *ran.lock().unwrap() += 1;
+            assert!(!l.contains("bench.json --out"), "never");
+            assert!(!l.starts_with("axisctl --link sim backup --out bench"), "the first fails");
+        })
+    }));
+    assert!(caught.is_err());
+    assert_eq!(*ran.lock().unwrap(), lines.len());
 }

@@ -199,8 +199,9 @@ fn every_documented_sim_example_survives_a_full_disk_and_a_closed_pipe() {
         lines.extend(text.lines().filter_map(|l| l.strip_prefix("$ axisctl --link sim ")).map(str::to_string));
     }
     assert!(lines.len() > 50, "found only {} examples", lines.len());
-    let mut checked = 0;
-    for line in &lines {
+    // A few at a time: each runs its own in-process bench.
+    let checked = std::sync::atomic::AtomicUsize::new(0);
+    common::pool::each(&lines, |line| {
         let words: Vec<&str> = line.split_whitespace().collect();
         let human: Vec<&str> = words.iter().copied().filter(|w| *w != "--json").collect();
         for args in [&words, &human] {
@@ -230,10 +231,11 @@ fn every_documented_sim_example_survives_a_full_disk_and_a_closed_pipe() {
                 } else {
                     assert_eq!(closed, 0, "{args:?} | closed: {closed_err}");
                 }
-                checked += 1;
+                checked.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
             }
         }
-    }
+    });
+    let checked = checked.into_inner();
     assert!(checked > 50, "only {checked} examples printed and succeeded");
 }
 
@@ -286,23 +288,18 @@ fn every_subcommand_survives_a_full_disk_and_a_closed_pipe() {
         runs.extend([false, true].map(|json| (json, words.clone())));
     }
     assert!(runs.len() > 100, "only {} example runs", runs.len());
-    // Two at a time: most of the time goes into the simulated motions.
-    let queue = std::sync::Mutex::new(runs);
-    std::thread::scope(|s| {
-        for _ in 0..2 {
-            s.spawn(|| loop {
-                let Some((json, words)) = queue.lock().unwrap().pop() else { break };
-                let words: Vec<&str> = words.iter().map(String::as_str).collect();
-                let mut full = axisctl(json, &words).stdout(dev_full()).stderr(Stdio::piped()).spawn().unwrap();
-                let (code, err) = stderr_with_deadline(&mut full, &words);
-                assert_ne!(code, 101, "json={json} {words:?} > /dev/full: {err}");
-                let mut closed = axisctl(json, &words).stdout(Stdio::piped()).stderr(Stdio::piped()).spawn().unwrap();
-                drop(closed.stdout.take());
-                let (code, err) = stderr_with_deadline(&mut closed, &words);
-                assert_ne!(code, 101, "json={json} {words:?} | closed: {err}");
-                assert!(!err.contains("panicked"), "json={json} {words:?}: {err}");
-            });
-        }
+    // A few at a time: most of the time goes into the simulated motions.
+    common::pool::each(&runs, |(json, words)| {
+        let json = *json;
+        let words: Vec<&str> = words.iter().map(String::as_str).collect();
+        let mut full = axisctl(json, &words).stdout(dev_full()).stderr(Stdio::piped()).spawn().unwrap();
+        let (code, err) = stderr_with_deadline(&mut full, &words);
+        assert_ne!(code, 101, "json={json} {words:?} > /dev/full: {err}");
+        let mut closed = axisctl(json, &words).stdout(Stdio::piped()).stderr(Stdio::piped()).spawn().unwrap();
+        drop(closed.stdout.take());
+        let (code, err) = stderr_with_deadline(&mut closed, &words);
+        assert_ne!(code, 101, "json={json} {words:?} | closed: {err}");
+        assert!(!err.contains("panicked"), "json={json} {words:?}: {err}");
     });
     assert!(uncovered.is_empty(), "subcommands with no --link sim example and not in COMMANDS: {uncovered:?}");
 }

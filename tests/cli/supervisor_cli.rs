@@ -368,19 +368,19 @@ fn a_signal_during_the_checks_before_the_motion_sends_no_motion() {
 }
 
 /// The same on the PA-CONTROL: the signal comes while the mode is read
-/// before `pac-move` (every answer of this simulator is 1.5 s late); no
+/// before `pac-move` (every answer of this simulator is 600 ms late, 500 ms after the signal); no
 /// 0A94 goes out.
 #[test]
 fn pac_a_signal_during_the_checks_before_the_move_sends_no_move() {
-    let s = Sim::start(&["--pac", "pty-serial", "--fault", "delay=1500ms"], 1);
+    let s = Sim::start(&["--pac", "pty-serial", "--fault", "delay=600ms"], 1);
     let link = s.link("pac");
     for args in [&["pac-online"][..], &["pac-no-ref", "2"][..]] {
-        let mut all = vec!["--link", link, "--timeout", "3000"];
+        let mut all = vec!["--link", link, "--timeout", "2000"];
         all.extend_from_slice(args);
         let r = run_bounded(&all);
         assert_eq!(r.code, 0, "{args:?}: {}", r.stderr);
     }
-    let args = ["--link", link, "--timeout", "3000", "pac-move", "2", "100", "--wait"];
+    let args = ["--link", link, "--timeout", "2000", "pac-move", "2", "100", "--wait"];
     let r = signal_when(&args, "190B", Duration::from_millis(100), libc::SIGINT);
     assert_eq!((r.code, r.killed_by), (130, None), "{}", r.stderr);
     assert!(r.stderr.contains("nothing moved"), "{}", r.stderr);

@@ -1,7 +1,7 @@
 //! `decode` of the PowerCube words: flag words, and the Profibus input image.
 
 use axisctl::family;
-use axisctl::monitor::describe_ack;
+use axisctl::proto::powercube::bus::describe_ack;
 use axisctl::proto::powercube::flags::{self, ProfibusInput};
 use serde_json::json;
 

@@ -12,7 +12,10 @@ use axisctl::device::supervisor;
 use axisctl::proto::cdios::{ModuleId as CdiosModule, NodeId};
 use axisctl::proto::powercube::table::ParamDef;
 use axisctl::proto::powercube::ModuleId;
-use axisctl::record::{self, CdiosSampler, CdiosValue, CubeSampler, PacSampler, PacValue, Sampler, Several};
+use axisctl::record::cdios::{CdiosSampler, CdiosValue};
+use axisctl::record::pac::{PacSampler, PacValue};
+use axisctl::record::powercube::CubeSampler;
+use axisctl::record::{self, Sampler, Several};
 
 use super::super::{usage, Ctx};
 use super::{device_error, names, pace, Writer};

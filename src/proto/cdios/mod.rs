@@ -26,8 +26,10 @@
 //! - 01h: selectors 0..7 are type / version pairs; the layout of selectors
 //!   8..24 (serial numbers) is not in our specs and decodes as raw bytes.
 
+pub mod bus;
 pub mod command;
 mod display;
+pub mod refusal;
 pub mod session;
 pub mod table;
 pub mod transport;

@@ -9,6 +9,7 @@
 mod display;
 pub mod frame;
 pub mod profibus;
+pub mod refusal;
 pub mod session;
 pub mod table;
 pub mod validate;

@@ -5,11 +5,13 @@
 //! [`table`] the command, motion and parameter tables and [`flags`] the state,
 //! config, setup and DIO words.
 
+pub mod bus;
 pub mod can;
 mod display;
 pub mod flags;
 pub mod frame;
 pub mod limits;
+pub mod refusal;
 pub mod rs232;
 pub mod session;
 pub mod table;

@@ -427,3 +427,35 @@ impl CdiosNode {
 fn motor_reply(key: &str, module: u8) -> Option<[u8; 8]> {
     table::encode_reply(table::command(key)?, module, 0, &[]).ok()
 }
+
+/// `trip=`: a 6168 that runs too long reports "motor does not run".
+impl crate::sim::fault::Jams for CdiosNode {
+    fn moving(&mut self, _now: Instant) -> Vec<(u8, bool)> {
+        self.modules().map(|m| (m.id(), m.running())).collect()
+    }
+
+    fn jam(&mut self, _now: Instant, id: u8) {
+        if let Some(m) = self.module_mut(id) {
+            m.inject(Fault::DoesNotRun);
+        }
+    }
+}
+
+impl CdiosNode {
+    /// Enables every motor through the node's own inputs, as a client
+    /// would: its NMT start, then each motor the start with option 5
+    /// (enable).
+    pub fn enable_all(&mut self, now: Instant) {
+        use crate::proto::cdios::{Address, Command, Direction, StartOption};
+        let id = self.node();
+        self.handle_can(now, &transport::nmt_start(id), &mut Vec::new());
+        let enable =
+            Command::Start { sync: false, direction: Direction::Forward, option: StartOption::Enable, motor_speed: 0 };
+        let modules: Vec<u8> = self.modules().map(|m| m.id()).collect();
+        for m in modules.into_iter().filter_map(ModuleId::new) {
+            if let Ok(data) = enable.encode(Address::Module(m)) {
+                self.handle_can(now, &transport::command_frame(id, &data), &mut Vec::new());
+            }
+        }
+    }
+}

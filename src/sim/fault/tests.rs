@@ -8,7 +8,9 @@ use super::*;
 use crate::clock::{Clock, VirtualClock};
 use crate::link::mem::MemBus;
 use crate::link::CanLink;
-use crate::proto::powercube::rs232::Direction;
+use crate::proto::powercube::can::ACK_BASE;
+use crate::proto::powercube::flags::state;
+use crate::proto::powercube::rs232::{self, Decoder, Direction};
 
 fn spec(s: &str) -> FaultSpec {
     s.parse().unwrap()
@@ -203,7 +205,7 @@ fn trip_faults_a_moving_pac_axis_with_its_limit_switch() {
     send(Command::new(0x0603, 0, Par2::Int(0)));
     send(Command::new(0x0A96, 3, Par2::Float(0.0)));
     send(Command::new(0x0A94, 3, Par2::Float(5000.0)));
-    let mut trip = Trip::new(Duration::from_millis(200)).pac(Arc::clone(&bench.pac));
+    let mut trip = Trip::new(Duration::from_millis(200)).watch(bench.pac.clone());
     for _ in 0..30 {
         clock.advance(Duration::from_millis(10));
         trip.check(clock.now());

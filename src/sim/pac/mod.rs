@@ -1207,3 +1207,37 @@ fn frame_error_quit(e: &FrameError) -> Option<u16> {
         FrameError::BadField { .. } | FrameError::NotOneFrame(_) => quit::RANGE,
     })
 }
+
+/// `trip=`: an axis that moves too long runs onto its limit switch.
+impl crate::sim::fault::Jams for PacController {
+    fn moving(&mut self, now: Instant) -> Vec<(u8, bool)> {
+        self.advance(now);
+        (1..=self.axes()).map(|a| (a, self.axis_status(a) == Some(1))).collect()
+    }
+
+    fn jam(&mut self, now: Instant, id: u8) {
+        self.trip_axis(now, id);
+    }
+}
+
+impl PacController {
+    /// Puts the controller in `start`'s mode through its own input, as a
+    /// client would: start online (0603) and "no reference run" (0A83) for
+    /// each axis, or start automatic (0602); in home position nothing.
+    pub fn start(&mut self, now: Instant, start: crate::link::PacStart) {
+        use crate::link::PacStart;
+        let axes = self.axes();
+        let cmds: Vec<Command> = match start {
+            PacStart::Home => Vec::new(),
+            PacStart::Online => std::iter::once(Command::new(0x0603, 0, Par2::Int(0)))
+                .chain((1..=axes).map(|a| Command::new(0x0A83, a.into(), Par2::Int(0))))
+                .collect(),
+            PacStart::Automatic => vec![Command::new(0x0602, 0, Par2::Int(0))],
+        };
+        for cmd in cmds {
+            if let Ok(bytes) = cmd.encode() {
+                self.handle_bytes(now, &bytes, &mut Vec::new());
+            }
+        }
+    }
+}

@@ -352,3 +352,19 @@ impl PowerCubeBus {
         self.modules.iter_mut()
     }
 }
+
+/// `trip=`: a module that moves too long gets STATE_TOW_ERROR.
+impl crate::sim::fault::Jams for PowerCubeBus {
+    fn moving(&mut self, now: Instant) -> Vec<(u8, bool)> {
+        self.advance(now);
+        self.modules()
+            .map(|m| (m.id().get(), m.cube_state() & crate::proto::powercube::flags::state::MOTION != 0))
+            .collect()
+    }
+
+    fn jam(&mut self, _now: Instant, id: u8) {
+        if let Some(m) = self.module_mut(id) {
+            m.inject_error(crate::proto::powercube::flags::state::TOW_ERROR);
+        }
+    }
+}

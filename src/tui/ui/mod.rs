@@ -8,9 +8,13 @@
 //! in the place of the detail (of the event pane under the table) when
 //! the screen is too low for both.
 
+pub mod cdios;
 mod chart;
 mod detail;
 mod overview;
+pub mod pac;
+pub mod pane;
+pub mod powercube;
 
 use ratatui::layout::{Constraint, Layout, Rect};
 use ratatui::style::{Color, Modifier, Style};
@@ -20,7 +24,7 @@ use ratatui::Frame;
 
 use super::app::{App, DeviceView, Level, Mode};
 use super::keys::{self, KeyBinding, KEYS};
-use super::source::{DeviceKey, Snapshot};
+use super::source::DeviceKey;
 
 pub(crate) const RED: Style = Style::new().fg(Color::Red);
 pub(crate) const YELLOW: Style = Style::new().fg(Color::Yellow);
@@ -94,35 +98,11 @@ fn draw_overview(f: &mut Frame, app: &App, main: Rect, events_h: u16) -> Rect {
 
 /// A short word for the list: what most needs attention.
 pub(super) fn summary(app: &App, d: &DeviceView) -> (String, Style) {
-    use crate::proto::powercube::flags::{state, CUBE_STATE};
     if app.stale(d).is_some() {
         return ("STALE".into(), YELLOW.add_modifier(Modifier::REVERSED));
     }
     let Some(snap) = &d.snap else { return ("…".into(), DIM) };
-    match snap {
-        Snapshot::Cube(c) => {
-            if CUBE_STATE.decode(c.cube_state).has_error() {
-                ("ERROR".into(), RED.add_modifier(Modifier::BOLD))
-            } else if c.cube_state & state::HALTED != 0 {
-                ("halted".into(), YELLOW)
-            } else if c.cube_state & state::MOTION != 0 {
-                ("moving".into(), GREEN)
-            } else if c.cube_state & state::HOME_OK == 0 {
-                ("unhomed".into(), YELLOW)
-            } else {
-                ("ok".into(), GREEN)
-            }
-        }
-        Snapshot::PacController(p) => {
-            if p.error != 0 {
-                (format!("E{:03}", p.error), RED.add_modifier(Modifier::BOLD))
-            } else {
-                (detail::pac_status_word(p.status).into(), GREEN)
-            }
-        }
-        Snapshot::PacAxis(a) => detail::pac_axis_word(a),
-        Snapshot::Cdios(c) => detail::cdios_word(c),
-    }
+    snap.summary()
 }
 
 fn group_title(key: DeviceKey) -> &'static str {
@@ -284,7 +264,7 @@ fn hint_line(app: &App, width: u16) -> Line<'static> {
             let mut word = b.short.to_string();
             if b.action == keys::KeyAction::StepSmaller {
                 if let (Some(step), Some(d)) = (app.jog_step(), app.selected()) {
-                    word = format!("step {step} {}", detail::unit_of(app, d)).trim_end().to_string();
+                    word = format!("step {step} {}", detail::unit_of(d)).trim_end().to_string();
                 }
             }
             groups.push((key, word));

@@ -17,10 +17,7 @@ use crate::tui::source::Snapshot;
 
 /// The fields of [`crate::tui::app::changed_fields`] behind each column.
 fn fields(snap: &Snapshot) -> [&'static str; 3] {
-    match snap {
-        Snapshot::Cube(_) => ["pos", "vel", "cur"],
-        _ => ["pos", "speed", ""],
-    }
+    snap.overview_fields()
 }
 
 /// `0.0700 rad`, or a dash when the device has no such value.
