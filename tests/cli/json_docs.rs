@@ -258,7 +258,7 @@ fn every_help_example_under_json_follows_the_schema() {
     common::subcommands_and_sim_examples(&[], &mut subs);
     // Text, a terminal UI, or streams that run until stopped (tests/cli/json_streams.rs).
     let text_only = ["completions", "man", "sim", "dashboard", "watchdog keepalive", "cdios-watch", "monitor"];
-    let (mut documents, mut errors) = (0, 0);
+    let mut runs: Vec<Vec<String>> = Vec::new();
     for (path, examples) in subs {
         if text_only.iter().any(|t| path == *t || path.starts_with(&format!("{t} "))) {
             continue;
@@ -270,39 +270,46 @@ fn every_help_example_under_json_follows_the_schema() {
                 continue;
             }
             // `--link LINK` first, then `--json`.
-            let mut args: Vec<&str> = words.iter().map(String::as_str).filter(|w| *w != "--json").collect();
-            args.insert(2, "--json");
-            // Examples write files (`backup --out bench.json`): never into the checkout.
-            let cwd = concat!(env!("CARGO_TARGET_TMPDIR"), "/json-docs-cwd");
-            std::fs::create_dir_all(cwd).unwrap();
-            let out = common::bin().current_dir(cwd).args(&args).output().unwrap();
-            let r = common::Run {
-                code: out.status.code().unwrap_or(-1),
-                stdout: String::from_utf8_lossy(&out.stdout).into(),
-                stderr: String::from_utf8_lossy(&out.stderr).into(),
-            };
-            if r.code == 0 {
-                let docs: Vec<(Value, &jsonschema::Validator)> = match serde_json::from_str::<Value>(&r.stdout) {
-                    Ok(v) => vec![(v, &document)],
-                    Err(_) => r.stdout.lines().map(|l| (serde_json::from_str(l).unwrap(), &stream)).collect(),
-                };
-                for (v, schema) in docs {
-                    if let Some(e) = schema_errors(schema, &v) {
-                        panic!("`axisctl {}`: {v} breaks the schema:\n{e}", args.join(" "));
-                    }
-                }
-                documents += 1;
-            } else {
-                let line = r.stderr.lines().last().unwrap_or_default();
-                let v: Value = serde_json::from_str(line).unwrap_or_else(|e| panic!("{args:?}: {e}: {}", r.stderr));
-                if let Some(e) = schema_errors(&error, &v) {
-                    panic!("`axisctl {}`: {v} breaks the schema:\n{e}", args.join(" "));
-                }
-                assert_eq!(v["error"]["exit_code"], r.code, "{args:?}");
-                errors += 1;
-            }
+            let mut args: Vec<String> = words.into_iter().filter(|w| w != "--json").collect();
+            args.insert(2, "--json".into());
+            runs.push(args);
         }
     }
+    // Examples write files (`backup --out bench.json`): never into the checkout.
+    let cwd = concat!(env!("CARGO_TARGET_TMPDIR"), "/json-docs-cwd");
+    std::fs::create_dir_all(cwd).unwrap();
+    // A few at a time; one that names a file an earlier one wrote runs after it.
+    let lines: Vec<String> = runs.iter().map(|a| a.join(" ")).collect();
+    let (documents, errors) = (std::sync::atomic::AtomicUsize::new(0), std::sync::atomic::AtomicUsize::new(0));
+    common::pool::each_after(&runs, &common::pool::after_their_files(&lines), |args| {
+        let out = common::bin().current_dir(cwd).args(args).output().unwrap();
+        let r = common::Run {
+            code: out.status.code().unwrap_or(-1),
+            stdout: String::from_utf8_lossy(&out.stdout).into(),
+            stderr: String::from_utf8_lossy(&out.stderr).into(),
+        };
+        if r.code == 0 {
+            let docs: Vec<(Value, &jsonschema::Validator)> = match serde_json::from_str::<Value>(&r.stdout) {
+                Ok(v) => vec![(v, &document)],
+                Err(_) => r.stdout.lines().map(|l| (serde_json::from_str(l).unwrap(), &stream)).collect(),
+            };
+            for (v, schema) in docs {
+                if let Some(e) = schema_errors(schema, &v) {
+                    panic!("`axisctl {}`: {v} breaks the schema:\n{e}", args.join(" "));
+                }
+            }
+            documents.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        } else {
+            let line = r.stderr.lines().last().unwrap_or_default();
+            let v: Value = serde_json::from_str(line).unwrap_or_else(|e| panic!("{args:?}: {e}: {}", r.stderr));
+            if let Some(e) = schema_errors(&error, &v) {
+                panic!("`axisctl {}`: {v} breaks the schema:\n{e}", args.join(" "));
+            }
+            assert_eq!(v["error"]["exit_code"], r.code, "{args:?}");
+            errors.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        }
+    });
+    let (documents, errors) = (documents.into_inner(), errors.into_inner());
     assert!(documents > 60, "only {documents} examples printed a document ({errors} errors)");
 }
 
