@@ -26,7 +26,7 @@ pub enum Address {
 }
 
 /// What the user may write where a device is asked for: an address, or a
-/// name from the bench file (resolved by [`super::Bench::resolve`]).
+/// name from the bench file (resolved by [`crate::bench::Bench::resolve`]).
 #[derive(Debug, Clone, PartialEq, Eq, Hash)]
 pub enum DeviceRef {
     Address(Address),
@@ -86,6 +86,19 @@ impl Address {
     pub fn cdios(node: u8, module: u8) -> Option<Self> {
         (family::CDIOS_NODE.contains(node) && family::CDIOS_MODULE.contains(module))
             .then_some(Self::Cdios { node, module })
+    }
+}
+
+impl Address {
+    /// `PowerCube 17`, `PA-CONTROL`, `PA axis 2`, `Cdios 1/0`: how the
+    /// dashboard's events and panes name the device.
+    pub fn label(self) -> String {
+        match self {
+            Self::PowerCube { module } => format!("PowerCube {module}"),
+            Self::Pac { axis: None } => "PA-CONTROL".into(),
+            Self::Pac { axis: Some(a) } => format!("PA axis {a}"),
+            Self::Cdios { node, module } => format!("Cdios {node}/{module}"),
+        }
     }
 }
 
@@ -206,6 +219,20 @@ mod tests {
         assert_eq!("PC:17".parse::<Address>().unwrap().to_string(), "powercube:17");
         assert_eq!("pa-control:16".parse::<Address>().unwrap().to_string(), "pac:16");
         assert_eq!(" cdios:127/15 ".parse::<Address>().unwrap().to_string(), "cdios:127/15");
+    }
+
+    #[test]
+    fn the_dashboard_labels() {
+        let labels: Vec<String> = [
+            Address::PowerCube { module: 17 },
+            Address::Pac { axis: None },
+            Address::Pac { axis: Some(2) },
+            Address::Cdios { node: 1, module: 0 },
+        ]
+        .iter()
+        .map(|a| a.label())
+        .collect();
+        assert_eq!(labels, ["PowerCube 17", "PA-CONTROL", "PA axis 2", "Cdios 1/0"]);
     }
 
     #[test]
