@@ -100,6 +100,17 @@ impl Address {
             Self::Cdios { node, module } => format!("Cdios {node}/{module}"),
         }
     }
+
+    /// `module 17`, `axis 2`, `node 1 module 0`: the device part of a
+    /// recording's CSV column and chart legend (the family is the link's).
+    pub fn column(self) -> String {
+        match self {
+            Self::PowerCube { module } => format!("module {module}"),
+            Self::Pac { axis: None } => "controller".into(),
+            Self::Pac { axis: Some(a) } => format!("axis {a}"),
+            Self::Cdios { node, module } => format!("node {node} module {module}"),
+        }
+    }
 }
 
 impl fmt::Display for Address {
@@ -222,7 +233,7 @@ mod tests {
     }
 
     #[test]
-    fn the_dashboard_labels() {
+    fn the_dashboard_labels_and_a_recordings_columns() {
         let labels: Vec<String> = [
             Address::PowerCube { module: 17 },
             Address::Pac { axis: None },
@@ -233,6 +244,16 @@ mod tests {
         .map(|a| a.label())
         .collect();
         assert_eq!(labels, ["PowerCube 17", "PA-CONTROL", "PA axis 2", "Cdios 1/0"]);
+        let columns: Vec<String> = [
+            Address::PowerCube { module: 17 },
+            Address::Pac { axis: None },
+            Address::Pac { axis: Some(2) },
+            Address::Cdios { node: 1, module: 0 },
+        ]
+        .iter()
+        .map(|a| a.column())
+        .collect();
+        assert_eq!(columns, ["module 17", "controller", "axis 2", "node 1 module 0"]);
     }
 
     #[test]

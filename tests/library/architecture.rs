@@ -25,7 +25,7 @@ const LAYERS: &[(&str, &[&str])] = &[
     ("tui", &["device", "session", "proto", "link", "clock", "family", "monitor", "plot", "address"]),
     ("plot", &[]),
     ("record", &["device", "session", "proto", "link", "clock", "family", "address"]),
-    ("commission", &["device", "session", "proto", "link", "clock", "family", "backup", "record", "plot", "bench"]),
+    ("commission", &["device", "session", "proto", "link", "clock", "family", "backup", "record", "plot", "bench", "address"]),
 ];
 
 /// Top-level modules of the binary crate (declared in main.rs): not layers
@@ -498,9 +498,11 @@ fn commands_hold_no_halt_sequence() {
 const FAMILY_MODULES: [&str; 3] = ["powercube", "pac", "cdios"];
 
 /// Whether a path under src/ is a family's own (`*/powercube*`, `*/pac*`,
-/// `*/cdios*`) or the registry of families (`family.rs`, `device/registry/`).
+/// `*/cdios*`) or the registry of families (`family.rs`, `address.rs`, the
+/// one device address with a variant per family, `device/registry/`).
 fn family_or_registry(rel: &str) -> bool {
     rel == "family.rs"
+        || rel == "address.rs"
         || rel.starts_with("device/registry/")
         || rel.split('/').any(|c| FAMILY_MODULES.iter().any(|f| c.starts_with(f)))
 }
