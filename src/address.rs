@@ -62,16 +62,6 @@ impl Address {
         }
     }
 
-    /// The raw numbers of the address, as the family registry takes them:
-    /// module, axis (`None`: the controller), or node and module.
-    pub fn ids(self) -> (Option<u8>, Option<u8>) {
-        match self {
-            Self::PowerCube { module } => (Some(module), None),
-            Self::Pac { axis } => (axis, None),
-            Self::Cdios { node, module } => (Some(node), Some(module)),
-        }
-    }
-
     /// A PowerCube module, checked against the registry's range.
     pub fn powercube(module: u8) -> Option<Self> {
         family::POWERCUBE_MODULE.contains(module).then_some(Self::PowerCube { module })

@@ -25,7 +25,10 @@ const LAYERS: &[(&str, &[&str])] = &[
     ("tui", &["device", "session", "proto", "link", "clock", "family", "monitor", "plot", "address"]),
     ("plot", &[]),
     ("record", &["device", "session", "proto", "link", "clock", "family", "address"]),
-    ("commission", &["device", "session", "proto", "link", "clock", "family", "backup", "record", "plot", "bench", "address"]),
+    (
+        "commission",
+        &["device", "session", "proto", "link", "clock", "family", "backup", "record", "plot", "bench", "address"],
+    ),
 ];
 
 /// Top-level modules of the binary crate (declared in main.rs): not layers

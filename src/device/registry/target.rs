@@ -38,16 +38,6 @@ impl MotionTarget {
             _ => None,
         }
     }
-
-    /// The raw numbers of the address: module, axis, or node and module.
-    pub fn ids(self) -> (Option<u8>, Option<u8>) {
-        match self {
-            Self::Cube(m) => (Some(m.get()), None),
-            Self::PacAxis(a) => (Some(a), None),
-            Self::Cdios { node, module } => (Some(node.get()), Some(module.get())),
-            Self::CubeBus | Self::PacController => (None, None),
-        }
-    }
 }
 
 /// A motion target is a device address in the face's validated form: the
