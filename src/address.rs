@@ -62,6 +62,18 @@ impl Address {
         }
     }
 
+    /// The device a decoded frame names by its raw ids (module; axis, `None`
+    /// the controller; node and module), checked against the registry's
+    /// ranges; `None` when they name no one device.
+    pub fn of_ids(family: Family, first: Option<u8>, second: Option<u8>) -> Option<Self> {
+        match (family, first, second) {
+            (Family::PowerCube, Some(m), _) => Self::powercube(m),
+            (Family::Pac, axis, _) => Self::pac(axis),
+            (Family::Cdios, Some(n), Some(m)) => Self::cdios(n, m),
+            (Family::PowerCube | Family::Cdios, ..) => None,
+        }
+    }
+
     /// A PowerCube module, checked against the registry's range.
     pub fn powercube(module: u8) -> Option<Self> {
         family::POWERCUBE_MODULE.contains(module).then_some(Self::PowerCube { module })
@@ -266,6 +278,18 @@ mod tests {
             assert_eq!(format!("powercube:{id}").parse::<Address>().is_ok(), family::POWERCUBE_MODULE.contains(id));
             assert_eq!(format!("pac:{id}").parse::<Address>().is_ok(), family::PAC_AXIS.contains(id));
         }
+    }
+
+    #[test]
+    fn raw_ids_name_a_device_only_within_the_ranges() {
+        assert_eq!(Address::of_ids(Family::PowerCube, Some(3), None), Some(Address::PowerCube { module: 3 }));
+        assert_eq!(Address::of_ids(Family::PowerCube, Some(0), None), None);
+        assert_eq!(Address::of_ids(Family::PowerCube, None, None), None);
+        assert_eq!(Address::of_ids(Family::Pac, None, None), Some(Address::Pac { axis: None }));
+        assert_eq!(Address::of_ids(Family::Pac, Some(17), None), None);
+        assert_eq!(Address::of_ids(Family::Cdios, Some(1), Some(0)), Some(Address::Cdios { node: 1, module: 0 }));
+        assert_eq!(Address::of_ids(Family::Cdios, Some(1), None), None);
+        assert_eq!(Address::of_ids(Family::Cdios, Some(1), Some(16)), None);
     }
 
     #[test]

@@ -2,6 +2,8 @@
 //! manual are checked by `commands::cdios` against the protocol table before
 //! anything is sent; clap only checks the addressing.
 
+mod motion;
+
 use clap::{Args, Subcommand, ValueEnum};
 
 use super::ids;

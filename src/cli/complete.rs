@@ -10,9 +10,6 @@ use std::ffi::{OsStr, OsString};
 use clap_complete::engine::{ArgValueCompleter, CompletionCandidate};
 
 use axisctl::family::Family;
-use axisctl::proto::powercube::{flags as cube_flags, table as cube_table};
-use axisctl::record::cdios::CdiosValue;
-use axisctl::record::pac::PacValue;
 
 /// The variable that asks the binary for completions (in the registration
 /// script `axisctl completions SHELL` prints).
@@ -77,16 +74,11 @@ fn join_option_values(cmd: &clap::Command, args: &mut Vec<OsString>, from: usize
 
 /// The names of `names` that start with what is typed, case-insensitively
 /// (parameter names are matched so by the commands too).
-fn starting_with<'a>(current: &OsStr, names: impl IntoIterator<Item = &'a str>) -> Vec<CompletionCandidate> {
+pub(super) fn starting_with<'a>(current: &OsStr, names: impl IntoIterator<Item = &'a str>) -> Vec<CompletionCandidate> {
     let typed = current.to_string_lossy().to_ascii_lowercase();
     let mut out: Vec<&str> = names.into_iter().filter(|n| n.to_ascii_lowercase().starts_with(&typed)).collect();
     out.dedup();
     out.into_iter().map(CompletionCandidate::new).collect()
-}
-
-/// PowerCube parameter names (`get-param`, `set-param`).
-pub fn params() -> ArgValueCompleter {
-    ArgValueCompleter::new(|current: &OsStr| starting_with(current, cube_table::PARAMS.iter().map(|p| p.name)))
 }
 
 /// What `record` samples: PowerCube parameters, PA-CONTROL and Cdios values,
@@ -108,19 +100,14 @@ fn record_values_on(bench: &std::path::Path, current: &OsStr) -> Vec<CompletionC
         let names: Vec<String> = values_of(family).map(|v| format!("{device}.{v}")).collect();
         return starting_with(current, names.iter().map(String::as_str));
     }
-    let mut names: Vec<String> =
-        [Family::PowerCube, Family::Pac, Family::Cdios].into_iter().flat_map(values_of).map(str::to_string).collect();
+    let mut names: Vec<String> = Family::ALL.into_iter().flat_map(values_of).map(str::to_string).collect();
     names.extend(devices.iter().flat_map(|(n, a)| [format!("{n}."), format!("{a}.")]));
     starting_with(current, names.iter().map(String::as_str))
 }
 
 /// The values `record` samples of a family's device.
-fn values_of(family: Family) -> Box<dyn Iterator<Item = &'static str>> {
-    match family {
-        Family::PowerCube => Box::new(cube_table::PARAMS.iter().map(|p| p.name)),
-        Family::Pac => Box::new(PacValue::ALL.into_iter().map(PacValue::name)),
-        Family::Cdios => Box::new(CdiosValue::ALL.into_iter().map(CdiosValue::name)),
-    }
+fn values_of(family: Family) -> impl Iterator<Item = &'static str> {
+    crate::commands::names_of(family).record_values().into_iter()
 }
 
 /// The bench file completion reads: `AXISCTL_BENCH`, else `./axisctl.toml`.
@@ -128,17 +115,6 @@ fn bench_file() -> std::path::PathBuf {
     std::env::var_os("AXISCTL_BENCH")
         .filter(|v| !v.is_empty())
         .map_or_else(|| std::path::PathBuf::from(crate::commands::BENCH_FILE), std::path::PathBuf::from)
-}
-
-/// `+FLAG` / `-FLAG` of `set-config`, manual and short names.
-pub fn config_changes() -> ArgValueCompleter {
-    ArgValueCompleter::new(|current: &OsStr| {
-        let typed = current.to_string_lossy();
-        let sign = if typed.starts_with('-') { "-" } else { "+" };
-        let names = cube_flags::CONFIG.flags.iter().flat_map(|f| f.short.into_iter().chain(std::iter::once(f.name)));
-        let signed: Vec<String> = names.map(|n| format!("{sign}{n}")).collect();
-        starting_with(current, signed.iter().map(String::as_str))
-    })
 }
 
 /// The kinds `decode` takes.
@@ -223,6 +199,7 @@ fn can_interfaces() -> Vec<String> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::cli::powercube::values::{config_changes, params};
 
     fn names(c: &ArgValueCompleter, typed: &str) -> Vec<String> {
         c.complete(OsStr::new(typed)).iter().map(|c| c.get_value().to_string_lossy().into_owned()).collect()

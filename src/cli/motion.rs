@@ -1,19 +1,15 @@
 //! Which commands may start a motion, and which device they send moving:
 //! a `batch` or `shell` that a signal ends halts each such device, also one
 //! a line left moving without `--wait`. Each family's command enum answers
-//! in one exhaustive match (no catch-all arm), so a new command does not
-//! compile until someone says whether it moves; a test walks the parser's
-//! tree and checks every subcommand against the list below.
+//! in one exhaustive match (no catch-all arm) in its own folder
+//! (`cli/<family>/motion.rs`), so a new command does not compile until
+//! someone says whether it moves; a test walks the parser's tree and
+//! checks every subcommand against the list below.
 
 use axisctl::device::supervisor::MotionTarget;
-use axisctl::proto::cdios::{ModuleId as CdiosModule, NodeId};
-use axisctl::proto::powercube::ModuleId;
 use clap::Parser;
 
 use super::backup::BackupCommand;
-use super::cdios::{CdiosCommand, ModuleTarget};
-use super::pac::PacCommand;
-use super::powercube::{PowerCubeCommand, Target};
 use super::{Cli, Command};
 
 impl Command {
@@ -54,107 +50,6 @@ impl Command {
     }
 }
 
-fn cube(m: u8) -> MotionTarget {
-    MotionTarget::Cube(ModuleId::new(m).expect("the parser checked the range"))
-}
-
-/// One module, or the whole bus for `--all`.
-fn cube_target(t: &Target) -> MotionTarget {
-    t.module.map_or(MotionTarget::CubeBus, cube)
-}
-
-fn cdios(t: &ModuleTarget) -> Option<MotionTarget> {
-    Some(MotionTarget::Cdios {
-        node: NodeId::new(t.node.node).expect("the parser checked the range"),
-        module: CdiosModule::new(t.module).expect("the parser checked the range"),
-    })
-}
-
-impl PowerCubeCommand {
-    pub fn starts_motion(&self) -> Option<MotionTarget> {
-        match self {
-            Self::Home { target, .. } => Some(cube_target(target)),
-            // --sync (several modules, one broadcast start): the whole bus.
-            Self::MoveRamp { modules, sync, .. } => match (&modules.0[..], sync) {
-                ([m], false) => Some(cube(*m)),
-                _ => Some(MotionTarget::CubeBus),
-            },
-            Self::MoveStep { module, .. } | Self::MoveVel { module, .. } | Self::MoveCur { module, .. } => {
-                Some(cube(module.module))
-            }
-            Self::Scan { .. }
-            | Self::Info(_)
-            | Self::State(_)
-            | Self::Reset { .. }
-            | Self::Halt { .. }
-            | Self::GetParam { .. }
-            | Self::SetParam { .. }
-            | Self::GetConfig(_)
-            | Self::SetConfig { .. }
-            | Self::Dio { .. }
-            | Self::Watchdog { .. } => None,
-        }
-    }
-}
-
-impl PacCommand {
-    pub fn starts_motion(&self) -> Option<MotionTarget> {
-        match self {
-            Self::PacMove { axis, .. } | Self::PacRef { axis, .. } => Some(MotionTarget::PacAxis(axis.axis)),
-            // Online mode takes motion commands from the program and the
-            // front panel too; the program moves whatever it names; a raw
-            // code can be any motion.
-            Self::PacOnline | Self::PacAutoStart | Self::PacRaw { .. } => Some(MotionTarget::PacController),
-            Self::PacOffline
-            | Self::PacStop
-            | Self::PacAutoAbort
-            | Self::PacState
-            | Self::PacError
-            | Self::PacResetError
-            | Self::PacNoRef(_)
-            | Self::PacZero(_)
-            | Self::PacSetPos { .. }
-            | Self::PacSpeed { .. }
-            | Self::PacAccel { .. }
-            | Self::PacStopAxis { .. }
-            | Self::PacAxis(_)
-            | Self::PacAxes
-            | Self::PacAxisPower { .. }
-            | Self::PacAxisOn(_)
-            | Self::PacAxisOff(_)
-            | Self::PacMeasure { .. }
-            | Self::PacLimitSwitch { .. }
-            | Self::PacIn { .. }
-            | Self::PacOut { .. }
-            | Self::PacFlag { .. }
-            | Self::PacReg { .. }
-            | Self::PacSysParam { .. }
-            | Self::PacAxisParam { .. } => None,
-        }
-    }
-}
-
-impl CdiosCommand {
-    pub fn starts_motion(&self) -> Option<MotionTarget> {
-        match self {
-            Self::Goto { target, .. } | Self::Traject { target, .. } | Self::Start { target, .. } => cdios(target),
-            Self::Identify { .. }
-            | Self::Status(_)
-            | Self::Position { .. }
-            | Self::SetPosition { .. }
-            | Self::Stop { .. }
-            | Self::Enable { .. }
-            | Self::Disable(_)
-            | Self::Config { .. }
-            | Self::Outputs { .. }
-            | Self::Analog { .. }
-            | Self::Events { .. }
-            | Self::Store { .. }
-            | Self::Watch { .. } => None,
-        }
-    }
-}
-
 impl BackupCommand {
     /// A restore writes settings, never a motion command.
     pub fn starts_motion(&self) -> Option<MotionTarget> {
@@ -168,6 +63,8 @@ impl BackupCommand {
 mod tests {
     use std::collections::BTreeSet;
 
+    use axisctl::proto::cdios::{ModuleId as CdiosModule, NodeId};
+    use axisctl::proto::powercube::ModuleId;
     use clap::FromArgMatches;
 
     use super::*;

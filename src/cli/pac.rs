@@ -1,6 +1,9 @@
 //! The PA-CONTROL subcommands, as typed (clap derive only). Flattened into
 //! [`super::Command`]; `commands::pac` gives them meaning.
 
+mod motion;
+pub mod send;
+
 use clap::{Args, Subcommand};
 
 use super::{ids, Switch};

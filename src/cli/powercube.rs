@@ -1,6 +1,9 @@
 //! The PowerCube subcommands, as typed (clap derive only). Flattened into
 //! [`super::Command`]; `commands::powercube` gives them meaning.
 
+mod motion;
+pub(crate) mod values;
+
 use clap::{Args, Subcommand};
 
 use super::ids::{self, IdList};
@@ -189,7 +192,7 @@ pub enum PowerCubeCommand {
         #[command(flatten)]
         module: ModulesArg,
         /// Parameters by manual name (ActPos, case-insensitive) or id (60, 0x3c); `axisctl params` lists them
-        #[arg(value_name = "NAME|ID", required_unless_present = "all", add = super::complete::params())]
+        #[arg(value_name = "NAME|ID", required_unless_present = "all", add = values::params())]
         params: Vec<String>,
         /// Every readable parameter
         #[arg(long, conflicts_with = "params")]
@@ -200,7 +203,7 @@ pub enum PowerCubeCommand {
         #[command(flatten)]
         module: ModuleArg,
         /// The parameter by manual name (case-insensitive) or id; `axisctl params` lists them
-        #[arg(value_name = "NAME|ID", add = super::complete::params())]
+        #[arg(value_name = "NAME|ID", add = values::params())]
         param: String,
         /// The new value, in the parameter's unit
         #[arg(allow_negative_numbers = true)]
@@ -217,7 +220,7 @@ pub enum PowerCubeCommand {
         module: ModuleArg,
         /// Flags to set (+) or clear (-), by manual name or short form; `axisctl flags config` lists them
         #[arg(value_name = "+FLAG|-FLAG", allow_hyphen_values = true, required_unless_present = "raw",
-              add = super::complete::config_changes())]
+              add = values::config_changes())]
         changes: Vec<String>,
         /// Write the whole word (needs --force: it may clear any safety flag)
         #[arg(long, value_name = "0xHEX", conflicts_with = "changes")]

@@ -6,10 +6,8 @@ use axisctl::device::supervisor::MotionTarget;
 use axisctl::family::Family;
 use axisctl::monitor::{describe, motion_of};
 use axisctl::proto::can_error::ERR_FLAG;
-use axisctl::proto::cdios::{ModuleId as CdiosModule, NodeId};
-use axisctl::proto::pac::{table as pac_table, Command, Par2};
-use axisctl::proto::powercube::ModuleId;
 use axisctl::proto::CanFrame;
+use axisctl::Address;
 
 #[derive(Debug, Args)]
 pub struct SendArgs {
@@ -27,7 +25,20 @@ pub struct SendArgs {
 #[derive(Debug, Clone, PartialEq)]
 pub enum Frame {
     Can(CanFrame),
-    Pac(Command),
+    /// A command on the own line of a family (the PA-CONTROL's
+    /// `CODE;PAR1;TYP;PAR2`), checked by that family (`LineCommand`).
+    Line(Family, String),
+}
+
+/// A family's commands typed on its own (not CAN) line, said in its
+/// folder (`cli/<family>/send.rs`, `commands/<family>.rs`).
+pub struct LineCommand {
+    /// Checks the text; says why it is no command of the family.
+    pub check: fn(&str) -> Result<(), String>,
+    /// The device a batch or shell halts after it, when it may move one.
+    pub moves: fn(&str) -> Option<MotionTarget>,
+    /// Shows it, refuses one that may move without `force`, sends it.
+    pub send: fn(&crate::commands::Ctx, &str, bool) -> anyhow::Result<()>,
 }
 
 impl SendArgs {
@@ -39,24 +50,25 @@ impl SendArgs {
     /// The device a batch or shell halts after a `send` that may have moved it.
     pub fn starts_motion(&self) -> Option<MotionTarget> {
         match self.parsed().ok()? {
-            // A motion command, or one the table does not know (`send` refuses both without --force).
-            Frame::Pac(c) => pac_table::command(c.code).is_none_or(|d| d.motion).then_some(MotionTarget::PacController),
+            Frame::Line(family, text) => (line_of(family)?.moves)(&text),
             Frame::Can(f) => {
                 motion_of(&f)?;
                 let i = describe(&f);
-                Some(match (i.family, i.node, i.module) {
-                    (Some(Family::Cdios), Some(n), Some(m)) => match (NodeId::new(n), CdiosModule::new(m)) {
-                        (Some(node), Some(module)) => MotionTarget::Cdios { node, module },
-                        _ => MotionTarget::CubeBus,
-                    },
-                    (Some(Family::PowerCube), _, Some(m)) => {
-                        ModuleId::new(m).map_or(MotionTarget::CubeBus, MotionTarget::Cube)
-                    }
-                    _ => MotionTarget::CubeBus,
-                })
+                // A Cdios frame names its node and module, the others their
+                // module; one the decoder cannot place halts the PowerCube bus.
+                let ids = if i.node.is_some() { (i.node, i.module) } else { (i.module, None) };
+                let at = i
+                    .family
+                    .and_then(|f| Address::of_ids(f, ids.0, ids.1))
+                    .and_then(|a| MotionTarget::try_from(a).ok());
+                Some(at.unwrap_or(MotionTarget::CubeBus))
             }
         }
     }
+}
+
+fn line_of(family: Family) -> Option<&'static LineCommand> {
+    crate::commands::family_cli(family).line.as_ref()
 }
 
 /// `ID#DATA` (3 hex digits a standard id, 8 an extended one) or
@@ -73,30 +85,25 @@ pub fn parse(text: &str) -> Result<Frame, String> {
         }
         return Ok(Frame::Can(f));
     }
-    let fields: Vec<&str> = text.split(';').collect();
-    let [code, par1, typ, par2] = fields[..] else {
-        return Err(format!("{text:?} is neither a CAN frame ID#DATA nor a PA-CONTROL command CODE;PAR1;TYP;PAR2"));
-    };
-    let code = u16::from_str_radix(code, 16)
-        .ok()
-        .filter(|_| code.len() == 4)
-        .ok_or_else(|| format!("PA-CONTROL code {code:?} is not 4 hex digits"))?;
-    let par1: i64 = par1.parse().map_err(|_| format!("PAR_1 {par1:?} is not an integer"))?;
-    let par2 = match typ {
-        "0" => Par2::Int(par2.parse().map_err(|_| format!("PAR_2 {par2:?} is not an integer (TYP 0)"))?),
-        "1" => Par2::Float(
-            par2.parse::<f64>()
-                .ok()
-                .filter(|v| v.is_finite())
-                .ok_or_else(|| format!("PAR_2 {par2:?} is not a number (TYP 1)"))?,
-        ),
-        _ => return Err(format!("TYP {typ:?} is 0 (integer) or 1 (float)")),
-    };
-    Ok(Frame::Pac(Command::new(code, par1, par2)))
+    // Not CAN: a command on the own line of a family that has one.
+    let mut why = None;
+    for family in Family::ALL {
+        let Some(line) = line_of(family) else { continue };
+        match (line.check)(text) {
+            Ok(()) => return Ok(Frame::Line(family, text.to_string())),
+            Err(e) => {
+                why.get_or_insert(e);
+            }
+        }
+    }
+    Err(why.unwrap_or_else(|| format!("{text:?} is no CAN frame ID#DATA")))
 }
 
 #[cfg(test)]
 mod tests {
+    use axisctl::proto::cdios::{ModuleId as CdiosModule, NodeId};
+    use axisctl::proto::powercube::ModuleId;
+
     use super::*;
 
     fn args(frame: &str) -> SendArgs {
@@ -106,8 +113,8 @@ mod tests {
     #[test]
     fn frames_parse_and_bad_ones_say_why() {
         assert_eq!(parse("0C3#0A3C"), Ok(Frame::Can(CanFrame::new(0x0C3, &[0x0A, 0x3C]).unwrap())));
-        assert_eq!(parse("190C;1;0;0"), Ok(Frame::Pac(Command::new(0x190C, 1, Par2::Int(0)))));
-        assert_eq!(parse("0A8D;1;1;100.5"), Ok(Frame::Pac(Command::new(0x0A8D, 1, Par2::Float(100.5)))));
+        assert_eq!(parse("190C;1;0;0"), Ok(Frame::Line(Family::Pac, "190C;1;0;0".into())));
+        assert_eq!(parse(" 0A8D;1;1;100.5 "), Ok(Frame::Line(Family::Pac, "0A8D;1;1;100.5".into())));
         for bad in [
             "",
             "0E3",
@@ -137,6 +144,12 @@ mod tests {
             "undecodable"
         );
         assert_eq!(args("0A94;1;1;100.0").starts_motion(), Some(MotionTarget::PacController));
+        let (node, module) = (NodeId::new(7).unwrap(), CdiosModule::new(2).unwrap());
+        let goto =
+            axisctl::device::cdios::goto_commands(axisctl::proto::cdios::GotoMode::Absolute, 3000, None).unwrap();
+        let frame = goto.last().unwrap().frame(node, axisctl::proto::cdios::Address::Module(module)).unwrap();
+        let cdios = MotionTarget::Cdios { node, module };
+        assert_eq!(args(&frame.to_string()).starts_motion(), Some(cdios), "a Cdios goto: {frame}");
         assert_eq!(args("FFFF;1;0;0").starts_motion(), Some(MotionTarget::PacController), "unknown: may move");
         assert_eq!(args("190C;1;0;0").starts_motion(), None, "a read");
         assert_eq!(args("nonsense").starts_motion(), None, "refused before anything is sent");

@@ -3,7 +3,7 @@
 //! write order live there), over every link of the bench and every family
 //! on it.
 
-mod live;
+pub(in crate::commands) mod live;
 
 use std::collections::BTreeSet;
 use std::path::Path;
@@ -13,8 +13,6 @@ use axisctl::bench::{self, Bench, BenchError, BenchLink};
 use axisctl::device::supervisor;
 use axisctl::family::{Family, CDIOS_MODULE, POWERCUBE_MODULE};
 use axisctl::link::LinkSpec;
-use axisctl::proto::cdios::ModuleId as CdiosModule;
-use axisctl::proto::powercube::ModuleId;
 use axisctl::session::ErrorKind;
 use serde_json::{json, Value};
 
@@ -328,13 +326,13 @@ fn targets(doc: &Document, to: Option<u8>) -> anyhow::Result<Vec<(Device, Addres
     let mut at = one.address();
     match at.family {
         Family::PowerCube => {
-            if ModuleId::new(to).is_none() {
+            if !POWERCUBE_MODULE.contains(to) {
                 return Err(usage(format!("--to {to}: a PowerCube address is a {POWERCUBE_MODULE}")));
             }
             at.module = Some(to);
         }
         Family::Cdios => {
-            if CdiosModule::new(to).is_none() {
+            if !CDIOS_MODULE.contains(to) {
                 return Err(usage(format!("--to {to}: a Cdios address is a {CDIOS_MODULE}")));
             }
             at.module = Some(to);

@@ -17,9 +17,8 @@ mod pipeline;
 use std::io::{BufRead, BufReader, Read};
 
 use anyhow::Context;
-use axisctl::device::face::Face;
 use axisctl::device::registry;
-use axisctl::device::supervisor::{self, HaltOutcome, MovedDevices, Reach};
+use axisctl::device::supervisor::{self, HaltOutcome, MovedDevices, Reach, RunFace};
 use axisctl::family::Family;
 use axisctl::session::ErrorKind;
 use clap::parser::ValueSource;
@@ -85,7 +84,12 @@ impl<'a> Engine<'a> {
     pub fn new(ctx: &'a Ctx) -> anyhow::Result<Self> {
         ctx.opener().keep_links_open();
         super::arm_interrupt()?;
-        Ok(Self { ctx, parser: crate::cli::command(&exit::summary()), moved: MovedDevices::new(), first_failure: None })
+        Ok(Self {
+            ctx,
+            parser: crate::cli::command(&exit::summary()),
+            moved: MovedDevices::new(ctx.retry),
+            first_failure: None,
+        })
     }
 
     pub fn parser(&self) -> &clap::Command {
@@ -154,12 +158,12 @@ impl<'a> Engine<'a> {
             }
             Line::Run { command, name } => (command, name),
         };
-        let moves = command.starts_motion();
-        let result = self.report(n, text, |ctx| super::dispatch(ctx, &name, *command));
-        if let Some(target) = moves {
-            self.moved.note(target);
+        // Armed before the line sends its motion: a line without `--wait`
+        // leaves it running, and the run answers for it from then on.
+        if let Some(target) = command.starts_motion() {
+            self.moved.arm(&mut Reached(self.ctx), target);
         }
-        result
+        self.report(n, text, |ctx| super::dispatch(ctx, &name, *command))
     }
 
     /// Runs `line` as line `n` and reports it: what it prints, in line
@@ -267,8 +271,9 @@ impl<'a> Engine<'a> {
     }
 
     /// What the lines moved may still move: said when the run ends without
-    /// halting it (`--keep-going` past a failure, `exit --keep-moving`).
-    pub fn may_still_move(&self, after: usize, why: &str) {
+    /// halting it (`--keep-going` past a failure, `exit --keep-moving`), and
+    /// let go of, on purpose.
+    pub fn may_still_move(&mut self, after: usize, why: &str) {
         if self.moved.is_empty() {
             return;
         }
@@ -280,11 +285,12 @@ impl<'a> Engine<'a> {
             output::err_line(format_args!("axisctl: {why}; not halted, may still move: {}", list.join(", ")));
         }
         output::flush();
+        self.moved.release();
     }
 
     /// Halts every device the lines moved, each once, and forgets them.
     pub fn halt_moved(&mut self) -> Vec<HaltOutcome> {
-        self.moved.halt(&mut Reached(self.ctx), self.ctx.retry)
+        self.moved.halt(&mut Reached(self.ctx))
     }
 }
 
@@ -309,7 +315,7 @@ fn reason(e: anyhow::Error) -> String {
 }
 
 impl Reach for Reached<'_> {
-    fn face(&mut self, family: Family, node: Option<u8>) -> Result<Box<dyn Face>, String> {
+    fn face(&mut self, family: Family, node: Option<u8>) -> Result<Box<RunFace>, String> {
         let ctx = self.0;
         let spec = ctx.link_for(family).map_err(reason)?;
         let mut sessions = On { opener: ctx.opener(), spec, opts: ctx.session_options() };
@@ -338,6 +344,10 @@ pub fn run(ctx: &Ctx, args: &BatchArgs) -> anyhow::Result<()> {
         engine.may_still_move(last, "--keep-going ran every line past a failure");
     } else if failed {
         engine.halt_after_failure(last);
+    } else {
+        // A batch that ran to its end leaves its motions as its lines left
+        // them: a script may end by starting one.
+        engine.moved.release();
     }
     match (ended, engine.first_failure) {
         (Err(Ended::Input(e)), _) => Err(e),

@@ -1,13 +1,18 @@
 //! Cdios 6168 commands (`cdios-*`). Every command is built and range-checked
 //! with the protocol table before the link is opened: bad input sends nothing.
 
+mod backup;
+mod dashboard;
+pub mod names;
+mod record;
+
 use clap::ValueEnum;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use axisctl::device::cdios::config::{self as servo, Request as ConfigRequest};
 use axisctl::device::cdios::{self as device, EventChange, Goal, Node, WaitEnd, WaitSpec};
-use axisctl::device::face::{Face, MotionTarget};
+use axisctl::device::face::{Face, Halt, Manner, MotionTarget, StopHow};
 use axisctl::family::Family;
 use axisctl::proto::cdios::table::{self, STATUS_FLAGS};
 use axisctl::proto::cdios::{
@@ -330,11 +335,26 @@ fn stop(ctx: &Ctx, t: ModuleTarget, option: StopOption, latched: bool) -> anyhow
     device::check(&[device::stop_command(option, latched)], m)?;
     let (session, takeover) = super::takeover::open(ctx, |o, spec, opts| o.cdios(spec, opts))?;
     let mut s = node(session, &t.node, ctx);
-    let (confirmed, already) = match s.stop(m, option, latched) {
-        Ok(device::Stopped::FastStop { confirmed }) => (confirmed, false),
-        Ok(device::Stopped::NotRunning) => (true, true),
-        Err(e) => return Err(super::takeover::failed(e, takeover.as_ref())),
+    let manner = match option {
+        StopOption::FastStop => Some(Manner::Fast),
+        StopOption::DecelerateAndStop => Some(Manner::Decelerate),
+        StopOption::DecelerateToMinimum => Some(Manner::DecelerateToMinimum),
+        _ => None,
     };
+    let sent = match manner {
+        Some(manner) => {
+            let at = MotionTarget::Cdios { node: s.id(), module: m };
+            match Face::stop_with(&mut s, at, StopHow { manner, on_sync: latched, at_standstill: false }) {
+                Ok(Halt::AtRest) => Ok((true, true)),
+                Ok(h) => Ok((h != Halt::FastStop { confirmed: false }, false)),
+                Err(e) => Err(anyhow::Error::from(e)),
+            }
+        }
+        // Not a stop (release the emergency stop, clear a hold): sent as
+        // it is, its refusal is an answer to keep.
+        None => s.send(m, &[device::stop_command(option, latched)]).map(|c| (c, false)).map_err(Into::into),
+    };
+    let (confirmed, already) = sent.map_err(|e| super::takeover::failed(e, takeover.as_ref()))?;
     let mut extra = json!({});
     if let Some(h) = HolderReport::after_halt(takeover.as_ref()) {
         if !ctx.json {
@@ -519,7 +539,7 @@ fn print_wait_end(ctx: &Ctx, (node, m): (NodeId, ModuleId), what: &str, end: &Wa
 
 fn config(ctx: &Ctx, t: ModuleTarget, items: &[String]) -> anyhow::Result<()> {
     // Every name and value is resolved and checked before anything is sent.
-    items.iter().try_for_each(|i| super::names::check_cdios_config_item(i))?;
+    items.iter().try_for_each(|i| names::check_config_item(i))?;
     match ConfigRequest::parse(items)? {
         ConfigRequest::Show(groups) => show_config(ctx, &mut open(ctx, &t.node)?, t, &groups),
         ConfigRequest::Set(changes) => {
@@ -822,3 +842,31 @@ fn decode_error(ctx: &Ctx, value: &str) -> anyhow::Result<()> {
     }
     Ok(())
 }
+
+/// A Cdios refusal in the error document: the general code and the error
+/// status bits the node set.
+impl super::error_json::DeviceDoc for axisctl::proto::cdios::refusal::CdiosRefusal {
+    fn device_doc(&self) -> Value {
+        // Error status byte 1 is the low byte of the mask, byte 2 the next.
+        let mask = |status: u8, bit: u8| 1u64 << (8 * u32::from(status.saturating_sub(1)) + u32::from(bit));
+        let details: Vec<_> = self
+            .errors
+            .iter()
+            .map(|b| json!({"name": b.name, "mask": mask(b.status, b.bit), "class": "error", "description": b.meaning}))
+            .collect();
+        let unknown = self.unknown_bits.iter().fold(0, |m, b| m | mask(b.status, b.bit));
+        json!({"family": "cdios", "command_code": format!("{:02X}", self.command), "code": self.general,
+               "name": self.general_name, "text": self.general_text.unwrap_or("not in the manual's table"),
+               "details": details, "unknown_bits": unknown})
+    }
+}
+
+/// What this folder answers for the family (`super::family_cli`).
+pub const CLI: super::FamilyCli = super::FamilyCli {
+    names: &names::CdiosNames,
+    dashboard_source: dashboard::source,
+    backup_live: backup::live,
+    record_plan: record::plan,
+    line: None,
+    serial_trace: None,
+};

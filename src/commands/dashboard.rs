@@ -12,18 +12,14 @@ use std::sync::Arc;
 use axisctl::family::{self, Family};
 use axisctl::link::LinkSpec;
 use axisctl::open::{OpenedLink, Opener, SessionOptions};
-use axisctl::proto::cdios::{ModuleId as CdiosModule, NodeId};
-use axisctl::proto::powercube::ModuleId as CubeModule;
 use axisctl::session::bus::CanBus;
-use axisctl::tui::cdios::CdiosSource;
-use axisctl::tui::pac::PacSource;
-use axisctl::tui::powercube::CubeSource;
 use axisctl::tui::source::DeviceSource;
 use axisctl::tui::worker::{Reopen, MAX_RATE, MIN_RATE};
 use axisctl::tui::LinkPlan;
 
 use super::{usage, Ctx};
 use crate::cli::dashboard::DashboardArgs;
+use crate::cli::ids::IdList;
 
 pub fn run(ctx: &Ctx, args: &DashboardArgs) -> anyhow::Result<()> {
     if !(MIN_RATE..=MAX_RATE).contains(&args.rate) {
@@ -135,17 +131,18 @@ fn assign(ctx: &Ctx, args: &DashboardArgs) -> anyhow::Result<Assignment> {
     Ok(a)
 }
 
-/// The device source of `family` on an opened link.
 /// What the device sources are built with, owned: a lost link is opened
-/// again on its worker's thread, long after the arguments are gone.
+/// again on its worker's thread, long after the arguments are gone. Each
+/// family builds its source from it in its folder
+/// (`commands/<family>/dashboard.rs`).
 #[derive(Clone)]
-struct Setup {
-    opts: SessionOptions,
-    modules: Option<Vec<CubeModule>>,
-    axes: Option<Vec<u8>>,
-    node: NodeId,
-    cdios_modules: Option<Vec<CdiosModule>>,
-    retry: axisctl::session::RetryPolicy,
+pub struct Setup {
+    pub opts: SessionOptions,
+    pub modules: Option<IdList>,
+    pub axes: Option<IdList>,
+    pub node: u8,
+    pub cdios_modules: Option<IdList>,
+    pub retry: axisctl::session::RetryPolicy,
 }
 
 impl Setup {
@@ -153,30 +150,18 @@ impl Setup {
         Self {
             // The screen is the trace: frames printed on stderr would tear it.
             opts: SessionOptions { trace: None, ..ctx.session_options() },
-            modules: args.modules.as_ref().map(|l| l.to(CubeModule::new)),
-            axes: args.axes.as_ref().map(|l| l.0.clone()),
-            node: NodeId::new(args.node).expect("clap checks the node range"),
-            cdios_modules: args.cdios_modules.as_ref().map(|l| l.to(CdiosModule::new)),
+            modules: args.modules.clone(),
+            axes: args.axes.clone(),
+            node: args.node,
+            cdios_modules: args.cdios_modules.clone(),
             retry: ctx.retry,
         }
     }
 
+    /// The device source of `family` on an opened link (one that fits it:
+    /// `assign` checked).
     fn source(&self, opener: &Opener, family: Family, link: OpenedLink) -> Box<dyn DeviceSource> {
-        match (family, link) {
-            (Family::PowerCube, link) => {
-                Box::new(CubeSource::new(opener.powercube_on(link, &self.opts), self.modules.clone()))
-            }
-            (Family::Pac, OpenedLink::Serial(line)) => {
-                Box::new(PacSource::new(opener.pac_on(line, &self.opts), self.axes.clone()))
-            }
-            (Family::Cdios, OpenedLink::Can(link)) => Box::new(CdiosSource::new(
-                opener.cdios_on(link, &self.opts),
-                self.node,
-                self.cdios_modules.clone(),
-                self.retry,
-            )),
-            (f, _) => unreachable!("assign checked that the link fits the {f}"),
-        }
+        (super::family_cli(family).dashboard_source)(self, opener, link)
     }
 
     /// Opens `spec` and builds the sources of `fams` on it.

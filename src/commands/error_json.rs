@@ -1,7 +1,6 @@
 //! The one error object of `--json` (docs/json.md, schema/axisctl.schema.json
 //! `#/$defs/error_document`): every failure, argument errors included.
 
-use axisctl::proto::powercube::flags::CUBE_STATE;
 use axisctl::proto::refusal::Refusal;
 use serde_json::{json, Map, Value};
 
@@ -48,35 +47,21 @@ pub fn usage(e: &clap::Error, exit_code: u8) -> Value {
 
 /// What the device answered, one shape for every family: the refused
 /// command's wire code, the device's code and the manual's text for it, and
-/// the set error bits in the `state` detail shape.
+/// the set error bits in the `state` detail shape. Each family's refusal
+/// says it in its folder (`commands/<family>.rs`).
 fn device(r: &Refusal) -> Value {
     match r {
-        Refusal::PaControl(p) => json!({"family": "pac", "command_code": format!("{:04X}", p.command),
-            "code": p.quit, "name": null, "text": p.text, "details": [], "unknown_bits": 0}),
-        Refusal::Cdios(c) => {
-            // Error status byte 1 is the low byte of the mask, byte 2 the next.
-            let mask = |status: u8, bit: u8| 1u64 << (8 * u32::from(status.saturating_sub(1)) + u32::from(bit));
-            let details: Vec<_> = c
-                .errors
-                .iter()
-                .map(|b| json!({"name": b.name, "mask": mask(b.status, b.bit), "class": "error", "description": b.meaning}))
-                .collect();
-            let unknown = c.unknown_bits.iter().fold(0, |m, b| m | mask(b.status, b.bit));
-            json!({"family": "cdios", "command_code": format!("{:02X}", c.command), "code": c.general,
-                   "name": c.general_name, "text": c.general_text.unwrap_or("not in the manual's table"),
-                   "details": details, "unknown_bits": unknown})
-        }
-        Refusal::PowerCube(p) => {
-            let state = output::flag_word(&CUBE_STATE, p.cube_state);
-            let errors: Vec<&str> = p.errors.clone();
-            let details: Vec<Value> = state["details"]
-                .as_array()
-                .map(|d| d.iter().filter(|d| d["class"] == "error").cloned().collect())
-                .unwrap_or_default();
-            json!({"family": "powercube", "command_code": null, "code": p.cube_state, "name": null,
-                   "text": errors.join(", "), "details": details, "unknown_bits": state["unknown_bits"]})
-        }
+        Refusal::PaControl(p) => p.device_doc(),
+        Refusal::Cdios(c) => c.device_doc(),
+        Refusal::PowerCube(p) => p.device_doc(),
     }
+}
+
+/// A family's refusal as the `device` object of an error document
+/// (docs/json.md): `family`, `command_code`, `code`, `name`, `text`,
+/// `details`, `unknown_bits`.
+pub trait DeviceDoc {
+    fn device_doc(&self) -> Value;
 }
 
 /// The error and its causes joined with ": ", leaving out a cause whose text

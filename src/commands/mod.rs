@@ -1,7 +1,7 @@
 //! The subcommands. Each resolves what the user typed, validates it before
 //! anything is sent, talks to the device through a session and prints.
 
-mod backup;
+pub(crate) mod backup;
 mod batch;
 mod bench;
 mod cdios;
@@ -18,7 +18,7 @@ mod pac;
 mod pac_limits;
 mod plot;
 mod powercube;
-mod record;
+pub(crate) mod record;
 mod send;
 mod shell;
 mod sim;
@@ -428,6 +428,41 @@ pub fn stopped_by_output(err: anyhow::Error) -> anyhow::Error {
         }
         _ => err,
     }
+}
+
+/// The binary's side of the family registry (the library's is
+/// `device::registry`): what each family's folder in `commands/` answers
+/// for, picked by family here, beside the dispatch that names every family
+/// anyway. A fourth family gives its `CLI`.
+pub struct FamilyCli {
+    /// Its names (`params`, `flags`, completion).
+    pub names: &'static dyn names::Names,
+    /// Its dashboard source on a link that fits it.
+    pub dashboard_source: fn(&dashboard::Setup, &Opener, axisctl::open::OpenedLink) -> DashboardSource,
+    /// How `sim --trace` says its own serial line, if it has one.
+    pub serial_trace: Option<fn() -> Box<dyn sim_tap::SerialTrace>>,
+    /// Its devices on one link of a backup, a diff or a restore.
+    pub backup_live: fn() -> Box<dyn backup::live::LiveFamily>,
+    /// The values of one of its devices for `record DEVICE.VALUE`, checked.
+    pub record_plan: fn(axisctl::bench::Address, &[String]) -> anyhow::Result<RecordPlan>,
+    /// Its commands typed on its own line for `send`, if it has one.
+    pub line: Option<crate::cli::send::LineCommand>,
+}
+
+type DashboardSource = Box<dyn axisctl::tui::source::DeviceSource>;
+type RecordPlan = Box<dyn record::several::Plan>;
+
+pub fn family_cli(family: Family) -> &'static FamilyCli {
+    match family {
+        Family::PowerCube => &powercube::CLI,
+        Family::Pac => &pac::CLI,
+        Family::Cdios => &cdios::CLI,
+    }
+}
+
+/// The names `family` lists (`params`, `flags`, completion).
+pub fn names_of(family: Family) -> &'static dyn names::Names {
+    family_cli(family).names
 }
 
 pub fn run(cli: Cli) -> anyhow::Result<()> {

@@ -12,9 +12,17 @@
 //! start-and-return form: `pac-ref --wait` polls it and shows elapsed time;
 //! Ctrl-C abandons it and sends 0A93 anyway.
 
+mod backup;
+mod dashboard;
+pub mod names;
+mod record;
+mod tap;
+
 use std::io::IsTerminal;
 use std::time::Duration;
 
+use anyhow::Context;
+use axisctl::device::face::{Face, Halt, MotionTarget, StopHow};
 use axisctl::device::pac::{self as device, Controller, Element, Register};
 use axisctl::family::Family;
 use axisctl::open::Takeover;
@@ -43,7 +51,7 @@ pub fn run(ctx: &Ctx, cmd: PacCommand) -> anyhow::Result<()> {
     match cmd {
         PacCommand::PacOnline => online(ctx, d),
         PacCommand::PacOffline => offline(ctx, d),
-        PacCommand::PacStop => stop(ctx, d, 0x0600, None, takeover.as_ref()),
+        PacCommand::PacStop => stop(ctx, d, None, false, takeover.as_ref()),
         PacCommand::PacAutoStart => simple(ctx, d, 0x0602, None, None),
         PacCommand::PacAutoAbort => simple(ctx, d, 0x0A41, None, None),
         PacCommand::PacState => state(ctx, d),
@@ -66,9 +74,7 @@ pub fn run(ctx: &Ctx, cmd: PacCommand) -> anyhow::Result<()> {
             limited(ctx, d, 0x0A8E, axis.axis, accel)?;
             simple(ctx, d, 0x0A8E, Some(axis.axis), Some(accel))
         }
-        PacCommand::PacStopAxis { axis, wait, no_wait: _ } => {
-            stop(ctx, d, if wait { 0x0A93 } else { 0x0A9A }, Some(axis.axis), takeover.as_ref())
-        }
+        PacCommand::PacStopAxis { axis, wait, no_wait: _ } => stop(ctx, d, Some(axis.axis), wait, takeover.as_ref()),
         PacCommand::PacAxis(a) => axes_info(ctx, d, &a.axis),
         PacCommand::PacAxes => axes(ctx, d),
         PacCommand::PacAxisPower { axis, state } => {
@@ -210,39 +216,46 @@ fn limited(ctx: &Ctx, d: &mut Controller, code: u16, axis: u8, value: f64) -> an
     Ok(())
 }
 
-/// A stop, then what became of the process that held the line, if one did.
-/// Idempotent: in home position nothing moves, which is the state asked
-/// for (exit 0, `already_stopped`).
-fn stop(ctx: &Ctx, d: &mut Controller, code: u16, axis: Option<u8>, takeover: Option<&Takeover>) -> anyhow::Result<()> {
-    let par1 = axis.map_or(0, i64::from);
-    match d.stop_by_hand(code, par1).map_err(|e| super::takeover::failed(e, takeover))? {
-        device::StopOutcome::Sent(done) => report_with(
-            ctx,
-            code,
-            axis,
-            None,
-            done.ack,
-            HolderReport::after_halt(takeover),
-            json!({"already_stopped": false}),
-        ),
-        device::StopOutcome::AtRest { status } => {
-            let holder = HolderReport::after_halt(takeover);
-            if ctx.json {
-                let fields = json!({"acknowledged": false, "already_stopped": true, "operating_status": status,
-                                    "operating_status_text": table::operating_status_text(status)});
-                output::json(&command_doc(ctx, code, axis, fields, holder.as_ref()));
-            } else {
-                if let Some(h) = &holder {
-                    say!("{}", h.line());
-                }
-                let def = def(code);
-                say!(
-                    "PA-CONTROL in {}: nothing moves, nothing to stop ({} not sent)",
-                    table::operating_status_text(status),
-                    def.code_hex()
-                );
-            }
+/// A stop through the device face, then what became of the process that
+/// held the line, if one did. Idempotent: in home position nothing moves,
+/// which is the state asked for (exit 0, `already_stopped`). The report
+/// is the controller's last acknowledge: the stop's, or the status read
+/// that found it at rest.
+fn stop(
+    ctx: &Ctx,
+    d: &mut Controller,
+    axis: Option<u8>,
+    wait: bool,
+    takeover: Option<&Takeover>,
+) -> anyhow::Result<()> {
+    let at = axis.map_or(MotionTarget::PacController, MotionTarget::PacAxis);
+    let how = StopHow { at_standstill: wait, ..StopHow::default() };
+    let halt = Face::stop_with(d, at, how).map_err(|e| super::takeover::failed(e, takeover))?;
+    let ack = d.session().last_ack().context("the PA-CONTROL stop left no acknowledge to report")?;
+    let code = match (axis, wait) {
+        (None, _) => 0x0600,
+        (Some(_), true) => 0x0A93,
+        (Some(_), false) => 0x0A9A,
+    };
+    let holder = HolderReport::after_halt(takeover);
+    if halt != Halt::AtRest {
+        report_with(ctx, code, axis, None, ack, holder, json!({"already_stopped": false}));
+        return Ok(());
+    }
+    let status = ack.status;
+    if ctx.json {
+        let fields = json!({"acknowledged": false, "already_stopped": true, "operating_status": status,
+                            "operating_status_text": table::operating_status_text(status)});
+        output::json(&command_doc(ctx, code, axis, fields, holder.as_ref()));
+    } else {
+        if let Some(h) = &holder {
+            say!("{}", h.line());
         }
+        say!(
+            "PA-CONTROL in {}: nothing moves, nothing to stop ({} not sent)",
+            table::operating_status_text(status),
+            def(code).code_hex()
+        );
     }
     Ok(())
 }
@@ -790,10 +803,23 @@ fn axis_param(ctx: &Ctx, d: &mut Controller, axis: u8, name: &str, access: &Para
     Ok(())
 }
 
-/// `send CODE;PAR1;TYP;PAR2`: the command as `pac-raw` sends it (checked,
-/// followed to its end, printed decoded), after `send` refused motion
-/// without `--force`.
-pub(super) fn send_line(ctx: &Ctx, cmd: &Command) -> anyhow::Result<()> {
+/// `send CODE;PAR1;TYP;PAR2`: the command shown, refused without
+/// `--force` when it may start a motion, then sent as `pac-raw` sends it
+/// (checked, followed to its end, printed decoded).
+fn send_line(ctx: &Ctx, text: &str, force: bool) -> anyhow::Result<()> {
+    let cmd = &crate::cli::pac::send::parse(text).map_err(usage)?;
+    let def = table::command(cmd.code);
+    let name = def.map_or("unknown code", |d| d.name);
+    if !ctx.json {
+        output::err_line(format_args!("-> {:04X};{};{};{}  {name}", cmd.code, cmd.par1, cmd.par2.typ(), cmd.par2));
+    }
+    // An unknown code may be anything: it is treated as motion.
+    if def.is_none_or(|d| d.motion) && !force {
+        return Err(usage(format!(
+            "{:04X} ({name}) may start a motion: not sent (--force sends it; nothing then stops it but you)",
+            cmd.code
+        )));
+    }
     let mut d = Controller::new(ctx.pac()?);
     d.know_online_limits(pac_limits::load(ctx.link_for(Family::Pac)?).unwrap_or_default());
     let par2 = match cmd.par2 {
@@ -867,6 +893,28 @@ fn raw(ctx: &Ctx, d: &mut Controller, code_text: &str, par1: i64, par2: Option<&
     }
     Ok(())
 }
+
+/// A PA-CONTROL refusal in the error document: the QUIT and its text.
+impl super::error_json::DeviceDoc for axisctl::proto::pac::refusal::PacRefusal {
+    fn device_doc(&self) -> serde_json::Value {
+        json!({"family": "pac", "command_code": format!("{:04X}", self.command),
+               "code": self.quit, "name": null, "text": self.text, "details": [], "unknown_bits": 0})
+    }
+}
+
+/// What this folder answers for the family (`super::family_cli`).
+pub const CLI: super::FamilyCli = super::FamilyCli {
+    names: &names::PacNames,
+    dashboard_source: dashboard::source,
+    backup_live: backup::live,
+    record_plan: record::plan,
+    line: Some(crate::cli::send::LineCommand {
+        check: |text| crate::cli::pac::send::parse(text).map(drop),
+        moves: crate::cli::pac::send::moves,
+        send: send_line,
+    }),
+    serial_trace: Some(tap::trace),
+};
 
 #[cfg(test)]
 mod tests {

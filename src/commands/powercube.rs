@@ -1,6 +1,12 @@
 //! PowerCube commands: scan, info, state, home, reset, halt, move-*,
 //! get-param, set-param, get-config, set-config, dio, watchdog.
 
+mod backup;
+mod dashboard;
+pub mod names;
+mod record;
+mod tap;
+
 use std::time::Duration;
 
 use axisctl::device::powercube::{
@@ -726,7 +732,7 @@ struct ParamRead {
 impl ParamRead {
     /// Every name is resolved before the link opens: a typo sends nothing.
     fn new(devices: &Devices, params: &[String], all: bool) -> anyhow::Result<Self> {
-        params.iter().try_for_each(|n| super::names::check_powercube_param(n))?;
+        params.iter().try_for_each(|n| names::check_param(n))?;
         let mut defs = device::readable_params(params, all)?;
         defs.push(param(ids::CONFIG));
         Ok(Self { defs, all, several: !matches!(devices, Devices::One(_)) })
@@ -843,7 +849,7 @@ impl PipelinedRead {
 }
 
 fn set_param(ctx: &Ctx, m: ModuleId, name: &str, text: &str, force: bool) -> anyhow::Result<()> {
-    super::names::check_powercube_param(name)?;
+    names::check_param(name)?;
     let (d, value) = device::param_write(name, text)?;
     let held = cubes(ctx)?.write_param(m, d, value, force)?;
     if ctx.json {
@@ -885,7 +891,7 @@ fn set_config(ctx: &Ctx, m: ModuleId, changes: &[String], raw: Option<&str>, for
     // arrives as one of them.
     let force = force || changes.iter().any(|c| c == "--force");
     let changes: Vec<String> = changes.iter().filter(|c| *c != "--force").cloned().collect();
-    changes.iter().try_for_each(|c| super::names::check_config_flag(c))?;
+    changes.iter().try_for_each(|c| names::check_config_flag(c))?;
     let change = ConfigChange::parse(&changes, raw)?;
     change.check_safeties(force)?;
     match cubes(ctx)?.write_config(m, change) {
@@ -1016,3 +1022,27 @@ fn raise_priority() -> &'static str {
     }
     "normal"
 }
+
+/// A PowerCube refusal in the error document: the CubeState word read, its
+/// error flags.
+impl super::error_json::DeviceDoc for axisctl::proto::powercube::refusal::PowerCubeRefusal {
+    fn device_doc(&self) -> serde_json::Value {
+        let state = output::flag_word(&axisctl::proto::powercube::flags::CUBE_STATE, self.cube_state);
+        let details: Vec<serde_json::Value> = state["details"]
+            .as_array()
+            .map(|d| d.iter().filter(|d| d["class"] == "error").cloned().collect())
+            .unwrap_or_default();
+        json!({"family": "powercube", "command_code": null, "code": self.cube_state, "name": null,
+               "text": self.errors.join(", "), "details": details, "unknown_bits": state["unknown_bits"]})
+    }
+}
+
+/// What this folder answers for the family (`super::family_cli`).
+pub const CLI: super::FamilyCli = super::FamilyCli {
+    names: &names::PowerCubeNames,
+    dashboard_source: dashboard::source,
+    backup_live: backup::live,
+    record_plan: record::plan,
+    line: None,
+    serial_trace: Some(tap::trace),
+};

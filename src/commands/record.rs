@@ -30,7 +30,7 @@ use crate::cli::record::{Format, RecordArgs};
 use crate::cli::{cdios::CdiosCommand, pac::PacCommand, Cli, Command, PowerCubeCommand};
 use crate::output::{self, say};
 
-mod several;
+pub(in crate::commands) mod several;
 
 /// What is recorded: one family's devices and values, checked before the
 /// link opens.
@@ -176,7 +176,7 @@ fn selection(args: &RecordArgs) -> anyhow::Result<Selection> {
         }
         (Some(modules), None, None) => {
             let modules = list(modules, POWERCUBE_MODULE)?.to(ModuleId::new);
-            args.values.iter().try_for_each(|n| super::names::check_powercube_param(n))?;
+            args.values.iter().try_for_each(|n| super::powercube::names::check_param(n))?;
             let params = cube_dev::readable_params(&args.values, false)?;
             Ok(Selection::PowerCube { modules, params })
         }
@@ -187,7 +187,11 @@ fn selection(args: &RecordArgs) -> anyhow::Result<Selection> {
     }
 }
 
-fn names<T>(given: &[String], parse: fn(&str) -> Option<T>, known: &[&str]) -> anyhow::Result<Vec<T>> {
+pub(in crate::commands) fn names<T>(
+    given: &[String],
+    parse: fn(&str) -> Option<T>,
+    known: &[&str],
+) -> anyhow::Result<Vec<T>> {
     given
         .iter()
         .map(|n| parse(n).ok_or_else(|| usage(format!("no value {n:?} to record here; known: {}", known.join(", ")))))
@@ -326,7 +330,7 @@ fn go<S: HaltMotion>(
 
 /// The device layer's own error, so that its exit-code class and refusal
 /// are found in the chain (a transparent wrapper would hide its type).
-pub(super) fn device_error(e: RecordError) -> anyhow::Error {
+pub(in crate::commands) fn device_error(e: RecordError) -> anyhow::Error {
     match e.into_face() {
         FaceError::PowerCube(e) => e.into(),
         FaceError::Pac(e) => e.into(),

@@ -9,7 +9,6 @@ use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 use axisctl::family::Family;
 use axisctl::monitor::{describe_event, motion_of, FrameInfo};
 use axisctl::proto::can_error::CanEvent;
-use axisctl::proto::pac::table as pac_table;
 use serde_json::json;
 
 use super::{usage, Ctx};
@@ -18,27 +17,10 @@ use crate::output::{self, say};
 
 pub fn run(ctx: &Ctx, a: &SendArgs) -> anyhow::Result<()> {
     match a.parsed().map_err(usage)? {
-        Frame::Pac(cmd) => {
-            let def = pac_table::command(cmd.code);
-            let name = def.map_or("unknown code", |d| d.name);
-            if !ctx.json {
-                output::err_line(format_args!(
-                    "-> {:04X};{};{};{}  {name}",
-                    cmd.code,
-                    cmd.par1,
-                    cmd.par2.typ(),
-                    cmd.par2
-                ));
-            }
-            // An unknown code may be anything: it is treated as motion.
-            if def.is_none_or(|d| d.motion) && !a.force {
-                return Err(usage(format!(
-                    "{:04X} ({name}) may start a motion: not sent (--force sends it; nothing then stops it but you)",
-                    cmd.code
-                )));
-            }
-            super::pac::send_line(ctx, &cmd)
-        }
+        Frame::Line(family, text) => match &super::family_cli(family).line {
+            Some(line) => (line.send)(ctx, &text, a.force),
+            None => unreachable!("parsed only for a family with a line of its own"),
+        },
         Frame::Can(frame) => {
             let event = CanEvent::Frame(frame);
             let sent = describe_event(&event);

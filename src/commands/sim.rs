@@ -185,7 +185,7 @@ pub fn run(ctx: &Ctx, args: &SimArgs) -> anyhow::Result<()> {
                 let (master, path) = link::pty::open_pair()?;
                 let uri = serial_uri(&path, args.baud, Family::PowerCube);
                 announce_all(&uri);
-                let tap = tap(&uri, Protocol::PowerCube, log("serial")?);
+                let tap = tap(&uri, Protocol::Serial(Family::PowerCube), log("serial")?);
                 let (pc, clock, stop) = (Arc::clone(&bench.powercube), Arc::clone(&ctx.clock), Arc::clone(&stop));
                 let (pace, noise) = (pace(serial_format(Family::PowerCube)), noise(ByteProtocol::PowerCube, 1));
                 threads.push(std::thread::spawn(move || {
@@ -222,7 +222,7 @@ pub fn run(ctx: &Ctx, args: &SimArgs) -> anyhow::Result<()> {
         let (master, path) = link::pty::open_pair()?;
         let uri = serial_uri(&path, args.baud, Family::Pac);
         announce(Family::Pac, &uri);
-        let tap = tap(&uri, Protocol::Pac, log("serial")?);
+        let tap = tap(&uri, Protocol::Serial(Family::Pac), log("serial")?);
         let (pac, clock, stop) = (Arc::clone(&bench.pac), Arc::clone(&ctx.clock), Arc::clone(&stop));
         let (pace, noise) = (pace(serial_format(Family::Pac)), noise(ByteProtocol::Pac, 2));
         threads.push(std::thread::spawn(move || serve::serial(Box::new(master), pac, clock, &stop, pace, noise, tap)));

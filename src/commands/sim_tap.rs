@@ -10,29 +10,32 @@
 //!   with the served line's name before the direction (`serial0 tx 02 06`).
 //!   Which name is which link is said once on stderr.
 
+use axisctl::family::Family;
 use axisctl::link::log::{Direction, TrafficLog};
-use axisctl::proto::pac::{self, printable, AckDecoder, CommandDecoder};
-use axisctl::proto::powercube::can::Broadcast;
-use axisctl::proto::powercube::rs232::{self, Decoder};
 use axisctl::proto::CanFrame;
 use axisctl::sim::serve::{Tap, Traffic, Way};
 
 use crate::output::err_line;
 use axisctl::monitor::describe;
-use axisctl::proto::powercube::bus::describe_ack;
 
-/// How the bytes of a served serial line are cut into frames for the trace.
+/// How the bytes of a served link are cut into frames for the trace.
 pub enum Protocol {
     Can,
-    PowerCube,
-    Pac,
+    /// A family's own serial line.
+    Serial(Family),
 }
 
-/// One decoder per direction: a frame may come in several chunks.
+/// A family's serial line as the trace says it: the bytes of each way cut
+/// into the family's frames (a frame may come in several chunks), one
+/// line per frame completed. Each family with a line of its own says it in
+/// its folder (`commands/<family>/tap.rs`).
+pub trait SerialTrace: Send {
+    fn hear(&mut self, way: Way, bytes: &[u8]) -> Vec<String>;
+}
+
 enum Decoders {
     Can,
-    PowerCube { requests: Decoder, answers: Decoder },
-    Pac { commands: CommandDecoder, acks: AckDecoder },
+    Serial(Box<dyn SerialTrace>),
 }
 
 /// A served link's tap: `None` when neither `--trace` nor `--log` asks.
@@ -48,9 +51,10 @@ pub fn tap(link: &str, protocol: Protocol, trace: bool, log: Option<TrafficLog>)
         trace,
         log,
         decoders: match protocol {
+            Protocol::Serial(family) => {
+                super::family_cli(family).serial_trace.map_or(Decoders::Can, |trace| Decoders::Serial(trace()))
+            }
             Protocol::Can => Decoders::Can,
-            Protocol::PowerCube => Decoders::PowerCube { requests: Decoder::new(), answers: Decoder::new() },
-            Protocol::Pac => Decoders::Pac { commands: CommandDecoder::new(), acks: AckDecoder::new() },
         },
     };
     Tap::new(move |way, traffic| state.hear(way, traffic))
@@ -99,33 +103,7 @@ impl State {
     fn decode(&mut self, way: Way, traffic: Traffic<'_>) -> Vec<String> {
         match (traffic, &mut self.decoders) {
             (Traffic::Can(f), _) => vec![can_line(f)],
-            (Traffic::Bytes(b), Decoders::PowerCube { requests, answers }) => {
-                let d = if way == Way::FromClient { requests } else { answers };
-                d.push(b);
-                std::iter::from_fn(|| d.next_frame()).map(|r| powercube_line(way, r)).collect()
-            }
-            (Traffic::Bytes(b), Decoders::Pac { commands, acks }) if way == Way::FromClient => {
-                commands.push(b);
-                std::iter::from_fn(|| commands.next())
-                    .map(|r| match r {
-                        Ok(pac::Request::Command { command, .. }) => {
-                            let bytes = command.encode().map(|b| printable(&b)).unwrap_or_default();
-                            format!("{bytes}  {command}")
-                        }
-                        Ok(pac::Request::Poll) => "<EOT>  poll".to_string(),
-                        Err(e) => format!("bad frame: {e}"),
-                    })
-                    .collect()
-            }
-            (Traffic::Bytes(b), Decoders::Pac { acks, .. }) => {
-                acks.push(b);
-                std::iter::from_fn(|| acks.next())
-                    .map(|r| match r {
-                        Ok(ack) => ack.to_string(),
-                        Err(e) => format!("bad frame: {e}"),
-                    })
-                    .collect()
-            }
+            (Traffic::Bytes(b), Decoders::Serial(trace)) => trace.hear(way, b),
             (Traffic::Bytes(b), Decoders::Can) => vec![hex(b)],
         }
     }
@@ -141,26 +119,7 @@ fn can_line(f: &CanFrame) -> String {
     format!("{f:<22} {text}")
 }
 
-fn powercube_line(way: Way, r: Result<rs232::Rs232Frame, axisctl::proto::DecodeError>) -> String {
-    let f = match r {
-        Ok(f) => f,
-        Err(e) => return format!("bad frame: {e}"),
-    };
-    let mut bytes = Vec::new();
-    f.encode(&mut bytes);
-    let what = match way {
-        // A broadcast carries `[cmd, param]` (specs README), which is no
-        // module command: decoded as one, every broadcast would be "too long".
-        Way::FromClient if f.is_broadcast() => Broadcast::decode(f.payload.as_slice()).map(|b| format!("{b} to all")),
-        Way::FromClient => f.request().map(|req| format!("{req} to module {}", f.module)),
-        Way::ToClient => f.response().map(|resp| format!("{} from module {}", describe_ack(&resp).0, f.module)),
-    };
-    match what {
-        Ok(w) => format!("{} {w}", hex(&bytes)),
-        Err(e) => format!("{} undecodable: {e}", hex(&bytes)),
-    }
-}
-
-fn hex(bytes: &[u8]) -> String {
+/// Bytes as the trace shows them: `02 06 ...` in lower-case hex.
+pub fn hex(bytes: &[u8]) -> String {
     bytes.iter().map(|b| format!("{b:02x}")).collect::<Vec<_>>().join(" ")
 }

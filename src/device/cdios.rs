@@ -407,7 +407,7 @@ impl Node {
     /// whose status cannot be read, stays an error: the motor may move.
     /// Options that do not stop a motor (release the emergency stop, clear a
     /// hold) are sent as they are: their refusal is an answer to keep.
-    pub fn stop(&mut self, m: ModuleId, option: StopOption, latched: bool) -> Result<Stopped, Error> {
+    pub(crate) fn stop(&mut self, m: ModuleId, option: StopOption, latched: bool) -> Result<Stopped, Error> {
         let stops =
             matches!(option, StopOption::FastStop | StopOption::DecelerateAndStop | StopOption::DecelerateToMinimum);
         match self.send(m, &[stop_command(option, latched)]) {

@@ -50,6 +50,50 @@ pub enum Halt {
     Steps(String),
 }
 
+/// How hard a person's stop is made. `Default` is the family's own stop
+/// (its face's [`Face::stop`]); the others are manners some families offer
+/// and the rest refuse, before sending.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub enum Manner {
+    #[default]
+    Default,
+    /// Stop as fast as the device can.
+    Fast,
+    /// Decelerate on the set ramp, then stop.
+    Decelerate,
+    /// Decelerate to the minimum speed, then stop.
+    DecelerateToMinimum,
+}
+
+/// A person's stop as the command line asked for it, in words every family
+/// reads the same way ([`Face::stop_with`]).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct StopHow {
+    pub manner: Manner,
+    /// Stop on the next SYNC instead of now.
+    pub on_sync: bool,
+    /// Answer only once the device stands still.
+    pub at_standstill: bool,
+}
+
+impl std::fmt::Display for StopHow {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self.manner {
+            Manner::Default => "stop",
+            Manner::Fast => "fast stop",
+            Manner::Decelerate => "decelerating stop",
+            Manner::DecelerateToMinimum => "stop through the minimum speed",
+        })?;
+        if self.on_sync {
+            f.write_str(" on the next SYNC")?;
+        }
+        if self.at_standstill {
+            f.write_str(" answered at standstill")?;
+        }
+        Ok(())
+    }
+}
+
 /// One step of a halt of everything, and how it went. `target: None`:
 /// the whole family on the link (a broadcast, or a probe that failed).
 #[derive(Debug)]
@@ -79,6 +123,16 @@ pub trait Face {
 
     /// A person's stop: idempotent, a device at rest is [`Halt::AtRest`].
     fn stop(&mut self, at: MotionTarget) -> Result<Halt, FaceError>;
+
+    /// [`Face::stop`] made the way `how` says. A family that has no such
+    /// manner refuses it before sending anything: a stop that silently
+    /// became another could surprise the person who chose it.
+    fn stop_with(&mut self, at: MotionTarget, how: StopHow) -> Result<Halt, FaceError> {
+        if how == StopHow::default() {
+            return self.stop(at);
+        }
+        Err(FaceError::Unsupported(format!("the {} has no {how}", self.family().display_name())))
+    }
 
     /// Stops every device of the family on the link, each step tried
     /// whatever the others did. `known`: the devices the caller knows
@@ -116,7 +170,7 @@ pub trait Face {
 /// [`Moving::release`]d (the motion is left running on purpose, or the
 /// family's wait halted it already and said so).
 pub struct Moving<'a, F: Face + ?Sized> {
-    dev: &'a mut F,
+    dev: Dev<'a, F>,
     targets: Vec<MotionTarget>,
     attempts: u32,
     armed: bool,
@@ -125,7 +179,35 @@ pub struct Moving<'a, F: Face + ?Sized> {
 impl<'a, F: Face + ?Sized> Moving<'a, F> {
     /// Armed from now on: create it before the first motion byte leaves.
     pub fn new(dev: &'a mut F, targets: Vec<MotionTarget>, attempts: u32) -> Self {
-        Self { dev, targets, attempts: attempts.max(1), armed: true }
+        Self { dev: Dev::Borrowed(dev), targets, attempts: attempts.max(1), armed: true }
+    }
+
+    /// A handle that owns its face: for a motion that outlives the code
+    /// that started it (a `batch` line without `--wait`), kept by whoever
+    /// answers for it until the end.
+    pub fn owning(dev: Box<F>, targets: Vec<MotionTarget>, attempts: u32) -> Self {
+        Self { dev: Dev::Owned(dev), targets, attempts: attempts.max(1), armed: true }
+    }
+
+    /// Another device of this face set moving: halted with the others,
+    /// once however often it is added.
+    pub fn add(&mut self, target: MotionTarget) {
+        if !self.targets.contains(&target) {
+            self.targets.push(target);
+        }
+    }
+
+    /// The devices this handle halts, in the order they were added.
+    pub fn targets(&self) -> &[MotionTarget] {
+        &self.targets
+    }
+
+    /// Halts one of its devices now and forgets it (`None`: not one of
+    /// its devices), so that several handles can halt in one given order.
+    pub fn halt_one(&mut self, target: MotionTarget) -> Option<Result<Halt, FaceError>> {
+        let at = self.targets.iter().position(|t| *t == target)?;
+        self.targets.remove(at);
+        Some(self.dev.halt(target, self.attempts))
     }
 
     /// The motion ended at a known standstill: nothing to halt.
@@ -155,6 +237,32 @@ impl<'a, F: Face + ?Sized> Moving<'a, F> {
     }
 }
 
+/// The face a handle halts through: borrowed from the code that waits on
+/// the motion, or owned by the handle when the motion outlives that code.
+enum Dev<'a, F: ?Sized> {
+    Borrowed(&'a mut F),
+    Owned(Box<F>),
+}
+
+impl<F: ?Sized> Deref for Dev<'_, F> {
+    type Target = F;
+    fn deref(&self) -> &F {
+        match self {
+            Dev::Borrowed(d) => d,
+            Dev::Owned(d) => d,
+        }
+    }
+}
+
+impl<F: ?Sized> DerefMut for Dev<'_, F> {
+    fn deref_mut(&mut self) -> &mut F {
+        match self {
+            Dev::Borrowed(d) => d,
+            Dev::Owned(d) => d,
+        }
+    }
+}
+
 fn halt_each<F: Face + ?Sized>(
     dev: &mut F,
     targets: &[MotionTarget],
@@ -166,13 +274,13 @@ fn halt_each<F: Face + ?Sized>(
 impl<F: Face + ?Sized> Deref for Moving<'_, F> {
     type Target = F;
     fn deref(&self) -> &F {
-        self.dev
+        &self.dev
     }
 }
 
 impl<F: Face + ?Sized> DerefMut for Moving<'_, F> {
     fn deref_mut(&mut self) -> &mut F {
-        self.dev
+        &mut self.dev
     }
 }
 

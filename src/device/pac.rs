@@ -38,11 +38,12 @@ pub use motion::{Halted, MoveProgress, MoveStart};
 
 /// How a stop asked for by hand went ([`Controller::stop_by_hand`]).
 #[derive(Debug)]
-pub enum StopOutcome {
-    /// Sent and acknowledged.
-    Sent(Done),
-    /// Nothing to stop: the controller is in home position (`status`).
-    AtRest { status: u16 },
+pub(crate) enum StopOutcome {
+    /// Sent and acknowledged (the acknowledge is the session's last).
+    Sent,
+    /// Nothing to stop: the controller is in home position (the status
+    /// read is the session's last acknowledge).
+    AtRest,
 }
 
 use crate::proto::pac::session::Step;
@@ -389,14 +390,15 @@ impl Controller {
     /// for and nothing is sent but the status read; the stop would only be
     /// refused there. In every other mode, or while a command of ours runs,
     /// the stop goes out as before.
-    pub fn stop_by_hand(&mut self, code: u16, par1: i64) -> Result<StopOutcome> {
+    pub(crate) fn stop_by_hand(&mut self, code: u16, par1: i64) -> Result<StopOutcome> {
         if self.busy().is_none() {
             let status = self.read_status()?;
             if table::mode_of_status(status) == Some(Mode::Home) {
-                return Ok(StopOutcome::AtRest { status });
+                return Ok(StopOutcome::AtRest);
             }
         }
-        Ok(StopOutcome::Sent(self.send(code, par1, None)?))
+        self.send(code, par1, None)?;
+        Ok(StopOutcome::Sent)
     }
 
     /// 0A97: switch an axis on.

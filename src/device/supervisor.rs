@@ -32,7 +32,7 @@ use std::sync::Once;
 mod moved;
 
 pub use super::registry::target::MotionTarget;
-pub use moved::{HaltOutcome, MovedDevices, Reach};
+pub use moved::{HaltOutcome, MovedDevices, Reach, RunFace};
 
 pub use crate::clock::stop::{
     arm, caught, exit_code, forget_signal, ignore_file_size_signal, job_stop, log_failure, note_log_failure,

@@ -133,6 +133,7 @@ pub struct Pac {
     /// A command left unfinished (BE = 0) by an abandoned wait or [`Pac::start`].
     busy: Option<Transaction>,
     last_status: Option<u16>,
+    last_ack: Option<Ack>,
     last_quit: Option<u16>,
     last_check: Option<CheckRule>,
     /// What is known about older answers still on the line ([`Pac::settle`]).
@@ -198,6 +199,7 @@ impl Pac {
             core: Core::new(BASE_TIMEOUT),
             busy: None,
             last_status: None,
+            last_ack: None,
             last_quit: None,
             last_check: None,
             line: Line::Unchecked,
@@ -233,6 +235,12 @@ impl Pac {
     }
 
     /// STATUS of the latest acknowledge.
+    /// The last acknowledge received, whole: what a command that went
+    /// through the device face reports of the controller's answer.
+    pub fn last_ack(&self) -> Option<Ack> {
+        self.last_ack
+    }
+
     pub fn last_status(&self) -> Option<u16> {
         self.last_status
     }
@@ -439,6 +447,7 @@ impl Pac {
 
     fn handle(&mut self, t: &mut Transaction, ack: Ack) -> Result<Step, PacError> {
         self.last_status = Some(ack.status);
+        self.last_ack = Some(ack);
         self.last_quit = Some(ack.quit);
         self.last_check = Some(ack.check_rule);
         match t.handle_ack(ack) {

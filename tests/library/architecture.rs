@@ -561,8 +561,17 @@ fn names_a_family(code: &str) -> bool {
 /// asked each simulator how its devices jam (`sim::fault::Jams`) and the
 /// registry how each family's answers name their device (sim/fault.rs); 21
 /// when a recording's error became the face's and each sampler's module
-/// was reached by its own path, not re-exported (record/mod.rs).
-const FAMILY_NAMING_FILES_AT_MOST: usize = 21;
+/// was reached by its own path, not re-exported (record/mod.rs). 10 when
+/// the front end's per-family parts moved to the family folders: each
+/// family's motion classification to `cli/<family>/motion.rs`, its
+/// refusal's error-document object and its `send` line to
+/// `commands/<family>.rs` and `cli/<family>/send.rs`, its names
+/// (`params`, `flags`, the did-you-mean checks, completion) to
+/// `commands/<family>/names.rs`, its dashboard source, `sim --trace` of a
+/// serial line, `record DEVICE.VALUE` values and live devices of a backup
+/// to `commands/<family>/{dashboard,tap,record,backup}.rs`, picked by
+/// `commands::family_cli`; `restore --to` checks the registry's id ranges.
+const FAMILY_NAMING_FILES_AT_MOST: usize = 10;
 
 /// The files outside the family folders and the registry that name a
 /// family's types, as `src/...` paths.

@@ -7,30 +7,22 @@ use std::collections::BTreeSet;
 
 use axisctl::backup::{self, Address, Device, Problem, ValueResult};
 use axisctl::bench::{self, Bench, BenchError, BenchLink};
-use axisctl::device::cdios::{Node, Slot};
-use axisctl::device::pac::Controller;
-use axisctl::device::powercube::{Cubes, Error as CubeError};
-use axisctl::family::{Family, POWERCUBE_MODULE};
-use axisctl::proto::cdios::{ModuleId as CdiosModule, NodeId};
-use axisctl::proto::powercube::ModuleId;
+use axisctl::family::Family;
 use axisctl::session::ErrorKind;
 
 use super::super::{classify, usage, Ctx};
 use crate::cli::backup::Selection;
-use crate::cli::ids::Devices;
 use crate::output;
 
-/// The sessions of the command, by the text of the bench link they are on.
-pub(super) struct Live<'a> {
+/// The sessions of the command: one [`LiveFamily`] per (link, family)
+/// pair, by the text of the bench link, made when first needed.
+pub struct Live<'a> {
     ctx: &'a Ctx,
-    cubes: Vec<(&'a str, Cubes)>,
-    pacs: Vec<(&'a str, Controller)>,
-    /// Cdios nodes, with the controller's identify answer.
-    nodes: Vec<(&'a str, Node, Vec<Slot>)>,
+    units: Vec<(&'a str, Family, Box<dyn LiveFamily>)>,
 }
 
 /// Which devices of a family on a link a backup reads.
-pub(super) struct Wanted<'s> {
+pub struct Wanted<'s> {
     pub select: &'s Selection,
     /// The Cdios nodes probed on the link.
     pub nodes: Vec<u8>,
@@ -39,125 +31,74 @@ pub(super) struct Wanted<'s> {
     pub named: bool,
 }
 
+/// One family's devices on one link of the bench, for a backup, a diff or a
+/// restore: its sessions, opened when first needed and kept for the
+/// command, and the family's reads and writes (`backup::<family>`). Each
+/// family says it in its folder (`commands/<family>/backup.rs`).
+pub trait LiveFamily {
+    /// The devices the selection names, or those present.
+    fn present(&mut self, ctx: &Ctx, link: &BenchLink, w: &Wanted) -> anyhow::Result<Vec<Address>>;
+    /// The live device at `at`, read into the backup's shape.
+    fn capture(&mut self, ctx: &Ctx, link: &BenchLink, at: Address) -> anyhow::Result<Device>;
+    /// What the live device says against the file before a restore.
+    fn check_live(&mut self, ctx: &Ctx, link: &BenchLink, file: &Device, live: &Device)
+        -> anyhow::Result<Vec<Problem>>;
+    fn restore(
+        &mut self,
+        ctx: &Ctx,
+        link: &BenchLink,
+        file: &Device,
+        live: &Device,
+        steps: Steps<'_>,
+    ) -> anyhow::Result<Vec<ValueResult>>;
+    /// Refuses a device that moves (or is out of the mode writes need).
+    fn ensure_at_rest(&mut self, ctx: &Ctx, link: &BenchLink, at: Address) -> anyhow::Result<()>;
+    /// The EEPROM store of a device whose family keeps one.
+    fn store(&mut self, _ctx: &Ctx, _link: &BenchLink, at: Address) -> anyhow::Result<()> {
+        Err(usage(format!("{at}: its family has no store of its settings")))
+    }
+}
+
+/// What a restore may write and when it must stop.
+pub struct Steps<'s> {
+    pub skip: &'s BTreeSet<String>,
+    pub stop: backup::Stop<'s>,
+}
+
 impl<'a> Live<'a> {
     pub fn new(ctx: &'a Ctx) -> Self {
         ctx.opener().keep_links_open();
-        Self { ctx, cubes: Vec::new(), pacs: Vec::new(), nodes: Vec::new() }
+        Self { ctx, units: Vec::new() }
     }
 
-    fn cubes(&mut self, link: &'a BenchLink) -> anyhow::Result<&mut Cubes> {
-        let i = match self.cubes.iter().position(|(l, _)| *l == link.text) {
+    fn unit(&mut self, link: &'a BenchLink, family: Family) -> (&'a Ctx, &mut dyn LiveFamily) {
+        let i = match self.units.iter().position(|(l, f, _)| *l == link.text && *f == family) {
             Some(i) => i,
             None => {
-                let pc = self.ctx.opener().powercube(&link.spec, &self.ctx.session_options())?;
-                self.cubes.push((&link.text, Cubes::new(pc)));
-                self.cubes.len() - 1
+                self.units.push((&link.text, family, (super::super::family_cli(family).backup_live)()));
+                self.units.len() - 1
             }
         };
-        Ok(&mut self.cubes[i].1)
-    }
-
-    fn pac(&mut self, link: &'a BenchLink) -> anyhow::Result<&mut Controller> {
-        let i = match self.pacs.iter().position(|(l, _)| *l == link.text) {
-            Some(i) => i,
-            None => {
-                let pac = self.ctx.opener().pac(&link.spec, &self.ctx.session_options())?;
-                self.pacs.push((&link.text, Controller::new(pac)));
-                self.pacs.len() - 1
-            }
-        };
-        Ok(&mut self.pacs[i].1)
-    }
-
-    /// The node and its slots, opened and identified once.
-    fn node(&mut self, link: &'a BenchLink, id: u8) -> anyhow::Result<(&mut Node, &[Slot])> {
-        let i = match self.nodes.iter().position(|(l, n, _)| *l == link.text && n.id().get() == id) {
-            Some(i) => i,
-            None => {
-                let node_id =
-                    NodeId::new(id).ok_or_else(|| usage(format!("node {id}: a Cdios node id is 1 to 127")))?;
-                let s = self.ctx.opener().cdios(&link.spec, &self.ctx.session_options())?;
-                let mut node = Node::new(s, node_id, self.ctx.retry);
-                let slots = node.identify()?;
-                self.nodes.push((&link.text, node, slots));
-                self.nodes.len() - 1
-            }
-        };
-        let (_, node, slots) = &mut self.nodes[i];
-        Ok((node, slots))
+        (self.ctx, self.units[i].2.as_mut())
     }
 
     /// The devices of `family` on `link` the selection names, or those present.
     pub fn present(&mut self, link: &'a BenchLink, family: Family, w: &Wanted) -> anyhow::Result<Vec<Address>> {
-        let addr = |module| Address { family, module, axis: None, node: None };
-        match family {
-            Family::PowerCube => {
-                let ids: Vec<u8> = match &w.select.module {
-                    Some(Devices::One(id)) => vec![*id],
-                    Some(Devices::List(list)) => list.0.clone(),
-                    Some(Devices::All) | None => {
-                        let found: Vec<u8> = self.cubes(link)?.present()?.iter().map(|m| m.get()).collect();
-                        if found.is_empty() && w.named {
-                            let ids = format!("{}-{}", POWERCUBE_MODULE.min, POWERCUBE_MODULE.max);
-                            return Err(CubeError::NoneAnswered { ids }.into());
-                        }
-                        found
-                    }
-                };
-                Ok(ids.into_iter().map(|id| addr(Some(id))).collect())
-            }
-            Family::Pac => {
-                let c = self.pac(link)?;
-                backup::pac::ensure_home(c)?;
-                let n = c.configured_axes()?;
-                let axes = (1..=n).map(|a| Address { axis: Some(a), ..addr(None) });
-                Ok(std::iter::once(addr(None)).chain(axes).collect())
-            }
-            Family::Cdios => {
-                let mut out = Vec::new();
-                for &id in &w.nodes {
-                    target(Address { family, module: None, axis: None, node: Some(id) });
-                    let found = match self.node(link, id).and_then(|(node, _)| Ok(node.scan()?)) {
-                        Ok(found) => found,
-                        // A node that does not answer is absent, unless asked for; any
-                        // other failure (a busy port, a refusal) is said.
-                        Err(e) if !w.named && classify(&e) == ErrorKind::Timeout => continue,
-                        Err(e) => return Err(e),
-                    };
-                    out.extend(found.iter().map(|m| Address { module: Some(m.get()), node: Some(id), ..addr(None) }));
-                }
-                Ok(out)
-            }
-        }
+        let (ctx, unit) = self.unit(link, family);
+        unit.present(ctx, link, w)
     }
 
     /// The live device at `at` on `link`, read into the backup's shape.
     pub fn capture(&mut self, link: &'a BenchLink, at: Address) -> anyhow::Result<Device> {
         target(at);
-        let text = link.text.clone();
-        match at.family {
-            Family::PowerCube => Ok(backup::powercube::capture(self.cubes(link)?, module(at)?, &text)?),
-            Family::Pac => Ok(match at.axis {
-                None => backup::pac::capture_controller(self.pac(link)?, &text)?,
-                Some(a) => backup::pac::capture_axis(self.pac(link)?, a, &text)?,
-            }),
-            Family::Cdios => {
-                let m = cdios_module(at)?;
-                let (node, slots) = self.node(link, at.node.unwrap_or(1))?;
-                let slot = slots.iter().find(|s| s.module == m.get()).copied();
-                let (ty, version) = slot.map_or((0, 0), |s| (s.ty, s.version));
-                Ok(backup::cdios::capture(node, m, ty, version, &text)?)
-            }
-        }
+        let (ctx, unit) = self.unit(link, at.family);
+        unit.capture(ctx, link, at)
     }
 
     pub fn check_live(&mut self, link: &'a BenchLink, file: &Device, live: &Device) -> anyhow::Result<Vec<Problem>> {
         target(file.address());
-        Ok(match file.family {
-            Family::PowerCube => backup::powercube::check_live(file, live),
-            Family::Pac => backup::pac::check_live(self.pac(link)?, file, live)?,
-            Family::Cdios => backup::cdios::check_live(file, live),
-        })
+        let (ctx, unit) = self.unit(link, file.family);
+        unit.check_live(ctx, link, file, live)
     }
 
     pub fn restore(
@@ -170,44 +111,23 @@ impl<'a> Live<'a> {
     ) -> anyhow::Result<Vec<ValueResult>> {
         let at = live.address();
         target(at);
-        match at.family {
-            Family::PowerCube => {
-                let m = module(at)?;
-                Ok(backup::powercube::restore(self.cubes(link)?, m, file, live, skip, stop)?)
-            }
-            Family::Pac => Ok(backup::pac::restore(self.pac(link)?, file, live, skip, stop)?),
-            Family::Cdios => {
-                let m = cdios_module(at)?;
-                let (node, _) = self.node(link, at.node.unwrap_or(1))?;
-                Ok(backup::cdios::restore(node, m, file, live, skip, stop)?)
-            }
-        }
+        let (ctx, unit) = self.unit(link, at.family);
+        unit.restore(ctx, link, file, live, Steps { skip, stop })
     }
 
     /// Refuses a device that moves (or a PA-CONTROL out of home position):
     /// asked of every device before the first write.
     pub fn ensure_at_rest(&mut self, link: &'a BenchLink, at: Address) -> anyhow::Result<()> {
         target(at);
-        match at.family {
-            Family::PowerCube => {
-                let m = module(at)?;
-                Ok(backup::powercube::ensure_at_rest(self.cubes(link)?, m)?)
-            }
-            Family::Pac => Ok(backup::pac::ensure_home(self.pac(link)?)?),
-            Family::Cdios => {
-                let m = cdios_module(at)?;
-                let (node, _) = self.node(link, at.node.unwrap_or(1))?;
-                Ok(backup::cdios::ensure_at_rest(node, m)?)
-            }
-        }
+        let (ctx, unit) = self.unit(link, at.family);
+        unit.ensure_at_rest(ctx, link, at)
     }
 
-    /// The Cdios EEPROM store (05h) of one module.
+    /// The EEPROM store of one module (the Cdios 05h).
     pub fn store(&mut self, link: &'a BenchLink, at: Address) -> anyhow::Result<()> {
         target(at);
-        let m = cdios_module(at)?;
-        let (node, _) = self.node(link, at.node.unwrap_or(1))?;
-        Ok(backup::cdios::store(node, m)?)
+        let (ctx, unit) = self.unit(link, at.family);
+        unit.store(ctx, link, at)
     }
 }
 
@@ -239,16 +159,8 @@ pub(super) fn is_missing(e: &anyhow::Error) -> bool {
     e.chain().any(|c| c.is::<BenchError>()) || classify(e) == ErrorKind::Timeout
 }
 
-fn cdios_module(at: Address) -> anyhow::Result<CdiosModule> {
-    at.module.and_then(CdiosModule::new).ok_or_else(|| usage(format!("{at}: no Cdios module id 0 to 15")))
-}
-
-fn module(at: Address) -> anyhow::Result<ModuleId> {
-    at.module.and_then(ModuleId::new).ok_or_else(|| usage(format!("{at}: no PowerCube module id 1 to 31")))
-}
-
 /// Records the device being addressed, for the error object.
-pub(super) fn target(at: Address) {
+pub(in crate::commands) fn target(at: Address) {
     let mut addr: Vec<(&'static str, u64)> = Vec::new();
     addr.extend(at.node.map(|n| ("node", n.into())));
     addr.extend(at.module.map(|m| ("module", m.into())));

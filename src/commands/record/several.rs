@@ -5,20 +5,12 @@
 //! Every name is checked before a link opens.
 
 use axisctl::bench::{Address, Bench, BenchLink, DeviceRef};
-use axisctl::device::cdios::Node;
-use axisctl::device::pac::Controller;
-use axisctl::device::powercube::{self as cube_dev, Cubes};
 use axisctl::device::supervisor;
-use axisctl::proto::cdios::{ModuleId as CdiosModule, NodeId};
-use axisctl::proto::powercube::table::ParamDef;
-use axisctl::proto::powercube::ModuleId;
-use axisctl::record::cdios::{CdiosSampler, CdiosValue};
-use axisctl::record::pac::{PacSampler, PacValue};
-use axisctl::record::powercube::CubeSampler;
+use axisctl::link::LinkSpec;
 use axisctl::record::{self, Sampler, Several};
 
 use super::super::{usage, Ctx};
-use super::{device_error, names, pace, Writer};
+use super::{device_error, pace, Writer};
 use crate::cli::record::RecordArgs;
 use crate::output;
 
@@ -29,15 +21,15 @@ pub(super) fn addressed(values: &[String]) -> bool {
 
 /// The values of one device, checked, and the link it is read on.
 struct Device<'b> {
-    address: Address,
     link: &'b BenchLink,
-    values: Values,
+    plan: Box<dyn Plan>,
 }
 
-enum Values {
-    PowerCube(Vec<&'static ParamDef>),
-    Pac(Vec<PacValue>),
-    Cdios(Vec<CdiosValue>),
+/// The values of one device of a family, checked against its names before
+/// any link opens; then its sampler on the device's link. Each family says
+/// it in its folder (`commands/<family>/record.rs`).
+pub trait Plan {
+    fn sampler(&self, ctx: &Ctx, spec: &LinkSpec) -> anyhow::Result<Box<dyn Sampler>>;
 }
 
 /// The bench link a device is read on: the one the bench file names it
@@ -69,51 +61,10 @@ fn devices<'b>(bench: &'b Bench, values: &[String]) -> anyhow::Result<Vec<Device
     by_device
         .into_iter()
         .map(|(address, given)| {
-            let values = match address {
-                Address::PowerCube { .. } => {
-                    given.iter().try_for_each(|n| super::super::names::check_powercube_param(n))?;
-                    Values::PowerCube(cube_dev::readable_params(&given, false)?)
-                }
-                Address::Pac { axis: None } => {
-                    return Err(usage("pac is the controller: record one of its axes, pac:AXIS.position"))
-                }
-                Address::Pac { .. } => {
-                    Values::Pac(names(&given, PacValue::parse, PacValue::ALL.map(PacValue::name).as_slice())?)
-                }
-                Address::Cdios { .. } => {
-                    Values::Cdios(names(&given, CdiosValue::parse, CdiosValue::ALL.map(CdiosValue::name).as_slice())?)
-                }
-            };
-            Ok(Device { address, link: link_of(bench, address)?, values })
+            let plan = (super::super::family_cli(address.family()).record_plan)(address, &given)?;
+            Ok(Device { link: link_of(bench, address)?, plan })
         })
         .collect()
-}
-
-/// The sampler of one device, on its link (kept open for the other
-/// devices of the recording on the same port).
-fn sampler(ctx: &Ctx, d: &Device) -> anyhow::Result<Box<dyn Sampler>> {
-    let opts = ctx.session_options();
-    let spec = &d.link.spec;
-    Ok(match (&d.values, d.address) {
-        (Values::PowerCube(params), Address::PowerCube { module }) => {
-            let m = ModuleId::new(module).ok_or_else(|| usage(format!("module {module} out of range")))?;
-            let cubes = Cubes::new(ctx.opener().powercube(spec, &opts)?);
-            Box::new(CubeSampler::new(cubes, &[m], params).map_err(device_error)?)
-        }
-        (Values::Pac(values), Address::Pac { axis: Some(axis) }) => {
-            let mut ctl = Controller::new(ctx.opener().pac(spec, &opts)?);
-            ctl.set_axes(vec![axis]);
-            Box::new(PacSampler::new(ctl, &[axis], values))
-        }
-        (Values::Cdios(values), Address::Cdios { node, module }) => {
-            let node = NodeId::new(node).ok_or_else(|| usage(format!("node {node} out of range")))?;
-            let module = CdiosModule::new(module).ok_or_else(|| usage(format!("module {module} out of range")))?;
-            let mut session = ctx.opener().cdios(spec, &opts)?;
-            session.set_nmt(true);
-            Box::new(CdiosSampler::new(Node::new(session, node, ctx.retry), &[module], values).map_err(device_error)?)
-        }
-        _ => unreachable!("the values were checked for the device's family"),
-    })
 }
 
 pub(super) fn run(ctx: &Ctx, args: &RecordArgs) -> anyhow::Result<()> {
@@ -137,7 +88,7 @@ pub(super) fn run(ctx: &Ctx, args: &RecordArgs) -> anyhow::Result<()> {
     let mut parts = Vec::new();
     let mut links = Vec::new();
     for d in &devices {
-        let part = sampler(ctx, d)?;
+        let part = d.plan.sampler(ctx, &d.link.spec)?;
         links.extend(part.channels().iter().map(|_| d.link.text.clone()));
         parts.push(part);
     }

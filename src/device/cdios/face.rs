@@ -1,6 +1,6 @@
 //! The Cdios device face: one face per node, for its 6168 modules.
 
-use crate::device::face::{Face, FaceError, Found, Halt, HaltStep, MotionTarget, State};
+use crate::device::face::{Face, FaceError, Found, Halt, HaltStep, Manner, MotionTarget, State, StopHow};
 use crate::family::Family;
 use crate::proto::cdios::{ModuleId, StopOption};
 
@@ -63,8 +63,23 @@ impl Face for Node {
     }
 
     fn stop(&mut self, at: MotionTarget) -> Result<Halt, FaceError> {
+        self.stop_with(at, StopHow::default())
+    }
+
+    /// 25h with the stop option of `how` (the face's default: the fast
+    /// stop); a motor at rest is [`Halt::AtRest`]. Whichever option,
+    /// a sent stop is told as [`Halt::FastStop`] with its confirmation.
+    fn stop_with(&mut self, at: MotionTarget, how: StopHow) -> Result<Halt, FaceError> {
         let m = self.module_here(at)?;
-        Ok(said(Node::stop(self, m, StopOption::FastStop, false)?))
+        if how.at_standstill {
+            return Err(FaceError::Unsupported(format!("the Cdios has no {how}")));
+        }
+        let option = match how.manner {
+            Manner::Default | Manner::Fast => StopOption::FastStop,
+            Manner::Decelerate => StopOption::DecelerateAndStop,
+            Manner::DecelerateToMinimum => StopOption::DecelerateToMinimum,
+        };
+        Ok(said(Node::stop(self, m, option, how.on_sync)?))
     }
 
     /// A fast stop to each module (known, or else every one the node's

@@ -227,6 +227,53 @@ fn the_cdios_face_halts_a_running_motor_and_reports_one_at_rest() {
     assert!(matches!(Face::halt(&mut n, other, 1), Err(FaceError::NotHere(..))), "another node's module is not here");
 }
 
+/// A person's stop through the face sends the stop option the manner
+/// names (on the next SYNC when asked), and a manner the Cdios has not is
+/// refused before anything leaves.
+#[test]
+fn the_cdios_face_stops_in_the_manner_asked_for() {
+    use crate::proto::cdios::{Command, StopOption};
+    let Recorded { clock, shared, link, sent, .. } = recorded_bench();
+    let node = NodeId::new(1).unwrap();
+    let mut n = Node::new(Cdios::new(Box::new(link)).with_clock(shared), node, RetryPolicy::default());
+    let module = CdiosModule::new(0).unwrap();
+    let at = MotionTarget::Cdios { node, module };
+    let last_stop = || {
+        let frames = sent.lock().unwrap();
+        frames.iter().rev().find_map(|f| match Command::decode(f.data()) {
+            Ok((_, Command::Stop { sync, option })) => Some((option, sync)),
+            _ => None,
+        })
+    };
+    for (manner, option) in [
+        (Manner::Fast, StopOption::FastStop),
+        (Manner::Default, StopOption::FastStop),
+        (Manner::Decelerate, StopOption::DecelerateAndStop),
+        (Manner::DecelerateToMinimum, StopOption::DecelerateToMinimum),
+    ] {
+        n.send(module, &enable_commands(false)).unwrap();
+        n.send(module, &goto_commands(GotoMode::Relative, 100_000, None).unwrap()).unwrap();
+        clock.advance(Duration::from_millis(50));
+        let how = StopHow { manner, ..StopHow::default() };
+        assert_eq!(Face::stop_with(&mut n, at, how).unwrap(), Halt::FastStop { confirmed: true }, "{how}");
+        assert_eq!(last_stop(), Some((option, false)), "{how}");
+        for _ in 0..600 {
+            if !Face::state(&mut n, at).unwrap().moving {
+                break;
+            }
+            clock.advance(Duration::from_secs(1));
+        }
+        assert!(!Face::state(&mut n, at).unwrap().moving, "{how}: comes to rest");
+    }
+    let latched = StopHow { manner: Manner::Fast, on_sync: true, ..StopHow::default() };
+    let _ = Face::stop_with(&mut n, at, latched);
+    assert_eq!(last_stop(), Some((StopOption::FastStop, true)), "on the next SYNC");
+    let before = sent.lock().unwrap().len();
+    let e = Face::stop_with(&mut n, at, StopHow { at_standstill: true, ..StopHow::default() }).unwrap_err();
+    assert!(matches!(e, FaceError::Unsupported(_)) && e.nothing_sent(), "{e}");
+    assert_eq!(sent.lock().unwrap().len(), before, "nothing sent");
+}
+
 #[test]
 fn the_registry_opens_a_face_for_every_family() {
     struct Sim(crate::sim::bench::Bench, Arc<dyn Clock>);

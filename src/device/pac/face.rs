@@ -3,7 +3,7 @@
 
 use std::time::Duration;
 
-use crate::device::face::{Face, FaceError, Found, Halt, HaltStep, MotionTarget, Moving, State};
+use crate::device::face::{Face, FaceError, Found, Halt, HaltStep, Manner, MotionTarget, Moving, State, StopHow};
 use crate::family::Family;
 use crate::proto::pac::table;
 use crate::session::pac::{Done, Progress};
@@ -93,17 +93,30 @@ impl Face for Controller {
         }
     }
 
-    /// `pac-stop-axis` / `pac-stop`: in home position nothing moves and
-    /// nothing is sent but the status read.
     fn stop(&mut self, at: MotionTarget) -> Result<Halt, FaceError> {
+        self.stop_with(at, StopHow::default())
+    }
+
+    /// `pac-stop` (0600) / `pac-stop-axis` (0A9A; answered at standstill:
+    /// 0A93): in home position nothing moves and nothing is sent but the
+    /// status read. The acknowledge, or the status read, stays the
+    /// session's last (`Pac::last_ack`) for the command that reports it.
+    fn stop_with(&mut self, at: MotionTarget, how: StopHow) -> Result<Halt, FaceError> {
+        if how.manner != Manner::Default || how.on_sync {
+            return Err(FaceError::Unsupported(format!("the PA-CONTROL has no {how}")));
+        }
         let (code, par1) = match at {
+            MotionTarget::PacAxis(axis) if how.at_standstill => (0x0A93, i64::from(axis)),
             MotionTarget::PacAxis(axis) => (0x0A9A, i64::from(axis)),
-            MotionTarget::PacController => (0x0600, 0),
+            MotionTarget::PacController if !how.at_standstill => (0x0600, 0),
+            MotionTarget::PacController => {
+                return Err(FaceError::Unsupported("the PA-CONTROL's program stop is answered at once".into()))
+            }
             other => return Err(not_here(other)),
         };
         Ok(match self.stop_by_hand(code, par1)? {
-            StopOutcome::Sent(_) => Halt::Steps(format!("{code:04X} sent")),
-            StopOutcome::AtRest { .. } => Halt::AtRest,
+            StopOutcome::Sent => Halt::Steps(format!("{code:04X} sent")),
+            StopOutcome::AtRest => Halt::AtRest,
         })
     }
 

@@ -7,6 +7,7 @@ use std::time::{Duration, Instant};
 
 use super::*;
 use crate::clock::{Clock, VirtualClock};
+use crate::device::face::{Face, FaceError, Halt, Manner, MotionTarget, StopHow};
 use crate::link::mem::{ByteDevice, MemByteLink};
 use crate::link::SerialFormat;
 use crate::proto::pac::{table, CheckRule, CommandDecoder, Request};
@@ -539,18 +540,39 @@ fn a_halt_on_a_line_of_late_answers_stops_the_axis_and_ends_the_stop() {
     assert_ne!(rig.sim().axis_status(1), Some(1));
 }
 
-/// A stop asked for by hand is idempotent: in home position nothing moves,
-/// so only the status is read and the stop is not sent; in a moving mode
-/// the stop goes out.
+/// A stop asked for by hand (the face's `stop_with`) is idempotent: in
+/// home position nothing moves, so only the status is read and the stop is
+/// not sent; in a moving mode the stop goes out: 0600 for the controller,
+/// 0A9A for an axis, 0A93 when answered at standstill. Either way the
+/// acknowledge stays the session's last, for the command's report.
 #[test]
 fn a_stop_by_hand_in_home_position_sends_only_the_status_read() {
-    for (code, par1) in [(0x0600, 0), (0x0A9A, 2), (0x0A93, 2)] {
+    let standstill = StopHow { at_standstill: true, ..StopHow::default() };
+    for (at, how, code) in [
+        (MotionTarget::PacController, StopHow::default(), 0x0600),
+        (MotionTarget::PacAxis(2), StopHow::default(), 0x0A9A),
+        (MotionTarget::PacAxis(2), standstill, 0x0A93),
+    ] {
         let (mut d, seen) = fake(1, &[]);
-        assert!(matches!(d.stop_by_hand(code, par1).unwrap(), StopOutcome::AtRest { status: 1 }), "{code:04X}");
+        assert_eq!(Face::stop_with(&mut d, at, how).unwrap(), Halt::AtRest, "{code:04X}");
         assert_eq!(*seen.lock().unwrap(), [0x190B], "{code:04X}");
+        assert_eq!(d.session().last_ack().map(|a| a.status), Some(1), "{code:04X}: the status read is reported");
         let (mut d, seen) = fake(31, &[]);
-        assert!(matches!(d.stop_by_hand(code, par1).unwrap(), StopOutcome::Sent(_)), "{code:04X}");
+        assert_ne!(Face::stop_with(&mut d, at, how).unwrap(), Halt::AtRest, "{code:04X}");
         assert_eq!(seen.lock().unwrap().last(), Some(&code), "online: the stop goes out");
+        assert_eq!(d.session().last_ack().map(|a| a.status), Some(31), "{code:04X}: its acknowledge is reported");
+    }
+}
+
+/// A stop the PA-CONTROL has no way to make is refused before anything is sent.
+#[test]
+fn a_stop_manner_the_pa_control_has_not_is_refused_and_nothing_is_sent() {
+    for how in [StopHow { manner: Manner::Fast, ..StopHow::default() }, StopHow { on_sync: true, ..StopHow::default() }]
+    {
+        let (mut d, seen) = fake(31, &[]);
+        let e = Face::stop_with(&mut d, MotionTarget::PacAxis(2), how).unwrap_err();
+        assert!(e.nothing_sent() && matches!(e, FaceError::Unsupported(_)), "{how}: {e}");
+        assert!(seen.lock().unwrap().is_empty(), "{how}: nothing sent");
     }
 }
 

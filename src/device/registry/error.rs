@@ -24,6 +24,9 @@ pub enum FaceError {
     /// An address of another family, or of another node: this face holds no such device.
     #[error("{0} is not a device of this {1} face")]
     NotHere(MotionTarget, &'static str),
+    /// An operation this family does not offer (a stop manner it has not).
+    #[error("{0}")]
+    Unsupported(String),
 }
 
 impl FaceError {
@@ -35,7 +38,7 @@ impl FaceError {
             Self::Cdios(e) => e.kind(),
             Self::Session(e) => e.kind(),
             Self::HaltFailed(_) => ErrorKind::Device,
-            Self::NotHere(..) => ErrorKind::Usage,
+            Self::NotHere(..) | Self::Unsupported(_) => ErrorKind::Usage,
         }
     }
 
@@ -46,7 +49,7 @@ impl FaceError {
             Self::Pac(e) => e.refusal(),
             Self::Cdios(e) => e.refusal(),
             Self::Session(e) => e.refusal().cloned(),
-            Self::HaltFailed(_) | Self::NotHere(..) => None,
+            Self::HaltFailed(_) | Self::NotHere(..) | Self::Unsupported(_) => None,
         }
     }
 
@@ -56,7 +59,7 @@ impl FaceError {
             Self::PowerCube(e) => e.nothing_sent(),
             Self::Pac(e) => e.nothing_sent(),
             Self::Cdios(e) => e.nothing_sent(),
-            Self::NotHere(..) => true,
+            Self::NotHere(..) | Self::Unsupported(_) => true,
             Self::Session(_) | Self::HaltFailed(_) => false,
         }
     }

@@ -50,7 +50,7 @@ pub fn open<S: Sessions + ?Sized>(
     node: Option<u8>,
     sessions: &mut S,
     retry: RetryPolicy,
-) -> Result<Box<dyn Face>, S::Error> {
+) -> Result<Box<dyn Face + Send>, S::Error> {
     Ok(match family {
         Family::PowerCube => Box::new(powercube::Cubes::new(sessions.powercube()?)),
         Family::Pac => Box::new(pac::Controller::new(sessions.pac()?)),

@@ -2,46 +2,40 @@
 //! on the way out.
 //!
 //! A line without `--wait` leaves its device moving after the line ends, so
-//! the run keeps each device a motion line addressed, once, in the order
-//! they came ([`MovedDevices::note`]). When a signal (or a failed output)
-//! ends the run, every one of them is halted with the halt the supervised
-//! waits use on a signal ([`MovedDevices::halt`]), each tried whatever the
-//! others did, and each outcome is kept for the run's last message.
+//! the run holds a [`Moving`] handle for each device a motion line
+//! addresses, armed before the line runs ([`MovedDevices::arm`]), one
+//! handle per face (a family on the link, for the Cdios one node), each
+//! device once, in the order the lines first moved them. When a signal, a
+//! failure or the end of a shell ends the run, every one of them is halted
+//! through its handle with the face's halt, the one the supervised waits
+//! use ([`MovedDevices::halt`]), each tried whatever the others did, and
+//! each outcome is kept for the run's last message. Where the run may leave
+//! them moving (a batch that ran to its end, `--keep-going`, `exit
+//! --keep-moving`) the handles are released ([`MovedDevices::release`]);
+//! otherwise a way out that skips both (a panic's unwind) drops them,
+//! which halts.
 
-use crate::device::face::{Face, Halt, MotionTarget};
+use crate::device::face::{Face, Halt, MotionTarget, Moving};
 use crate::family::Family;
 use crate::session::RetryPolicy;
 
-/// Where the halts get their devices: the caller opens the face of a
+/// A face a run may keep across its lines (the shell's prompt watcher
+/// halts from another thread).
+pub type RunFace = dyn Face + Send;
+
+/// Where the handles get their devices: the caller opens the face of a
 /// family (for the Cdios, of one node) on the link it holds (a run of many
-/// commands keeps one open link). Each family is asked once per stop and
-/// each Cdios node once; an error says why the device could not be reached
-/// (asked again for its next halt).
+/// commands keeps one open link). An error says why the device could not be
+/// reached; the halt asks again.
 pub trait Reach {
-    fn face(&mut self, family: Family, node: Option<u8>) -> Result<Box<dyn Face>, String>;
+    fn face(&mut self, family: Family, node: Option<u8>) -> Result<Box<RunFace>, String>;
 }
 
 /// Which face halts a device: its family, and for the Cdios its node.
 type FaceKey = (Family, Option<u8>);
 
-/// The faces opened for one stop, by family and node.
-#[derive(Default)]
-struct Opened {
-    faces: Vec<(FaceKey, Box<dyn Face>)>,
-}
-
-impl Opened {
-    fn face(&mut self, reach: &mut dyn Reach, target: MotionTarget) -> Result<&mut dyn Face, String> {
-        let key = (target.family(), target.node());
-        let at = match self.faces.iter().position(|(k, _)| *k == key) {
-            Some(at) => at,
-            None => {
-                self.faces.push((key, reach.face(key.0, key.1)?));
-                self.faces.len() - 1
-            }
-        };
-        Ok(self.faces[at].1.as_mut())
-    }
+fn key(target: MotionTarget) -> FaceKey {
+    (target.family(), target.node())
 }
 
 /// One halt and how it went: what the device layer said, or why it failed.
@@ -51,52 +45,92 @@ pub struct HaltOutcome {
     pub result: Result<String, String>,
 }
 
-/// The devices the motion lines addressed, each once, in order.
-#[derive(Debug, Default, Clone, PartialEq)]
+/// The devices the motion lines addressed, each once, in order, and the
+/// handles that halt them.
 pub struct MovedDevices {
-    targets: Vec<MotionTarget>,
+    order: Vec<MotionTarget>,
+    held: Vec<(FaceKey, Moving<'static, RunFace>)>,
+    /// A halt whose acknowledge is lost is sent as often as a read is
+    /// (once, then `read_retries` more times): stopping twice is harmless;
+    /// a motion is never resent.
+    attempts: u32,
 }
 
 impl MovedDevices {
-    pub fn new() -> Self {
-        Self::default()
+    pub fn new(retry: RetryPolicy) -> Self {
+        Self { order: Vec::new(), held: Vec::new(), attempts: 1 + retry.read_retries }
     }
 
-    /// Keeps `target` unless it is kept already: a device is halted once
-    /// however many lines moved it.
-    pub fn note(&mut self, target: MotionTarget) {
-        if !self.targets.contains(&target) {
-            self.targets.push(target);
+    /// Before a line that may set `target` moving: keeps it (once however
+    /// many lines move it) under its face's handle, opened now if this is
+    /// the face's first device. A face that cannot be opened leaves the
+    /// device kept without a handle: its halt reaches for it again, and
+    /// says why when it still cannot.
+    pub fn arm(&mut self, reach: &mut dyn Reach, target: MotionTarget) {
+        if self.order.contains(&target) {
+            return;
+        }
+        self.order.push(target);
+        if let Some((_, moving)) = self.held.iter_mut().find(|(k, _)| *k == key(target)) {
+            moving.add(target);
+        } else if let Ok(face) = reach.face(target.family(), target.node()) {
+            self.held.push((key(target), Moving::owning(face, vec![target], self.attempts)));
         }
     }
 
     pub fn targets(&self) -> &[MotionTarget] {
-        &self.targets
+        &self.order
     }
 
     pub fn is_empty(&self) -> bool {
-        self.targets.is_empty()
+        self.order.is_empty()
     }
 
     /// Halts every device kept, in order, each whatever became of the
     /// others, and forgets them (a later stop halts only what moved since).
-    /// A halt whose acknowledge is lost is sent as often as a read is
-    /// (once, then `retry.read_retries` more times): stopping twice is
-    /// harmless; a motion is never resent.
-    pub fn halt(&mut self, reach: &mut dyn Reach, retry: RetryPolicy) -> Vec<HaltOutcome> {
-        let attempts = 1 + retry.read_retries;
-        let mut opened = Opened::default();
-        std::mem::take(&mut self.targets)
+    pub fn halt(&mut self, reach: &mut dyn Reach) -> Vec<HaltOutcome> {
+        let mut held = std::mem::take(&mut self.held);
+        let outcomes = std::mem::take(&mut self.order)
             .into_iter()
-            .map(|target| HaltOutcome { target, result: halt_one(&mut opened, reach, target, attempts) })
-            .collect()
+            .map(|target| HaltOutcome { target, result: self.halt_one(&mut held, reach, target) })
+            .collect();
+        // Every device is halted or failed and said: the emptied handles
+        // have nothing left to halt when they go.
+        for (_, moving) in held {
+            moving.release();
+        }
+        outcomes
+    }
+
+    fn halt_one(
+        &self,
+        held: &mut Vec<(FaceKey, Moving<'static, RunFace>)>,
+        reach: &mut dyn Reach,
+        target: MotionTarget,
+    ) -> Result<String, String> {
+        if !held.iter().any(|(k, _)| *k == key(target)) {
+            // Not reached when it was armed: asked again, once per face.
+            let face = reach.face(target.family(), target.node())?;
+            held.push((key(target), Moving::owning(face, Vec::new(), self.attempts)));
+        }
+        let (_, moving) = held.iter_mut().find(|(k, _)| *k == key(target)).expect("held above");
+        moving.add(target);
+        let halted = moving.halt_one(target).expect("added above");
+        said(target, halted.map_err(|e| e.to_string())?)
+    }
+
+    /// The run leaves what its lines moved as it is, on purpose, and
+    /// forgets it.
+    pub fn release(&mut self) {
+        self.order.clear();
+        for (_, moving) in self.held.drain(..) {
+            moving.release();
+        }
     }
 }
 
-fn halt_one(opened: &mut Opened, reach: &mut dyn Reach, target: MotionTarget, attempts: u32) -> Result<String, String> {
-    // Each family's halt is its face's; only the words are this run's.
-    let halted = opened.face(reach, target)?.halt(target, attempts);
-    let done = halted.map_err(|e| e.to_string())?;
+/// Each family's halt is its face's; only the words are this run's.
+fn said(target: MotionTarget, done: Halt) -> Result<String, String> {
     Ok(match (target, done) {
         (MotionTarget::Cube(m), _) => format!("module {m} halted"),
         (MotionTarget::CubeBus, _) => "Halt broadcast sent".into(),

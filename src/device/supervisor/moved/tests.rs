@@ -72,7 +72,7 @@ fn retries(n: u32) -> RetryPolicy {
 }
 
 impl Reach for Rig {
-    fn face(&mut self, family: Family, node: Option<u8>) -> Result<Box<dyn Face>, String> {
+    fn face(&mut self, family: Family, node: Option<u8>) -> Result<Box<RunFace>, String> {
         Ok(match (family, node.and_then(NodeId::new)) {
             (Family::PowerCube, _) => Box::new(self.cubes()?),
             (Family::Pac, _) => Box::new(self.controller()?),
@@ -178,7 +178,8 @@ fn cdios_target(n: u8, m: u8) -> MotionTarget {
 
 #[test]
 fn each_device_is_kept_once_in_the_order_it_first_moved() {
-    let mut moved = MovedDevices::new();
+    let mut r = rig();
+    let mut moved = MovedDevices::new(retries(0));
     assert!(moved.is_empty());
     for t in [
         MotionTarget::Cube(cube(17)),
@@ -193,7 +194,7 @@ fn each_device_is_kept_once_in_the_order_it_first_moved() {
         MotionTarget::CubeBus,
         MotionTarget::CubeBus,
     ] {
-        moved.note(t);
+        moved.arm(&mut r, t);
     }
     assert!(!moved.is_empty());
     assert_eq!(
@@ -238,11 +239,11 @@ fn every_device_of_every_family_is_halted_in_order_and_then_forgotten() {
     r.run(Duration::from_millis(300));
     assert!(r.cube_moving(3) && r.cube_moving(5) && r.motor_running(0));
     assert_ne!(r.axis_speed(2), Some(0.0), "axis 2 moving");
-    let mut moved = MovedDevices::new();
+    let mut moved = MovedDevices::new(retries(1));
     for t in [MotionTarget::Cube(cube(3)), MotionTarget::PacAxis(2), cdios_target(1, 0), MotionTarget::CubeBus] {
-        moved.note(t);
+        moved.arm(&mut r, t);
     }
-    let done = moved.halt(&mut r, retries(1));
+    let done = moved.halt(&mut r);
     let got: Vec<(MotionTarget, Result<&str, &str>)> =
         done.iter().map(|h| (h.target, h.result.as_deref().map_err(|e| e.as_str()))).collect();
     assert_eq!(got[0], (MotionTarget::Cube(cube(3)), Ok("module 3 halted")));
@@ -258,7 +259,7 @@ fn every_device_of_every_family_is_halted_in_order_and_then_forgotten() {
     assert!(!r.motor_running(0), "motor 0 stands");
     assert!(moved.is_empty(), "halted devices are forgotten");
     r.sent.lock().unwrap().clear();
-    assert!(moved.halt(&mut r, retries(1)).is_empty());
+    assert!(moved.halt(&mut r).is_empty());
     assert!(r.sent.lock().unwrap().is_empty(), "a second stop sends nothing");
 }
 
@@ -267,9 +268,9 @@ fn the_whole_controller_is_halted_by_its_mode_read_fresh() {
     let mut r = rig();
     r.start_axis(1);
     r.run(Duration::from_millis(300));
-    let mut moved = MovedDevices::new();
-    moved.note(MotionTarget::PacController);
-    let done = moved.halt(&mut r, retries(0));
+    let mut moved = MovedDevices::new(retries(0));
+    moved.arm(&mut r, MotionTarget::PacController);
+    let done = moved.halt(&mut r);
     assert_eq!(done.len(), 1);
     assert_eq!(done[0].result.as_deref(), Ok("online, no axes known: STOP (0600) sent"));
     r.run(Duration::from_secs(10));
@@ -291,7 +292,7 @@ fn a_halt_that_fails_says_why_and_the_others_still_go_out() {
     r.run(Duration::from_millis(300));
     // A controller that never answers: every step of its halt fails.
     r.silent = true;
-    let mut moved = MovedDevices::new();
+    let mut moved = MovedDevices::new(retries(1));
     for t in [
         MotionTarget::PacController,
         MotionTarget::Cube(cube(9)),
@@ -299,9 +300,9 @@ fn a_halt_that_fails_says_why_and_the_others_still_go_out() {
         cdios_target(1, 1),
         MotionTarget::Cube(cube(3)),
     ] {
-        moved.note(t);
+        moved.arm(&mut r, t);
     }
-    let done = moved.halt(&mut r, retries(1));
+    let done = moved.halt(&mut r);
     assert_eq!(done.iter().map(|h| h.target).collect::<Vec<_>>(), moved_order());
     let err = |i: usize| done[i].result.clone().unwrap_err();
     assert!(err(0).contains("no answer") && err(0).contains("; "), "status read and STOP both fail: {}", err(0));
@@ -329,12 +330,16 @@ fn a_device_that_cannot_be_reached_is_a_failed_halt_of_its_own() {
     r.start_cube(17);
     r.run(Duration::from_millis(100));
     r.unreachable = vec!["pac", "cdios"];
-    let mut moved = MovedDevices::new();
+    let mut moved = MovedDevices::new(retries(0));
     for t in [MotionTarget::PacAxis(1), MotionTarget::PacController, cdios_target(1, 0), MotionTarget::Cube(cube(17))] {
-        moved.note(t);
+        moved.arm(&mut r, t);
     }
-    let results: Vec<Result<String, String>> = moved.halt(&mut r, retries(0)).into_iter().map(|h| h.result).collect();
-    assert_eq!(r.opened, ["pac", "pac", "node 1", "powercube"], "a family that failed to open is asked again");
+    let results: Vec<Result<String, String>> = moved.halt(&mut r).into_iter().map(|h| h.result).collect();
+    assert_eq!(
+        r.opened,
+        ["pac", "pac", "node 1", "powercube", "pac", "pac", "node 1"],
+        "a family that failed to open when armed is asked again, and again at the halt"
+    );
     assert_eq!(
         results,
         [
@@ -345,9 +350,9 @@ fn a_device_that_cannot_be_reached_is_a_failed_halt_of_its_own() {
         ]
     );
     r.unreachable = vec!["powercube"];
-    moved.note(MotionTarget::Cube(cube(17)));
-    moved.note(MotionTarget::CubeBus);
-    let results: Vec<Result<String, String>> = moved.halt(&mut r, retries(0)).into_iter().map(|h| h.result).collect();
+    moved.arm(&mut r, MotionTarget::Cube(cube(17)));
+    moved.arm(&mut r, MotionTarget::CubeBus);
+    let results: Vec<Result<String, String>> = moved.halt(&mut r).into_iter().map(|h| h.result).collect();
     assert_eq!(results, [Err("no PowerCube link".into()), Err("no PowerCube link".into())]);
 }
 
@@ -358,16 +363,16 @@ fn a_motor_that_came_to_its_end_by_itself_is_no_failure() {
     r.node.halt_all(&[motor(0)]);
     r.run(Duration::from_secs(1));
     assert!(!r.motor_running(0));
-    let mut moved = MovedDevices::new();
-    moved.note(cdios_target(1, 0));
-    let done = moved.halt(&mut r, retries(1));
+    let mut moved = MovedDevices::new(retries(1));
+    moved.arm(&mut r, cdios_target(1, 0));
+    let done = moved.halt(&mut r);
     assert_eq!(done[0].result.as_deref(), Ok("node 1 module 0: not running"));
 }
 
 #[test]
 fn a_lost_halt_acknowledge_is_sent_again_up_to_the_attempts() {
     let mut r = rig();
-    let mut moved = MovedDevices::new();
+    let mut moved = MovedDevices::new(retries(2));
     let halts = |r: &Rig| {
         let sent = r.sent.lock().unwrap();
         sent.iter()
@@ -376,19 +381,19 @@ fn a_lost_halt_acknowledge_is_sent_again_up_to_the_attempts() {
             })
             .count()
     };
-    moved.note(MotionTarget::Cube(cube(9)));
-    assert!(moved.halt(&mut r, retries(2))[0].result.is_err());
+    moved.arm(&mut r, MotionTarget::Cube(cube(9)));
+    assert!(moved.halt(&mut r)[0].result.is_err());
     assert_eq!(halts(&r), 3, "module 9 is absent: three halts, no answer");
 }
 
 #[test]
-fn each_family_and_each_node_is_opened_once_per_stop() {
+fn each_family_and_each_node_is_opened_once_per_run_of_lines() {
     let mut r = rig();
     r.start_motor(0);
     r.start_motor(1);
     r.start_axis(1);
     r.run(Duration::from_millis(100));
-    let mut moved = MovedDevices::new();
+    let mut moved = MovedDevices::new(retries(0));
     for t in [
         MotionTarget::Cube(cube(3)),
         cdios_target(1, 0),
@@ -399,9 +404,9 @@ fn each_family_and_each_node_is_opened_once_per_stop() {
         cdios_target(1, 1),
         MotionTarget::CubeBus,
     ] {
-        moved.note(t);
+        moved.arm(&mut r, t);
     }
-    let done = moved.halt(&mut r, retries(0));
+    let done = moved.halt(&mut r);
     assert_eq!(r.opened, ["powercube", "node 1", "pac", "node 2"]);
     let ok: Vec<bool> = done.iter().map(|h| h.result.is_ok()).collect();
     // Node 2 is not on the bench: its halt fails; node 1's motor 1 is stopped.
@@ -409,4 +414,44 @@ fn each_family_and_each_node_is_opened_once_per_stop() {
     assert_eq!(done[6].result.as_deref(), Ok("node 1 module 1: fast stop sent"));
     r.run(Duration::from_millis(500));
     assert!(!r.motor_running(1));
+}
+
+/// The handles are armed from the line on: a run that ends some other way
+/// than a halt or a release (a panic's unwind drops it) halts what it holds.
+#[test]
+fn dropped_without_a_halt_or_a_release_the_handles_halt_what_moved() {
+    let mut r = rig();
+    let mut moved = MovedDevices::new(retries(0));
+    moved.arm(&mut r, MotionTarget::Cube(cube(3)));
+    moved.arm(&mut r, cdios_target(1, 0));
+    r.start_cube(3);
+    r.start_motor(0);
+    r.run(Duration::from_millis(300));
+    assert!(r.cube_moving(3) && r.motor_running(0));
+    let unwound = std::panic::catch_unwind(std::panic::AssertUnwindSafe(move || {
+        let _held = moved;
+        panic!("a line panics");
+    }));
+    assert!(unwound.is_err());
+    r.run(Duration::from_secs(10));
+    assert!(!r.cube_moving(3), "module 3 halted by its handle");
+    assert!(!r.motor_running(0), "motor 0 halted by its handle");
+}
+
+/// Released (`--keep-going`, `exit --keep-moving`, a batch run to its
+/// end), what moved keeps moving and nothing is sent.
+#[test]
+fn released_handles_leave_the_motion_running_and_send_nothing() {
+    let mut r = rig();
+    let mut moved = MovedDevices::new(retries(0));
+    moved.arm(&mut r, MotionTarget::Cube(cube(3)));
+    r.start_cube(3);
+    r.run(Duration::from_millis(300));
+    r.sent.lock().unwrap().clear();
+    moved.release();
+    assert!(moved.is_empty());
+    drop(moved);
+    r.run(Duration::from_millis(300));
+    assert!(r.cube_moving(3), "still moving");
+    assert!(r.sent.lock().unwrap().is_empty(), "nothing sent");
 }
