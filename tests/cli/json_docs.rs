@@ -67,7 +67,9 @@ fn family_link<'a>(sim: &'a common::Sim, args: &[&str]) -> &'a str {
 
 #[test]
 fn every_documented_example_matches_real_output() {
-    let document = schema("document");
+    let (document, stream) = (schema("document"), schema("stream_line"));
+    // A stream's example is one line of it.
+    let streams = ["cdios-watch", "record"];
     let mut checked = 0;
     for entry in std::fs::read_dir(concat!(env!("CARGO_MANIFEST_DIR"), "/docs")).unwrap() {
         let path = entry.unwrap().path();
@@ -90,8 +92,9 @@ fn every_documented_example_matches_real_output() {
             if let Err(e) = same_shape(&doc, &r.json(), "$") {
                 panic!("{name}: `axisctl {cmd}`: {e}");
             }
+            let schema = if args.iter().any(|a| streams.contains(a)) { &stream } else { &document };
             for (what, v) in [("real output", r.json()), ("documented example", doc)] {
-                if let Some(e) = schema_errors(&document, &v) {
+                if let Some(e) = schema_errors(schema, &v) {
                     panic!("{name}: `axisctl {cmd}`: the {what} breaks the schema:\n{e}");
                 }
             }
@@ -157,10 +160,11 @@ fn shape_comparison_notices_differences() {
 #[test]
 fn schema_rejects_broken_conventions() {
     let document = schema("document");
-    let good = serde_json::json!({"family": "powercube", "module": 17, "link": "sim", "acknowledged": true,
-        "state": {"raw": 2, "flags": ["STATE_HOME_OK"], "errors": [], "warnings": [],
-                  "details": [{"name": "STATE_HOME_OK", "mask": 2, "class": "info", "description": "homed"}],
-                  "unknown_bits": 0}});
+    let detail = serde_json::json!({"name": "SHORT_NOT_OK", "mask": 1, "class": "warning", "description": "not ok"});
+    let good = serde_json::json!({"family": "powercube", "module": 17, "link": "sim",
+        "short_state": {"raw": 1, "flags": ["SHORT_NOT_OK"], "errors": [], "warnings": ["SHORT_NOT_OK"],
+                        "details": [detail], "unknown_bits": 0},
+        "state": {"raw": 0, "flags": [], "errors": [], "warnings": [], "details": [], "unknown_bits": 0}});
     assert_eq!(schema_errors(&document, &good), None);
     let broken = |path: &str, v: Value| {
         let mut doc = good.clone();
@@ -171,16 +175,29 @@ fn schema_rejects_broken_conventions() {
         broken("/module", Value::from(0)),
         broken("/family", Value::from("pa-control")),
         broken("/state/unknown_bits", serde_json::json!([])),
-        broken("/state/details/0/class", Value::from("fatal")),
+        broken("/short_state/details/0/class", Value::from("fatal")),
         broken("/state", Value::from(1)),
-        broken("/acknowledged", Value::from(1)),
+        // The short state's old shape, a bare integer.
+        broken("/short_state", Value::from(1)),
+        serde_json::json!({"foo": 1}),
+        serde_json::json!({}),
         serde_json::json!({"family": "cdios", "link": "sim", "module": 0}),
         serde_json::json!({"module": 3, "error": 0}),
         serde_json::json!({"devices": [{"module": 3}]}),
         serde_json::json!({"family": "pac", "link": "sim", "axis": 2, "position": 200.5}),
         serde_json::json!({"family": "cdios", "link": "sim", "node": 1, "module": 0, "motor_speed": 300}),
+        // A broadcast names no module; a module's command is no broadcast.
+        serde_json::json!({"family": "powercube", "link": "sim", "module": 17, "command": "home",
+                           "acknowledged": false, "broadcast": true}),
+        serde_json::json!({"family": "powercube", "link": "sim", "module": null, "command": "home", "acknowledged": true}),
+        // A PA-CONTROL move always says where it goes.
+        serde_json::json!({"family": "pac", "link": "sim", "axis": 2, "command": "pac-move", "manual_command": "move-absolute",
+                           "command_code": "0A94", "acknowledged": true, "done": false}),
+        // A PowerCube move's old bare target.
+        serde_json::json!({"family": "powercube", "link": "sim", "module": 17, "command": "move-ramp",
+                           "acknowledged": true, "target": 0.1}),
     ] {
-        assert!(schema_errors(&document, &bad).is_some(), "accepted {bad}");
+        assert!(document.iter_errors(&bad).next().is_some(), "accepted {bad}");
     }
     let error = schema("error_document");
     assert_eq!(
@@ -194,6 +211,40 @@ fn schema_rejects_broken_conventions() {
     ] {
         assert!(schema_errors(&error, &bad).is_some(), "accepted {bad}");
     }
+}
+
+/// A real document turns invalid with an unknown key at the top level and
+/// in every nested object (a `{value, unit}`, the `state`, a detail), and
+/// the check that every test's schema validation makes
+/// (`common::schema_errors`) notices a schema that leaves one object open:
+/// the published schema with `additionalProperties: false` taken off
+/// `{value, unit}` accepts `position.axisctl_unknown_key`.
+#[test]
+fn an_unknown_key_in_any_object_of_a_real_document_makes_it_invalid() {
+    let r = common::run(&["--link", "sim", "--json", "pac-axis", "2"]);
+    assert_eq!(r.code, 0, "{}", r.stderr);
+    let doc = r.json();
+    let document = schema("document");
+    assert_eq!(schema_errors(&document, &doc), None, "{doc}");
+    let variants = common::with_an_unknown_key(&doc);
+    let at: Vec<&str> = variants.iter().map(|(p, _)| p.as_str()).collect();
+    for p in ["", "/position", "/speed", "/state", "/state/details/0"] {
+        assert!(at.contains(&p), "no copy with a key added at {p:?}: {at:?}");
+    }
+    for (p, d) in &variants {
+        assert!(document.iter_errors(d).next().is_some(), "an unknown key at {p:?} is accepted");
+    }
+
+    let text = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/schema/axisctl.schema.json")).unwrap();
+    let mut open: Value = serde_json::from_str(&text).unwrap();
+    let value = open.pointer_mut("/$defs/value").and_then(Value::as_object_mut).unwrap();
+    assert_eq!(value.remove("additionalProperties"), Some(Value::Bool(false)));
+    open.as_object_mut().unwrap().remove("anyOf");
+    open["$ref"] = Value::from("#/$defs/document");
+    let loose = jsonschema::validator_for(&open).unwrap();
+    let said = schema_errors(&loose, &doc).expect("the open {value, unit} is noticed");
+    assert!(said.contains("\"/position\""), "{said}");
+    assert!(!said.contains("\"\" "), "{said}");
 }
 
 /// Beyond the documented examples: every `--link sim` example of every

@@ -24,6 +24,7 @@ mod flags_cli;
 mod guide_walkthrough;
 mod json_docs;
 mod json_streams;
+mod json_vocabulary;
 mod monitor_cli;
 mod multi_device_json;
 mod names_cli;
