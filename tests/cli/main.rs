@@ -5,6 +5,7 @@
 #[path = "../common/mod.rs"]
 mod common;
 
+mod address;
 mod backup_cli;
 mod batch_cli;
 mod batch_pipeline;

@@ -14,17 +14,21 @@ const LAYERS: &[(&str, &[&str])] = &[
     ("proto", &[]),
     ("link", &["proto", "clock"]),
     ("family", &["proto", "link"]),
+    ("address", &["family"]),
     ("session", &["proto", "link", "clock", "family"]),
     ("sim", &["proto", "link", "clock", "family"]),
     ("open", &["proto", "link", "clock", "family", "session", "sim"]),
-    ("bench", &["link", "family"]),
-    ("device", &["proto", "link", "session", "clock", "family"]),
-    ("backup", &["device", "proto", "family", "session"]),
+    ("bench", &["link", "family", "address"]),
+    ("device", &["proto", "link", "session", "clock", "family", "address"]),
+    ("backup", &["device", "proto", "family", "session", "address"]),
     ("monitor", &["proto", "family"]),
-    ("tui", &["device", "session", "proto", "link", "clock", "family", "monitor", "plot"]),
+    ("tui", &["device", "session", "proto", "link", "clock", "family", "monitor", "plot", "address"]),
     ("plot", &[]),
-    ("record", &["device", "session", "proto", "link", "clock", "family"]),
-    ("commission", &["device", "session", "proto", "link", "clock", "family", "backup", "record", "plot", "bench"]),
+    ("record", &["device", "session", "proto", "link", "clock", "family", "address"]),
+    (
+        "commission",
+        &["device", "session", "proto", "link", "clock", "family", "backup", "record", "plot", "bench", "address"],
+    ),
 ];
 
 /// Top-level modules of the binary crate (declared in main.rs): not layers
@@ -497,9 +501,11 @@ fn commands_hold_no_halt_sequence() {
 const FAMILY_MODULES: [&str; 3] = ["powercube", "pac", "cdios"];
 
 /// Whether a path under src/ is a family's own (`*/powercube*`, `*/pac*`,
-/// `*/cdios*`) or the registry of families (`family.rs`, `device/registry/`).
+/// `*/cdios*`) or the registry of families (`family.rs`, `address.rs`, the
+/// one device address with a variant per family, `device/registry/`).
 fn family_or_registry(rel: &str) -> bool {
     rel == "family.rs"
+        || rel == "address.rs"
         || rel.starts_with("device/registry/")
         || rel.split('/').any(|c| FAMILY_MODULES.iter().any(|f| c.starts_with(f)))
 }
