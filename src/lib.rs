@@ -8,6 +8,8 @@
 //! - [`family`]: the families, declared once (names, links, serial defaults, id ranges,
 //!   decode kinds, dashboard capabilities, and for a CAN family its answer ids and how its
 //!   frames read).
+//! - [`address`]: the one device address (`powercube:3`, `pac:2`, `cdios:1/0`), parsed and
+//!   printed against the family registry's id ranges, and the labels each output gives it.
 //! - [`session`]: one core (timeouts, retries, tracing, the pipelined CAN burst) and a thin
 //!   session per family; [`session::bus`] shares one CAN link between families.
 //! - [`sim`]: clock-driven simulators of the devices.
@@ -21,6 +23,7 @@
 //! - [`plot`]: charts of sampled values as SVG (recordings, dashboard snapshots); pure.
 //! - `cli` and `commands` (binary side): the command line as typed, and thin subcommands.
 
+pub mod address;
 pub mod backup;
 pub mod bench;
 pub mod clock;
@@ -36,3 +39,5 @@ pub mod record;
 pub mod session;
 pub mod sim;
 pub mod tui;
+
+pub use address::Address;

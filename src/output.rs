@@ -340,11 +340,7 @@ pub fn state(raw: u64, set: &[Detail], unknown_bits: u64) -> serde_json::Value {
 
 /// A flag word (the PowerCube's CubeState, Config, DioSetup) in the `state` shape.
 pub fn flag_word(word: &FlagWord, raw: u32) -> serde_json::Value {
-    let set: Vec<Detail> = word
-        .set_flags(raw)
-        .map(|d| Detail { name: d.name, mask: d.mask.into(), class: d.class.name(), description: d.description })
-        .collect();
-    state(raw.into(), &set, u64::from(raw & !word.known_mask()))
+    word.state_json(raw)
 }
 
 /// The batch line (`batch`, `shell` with `--json`) whose documents

@@ -631,7 +631,8 @@ fn race_late(r: &LateRace, runs: u64, seed: u64) -> LateTally {
             let v: serde_json::Value = serde_json::from_str(stdout.trim()).unwrap_or_default();
             let said = v["position"]["value"].as_f64();
             let in_position = v["axis_status"].as_u64().is_none_or(|s| s == 0);
-            let at_target = v["target"].as_f64().is_none_or(|target| said.is_some_and(|p| (p - target).abs() < 1e-3));
+            let at_target =
+                v["target"]["value"].as_f64().is_none_or(|target| said.is_some_and(|p| (p - target).abs() < 1e-3));
             let agrees = said.is_some_and(|p| (p - position_now).abs() < 1e-3);
             if !(in_position && at_target && agrees && status_now == 0) {
                 t.wrong_in_position += 1;

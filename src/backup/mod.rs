@@ -113,6 +113,21 @@ pub struct Address {
     pub node: Option<u8>,
 }
 
+/// The one device address in the backup's envelope form. The backup's
+/// own form stays while a file may hold ids no device has (a module 40, no
+/// module at all): a restore or diff names them as written.
+impl From<crate::address::Address> for Address {
+    fn from(a: crate::address::Address) -> Self {
+        use crate::address::Address as One;
+        let none = Self { family: a.family(), module: None, axis: None, node: None };
+        match a {
+            One::PowerCube { module } => Self { module: Some(module), ..none },
+            One::Pac { axis } => Self { axis, ..none },
+            One::Cdios { node, module } => Self { module: Some(module), node: Some(node), ..none },
+        }
+    }
+}
+
 impl std::fmt::Display for Address {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         write!(f, "{}", self.family.name())?;

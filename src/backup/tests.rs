@@ -454,3 +454,18 @@ fn a_cdios_restore_told_to_stop_writes_nothing_more() {
         }
     }
 }
+
+#[test]
+fn the_one_address_in_the_backups_form() {
+    use crate::address::Address as One;
+    let said: Vec<String> = [
+        One::PowerCube { module: 3 },
+        One::Pac { axis: None },
+        One::Pac { axis: Some(2) },
+        One::Cdios { node: 1, module: 0 },
+    ]
+    .into_iter()
+    .map(|a| Address::from(a).to_string())
+    .collect();
+    assert_eq!(said, ["powercube module 3", "pac", "pac axis 2", "cdios node 1 module 0"]);
+}

@@ -10,8 +10,8 @@ use std::path::{Path, PathBuf};
 use serde::Deserialize;
 use toml::Spanned;
 
-use super::address::{self, Address};
 use super::{default_families, fits, port, BenchLink};
+use crate::address::{self, Address};
 use crate::family::Family;
 use crate::link::LinkSpec;
 

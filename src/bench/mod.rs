@@ -7,13 +7,15 @@
 //! It only says where things are: opening is [`crate::open`]'s, which opens
 //! each port once and shares a CAN port among the families on it.
 
-pub mod address;
 mod file;
+
+/// The one device address, here too because a bench names its devices by it.
+pub use crate::address;
 
 use std::collections::BTreeMap;
 use std::path::Path;
 
-pub use address::{Address, AddressError, DeviceRef};
+pub use crate::address::{Address, AddressError, DeviceRef};
 pub use file::FileError;
 
 use crate::family::Family;

@@ -2,12 +2,12 @@
 
 use clap::Args;
 
-use axisctl::device::registry;
 use axisctl::device::supervisor::MotionTarget;
 use axisctl::family::Family;
 use axisctl::monitor::{describe, motion_of};
 use axisctl::proto::can_error::ERR_FLAG;
 use axisctl::proto::CanFrame;
+use axisctl::Address;
 
 #[derive(Debug, Args)]
 pub struct SendArgs {
@@ -57,7 +57,10 @@ impl SendArgs {
                 // A Cdios frame names its node and module, the others their
                 // module; one the decoder cannot place halts the PowerCube bus.
                 let ids = if i.node.is_some() { (i.node, i.module) } else { (i.module, None) };
-                let at = i.family.and_then(|f| registry::target(f, ids.0, ids.1));
+                let at = i
+                    .family
+                    .and_then(|f| Address::of_ids(f, ids.0, ids.1))
+                    .and_then(|a| MotionTarget::try_from(a).ok());
                 Some(at.unwrap_or(MotionTarget::CubeBus))
             }
         }

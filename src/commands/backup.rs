@@ -76,16 +76,6 @@ fn nodes(bench: &Bench, link: &BenchLink, node: u8) -> Vec<u8> {
     all.into_iter().collect()
 }
 
-/// A bench file's address in the backup's form.
-fn backup_address(a: bench::Address) -> Address {
-    let none = Address { family: a.family(), module: None, axis: None, node: None };
-    match a {
-        bench::Address::PowerCube { module } => Address { module: Some(module), ..none },
-        bench::Address::Pac { axis } => Address { axis, ..none },
-        bench::Address::Cdios { node, module } => Address { module: Some(module), node: Some(node), ..none },
-    }
-}
-
 /// Why the commands stop: a device a backup file names that is not on the
 /// bench (no link reaches its family, or it does not answer).
 struct Missing<'d> {
@@ -171,7 +161,7 @@ fn save(ctx: &Ctx, select: &Selection, out: Option<&Path>) -> anyhow::Result<()>
     }
     live::done();
     // A device the bench file expects is never silently left out of its backup.
-    let expected = bench.links().iter().flat_map(|l| l.devices.iter().map(move |(n, a)| (n, backup_address(*a), l)));
+    let expected = bench.links().iter().flat_map(|l| l.devices.iter().map(move |(n, a)| (n, Address::from(*a), l)));
     let absent: Vec<String> = expected
         .filter(|(_, a, _)| select.module.is_none() && (named.is_empty() || named.contains(&a.family)))
         .filter(|(_, a, l)| !devices.iter().any(|d: &Device| d.address() == *a && d.link == l.text))

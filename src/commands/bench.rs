@@ -52,17 +52,6 @@ fn on<'a>(ctx: &'a Ctx, link: &'a BenchLink) -> On<'a> {
     On { opener: ctx.opener(), spec: &link.spec, opts: ctx.session_options() }
 }
 
-/// The bench's address of a device a face names; `None` for every device
-/// of a family at once (a broadcast).
-fn address_of(t: MotionTarget) -> Option<Address> {
-    match (t.family(), t.ids()) {
-        (Family::PowerCube, (Some(module), _)) => Some(Address::PowerCube { module }),
-        (Family::Pac, (axis, _)) => Some(Address::Pac { axis }),
-        (Family::Cdios, (Some(node), Some(module))) => Some(Address::Cdios { node, module }),
-        _ => None,
-    }
-}
-
 pub fn scan(ctx: &Ctx, ids: &[u8]) -> anyhow::Result<()> {
     let bench = ctx.bench()?;
     share_links(ctx);
@@ -71,7 +60,7 @@ pub fn scan(ctx: &Ctx, ids: &[u8]) -> anyhow::Result<()> {
         for unit in registry::units(family, &cdios_nodes(link)) {
             let mut face = registry::open(family, unit, &mut on(ctx, link), ctx.retry)?;
             for f in face.discover(ids)? {
-                let Some(address) = address_of(f.target) else { continue };
+                let Ok(address) = Address::try_from(f.target) else { continue };
                 seen.push(Seen { address, link: link.text.clone(), detail: f.detail });
             }
         }
@@ -189,7 +178,7 @@ pub fn halt_all(ctx: &Ctx) -> anyhow::Result<()> {
             }
             for s in done {
                 let result = s.result.map(said).map_err(|e| takeover::failed(e, t.as_ref()));
-                steps.push(step(s.target.and_then(address_of), result));
+                steps.push(step(s.target.and_then(|t| Address::try_from(t).ok()), result));
             }
             holders.extend(HolderReport::after_halt(t.as_ref()));
         }
@@ -211,9 +200,8 @@ pub fn halt_devices(ctx: &Ctx, devices: &[DeviceRef]) -> anyhow::Result<()> {
     let mut named: Vec<(Address, &BenchLink, MotionTarget)> = Vec::new();
     for d in devices {
         let at = bench.resolve(d)?;
-        let (first, second) = at.ids();
-        let target = registry::target(at.family(), first, second)
-            .ok_or_else(|| super::usage(format!("{at} is not a device its family can stop")))?;
+        let target = MotionTarget::try_from(at)
+            .map_err(|_| super::usage(format!("{at} is not a device its family can stop")))?;
         if !named.iter().any(|(a, ..)| *a == at) {
             named.push((at, bench.link_of(at)?, target));
         }

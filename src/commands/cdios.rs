@@ -16,8 +16,8 @@ use axisctl::device::face::{Face, Halt, Manner, MotionTarget, StopHow};
 use axisctl::family::Family;
 use axisctl::proto::cdios::table::{self, STATUS_FLAGS};
 use axisctl::proto::cdios::{
-    decode_status, Command, Direction, ErrorReply, GotoMode, ModuleId, NodeId, PositionSource, StartOption,
-    StatusReport, StopOption, Timers,
+    decode_status, Command, Direction, GotoMode, ModuleId, NodeId, PositionSource, StartOption, StatusReport,
+    StopOption, Timers,
 };
 use axisctl::session::cdios::{Cdios, Event};
 use serde_json::{json, Value};
@@ -132,7 +132,7 @@ fn node(mut s: Cdios, n: &NodeArgs, ctx: &Ctx) -> Node {
 
 /// The 4 status bytes in the one `state` shape: status 1 is the low byte
 /// of `raw`, so a flag's mask is `1 << (8 * (byte - 1) + bit)`.
-fn status_json(r: &StatusReport) -> Value {
+pub(super) fn status_json(r: &StatusReport) -> Value {
     let mask = |byte: u8, bit: u8| 1u64 << (8 * u32::from(byte.saturating_sub(1)) + u32::from(bit));
     let set: Vec<output::Detail> = STATUS_FLAGS
         .iter()
@@ -148,7 +148,7 @@ fn status_json(r: &StatusReport) -> Value {
     output::state(u32::from_le_bytes(r.status).into(), &set, unknown)
 }
 
-fn status_line(ctx: &Ctx, r: &StatusReport) -> String {
+pub(super) fn status_line(ctx: &Ctx, r: &StatusReport) -> String {
     let names: Vec<String> =
         r.flags.iter().map(|n| if r.errors.contains(n) { ctx.style.error(n) } else { (*n).to_string() }).collect();
     let bytes = r.status.iter().map(|b| format!("{b:02x}")).collect::<Vec<_>>().join(" ");
@@ -258,7 +258,7 @@ fn read_each(
     Ok(())
 }
 
-fn merge(doc: &mut Value, more: Value) {
+pub(super) fn merge(doc: &mut Value, more: Value) {
     if let (Some(d), Value::Object(m)) = (doc.as_object_mut(), more) {
         d.extend(m);
     }
@@ -761,84 +761,6 @@ fn watch(
             }
             lines += 1;
         }
-    }
-    Ok(())
-}
-
-// ---- decode ----
-
-/// `axisctl decode cdios-status|cdios-error VALUE`; `None` for other kinds.
-pub fn decode_kind(ctx: &Ctx, kind: &str, value: &str) -> Option<anyhow::Result<()>> {
-    match kind.to_ascii_lowercase().as_str() {
-        "cdios-status" => Some(decode_status_bytes(ctx, value)),
-        "cdios-error" => Some(decode_error(ctx, value)),
-        _ => None,
-    }
-}
-
-fn hex_bytes(text: &str) -> anyhow::Result<Vec<u8>> {
-    crate::output::parse_hex_bytes(text).ok_or_else(|| usage(format!("{text:?} is not a sequence of hex bytes")))
-}
-
-fn decode_status_bytes(ctx: &Ctx, value: &str) -> anyhow::Result<()> {
-    let b = hex_bytes(value)?;
-    let status: [u8; 4] = b.as_slice().try_into().map_err(|_| {
-        usage(format!(
-            "cdios-status takes the 4 status bytes in wire order (status 1 first), e.g. 81008010; got {} bytes",
-            b.len()
-        ))
-    })?;
-    let r = decode_status(status);
-    if ctx.json {
-        let mut doc = json!({"kind": "cdios-status"});
-        merge(&mut doc, status_json(&r));
-        output::json(&doc);
-        return Ok(());
-    }
-    say!("Cdios 6168 status {}", status_line(ctx, &r));
-    let mut rows = vec![["BIT", "FLAG", "CLASS", "MEANING"].map(String::from).to_vec()];
-    for f in STATUS_FLAGS.iter().filter(|f| f.is_set(&status)) {
-        let name = if f.class == table::Class::Error { ctx.style.error(f.name) } else { f.name.to_string() };
-        rows.push(vec![format!("status {}.{}", f.byte, f.bit), name, f.class.name().into(), f.meaning.into()]);
-    }
-    if rows.len() > 1 {
-        output::table(&rows, ctx.style);
-    }
-    for (b, bit) in &r.reserved {
-        say!("{}", ctx.style.warn(&format!("status {b} bit {bit} is set (reserved)")));
-    }
-    Ok(())
-}
-
-fn decode_error(ctx: &Ctx, value: &str) -> anyhow::Result<()> {
-    let b = hex_bytes(value)?;
-    let e = ErrorReply::decode(&b).map_err(|err| {
-        usage(format!(
-            "cdios-error takes the data bytes of an error reply (code | 0x80 first, e.g. a3 01 00 00 80): {err}"
-        ))
-    })?;
-    let general = e.general_error();
-    if ctx.json {
-        let flags: Vec<Value> = e
-            .flags()
-            .iter()
-            .map(|f| json!({"name": f.name, "status": f.byte, "bit": f.bit, "meaning": f.meaning}))
-            .collect();
-        output::json(&json!({
-            "kind": "cdios-error", "code": e.code, "command_code": format!("{:02X}", e.command),
-            "command": table::COMMANDS.iter().find(|c| c.code == e.command).map_or("unknown", |c| c.name),
-            "module": e.module, "general": e.general,
-            "general_name": general.map(|g| g.0), "general_text": general.map(|g| g.1),
-            "status1": e.status1, "status2": e.status2, "flags": flags, "unknown_bits": e.unknown_bits(),
-        }));
-        return Ok(());
-    }
-    say!("{}", e.describe());
-    if let Some((name, text)) = general {
-        say!("general error {} {name}: {text}", e.general);
-    }
-    for f in e.flags() {
-        say!("  error status {} bit {}: {} ({})", f.byte, f.bit, ctx.style.error(f.name), f.meaning);
     }
     Ok(())
 }

@@ -49,7 +49,7 @@ pub fn usage(e: &clap::Error, exit_code: u8) -> Value {
 /// command's wire code, the device's code and the manual's text for it, and
 /// the set error bits in the `state` detail shape. Each family's refusal
 /// says it in its folder (`commands/<family>.rs`).
-fn device(r: &Refusal) -> Value {
+pub(super) fn device(r: &Refusal) -> Value {
     match r {
         Refusal::PaControl(p) => p.device_doc(),
         Refusal::Cdios(c) => c.device_doc(),

@@ -26,7 +26,7 @@ use axisctl::device::face::{Face, Halt, MotionTarget, StopHow};
 use axisctl::device::pac::{self as device, Controller, Element, Register};
 use axisctl::family::Family;
 use axisctl::open::Takeover;
-use axisctl::proto::pac::table::{self, CommandDef, ExtAxisStatus, POSITION_UNIT, SPEED_UNIT};
+use axisctl::proto::pac::table::{self, CommandDef, POSITION_UNIT, SPEED_UNIT};
 use axisctl::proto::pac::{Ack, CheckRule, Command, Par2};
 use axisctl::session::pac::Progress;
 use serde_json::json;
@@ -556,36 +556,10 @@ fn axis_json(ctx: &Ctx, d: &mut Controller, axis: u8) -> anyhow::Result<serde_js
         envelope,
         json!({"position": output::with_unit(json!(position), POSITION_UNIT),
               "speed": output::with_unit(json!(speed), SPEED_UNIT), "axis_status": status,
-              "axis_status_text": table::axis_status_text(status), "state": ext_status_json(ext_raw),
+              "axis_status_text": table::axis_status_text(status), "state": super::decode::ext_axis_state(ext_raw),
               "traverse_min": output::with_unit(json!(min), POSITION_UNIT),
               "traverse_max": output::with_unit(json!(max), POSITION_UNIT)}),
     ))
-}
-
-/// The extended axis status (1921, manual 5.2.4.28) in the one `state`
-/// shape. Its bytes are fields, not bits: the mask of a flag is the byte
-/// that says it (a limit switch is activated when its byte is 0); the low
-/// byte is the axis status of 1910, whose codes 1, 2, 4, 8 are bits.
-fn ext_status_json(raw: u32) -> serde_json::Value {
-    let ext = ExtAxisStatus::decode(raw);
-    let mut set = Vec::new();
-    let mut flag = |on: bool, name, mask, class, description| {
-        if on {
-            set.push(output::Detail { name, mask, class, description });
-        }
-    };
-    flag(ext.power_pack_ready, "POWER_PACK_READY", 0xff00_0000, "info", "the power pack is ready (bits 24-31 = 1)");
-    let positive = "the positive limit switch is activated (bits 16-23 = 0)";
-    flag(ext.positive_limit_activated, "POSITIVE_LIMIT_ACTIVATED", 0x00ff_0000, "warning", positive);
-    let negative = "the negative limit switch is activated (bits 8-15 = 0)";
-    flag(ext.negative_limit_activated, "NEGATIVE_LIMIT_ACTIVATED", 0x0000_ff00, "warning", negative);
-    let names = ["AXIS_MOVING", "AXIS_STOPPED", "AXIS_FAULT", "AXIS_MEASURING_MODE"];
-    for (bit, name) in names.into_iter().enumerate() {
-        let mask = 1u64 << bit;
-        let class = if name == "AXIS_FAULT" { "error" } else { "info" };
-        flag(u64::from(ext.axis_status) & mask != 0, name, mask, class, table::axis_status_text(mask));
-    }
-    output::state(raw.into(), &set, u64::from(ext.axis_status & 0xf0))
 }
 
 /// `pac-axis` of each axis asked for: one object for one axis, else

@@ -367,7 +367,8 @@ fn show_state(ctx: &Ctx, cubes: &mut Cubes, m: ModuleId) -> anyhow::Result<serde
 /// Prints `state`'s human form and returns its JSON object.
 fn state_shown(ctx: &Ctx, m: ModuleId, cube: u32) -> anyhow::Result<serde_json::Value> {
     if ctx.json {
-        let short = flags::short_state_from_cube_state(cube);
+        // The short state in the one state shape, as `decode profibus-image` gives it.
+        let short = word_json(&flags::SHORT_STATE, flags::short_state_from_cube_state(cube).into());
         return Ok(doc(ctx, m, json!({"state": word_json(&flags::CUBE_STATE, cube), "short_state": short})));
     }
     say_part!("module {m}: ");
@@ -523,6 +524,17 @@ fn print_wait_results(ctx: &Ctx, cubes: &mut Cubes, what: &str, results: &[WaitE
     Ok(())
 }
 
+/// A move's target with its unit under --json: ticks with --ticks, else rad
+/// or m by the module's Config, read before the motion frame (a failed read
+/// leaves nothing moving, and nothing is read after the motion).
+fn target_unit(ctx: &Ctx, cubes: &mut Cubes, m: ModuleId, ticks: bool) -> anyhow::Result<&'static str> {
+    Ok(match (ctx.json, ticks) {
+        (false, _) => "",
+        (true, true) => "ticks",
+        (true, false) => table::position_unit(device::is_linear(cubes.get_u32(m, ids::CONFIG)?)),
+    })
+}
+
 /// Checks and sends a move; the checks that need no module come before the
 /// link is opened. A move to be waited for must start on its own.
 /// Checks the motion, opens the link and sends it.
@@ -600,9 +612,11 @@ fn move_ramp(
     check_target(target, ramp, ticks)?;
     let mut cubes = cubes(ctx)?;
     if !wait.wait {
+        let unit = target_unit(ctx, &mut cubes, m, ticks)?;
         let pos = send_move_to(ctx, &mut cubes, (m, target), ramp, ticks, force, false)?;
         if ctx.json {
-            output::json(&doc(ctx, m, json!({"command": "move-ramp", "target": pos, "acknowledged": true})));
+            let target = output::with_unit(json!(pos), unit);
+            output::json(&doc(ctx, m, json!({"command": "move-ramp", "target": target, "acknowledged": true})));
         }
         return Ok(());
     }
@@ -637,12 +651,16 @@ fn move_ramp_sync(
             .follow(|c| move_ramp_sync_waited(ctx, c, &plan, ticks, force, wait));
         return released(&mut cubes, r);
     }
+    let units = ms.iter().map(|m| target_unit(ctx, &mut cubes, *m, ticks)).collect::<anyhow::Result<Vec<_>>>()?;
     let started = cubes.move_sync(&plan, force, 1 + ctx.retry.read_retries)?;
     say_started(ctx, &started);
     if ctx.json {
         let list: Vec<_> = started
             .iter()
-            .map(|(m, moved)| doc(ctx, *m, json!({"target": moved.target, "acknowledged": true})))
+            .zip(units)
+            .map(|((m, moved), unit)| {
+                doc(ctx, *m, json!({"target": output::with_unit(json!(moved.target), unit), "acknowledged": true}))
+            })
             .collect();
         output::json(&json!({"command": "move-ramp", "sync": true, "devices": list, "broadcast": "StartMotion"}));
     }
@@ -692,12 +710,15 @@ fn move_step(
 ) -> anyhow::Result<()> {
     let step = |pos| Move::Step { pos, time_ms: time };
     check_target(target, step, ticks)?;
-    let pos = send_move_to(ctx, &mut cubes(ctx)?, (m, target), step, ticks, force, false)?;
+    let mut cubes = cubes(ctx)?;
+    let unit = target_unit(ctx, &mut cubes, m, ticks)?;
+    let pos = send_move_to(ctx, &mut cubes, (m, target), step, ticks, force, false)?;
     if ctx.json {
+        let target = output::with_unit(json!(pos), unit);
         output::json(&doc(
             ctx,
             m,
-            json!({"command": "move-step", "target": pos, "time_ms": time, "acknowledged": true}),
+            json!({"command": "move-step", "target": target, "time_ms": time, "acknowledged": true}),
         ));
     }
     Ok(())

@@ -7,8 +7,8 @@
 use std::time::Duration;
 
 use axisctl::device::cdios::{self as cdios_dev, Node};
-use axisctl::device::face::FaceError;
 use axisctl::device::face::Moving;
+use axisctl::device::face::{FaceError, MotionTarget};
 use axisctl::device::pac::Controller;
 use axisctl::device::powercube::{self as cube_dev, Cubes, Move};
 use axisctl::device::supervisor;
@@ -19,7 +19,8 @@ use axisctl::proto::powercube::ModuleId;
 use axisctl::record::cdios::{CdiosSampler, CdiosValue};
 use axisctl::record::pac::{PacSampler, PacValue};
 use axisctl::record::powercube::CubeSampler;
-use axisctl::record::{self, Address, Channel, End, HaltMotion, HaltWhen, RecordError, Recording, Sample, Until};
+use axisctl::record::{self, Channel, End, HaltMotion, HaltWhen, RecordError, Recording, Sample, Until};
+use axisctl::Address;
 use clap::Parser;
 use serde_json::{json, Map, Value};
 
@@ -61,9 +62,9 @@ impl Motion {
     /// is the recording's own).
     fn address(&self, node: u8) -> Address {
         match *self {
-            Self::Cube { module, .. } => Address::Module(module.get()),
-            Self::Pac { axis, .. } => Address::Axis(axis),
-            Self::Cdios { module, .. } => Address::CdiosModule { node, module: module.get() },
+            Self::Cube { module, .. } => Address::PowerCube { module: module.get() },
+            Self::Pac { axis, .. } => Address::Pac { axis: Some(axis) },
+            Self::Cdios { module, .. } => Address::Cdios { node, module: module.get() },
         }
     }
 
@@ -280,7 +281,7 @@ fn go<S: HaltMotion>(
     let clock = ctx.clock.clone();
     // Armed before the motion starts (after the first sample): the face
     // halts it on a panic's unwind; every other end is weighed below.
-    let targets = motion.as_ref().and_then(|m| record::motion_target(m.address(node))).into_iter().collect();
+    let targets = motion.as_ref().and_then(|m| MotionTarget::try_from(m.address(node)).ok()).into_iter().collect();
     let mut faced = Recording::new(s);
     let ended = Moving::new(&mut faced, targets, attempts).follow(|r| {
         let s = r.sampler();
@@ -389,7 +390,7 @@ impl Writer {
     pub fn header(&mut self, channels: &[Channel], links: &[String]) {
         self.units = channels.iter().map(|c| c.unit.clone()).collect();
         for ((i, c), link) in channels.iter().enumerate().zip(links) {
-            let key = json!([c.address.label(), link]);
+            let key = json!([c.address.column(), link]);
             let pos = self.devices.iter().position(|(env, _)| env.get("_addr") == Some(&key));
             let at = match pos {
                 Some(p) => p,
@@ -398,9 +399,10 @@ impl Writer {
                     env.insert("family".into(), json!(c.address.family().name()));
                     env.insert("link".into(), json!(link));
                     match c.address {
-                        Address::Module(m) => env.insert("module".into(), json!(m)),
-                        Address::Axis(a) => env.insert("axis".into(), json!(a)),
-                        Address::CdiosModule { node, module } => {
+                        Address::PowerCube { module: m } => env.insert("module".into(), json!(m)),
+                        // A channel is an axis's, never the controller's.
+                        Address::Pac { axis } => axis.and_then(|a| env.insert("axis".into(), json!(a))),
+                        Address::Cdios { node, module } => {
                             env.insert("node".into(), json!(node));
                             env.insert("module".into(), json!(module))
                         }
@@ -477,8 +479,8 @@ fn number(v: f64) -> Value {
 /// `module 17 ActPos [m]`: a CSV column and a chart's legend entry.
 pub fn column(c: &Channel) -> String {
     if c.unit.is_empty() {
-        format!("{} {}", c.address.label(), c.name)
+        format!("{} {}", c.address.column(), c.name)
     } else {
-        format!("{} {} [{}]", c.address.label(), c.name, c.unit)
+        format!("{} {} [{}]", c.address.column(), c.name, c.unit)
     }
 }

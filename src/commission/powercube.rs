@@ -16,6 +16,7 @@ use super::report::{Check, Status};
 use super::DefaultPlanError;
 use super::Run;
 use super::{sig, sig7};
+use crate::address::Address;
 use crate::backup::{self, Device};
 use crate::device::face::{MotionTarget, Moving};
 use crate::device::powercube::{self as cube_dev, Cubes, Goal, Move, WaitSpec};
@@ -26,7 +27,7 @@ use crate::proto::powercube::flags::{state, CUBE_STATE};
 use crate::proto::powercube::table::{self, ids};
 use crate::proto::powercube::ModuleId;
 use crate::record::powercube::CubeSampler;
-use crate::record::{self, Address, Sample, Sampler, Until};
+use crate::record::{self, Sample, Sampler, Until};
 
 /// Motion checks of a device, in order.
 const MOTION_CHECKS: [&str; 4] = ["home", "move_forward", "move_back", "halt"];
@@ -761,5 +762,5 @@ fn known_setting(name: &str) -> bool {
 
 /// The recorded module as the recording addresses it.
 pub fn address(m: ModuleId) -> Address {
-    Address::Module(m.get())
+    Address::PowerCube { module: m.get() }
 }

@@ -137,6 +137,18 @@ impl FlagWord {
         }
     }
 
+    /// `raw` in the one `state` shape of the JSON output (docs/json.md): the
+    /// decoded names, each set flag explained, the bits no flag names.
+    pub fn state_json(&self, raw: u32) -> serde_json::Value {
+        let d = self.decode(raw);
+        let details: Vec<_> = self
+            .set_flags(raw)
+            .map(|f| serde_json::json!({"name": f.name, "mask": f.mask, "class": f.class.name(), "description": f.description}))
+            .collect();
+        serde_json::json!({"raw": raw, "flags": d.flags, "errors": d.errors, "warnings": d.warnings,
+                           "details": details, "unknown_bits": d.unknown_bits})
+    }
+
     /// The flag called `name` (manual name or short form, any case).
     pub fn flag(&self, name: &str) -> Option<&'static FlagDef> {
         let name = name.trim();

@@ -1,7 +1,8 @@
 //! Cdios 6168 modules: the chosen reads of each module in one pipelined
 //! burst (the node answers them in order), as the dashboard polls it.
 
-use super::{Address, Channel, HaltMotion, RecordError, Sampler};
+use super::{Channel, HaltMotion, RecordError, Sampler};
+use crate::address::Address;
 use crate::device::cdios::{Error, Node};
 use crate::device::face::{Face, FaceError};
 use crate::proto::cdios::{Address as CdiosAddress, Command, ModuleId, PositionSource, StatusSelector};
@@ -85,7 +86,7 @@ impl CdiosSampler {
             .iter()
             .flat_map(|m| {
                 values.iter().map(move |v| Channel {
-                    address: Address::CdiosModule { node: n, module: m.get() },
+                    address: Address::Cdios { node: n, module: m.get() },
                     name: v.name().into(),
                     unit: v.unit().into(),
                 })

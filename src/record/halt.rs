@@ -8,9 +8,9 @@
 //! read (the device's state is then unknown). The halt sequences are the
 //! device layer's, the ones the supervised waits use.
 
-use super::{Address, End, RecordError, Sampler};
+use super::{End, RecordError, Sampler};
+use crate::address::Address;
 use crate::device::face::{Face, FaceError, Found, Halt, HaltStep, MotionTarget, State};
-use crate::device::registry;
 use crate::family::Family;
 
 /// When the recorded motion is halted at the end of the recording.
@@ -42,7 +42,7 @@ pub trait HaltMotion: Sampler {
     /// Whether the device at `at` still moves; `None` when that cannot be
     /// read (it is then halted).
     fn still_moving(&mut self, at: Address) -> Option<bool> {
-        let t = target(at)?;
+        let t = MotionTarget::try_from(at).ok()?;
         self.face().state(t).ok().map(|s| s.moving)
     }
 
@@ -51,7 +51,9 @@ pub trait HaltMotion: Sampler {
     /// acknowledge is lost is sent.
     fn halt(&mut self, at: Address, attempts: u32) -> Result<String, String> {
         let face = self.face();
-        let Some(t) = target(at).filter(|t| t.family() == face.family()) else { return Err(foreign(at)) };
+        let Some(t) = MotionTarget::try_from(at).ok().filter(|t| t.family() == face.family()) else {
+            return Err(foreign(at));
+        };
         let failed = if t.family() == Family::PowerCube { "HALT FAILED" } else { "STOP FAILED" };
         match face.halt(t, attempts) {
             Ok(Halt::AtRest) => Ok("not running (it had come to rest)".into()),
@@ -66,15 +68,6 @@ pub trait HaltMotion: Sampler {
     /// undone (a PowerCube's dead-man backstop); the failure, said.
     fn release(&mut self) -> Result<(), String> {
         Ok(())
-    }
-}
-
-/// The address the device face halts `at` by.
-fn target(at: Address) -> Option<MotionTarget> {
-    match at {
-        Address::Module(m) => registry::target(Family::PowerCube, Some(m), None),
-        Address::Axis(a) => registry::target(Family::Pac, Some(a), None),
-        Address::CdiosModule { node, module } => registry::target(Family::Cdios, Some(node), Some(module)),
     }
 }
 
@@ -121,11 +114,6 @@ impl<S: HaltMotion> Face for Recording<'_, S> {
     }
 }
 
-/// The face's address of a recorded motion's device.
-pub fn motion_target(at: Address) -> Option<MotionTarget> {
-    target(at)
-}
-
 /// Halts the motion at `at` when `when` says so; what was done, `None` when
 /// the device stood and was left alone.
 pub fn halt_motion<S: HaltMotion + ?Sized>(
@@ -143,7 +131,7 @@ pub fn halt_motion<S: HaltMotion + ?Sized>(
 /// A motion address of another family than the sampler's: the binary
 /// pairs them before the link opens, so this never holds a device.
 fn foreign(at: Address) -> String {
-    format!("HALT FAILED: {} is not a device of this recording", at.label())
+    format!("HALT FAILED: {} is not a device of this recording", at.column())
 }
 
 #[cfg(test)]

@@ -17,43 +17,12 @@ mod several;
 
 use std::time::{Duration, Instant};
 
+use crate::address::Address;
 use crate::clock::Clock;
 use crate::device::face::FaceError;
-use crate::family::Family;
 
-pub use halt::{halt_motion, motion_target, HaltMotion, HaltWhen, Recording};
+pub use halt::{halt_motion, HaltMotion, HaltWhen, Recording};
 pub use several::Several;
-
-/// Which device a channel belongs to, in the envelope's address form.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
-pub enum Address {
-    /// A PowerCube module.
-    Module(u8),
-    /// A PA-CONTROL axis.
-    Axis(u8),
-    /// A Cdios 6168 module on a node.
-    CdiosModule { node: u8, module: u8 },
-}
-
-impl Address {
-    pub fn family(self) -> Family {
-        match self {
-            Self::Module(_) => Family::PowerCube,
-            Self::Axis(_) => Family::Pac,
-            Self::CdiosModule { .. } => Family::Cdios,
-        }
-    }
-
-    /// `module 17`, `axis 2`, `node 1 module 0`: the device part of a CSV
-    /// column and of a chart's legend.
-    pub fn label(self) -> String {
-        match self {
-            Self::Module(m) => format!("module {m}"),
-            Self::Axis(a) => format!("axis {a}"),
-            Self::CdiosModule { node, module } => format!("node {node} module {module}"),
-        }
-    }
-}
 
 /// The value among `all` that `text` names, case aside: the one parse of
 /// each family's value names.

@@ -1,7 +1,8 @@
 //! PA-CONTROL axes: the half-duplex line takes one request at a time, so a
 //! sample is one read after the other, as fast as the line allows.
 
-use super::{Address, Channel, HaltMotion, RecordError, Sampler};
+use super::{Channel, HaltMotion, RecordError, Sampler};
+use crate::address::Address;
 use crate::device::face::{Face, FaceError};
 use crate::device::pac::{Controller, Error};
 
@@ -59,7 +60,11 @@ impl PacSampler {
         let reads: Vec<(u8, PacValue)> = axes.iter().flat_map(|a| values.iter().map(move |v| (*a, *v))).collect();
         let channels = reads
             .iter()
-            .map(|(a, v)| Channel { address: Address::Axis(*a), name: v.name().into(), unit: v.unit().into() })
+            .map(|(a, v)| Channel {
+                address: Address::Pac { axis: Some(*a) },
+                name: v.name().into(),
+                unit: v.unit().into(),
+            })
             .collect();
         Self { ctl, reads, channels }
     }

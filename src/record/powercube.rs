@@ -6,7 +6,8 @@
 
 use std::time::{Duration, Instant};
 
-use super::{Address, Channel, HaltMotion, RecordError, Sampler};
+use super::{Channel, HaltMotion, RecordError, Sampler};
+use crate::address::Address;
 use crate::clock::Clock;
 use crate::device::face::{Face, FaceError};
 use crate::device::powercube::{is_linear, Cubes, Error};
@@ -48,7 +49,7 @@ impl CubeSampler {
                     slots.push(None);
                 }
                 let unit = d.unit_for(linear).to_string();
-                channels.push(Channel { address: Address::Module(m.get()), name: d.name.into(), unit });
+                channels.push(Channel { address: Address::PowerCube { module: m.get() }, name: d.name.into(), unit });
             }
         }
         Ok(Self { cubes, reqs, defs, channels, slots, ahead: false, next: None, read_at: None })

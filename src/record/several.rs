@@ -83,10 +83,15 @@ mod tests {
     #[test]
     fn one_row_per_sample_every_part_in_order_stamped_when_called() {
         let clock = std::sync::Arc::new(VirtualClock::new());
-        let parts: Vec<Box<dyn Sampler>> =
-            vec![slow(&clock, Address::Module(3), 3, 0.0), slow(&clock, Address::Axis(2), 7, 100.0)];
+        let parts: Vec<Box<dyn Sampler>> = vec![
+            slow(&clock, Address::PowerCube { module: 3 }, 3, 0.0),
+            slow(&clock, Address::Pac { axis: Some(2) }, 7, 100.0),
+        ];
         let mut s = Several::new(parts);
-        assert_eq!(s.channels().iter().map(|c| c.address).collect::<Vec<_>>(), [Address::Module(3), Address::Axis(2)]);
+        assert_eq!(
+            s.channels().iter().map(|c| c.address).collect::<Vec<_>>(),
+            [Address::PowerCube { module: 3 }, Address::Pac { axis: Some(2) }]
+        );
         let mut rows = Vec::new();
         let ended = record(&mut s, clock.as_ref() as &dyn Clock, None, Until::Count(3), &|| false, &mut |smp, _| {
             rows.push((smp.t, smp.seq, smp.values.clone()));

@@ -24,7 +24,8 @@ impl Sampler for Fake<'_> {
 }
 
 fn fake(clock: &VirtualClock, cost_ms: u64) -> Fake<'_> {
-    let channels = vec![Channel { address: Address::Module(17), name: "ActPos".into(), unit: "m".into() }];
+    let channels =
+        vec![Channel { address: Address::PowerCube { module: 17 }, name: "ActPos".into(), unit: "m".into() }];
     Fake { clock, cost: Duration::from_millis(cost_ms), channels, n: 0.0 }
 }
 
@@ -108,7 +109,8 @@ impl Sampler for Ahead<'_> {
 }
 
 fn ahead(clock: &VirtualClock, read_ms: Vec<u64>) -> Ahead<'_> {
-    let channels = vec![Channel { address: Address::Module(3), name: "ActPos".into(), unit: "rad".into() }];
+    let channels =
+        vec![Channel { address: Address::PowerCube { module: 3 }, name: "ActPos".into(), unit: "rad".into() }];
     Ahead { clock, channels, read_ms, calls: 0, back_to_back: false, finished: false, read_at: None }
 }
 

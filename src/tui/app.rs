@@ -2,6 +2,8 @@
 //! no I/O, no clock (time arrives with [`Event::Tick`] and in the reports),
 //! so tests drive it event by event.
 
+use crate::address::Address;
+use crate::device::face::MotionTarget;
 use std::collections::{HashMap, VecDeque};
 use std::time::{Duration, Instant};
 
@@ -10,7 +12,7 @@ use crossterm::event::{KeyCode, KeyEvent, KeyEventKind};
 use super::event::{Event, LinkEvent, LinkId, ToWorker};
 use super::history::{self, History, Trace};
 use super::keys::{self, KeyAction};
-use super::source::{Action, DeviceKey, Health, Snapshot};
+use super::source::{Action, Health, Snapshot};
 use crate::family::Family;
 
 /// How long a changed value stays highlighted.
@@ -109,7 +111,7 @@ impl LinkView {
 /// A device and what is known of it.
 #[derive(Debug, Clone)]
 pub struct DeviceView {
-    pub key: DeviceKey,
+    pub key: Address,
     pub link: LinkId,
     /// The last good snapshot.
     pub snap: Option<Snapshot>,
@@ -127,7 +129,7 @@ pub struct DeviceView {
 /// back with [`Event::Saved`].
 #[derive(Debug, Clone, PartialEq)]
 pub struct ChartRequest {
-    pub device: DeviceKey,
+    pub device: Address,
     pub title: String,
     pub traces: Vec<Trace>,
 }
@@ -170,7 +172,7 @@ pub struct App {
     /// Devices this dashboard sent a motion to (home, jog, go to), with
     /// their link: what SIGTERM / SIGHUP, a panic or a failed draw halt
     /// before the dashboard exits.
-    pub moved: Vec<(LinkId, DeviceKey)>,
+    pub moved: Vec<(LinkId, Address)>,
     /// Why the dashboard halted what it moved and quit, other than a signal
     /// (a panic, a failed draw).
     pub stopped: Option<String>,
@@ -232,7 +234,7 @@ impl App {
         self.devices.get(self.selected)
     }
 
-    pub fn device(&self, key: DeviceKey) -> Option<&DeviceView> {
+    pub fn device(&self, key: Address) -> Option<&DeviceView> {
         self.devices.iter().find(|d| d.key == key)
     }
 
@@ -625,7 +627,7 @@ impl App {
         if !pos.is_finite() {
             return Err(format!("target position {pos} is not a finite number"));
         }
-        if let (Some(snap), Some(at)) = (&d.snap, d.key.target()) {
+        if let (Some(snap), Some(at)) = (&d.snap, MotionTarget::try_from(d.key).ok()) {
             snap.check_target(at, pos)?;
         }
         Ok(pos)
@@ -633,19 +635,19 @@ impl App {
 }
 
 /// Whether a family has the action at all (said before anything is sent).
-pub fn applies(key: DeviceKey, action: Action) -> Result<(), &'static str> {
+pub fn applies(key: Address, action: Action) -> Result<(), &'static str> {
     use Action::*;
     match (key, action) {
         (_, Halt | Reset) => Ok(()),
-        (DeviceKey::Cube(_), Home | Jog(_) | MoveTo(_)) => Ok(()),
-        (DeviceKey::Cube(_), Enable | Disable) => {
+        (Address::PowerCube { module: _ }, Home | Jog(_) | MoveTo(_)) => Ok(()),
+        (Address::PowerCube { module: _ }, Enable | Disable) => {
             Err("PowerCube modules have no enable / disable: r (reset) switches the servo on, s (halt) stops it")
         }
-        (DeviceKey::PacAxis(_), Home | Enable | Disable | Jog(_) | MoveTo(_)) => Ok(()),
-        (DeviceKey::PacController | DeviceKey::PacAxis(_), Online | Offline) => Ok(()),
-        (DeviceKey::PacController, _) => Err("select an axis for this (the controller line takes r, s, o, f)"),
-        (DeviceKey::Cdios { .. }, Enable | Disable | Jog(_) | MoveTo(_)) => Ok(()),
-        (DeviceKey::Cdios { .. }, Home) => Err("the Cdios 6168 has no homing command: set the position instead"),
+        (Address::Pac { axis: Some(_) }, Home | Enable | Disable | Jog(_) | MoveTo(_)) => Ok(()),
+        (Address::Pac { axis: None } | Address::Pac { axis: Some(_) }, Online | Offline) => Ok(()),
+        (Address::Pac { axis: None }, _) => Err("select an axis for this (the controller line takes r, s, o, f)"),
+        (Address::Cdios { .. }, Enable | Disable | Jog(_) | MoveTo(_)) => Ok(()),
+        (Address::Cdios { .. }, Home) => Err("the Cdios 6168 has no homing command: set the position instead"),
         (_, Online | Offline) => Err("online / offline is a PA-CONTROL mode (select the PA-CONTROL)"),
     }
 }

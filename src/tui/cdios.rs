@@ -4,8 +4,9 @@
 //! ([`DeviceSource::poll_ahead`]). Every action is a
 //! [`crate::device::cdios`] operation; this file only words it.
 
-use super::source::{Action, DeviceKey, DeviceSource, HaltReport, Snapshot, SourceError};
+use super::source::{Action, DeviceSource, HaltReport, Snapshot, SourceError};
 use super::ui::cdios::CdiosSnap;
+use crate::address::Address;
 use crate::device::cdios::{self as device, Node, SentPoll};
 use crate::device::face::Face;
 use crate::family::Family;
@@ -49,9 +50,9 @@ impl CdiosSource {
         Self { node: Node::new(s, node, retry), wanted: modules, known: Vec::new(), ahead: Vec::new() }
     }
 
-    fn module(&self, dev: DeviceKey) -> Result<ModuleId, SourceError> {
+    fn module(&self, dev: Address) -> Result<ModuleId, SourceError> {
         match dev {
-            DeviceKey::Cdios { node, module } if node == self.node.id().get() => {
+            Address::Cdios { node, module } if node == self.node.id().get() => {
                 ModuleId::new(module).ok_or_else(|| SourceError::Refused(format!("no module id {module}")))
             }
             other => {
@@ -79,7 +80,7 @@ impl DeviceSource for CdiosSource {
         Family::Cdios
     }
 
-    fn discover(&mut self) -> Result<Vec<DeviceKey>, SourceError> {
+    fn discover(&mut self) -> Result<Vec<Address>, SourceError> {
         // A poll sent ahead for the old list is not waited for.
         for sent in std::mem::take(&mut self.ahead) {
             self.node.abandon_poll(sent);
@@ -89,10 +90,10 @@ impl DeviceSource for CdiosSource {
             None => self.node.scan()?,
         };
         let node = self.node.id().get();
-        Ok(self.known.iter().map(|m| DeviceKey::Cdios { node, module: m.get() }).collect())
+        Ok(self.known.iter().map(|m| Address::Cdios { node, module: m.get() }).collect())
     }
 
-    fn poll(&mut self, dev: DeviceKey) -> Result<Snapshot, SourceError> {
+    fn poll(&mut self, dev: Address) -> Result<Snapshot, SourceError> {
         let m = self.module(dev)?;
         let r = match self.ahead.iter().position(|p| p.module() == m) {
             Some(i) => {
@@ -112,7 +113,7 @@ impl DeviceSource for CdiosSource {
 
     /// Only a module that answered before: a node still to be woken is
     /// woken by its poll, where a failure is reported.
-    fn poll_ahead(&mut self, dev: DeviceKey) {
+    fn poll_ahead(&mut self, dev: Address) {
         let Ok(m) = self.module(dev) else { return };
         if !self.known.contains(&m) || self.ahead.iter().any(|p| p.module() == m) || self.node.needs_wake() {
             return;
@@ -126,7 +127,7 @@ impl DeviceSource for CdiosSource {
         }
     }
 
-    fn act(&mut self, dev: DeviceKey, action: Action) -> Result<String, SourceError> {
+    fn act(&mut self, dev: Address, action: Action) -> Result<String, SourceError> {
         let m = self.module(dev)?;
         match action {
             Action::Halt => self.send(m, device::FAST_STOP, "fast stop"),
@@ -150,7 +151,7 @@ impl DeviceSource for CdiosSource {
 
     fn halt_all(&mut self) -> Vec<HaltReport> {
         let node = self.node.id().get();
-        let known: Vec<DeviceKey> = self.known.iter().map(|m| DeviceKey::Cdios { node, module: m.get() }).collect();
+        let known: Vec<Address> = self.known.iter().map(|m| Address::Cdios { node, module: m.get() }).collect();
         super::source::halt_all(&mut self.node, &known)
     }
 }

@@ -2,11 +2,12 @@
 //! the link workers report, and clock ticks. What it asks of the workers
 //! goes out as [`ToWorker`].
 
+use crate::address::Address;
 use std::time::{Duration, Instant};
 
 use crossterm::event::KeyEvent;
 
-use super::source::{Action, DeviceKey, Health, Snapshot};
+use super::source::{Action, Health, Snapshot};
 
 /// Index of a link (and of its worker) in the order the links were opened.
 pub type LinkId = usize;
@@ -31,12 +32,12 @@ pub enum Event {
 #[derive(Debug, Clone)]
 pub enum LinkEvent {
     /// The devices found on the link (or given on the command line).
-    Discovered { link: LinkId, devices: Vec<DeviceKey>, errors: Vec<String> },
+    Discovered { link: LinkId, devices: Vec<Address>, errors: Vec<String> },
     /// One poll of one device.
-    Polled { link: LinkId, device: DeviceKey, at: Instant, result: Result<Snapshot, String>, health: Health },
+    Polled { link: LinkId, device: Address, at: Instant, result: Result<Snapshot, String>, health: Health },
     /// An action carried out (or refused); `device` is `None` for link-wide
     /// parts of a halt-all (the PowerCube broadcast).
-    Acted { link: LinkId, device: Option<DeviceKey>, what: String, at: Instant, result: Result<String, String> },
+    Acted { link: LinkId, device: Option<Address>, what: String, at: Instant, result: Result<String, String> },
     /// One round over every device: how long it took, and the time since the
     /// previous round started (the achieved poll period).
     Cycle { link: LinkId, busy: Duration, period: Duration },
@@ -51,7 +52,7 @@ pub enum LinkEvent {
 /// What the UI asks of a worker.
 #[derive(Debug, Clone, PartialEq)]
 pub enum ToWorker {
-    Act(DeviceKey, Action),
+    Act(Address, Action),
     /// Stop everything on the link; goes before anything else queued.
     HaltAll,
     /// Polls per second wanted.

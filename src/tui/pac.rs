@@ -7,8 +7,9 @@
 //! While a reference drive runs the controller takes only polls, so the
 //! controller line polls it and the axes show as stale with that reason.
 
-use super::source::{Action, DeviceKey, DeviceSource, HaltReport, Snapshot, SourceError};
+use super::source::{Action, DeviceSource, HaltReport, Snapshot, SourceError};
 use super::ui::pac::{PacAxisSnap, PacCtrlSnap};
+use crate::address::Address;
 use crate::device::face::Face;
 use crate::device::pac::{Controller, Error};
 use crate::family::Family;
@@ -48,20 +49,20 @@ impl DeviceSource for PacSource {
         Family::Pac
     }
 
-    fn discover(&mut self) -> Result<Vec<DeviceKey>, SourceError> {
+    fn discover(&mut self) -> Result<Vec<Address>, SourceError> {
         let axes = match self.wanted.clone() {
             Some(list) => list,
             None => (1..=self.ctl.configured_axes().map_err(err)?).collect(),
         };
         self.ctl.set_axes(axes);
-        let mut out = vec![DeviceKey::PacController];
-        out.extend(self.ctl.axes().iter().map(|a| DeviceKey::PacAxis(*a)));
+        let mut out = vec![Address::Pac { axis: None }];
+        out.extend(self.ctl.axes().iter().map(|a| Address::Pac { axis: Some(*a) }));
         Ok(out)
     }
 
-    fn poll(&mut self, dev: DeviceKey) -> Result<Snapshot, SourceError> {
+    fn poll(&mut self, dev: Address) -> Result<Snapshot, SourceError> {
         match dev {
-            DeviceKey::PacController => {
+            Address::Pac { axis: None } => {
                 let ack = self.ctl.poll_state().map_err(err)?;
                 Ok(Snapshot::new(PacCtrlSnap {
                     status: ack.status,
@@ -69,7 +70,7 @@ impl DeviceSource for PacSource {
                     axes: self.ctl.axes().len() as u8,
                 }))
             }
-            DeviceKey::PacAxis(axis) => {
+            Address::Pac { axis: Some(axis) } => {
                 if let Some(busy) = self.ctl.busy() {
                     return Err(SourceError::Refused(busy.to_string()));
                 }
@@ -88,7 +89,7 @@ impl DeviceSource for PacSource {
         }
     }
 
-    fn act(&mut self, dev: DeviceKey, action: Action) -> Result<String, SourceError> {
+    fn act(&mut self, dev: Address, action: Action) -> Result<String, SourceError> {
         if action != Action::Halt {
             self.ctl.ensure_idle().map_err(|e| SourceError::Refused(format!("{e} (s or space stops it)")))?;
         }
@@ -97,21 +98,21 @@ impl DeviceSource for PacSource {
             (_, Action::Online) => ctl.online().map(|d| Self::done(0x0603, d)),
             (_, Action::Offline) => ctl.offline().map(|d| Self::done(0x0A81, d)),
             (_, Action::Reset) => ctl.reset_error().and_then(|r| r.check()).map(|_| "error reset".into()),
-            (DeviceKey::PacController, Action::Halt) => ctl.stop().map(|d| Self::done(0x0600, d)),
-            (DeviceKey::PacAxis(axis), Action::Halt) => ctl.stop_axis(axis),
-            (DeviceKey::PacAxis(axis), Action::Home) => ctl.start_reference(axis).map(|(_, done)| {
+            (Address::Pac { axis: None }, Action::Halt) => ctl.stop().map(|d| Self::done(0x0600, d)),
+            (Address::Pac { axis: Some(axis) }, Action::Halt) => ctl.stop_axis(axis),
+            (Address::Pac { axis: Some(axis) }, Action::Home) => ctl.start_reference(axis).map(|(_, done)| {
                 if done {
                     "reference drive done".into()
                 } else {
                     "reference drive started (only polls until it ends)".into()
                 }
             }),
-            (DeviceKey::PacAxis(axis), Action::Enable) => ctl.enable(axis).map(|d| Self::done(0x0A97, d)),
-            (DeviceKey::PacAxis(axis), Action::Disable) => ctl.disable(axis).map(|d| Self::done(0x0A98, d)),
-            (DeviceKey::PacAxis(axis), Action::Jog(d)) => {
+            (Address::Pac { axis: Some(axis) }, Action::Enable) => ctl.enable(axis).map(|d| Self::done(0x0A97, d)),
+            (Address::Pac { axis: Some(axis) }, Action::Disable) => ctl.disable(axis).map(|d| Self::done(0x0A98, d)),
+            (Address::Pac { axis: Some(axis) }, Action::Jog(d)) => {
                 ctl.start_move(axis, d, true, true).map(|m| format!("moving to {}", m.target))
             }
-            (DeviceKey::PacAxis(axis), Action::MoveTo(p)) => {
+            (Address::Pac { axis: Some(axis) }, Action::MoveTo(p)) => {
                 ctl.start_move(axis, p, false, true).map(|m| format!("moving to {}", m.target))
             }
             (d, a) => return Err(SourceError::Unsupported(format!("{} has no {}", d.label(), a.name()))),

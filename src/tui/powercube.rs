@@ -5,9 +5,10 @@
 //! answers cross the link and the host turns around. Every action is a
 //! [`crate::device::powercube`] operation; this file only words it.
 
+use crate::address::Address;
 use std::collections::BTreeMap;
 
-use super::source::{Action, DeviceKey, DeviceSource, HaltReport, Snapshot, SourceError};
+use super::source::{Action, DeviceSource, HaltReport, Snapshot, SourceError};
 use super::ui::powercube::CubeSnap;
 use crate::device::face::Face;
 use crate::device::powercube::{self as device, Cubes, SentRead, Simple, Target};
@@ -56,9 +57,11 @@ impl CubeSource {
         Self { cubes: Cubes::new(pc), wanted: modules, known: Vec::new(), statics: BTreeMap::new(), ahead: Vec::new() }
     }
 
-    fn module(dev: DeviceKey) -> Result<ModuleId, SourceError> {
+    fn module(dev: Address) -> Result<ModuleId, SourceError> {
         match dev {
-            DeviceKey::Cube(m) => ModuleId::new(m).ok_or_else(|| SourceError::Refused(format!("no module id {m}"))),
+            Address::PowerCube { module: m } => {
+                ModuleId::new(m).ok_or_else(|| SourceError::Refused(format!("no module id {m}")))
+            }
             other => Err(SourceError::Unsupported(format!("{} is not a PowerCube module", other.label()))),
         }
     }
@@ -93,7 +96,7 @@ impl DeviceSource for CubeSource {
         Family::PowerCube
     }
 
-    fn discover(&mut self) -> Result<Vec<DeviceKey>, SourceError> {
+    fn discover(&mut self) -> Result<Vec<Address>, SourceError> {
         // A read sent ahead for the old list is not waited for.
         for read in std::mem::take(&mut self.ahead) {
             self.cubes.abandon_read(read);
@@ -102,10 +105,10 @@ impl DeviceSource for CubeSource {
             Some(list) => list.clone(),
             None => self.cubes.present()?,
         };
-        Ok(self.known.iter().map(|m| DeviceKey::Cube(m.get())).collect())
+        Ok(self.known.iter().map(|m| Address::PowerCube { module: m.get() }).collect())
     }
 
-    fn poll(&mut self, dev: DeviceKey) -> Result<Snapshot, SourceError> {
+    fn poll(&mut self, dev: Address) -> Result<Snapshot, SourceError> {
         let m = Self::module(dev)?;
         let s = self.statics(m)?;
         let v = match self.ahead.iter().position(|r| r.module() == m) {
@@ -130,7 +133,7 @@ impl DeviceSource for CubeSource {
 
     /// Only on CAN, and only once the module's kind and limits are known:
     /// nothing but the burst itself goes out ahead.
-    fn poll_ahead(&mut self, dev: DeviceKey) {
+    fn poll_ahead(&mut self, dev: Address) {
         let Ok(m) = Self::module(dev) else { return };
         if !self.cubes.session().is_can()
             || !self.statics.contains_key(&m.get())
@@ -147,7 +150,7 @@ impl DeviceSource for CubeSource {
         }
     }
 
-    fn act(&mut self, dev: DeviceKey, action: Action) -> Result<String, SourceError> {
+    fn act(&mut self, dev: Address, action: Action) -> Result<String, SourceError> {
         let m = Self::module(dev)?;
         match action {
             Action::Home => self.simple(m, Simple::Home),
@@ -172,7 +175,7 @@ impl DeviceSource for CubeSource {
     }
 
     fn halt_all(&mut self) -> Vec<HaltReport> {
-        let known: Vec<DeviceKey> = self.known.iter().map(|m| DeviceKey::Cube(m.get())).collect();
+        let known: Vec<Address> = self.known.iter().map(|m| Address::PowerCube { module: m.get() }).collect();
         super::source::halt_all(&mut self.cubes, &known)
     }
 }

@@ -3,12 +3,12 @@
 //! ([`App::snapshot`](super::app::App::snapshot)); the dashboard's loop
 //! calls [`write`] and reports back, so the App stays free of I/O.
 
+use crate::address::Address;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::time::{SystemTime, UNIX_EPOCH};
 
 use super::app::ChartRequest;
-use super::source::DeviceKey;
 use crate::plot;
 
 /// Size of the SVG, in pixels: room for three stacked panels.
@@ -38,12 +38,12 @@ pub fn chart(req: &ChartRequest) -> plot::Chart {
 }
 
 /// `powercube-17`, `pac-axis-2`, `cdios-1-0`: a device in a file name.
-pub fn slug(device: DeviceKey) -> String {
+pub fn slug(device: Address) -> String {
     match device {
-        DeviceKey::Cube(m) => format!("powercube-{m}"),
-        DeviceKey::PacController => "pac".into(),
-        DeviceKey::PacAxis(a) => format!("pac-axis-{a}"),
-        DeviceKey::Cdios { node, module } => format!("cdios-{node}-{module}"),
+        Address::PowerCube { module: m } => format!("powercube-{m}"),
+        Address::Pac { axis: None } => "pac".into(),
+        Address::Pac { axis: Some(a) } => format!("pac-axis-{a}"),
+        Address::Cdios { node, module } => format!("cdios-{node}-{module}"),
     }
 }
 
@@ -65,7 +65,7 @@ pub fn utc_stamp(wall: SystemTime) -> String {
 }
 
 /// `axisctl-chart-powercube-17-20261202T034512Z.svg`.
-pub fn file_name(device: DeviceKey, wall: SystemTime) -> String {
+pub fn file_name(device: Address, wall: SystemTime) -> String {
     format!("axisctl-chart-{}-{}.svg", slug(device), utc_stamp(wall))
 }
 
@@ -106,11 +106,8 @@ mod tests {
     #[test]
     fn file_names_name_the_device() {
         let t = UNIX_EPOCH;
-        assert_eq!(file_name(DeviceKey::Cube(17), t), "axisctl-chart-powercube-17-19700101T000000Z.svg");
-        assert_eq!(file_name(DeviceKey::PacAxis(2), t), "axisctl-chart-pac-axis-2-19700101T000000Z.svg");
-        assert_eq!(
-            file_name(DeviceKey::Cdios { node: 1, module: 0 }, t),
-            "axisctl-chart-cdios-1-0-19700101T000000Z.svg"
-        );
+        assert_eq!(file_name(Address::PowerCube { module: 17 }, t), "axisctl-chart-powercube-17-19700101T000000Z.svg");
+        assert_eq!(file_name(Address::Pac { axis: Some(2) }, t), "axisctl-chart-pac-axis-2-19700101T000000Z.svg");
+        assert_eq!(file_name(Address::Cdios { node: 1, module: 0 }, t), "axisctl-chart-cdios-1-0-19700101T000000Z.svg");
     }
 }

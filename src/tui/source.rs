@@ -8,43 +8,10 @@ use std::ops::Deref;
 use std::sync::Arc;
 
 use super::ui::pane::Pane;
+use crate::address::Address;
 use crate::device::face::{Face, FaceError, Halt, MotionTarget};
-use crate::device::registry;
 use crate::family::Family;
 use crate::session::SessionError;
-
-/// One device on the dashboard.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
-pub enum DeviceKey {
-    /// A PowerCube module, 1..=31.
-    Cube(u8),
-    /// The PA-CONTROL itself (operating status, error number).
-    PacController,
-    /// A PA-CONTROL axis, 1..=16.
-    PacAxis(u8),
-    /// A Cdios 6168 module on a node.
-    Cdios { node: u8, module: u8 },
-}
-
-impl DeviceKey {
-    pub fn family(self) -> Family {
-        match self {
-            Self::Cube(_) => Family::PowerCube,
-            Self::PacController | Self::PacAxis(_) => Family::Pac,
-            Self::Cdios { .. } => Family::Cdios,
-        }
-    }
-
-    /// `PowerCube 17`, `PA axis 2`, `Cdios 1/0`: how events and panes name it.
-    pub fn label(self) -> String {
-        match self {
-            Self::Cube(m) => format!("PowerCube {m}"),
-            Self::PacController => "PA-CONTROL".into(),
-            Self::PacAxis(a) => format!("PA axis {a}"),
-            Self::Cdios { node, module } => format!("Cdios {node}/{module}"),
-        }
-    }
-}
 
 /// What one poll of one device returns: the family's own reading (its
 /// pane module's type, e.g. `ui::powercube::CubeSnap`) behind the
@@ -158,29 +125,7 @@ pub enum Health {
 }
 
 /// One line of a halt-all report.
-pub type HaltReport = (Option<DeviceKey>, Result<String, SourceError>);
-
-impl DeviceKey {
-    /// The key of a device a face names; `None`: every device of the family.
-    pub fn of(t: MotionTarget) -> Option<Self> {
-        Some(match (t.family(), t.ids()) {
-            (Family::PowerCube, (Some(m), _)) => Self::Cube(m),
-            (Family::Pac, (Some(a), _)) => Self::PacAxis(a),
-            (Family::Pac, (None, _)) => Self::PacController,
-            (Family::Cdios, (Some(node), Some(module))) => Self::Cdios { node, module },
-            _ => return None,
-        })
-    }
-
-    /// The address the device face halts it by.
-    pub fn target(self) -> Option<MotionTarget> {
-        match self {
-            Self::Cube(m) | Self::PacAxis(m) => registry::target(self.family(), Some(m), None),
-            Self::PacController => registry::target(Family::Pac, None, None),
-            Self::Cdios { node, module } => registry::target(Family::Cdios, Some(node), Some(module)),
-        }
-    }
-}
+pub type HaltReport = (Option<Address>, Result<String, SourceError>);
 
 impl From<FaceError> for SourceError {
     fn from(e: FaceError) -> Self {
@@ -196,8 +141,8 @@ impl From<FaceError> for SourceError {
 
 /// The face's halt-all of the devices a source shows (the face's own
 /// sequence, the one `halt --all` sends), in the dashboard's words.
-pub fn halt_all(face: &mut dyn Face, known: &[DeviceKey]) -> Vec<HaltReport> {
-    let known: Vec<MotionTarget> = known.iter().filter_map(|k| k.target()).collect();
+pub fn halt_all(face: &mut dyn Face, known: &[Address]) -> Vec<HaltReport> {
+    let known: Vec<MotionTarget> = known.iter().filter_map(|k| MotionTarget::try_from(*k).ok()).collect();
     face.halt_all(Some(&known))
         .into_iter()
         .map(|s| {
@@ -210,7 +155,7 @@ pub fn halt_all(face: &mut dyn Face, known: &[DeviceKey]) -> Vec<HaltReport> {
                 Halt::AtRest => "not running".into(),
                 Halt::Steps(said) => said,
             });
-            (s.target.and_then(DeviceKey::of), said.map_err(Into::into))
+            (s.target.and_then(|t| Address::try_from(t).ok()), said.map_err(Into::into))
         })
         .collect()
 }
@@ -219,18 +164,18 @@ pub fn halt_all(face: &mut dyn Face, known: &[DeviceKey]) -> Vec<HaltReport> {
 pub trait DeviceSource: Send {
     fn family(&self) -> Family;
     /// The devices to show: the ones given on the command line, or a scan.
-    fn discover(&mut self) -> Result<Vec<DeviceKey>, SourceError>;
+    fn discover(&mut self) -> Result<Vec<Address>, SourceError>;
     /// Reads one device.
-    fn poll(&mut self, dev: DeviceKey) -> Result<Snapshot, SourceError>;
+    fn poll(&mut self, dev: Address) -> Result<Snapshot, SourceError>;
     /// Sends the reads of `dev`'s next poll ahead of it, so that the link
     /// carries them while the poll before is read (on a CAN link shared by
     /// several families, whichever family that poll is of); the next
     /// [`Self::poll`] of `dev` takes their answers. Errors are left for that
     /// poll to meet and report. A source that cannot does nothing (the
     /// default): its poll sends the reads itself.
-    fn poll_ahead(&mut self, _dev: DeviceKey) {}
+    fn poll_ahead(&mut self, _dev: Address) {}
     /// Carries out an action; the text says what was done.
-    fn act(&mut self, dev: DeviceKey, action: Action) -> Result<String, SourceError>;
+    fn act(&mut self, dev: Address, action: Action) -> Result<String, SourceError>;
     /// Stops every device of the family, as fast as the link allows.
     fn halt_all(&mut self) -> Vec<HaltReport>;
     /// The device face the source drives: what halts a device it moved.

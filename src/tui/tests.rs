@@ -2,6 +2,7 @@
 //! sources, the simulators, and ratatui's TestBackend. Snapshots are of the
 //! text on screen; colours are checked cell by cell where they carry meaning.
 
+use crate::address::Address;
 use std::sync::Arc;
 use std::time::Duration;
 
@@ -15,7 +16,7 @@ use super::cdios::CdiosSource;
 use super::event::{Event, LinkEvent, ToWorker};
 use super::pac::PacSource;
 use super::powercube::CubeSource;
-use super::source::{DeviceKey, DeviceSource, Snapshot};
+use super::source::{DeviceSource, Snapshot};
 use super::ui;
 use super::ui::cdios::CdiosSnap;
 use super::ui::pac::{PacAxisSnap, PacCtrlSnap};
@@ -135,7 +136,7 @@ impl Rig {
         }
     }
 
-    fn select(&mut self, key: DeviceKey) {
+    fn select(&mut self, key: Address) {
         self.app.selected = self.app.devices.iter().position(|d| d.key == key).expect("device listed");
     }
 
@@ -172,7 +173,14 @@ impl Rig {
 fn scan_finds_the_contract_modules() {
     let rig = Rig::new();
     let keys: Vec<_> = rig.app.devices.iter().map(|d| d.key).collect();
-    assert!(keys.starts_with(&[DeviceKey::Cube(3), DeviceKey::Cube(5), DeviceKey::Cube(17)]), "{keys:?}");
+    assert!(
+        keys.starts_with(&[
+            Address::PowerCube { module: 3 },
+            Address::PowerCube { module: 5 },
+            Address::PowerCube { module: 17 }
+        ]),
+        "{keys:?}"
+    );
 }
 
 #[test]
@@ -189,13 +197,13 @@ fn powercube_pane_idle() {
 fn powercube_pane_moving_highlights_changes() {
     let mut rig = Rig::new();
     rig.round();
-    rig.select(DeviceKey::Cube(17));
+    rig.select(Address::PowerCube { module: 17 });
     rig.key(KeyCode::Char('g'));
     rig.keys("0.5");
     assert_eq!(rig.app.mode, Mode::Target("0.5".into()));
     insta::assert_snapshot!("powercube_target_prompt_80x24", rig.screen(80, 24));
     rig.key(KeyCode::Enter);
-    assert!(rig.sent.contains(&ToWorker::Act(DeviceKey::Cube(17), super::source::Action::MoveTo(0.5))));
+    assert!(rig.sent.contains(&ToWorker::Act(Address::PowerCube { module: 17 }, super::source::Action::MoveTo(0.5))));
     rig.advance(Duration::from_millis(1500));
     rig.round();
     insta::assert_snapshot!("powercube_moving_80x24", rig.screen(80, 24));
@@ -217,7 +225,7 @@ fn powercube_pane_error_state() {
     let mut rig = Rig::new();
     lock(&rig.bench.powercube).module_mut(5).unwrap().inject_error(state::TOW_ERROR | state::CURLIMIT);
     rig.round();
-    rig.select(DeviceKey::Cube(5));
+    rig.select(Address::PowerCube { module: 5 });
     insta::assert_snapshot!("powercube_error_80x24", rig.screen(80, 24));
     insta::assert_snapshot!("powercube_error_200x50", rig.screen(200, 50));
     let t = rig.terminal(80, 24);
@@ -244,7 +252,7 @@ fn stale_link_is_shown_as_stale() {
     rig.bench.bus.set_fault(Some(Box::new(Silence)));
     rig.advance(Duration::from_millis(100));
     rig.round();
-    let d = rig.app.device(DeviceKey::Cube(3)).unwrap();
+    let d = rig.app.device(Address::PowerCube { module: 3 }).unwrap();
     assert!(rig.app.stale(d).is_some());
     assert!(rig.app.links[0].timeouts >= 3, "timeouts counted: {:?}", rig.app.links[0]);
     insta::assert_snapshot!("stale_link_80x24", rig.screen(80, 24));
@@ -252,7 +260,7 @@ fn stale_link_is_shown_as_stale() {
     // It answers again: current again.
     rig.bench.bus.set_fault(None);
     rig.round();
-    let d = rig.app.device(DeviceKey::Cube(3)).unwrap();
+    let d = rig.app.device(Address::PowerCube { module: 3 }).unwrap();
     assert!(rig.app.stale(d).is_none());
 }
 
@@ -261,7 +269,7 @@ fn old_data_turns_stale_without_a_failed_poll() {
     let mut rig = Rig::new();
     rig.round();
     rig.advance(Duration::from_secs(5));
-    let d = rig.app.device(DeviceKey::Cube(3)).unwrap();
+    let d = rig.app.device(Address::PowerCube { module: 3 }).unwrap();
     assert_eq!(rig.app.stale(d).as_deref(), Some("no data for 5.0 s"));
 }
 
@@ -283,9 +291,9 @@ fn help_overlay_lists_every_key() {
 fn halt_all_reaches_every_device() {
     let mut rig = Rig::new();
     rig.round();
-    rig.select(DeviceKey::Cube(3));
+    rig.select(Address::PowerCube { module: 3 });
     rig.keys("h");
-    rig.select(DeviceKey::Cube(17));
+    rig.select(Address::PowerCube { module: 17 });
     rig.keys("]]");
     rig.keys("+");
     rig.advance(Duration::from_millis(300));
@@ -300,14 +308,17 @@ fn halt_all_reaches_every_device() {
         assert_ne!(cube & state::HALTED, 0, "module {m} halted");
         assert_eq!(vel, 0.0, "module {m} stands");
     }
-    assert!(rig.sent.iter().all(|m| *m != ToWorker::Act(DeviceKey::Cube(17), super::source::Action::MoveTo(1.0))));
+    assert!(rig
+        .sent
+        .iter()
+        .all(|m| *m != ToWorker::Act(Address::PowerCube { module: 17 }, super::source::Action::MoveTo(1.0))));
 }
 
 #[test]
 fn targets_are_checked_like_the_cli() {
     let mut rig = Rig::new();
     rig.round();
-    rig.select(DeviceKey::Cube(17));
+    rig.select(Address::PowerCube { module: 17 });
     rig.keys("g5");
     rig.key(KeyCode::Enter);
     assert!(rig.sent.is_empty(), "nothing sent: {:?}", rig.sent);
@@ -318,8 +329,10 @@ fn targets_are_checked_like_the_cli() {
     assert!(rig.sent.is_empty());
     // The worker checks again with fresh limits: a direct request fails the same way.
     let mut events = Vec::new();
-    rig.workers[0]
-        .handle(vec![ToWorker::Act(DeviceKey::Cube(17), super::source::Action::MoveTo(-1.0))], &mut |e| events.push(e));
+    rig.workers[0].handle(
+        vec![ToWorker::Act(Address::PowerCube { module: 17 }, super::source::Action::MoveTo(-1.0))],
+        &mut |e| events.push(e),
+    );
     let LinkEvent::Acted { result: Err(e), .. } = &events[0] else { panic!("{events:?}") };
     assert!(e.contains("MinPos = 0"), "{e}");
     assert_eq!(rig.cube(17).1, 0.0);
@@ -360,10 +373,10 @@ fn snapshots_keep_their_family() {
     for d in &rig.app.devices {
         let snap = d.snap.as_ref().unwrap_or_else(|| panic!("{:?} has no reading", d.key));
         let of_its_family = match d.key {
-            DeviceKey::Cube(_) => snap.get::<CubeSnap>().is_some(),
-            DeviceKey::Cdios { .. } => snap.get::<CdiosSnap>().is_some(),
-            DeviceKey::PacController => snap.get::<PacCtrlSnap>().is_some(),
-            DeviceKey::PacAxis(_) => snap.get::<PacAxisSnap>().is_some(),
+            Address::PowerCube { module: _ } => snap.get::<CubeSnap>().is_some(),
+            Address::Cdios { .. } => snap.get::<CdiosSnap>().is_some(),
+            Address::Pac { axis: None } => snap.get::<PacCtrlSnap>().is_some(),
+            Address::Pac { axis: Some(_) } => snap.get::<PacAxisSnap>().is_some(),
         };
         assert!(of_its_family, "{:?} has {snap:?}", d.key);
     }
@@ -372,9 +385,9 @@ fn snapshots_keep_their_family() {
 impl Rig {
     /// Online, and `axis` referenced (the controller moves only referenced axes).
     fn pac_online_and_referenced(&mut self, axis: u8) {
-        self.select(DeviceKey::PacController);
+        self.select(Address::Pac { axis: None });
         self.keys("o");
-        self.select(DeviceKey::PacAxis(axis));
+        self.select(Address::Pac { axis: Some(axis) });
         self.keys("h");
         for _ in 0..600 {
             self.advance(Duration::from_millis(100));
@@ -384,7 +397,7 @@ impl Rig {
             }
         }
         self.round();
-        assert!(self.app.stale(self.app.device(DeviceKey::PacAxis(axis)).unwrap()).is_none());
+        assert!(self.app.stale(self.app.device(Address::Pac { axis: Some(axis) }).unwrap()).is_none());
     }
 
     fn pac_axis(&self, axis: u8) -> (u8, f64) {
@@ -407,11 +420,11 @@ impl Rig {
         self.pac_online_and_referenced(1);
         self.keys("g5000");
         self.key(KeyCode::Enter);
-        self.select(DeviceKey::Cube(3));
+        self.select(Address::PowerCube { module: 3 });
         self.keys("h");
-        self.select(DeviceKey::Cube(17));
+        self.select(Address::PowerCube { module: 17 });
         self.keys("]]+");
-        self.select(DeviceKey::Cdios { node: 1, module: 0 });
+        self.select(Address::Cdios { node: 1, module: 0 });
         self.keys("eg1000000");
         self.key(KeyCode::Enter);
         self.advance(Duration::from_millis(300));
@@ -423,7 +436,7 @@ impl Rig {
 fn pac_panes() {
     let mut rig = Rig::new();
     rig.round();
-    rig.select(DeviceKey::PacController);
+    rig.select(Address::Pac { axis: None });
     insta::assert_snapshot!("pac_controller_80x24", rig.screen(80, 24));
     rig.pac_online_and_referenced(2);
     rig.keys("g2500");
@@ -445,13 +458,13 @@ fn pac_panes() {
 fn pac_reference_drive_keeps_the_line_for_polls() {
     let mut rig = Rig::new();
     rig.round();
-    rig.select(DeviceKey::PacController);
+    rig.select(Address::Pac { axis: None });
     rig.keys("o");
-    rig.select(DeviceKey::PacAxis(1));
+    rig.select(Address::Pac { axis: Some(1) });
     rig.keys("h");
     rig.advance(Duration::from_millis(100));
     rig.round();
-    let d = rig.app.device(DeviceKey::PacAxis(2)).unwrap();
+    let d = rig.app.device(Address::Pac { axis: Some(2) }).unwrap();
     let why = rig.app.stale(d).expect("axes cannot be read during the drive");
     assert!(why.contains("only polls"), "{why}");
     // Only a stop gets through: any other action is refused before sending.
@@ -461,7 +474,7 @@ fn pac_reference_drive_keeps_the_line_for_polls() {
     rig.advance(Duration::from_millis(100));
     rig.round();
     assert_eq!(rig.pac_axis(1).1, 0.0, "the referencing axis stands");
-    let d = rig.app.device(DeviceKey::PacAxis(2)).unwrap();
+    let d = rig.app.device(Address::Pac { axis: Some(2) }).unwrap();
     assert!(rig.app.stale(d).is_none(), "the line is free again");
 }
 
@@ -469,7 +482,7 @@ fn pac_reference_drive_keeps_the_line_for_polls() {
 fn cdios_panes() {
     let mut rig = Rig::new();
     rig.round();
-    rig.select(DeviceKey::Cdios { node: 1, module: 0 });
+    rig.select(Address::Cdios { node: 1, module: 0 });
     rig.keys("eg20000");
     rig.key(KeyCode::Enter);
     rig.advance(Duration::from_millis(200));
@@ -532,7 +545,7 @@ fn halt_all_works_while_a_link_times_out() {
     rig.bench.bus.set_fault(Some(Box::new(Silence)));
     rig.advance(Duration::from_millis(100));
     rig.round();
-    let d = rig.app.device(DeviceKey::Cube(3)).unwrap();
+    let d = rig.app.device(Address::PowerCube { module: 3 }).unwrap();
     assert!(rig.app.stale(d).is_some(), "the CAN link is timing out");
     let t0 = rig.clock.now();
     rig.key(KeyCode::Char(' '));
@@ -561,13 +574,13 @@ fn every_key_in_the_help_works() {
             rig.app.log(super::app::Level::Info, "filler so that the event pane can scroll");
         }
         let device = match b.action {
-            KeyAction::Enable | KeyAction::Disable => DeviceKey::PacAxis(1),
-            KeyAction::Online | KeyAction::Offline => DeviceKey::PacController,
-            KeyAction::Up => DeviceKey::Cube(5),
-            _ => DeviceKey::Cube(3),
+            KeyAction::Enable | KeyAction::Disable => Address::Pac { axis: Some(1) },
+            KeyAction::Online | KeyAction::Offline => Address::Pac { axis: None },
+            KeyAction::Up => Address::PowerCube { module: 5 },
+            _ => Address::PowerCube { module: 3 },
         };
         if matches!(b.action, KeyAction::Enable | KeyAction::Disable | KeyAction::Offline) {
-            rig.select(DeviceKey::PacController);
+            rig.select(Address::Pac { axis: None });
             rig.keys("o");
             rig.sent.clear();
         }
@@ -639,7 +652,7 @@ fn a_flapping_link_folds_its_events_with_a_count() {
         rig.round();
     }
     let lines: Vec<_> = rig.app.events.iter().skip(before).collect();
-    let cube = DeviceKey::Cube(3).label();
+    let cube = Address::PowerCube { module: 3 }.label();
     let again: Vec<_> = lines.iter().filter(|e| e.text == format!("{cube}: answers again")).collect();
     assert_eq!(again.len(), 1, "{lines:?}");
     assert_eq!(again[0].count, 10);
@@ -655,18 +668,18 @@ fn a_flapping_link_folds_its_events_with_a_count() {
 fn terminate_halts_what_the_dashboard_moved_then_quits() {
     let mut rig = Rig::new();
     rig.round();
-    rig.select(DeviceKey::Cube(17));
+    rig.select(Address::PowerCube { module: 17 });
     rig.key(KeyCode::Char('g'));
     rig.keys("0.5");
     rig.key(KeyCode::Enter);
     rig.advance(Duration::from_millis(300));
     rig.round();
     assert_ne!(rig.cube(17).1, 0.0, "module 17 moving");
-    assert_eq!(rig.app.moved, [(0, DeviceKey::Cube(17))]);
+    assert_eq!(rig.app.moved, [(0, Address::PowerCube { module: 17 })]);
     let outs = rig.app.handle(Event::Terminate(libc::SIGTERM));
     assert!(rig.app.quit);
     let msgs: Vec<_> = outs.iter().filter(|o| o.link == 0).map(|o| o.msg.clone()).collect();
-    assert_eq!(msgs, [ToWorker::Act(DeviceKey::Cube(17), super::source::Action::Halt), ToWorker::Quit]);
+    assert_eq!(msgs, [ToWorker::Act(Address::PowerCube { module: 17 }, super::source::Action::Halt), ToWorker::Quit]);
     let mut events = Vec::new();
     assert!(rig.workers[0].handle(msgs, &mut |ev| events.push(ev)), "the worker quits after the halt");
     let (cube, vel) = rig.cube(17);
@@ -683,23 +696,30 @@ fn terminate_halts_a_jog_the_dashboard_started() {
     for (signal, name) in [(libc::SIGTERM, "SIGTERM"), (libc::SIGHUP, "SIGHUP")] {
         let mut rig = Rig::new();
         rig.round();
-        rig.select(DeviceKey::Cube(5));
+        rig.select(Address::PowerCube { module: 5 });
         rig.keys("s");
         rig.keys("r");
-        rig.select(DeviceKey::Cdios { node: 1, module: 0 });
+        rig.select(Address::Cdios { node: 1, module: 0 });
         rig.keys("e");
-        rig.select(DeviceKey::Cube(17));
+        rig.select(Address::PowerCube { module: 17 });
         rig.keys("]]+");
         rig.keys("+");
         rig.advance(Duration::from_millis(300));
         rig.round();
         assert_ne!(rig.cube(17).1, 0.0, "{name}: module 17 jogging");
-        assert_eq!(rig.app.moved, [(0, DeviceKey::Cube(17))], "{name}: the App keeps the jog once, and only it");
-        assert_eq!(rig.workers[0].moved(), [DeviceKey::Cube(17)], "{name}: so does the worker");
+        assert_eq!(
+            rig.app.moved,
+            [(0, Address::PowerCube { module: 17 })],
+            "{name}: the App keeps the jog once, and only it"
+        );
+        assert_eq!(rig.workers[0].moved(), [Address::PowerCube { module: 17 }], "{name}: so does the worker");
         let outs = rig.app.handle(Event::Terminate(signal));
         assert!(rig.app.quit);
         let msgs: Vec<_> = outs.iter().filter(|o| o.link == 0).map(|o| o.msg.clone()).collect();
-        assert_eq!(msgs, [ToWorker::Act(DeviceKey::Cube(17), super::source::Action::Halt), ToWorker::Quit]);
+        assert_eq!(
+            msgs,
+            [ToWorker::Act(Address::PowerCube { module: 17 }, super::source::Action::Halt), ToWorker::Quit]
+        );
         let mut events = Vec::new();
         assert!(rig.workers[0].handle(msgs, &mut |ev| events.push(ev)), "the worker quits after the halt");
         let (cube, vel) = rig.cube(17);
@@ -715,9 +735,9 @@ fn terminate_halts_a_jog_the_dashboard_started() {
 fn a_worker_halts_the_jog_it_sent_on_its_own() {
     let mut rig = Rig::new();
     rig.round();
-    rig.select(DeviceKey::Cube(3));
+    rig.select(Address::PowerCube { module: 3 });
     rig.keys("s");
-    rig.select(DeviceKey::Cube(17));
+    rig.select(Address::PowerCube { module: 17 });
     rig.keys("]]+");
     rig.advance(Duration::from_millis(300));
     rig.round();
@@ -756,9 +776,9 @@ fn halt_all_halts_each_module_when_the_broadcast_is_lost() {
     let counter = Arc::clone(&lost);
     let mut rig = Rig::with_can(move |inner| Box::new(LoseBroadcasts { inner, lost: counter }));
     rig.round();
-    rig.select(DeviceKey::Cube(3));
+    rig.select(Address::PowerCube { module: 3 });
     rig.keys("h");
-    rig.select(DeviceKey::Cube(17));
+    rig.select(Address::PowerCube { module: 17 });
     rig.keys("]]+");
     rig.advance(Duration::from_millis(300));
     rig.round();
@@ -806,7 +826,7 @@ fn a_lost_link_is_closed_reopened_with_backoff_and_its_devices_come_back() {
     let ev = rig.workers[0].discover();
     rig.feed(ev);
     rig.round();
-    assert!(rig.app.stale(rig.app.device(DeviceKey::Cube(3)).unwrap()).is_none());
+    assert!(rig.app.stale(rig.app.device(Address::PowerCube { module: 3 }).unwrap()).is_none());
     rig.bench.bus.set_fault(Some(Box::new(Silence)));
     for _ in 0..super::worker::DOWN_AFTER {
         rig.advance(Duration::from_millis(100));
@@ -833,7 +853,7 @@ fn a_lost_link_is_closed_reopened_with_backoff_and_its_devices_come_back() {
     rig.bench.bus.set_fault(None);
     rig.advance(Duration::from_millis(100));
     rig.round();
-    let d = rig.app.device(DeviceKey::Cube(3)).unwrap();
+    let d = rig.app.device(Address::PowerCube { module: 3 }).unwrap();
     assert!(rig.app.stale(d).is_none(), "module 3 current again: {:?}", rig.app.events);
     assert!(rig.app.events.iter().any(|e| e.text.ends_with("reopened")), "{:?}", rig.app.events);
 }
@@ -849,11 +869,11 @@ fn rescan_finds_a_module_missing_at_start() {
     rig.app.devices.clear();
     let ev = rig.workers[0].discover();
     rig.feed(ev);
-    assert!(!rig.app.devices.iter().any(|d| d.key == DeviceKey::Cube(17)));
+    assert!(!rig.app.devices.iter().any(|d| d.key == Address::PowerCube { module: 17 }));
     rig.bench.bus.set_fault(None);
     rig.keys("n");
     assert!(rig.sent.contains(&ToWorker::Rescan));
-    assert!(rig.app.devices.iter().any(|d| d.key == DeviceKey::Cube(17)), "found by the rescan");
+    assert!(rig.app.devices.iter().any(|d| d.key == Address::PowerCube { module: 17 }), "found by the rescan");
     assert!(rig.app.events.iter().any(|e| e.text == "rescan sent to every link"));
 }
 
@@ -915,16 +935,16 @@ impl DeviceSource for Panicky {
     fn family(&self) -> Family {
         self.inner.family()
     }
-    fn discover(&mut self) -> Result<Vec<DeviceKey>, super::source::SourceError> {
+    fn discover(&mut self) -> Result<Vec<Address>, super::source::SourceError> {
         self.inner.discover()
     }
-    fn poll(&mut self, dev: DeviceKey) -> Result<Snapshot, super::source::SourceError> {
+    fn poll(&mut self, dev: Address) -> Result<Snapshot, super::source::SourceError> {
         if self.armed.load(std::sync::atomic::Ordering::SeqCst) {
             panic!("injected worker panic");
         }
         self.inner.poll(dev)
     }
-    fn act(&mut self, dev: DeviceKey, action: super::source::Action) -> Result<String, super::source::SourceError> {
+    fn act(&mut self, dev: Address, action: super::source::Action) -> Result<String, super::source::SourceError> {
         self.inner.act(dev, action)
     }
     fn halt_all(&mut self) -> Vec<super::source::HaltReport> {
@@ -1134,7 +1154,7 @@ fn braille_cells(t: &Terminal<TestBackend>) -> usize {
 fn overview_shows_the_whole_bench_with_units() {
     let mut rig = Rig::new();
     rig.moving_for(10);
-    rig.select(DeviceKey::Cube(17));
+    rig.select(Address::PowerCube { module: 17 });
     rig.keys("v");
     assert!(rig.app.overview);
     for (w, h) in [(80, 24), (200, 50)] {
@@ -1153,7 +1173,7 @@ fn overview_shows_the_whole_bench_with_units() {
     insta::assert_snapshot!("overview_200x50", rig.screen(200, 50));
     // Actions still act on the selected row.
     rig.keys("s");
-    assert!(rig.sent.contains(&ToWorker::Act(DeviceKey::Cube(17), super::source::Action::Halt)));
+    assert!(rig.sent.contains(&ToWorker::Act(Address::PowerCube { module: 17 }, super::source::Action::Halt)));
     rig.keys("v");
     assert!(!rig.app.overview);
     assert!(rig.screen(80, 24).contains("Devices"));
@@ -1165,7 +1185,7 @@ fn overview_shows_the_whole_bench_with_units() {
 fn chart_shows_the_motion_of_the_selected_device() {
     let mut rig = Rig::new();
     rig.moving_for(20);
-    rig.select(DeviceKey::Cube(17));
+    rig.select(Address::PowerCube { module: 17 });
     let plain = rig.terminal(80, 24);
     assert_eq!(braille_cells(&plain), 0);
     rig.keys("c");
@@ -1182,17 +1202,17 @@ fn chart_shows_the_motion_of_the_selected_device() {
     insta::assert_snapshot!("chart_80x24", rig.screen(80, 24));
     insta::assert_snapshot!("chart_200x50", rig.screen(200, 50));
     // A PA axis and a Cdios module have no current: two plots.
-    rig.select(DeviceKey::PacAxis(1));
+    rig.select(Address::Pac { axis: Some(1) });
     let screen = rig.screen(80, 24);
     assert!(screen.contains("AE/s") && !screen.contains("current"), "{screen}");
-    rig.select(DeviceKey::Cdios { node: 1, module: 0 });
+    rig.select(Address::Cdios { node: 1, module: 0 });
     let screen = rig.screen(80, 24);
     assert!(screen.contains("rpm") && screen.contains("counts"), "{screen}");
     // The controller line has no motion values, and says so.
-    rig.select(DeviceKey::PacController);
+    rig.select(Address::Pac { axis: None });
     assert!(rig.screen(80, 24).contains("no motion values to chart"));
     // Overview and chart together.
-    rig.select(DeviceKey::Cube(17));
+    rig.select(Address::PowerCube { module: 17 });
     rig.keys("v");
     insta::assert_snapshot!("overview_chart_80x24", rig.screen(80, 24));
     insta::assert_snapshot!("overview_chart_200x50", rig.screen(200, 50));
@@ -1204,7 +1224,7 @@ fn axis_poll(link: usize, axis: u8, at: std::time::Instant, position: f64) -> Ev
     let snap = PacAxisSnap { position, speed: 1.0, status: 1, ext_status: 0x0101_0101, min_pos: None, max_pos: None };
     Event::Link(LinkEvent::Polled {
         link,
-        device: DeviceKey::PacAxis(axis),
+        device: Address::Pac { axis: Some(axis) },
         at,
         result: Ok(Snapshot::new(snap)),
         health: super::source::Health::Answer,
@@ -1220,7 +1240,7 @@ fn history_keeps_30_s_in_a_bounded_ring() {
     let mut app = App::new(vec![LinkView::new("l", vec![Family::Pac], 10.0)], 10.0, t0);
     app.handle(Event::Link(LinkEvent::Discovered {
         link: 0,
-        devices: vec![DeviceKey::PacAxis(1), DeviceKey::PacAxis(2)],
+        devices: vec![Address::Pac { axis: Some(1) }, Address::Pac { axis: Some(2) }],
         errors: vec![],
     }));
     // Axis 1 at 10 Hz for 2 minutes: the last 30 s stay (and the one sample
@@ -1229,7 +1249,7 @@ fn history_keeps_30_s_in_a_bounded_ring() {
         app.handle(axis_poll(0, 1, t0 + Duration::from_millis(100 * i), i as f64));
     }
     let now = t0 + Duration::from_millis(100 * 1199);
-    let h = &app.device(DeviceKey::PacAxis(1)).unwrap().history;
+    let h = &app.device(Address::Pac { axis: Some(1) }).unwrap().history;
     assert_eq!(h.len(), 302, "30 s at 10 Hz, both ends, and one before");
     let oldest = h.samples().next().unwrap();
     assert!(now.duration_since(oldest.at) > WINDOW);
@@ -1239,13 +1259,13 @@ fn history_keeps_30_s_in_a_bounded_ring() {
     for i in 0..60_000u64 {
         app.handle(axis_poll(0, 2, t1 + Duration::from_millis(i), i as f64));
         if i % 10_000 == 0 {
-            assert!(app.device(DeviceKey::PacAxis(2)).unwrap().history.len() <= CAPACITY);
+            assert!(app.device(Address::Pac { axis: Some(2) }).unwrap().history.len() <= CAPACITY);
         }
     }
-    assert_eq!(app.device(DeviceKey::PacAxis(2)).unwrap().history.len(), CAPACITY);
+    assert_eq!(app.device(Address::Pac { axis: Some(2) }).unwrap().history.len(), CAPACITY);
     // A report older than the newest sample (a clock step) is not charted.
     app.handle(axis_poll(0, 2, t1, -1.0));
-    let h = &app.device(DeviceKey::PacAxis(2)).unwrap().history;
+    let h = &app.device(Address::Pac { axis: Some(2) }).unwrap().history;
     assert!(h.samples().all(|s| s.pos >= 0.0));
     // The chart's traces: x within the window before now, newest at 0.
     app.handle(Event::Tick(t1 + Duration::from_millis(59_999)));
@@ -1263,8 +1283,8 @@ fn history_keeps_30_s_in_a_bounded_ring() {
     let thin = super::history::thin(points, 50);
     assert!(thin.len() <= 100, "{}", thin.len());
     assert_eq!((thin.first(), thin.last()), (points.first(), points.last()));
-    let axis1 = app.device(DeviceKey::PacAxis(1)).unwrap().history.traces(
-        super::history::motion(app.device(DeviceKey::PacAxis(1)).unwrap().snap.as_ref().unwrap()).unwrap().0,
+    let axis1 = app.device(Address::Pac { axis: Some(1) }).unwrap().history.traces(
+        super::history::motion(app.device(Address::Pac { axis: Some(1) }).unwrap().snap.as_ref().unwrap()).unwrap().0,
         now,
     );
     let thin = super::history::thin(&axis1[0].points, 50);
@@ -1279,18 +1299,18 @@ fn chart_overview_and_snapshot_keys() {
     let mut rig = Rig::new();
     rig.moving_for(5);
     rig.sent.clear();
-    rig.select(DeviceKey::Cube(3));
+    rig.select(Address::PowerCube { module: 3 });
     rig.keys("cv");
     assert!(rig.app.chart && rig.app.overview);
     rig.keys("cv");
     assert!(!rig.app.chart && !rig.app.overview);
     rig.keys("p");
     let req = rig.app.snapshot.take().expect("a chart to write");
-    assert_eq!(req.device, DeviceKey::Cube(3));
+    assert_eq!(req.device, Address::PowerCube { module: 3 });
     let names: Vec<_> = req.traces.iter().map(|t| (t.name, t.unit)).collect();
     assert_eq!(names, [("position", "rad"), ("velocity", "rad/s"), ("current", "A")]);
     assert!(req.traces.iter().all(|t| t.points.len() >= 5), "{req:?}");
-    rig.select(DeviceKey::PacController);
+    rig.select(Address::Pac { axis: None });
     rig.keys("p");
     assert!(rig.app.snapshot.is_none());
     assert!(rig.app.events.iter().any(|e| e.text == "PA-CONTROL: no motion values to chart"));
@@ -1354,7 +1374,7 @@ fn assert_chart_svg(svg: &str, labels: &[&str]) {
 fn snapshot_writes_the_chart_as_svg() {
     let mut rig = Rig::new();
     rig.moving_for(10);
-    rig.select(DeviceKey::Cube(17));
+    rig.select(Address::PowerCube { module: 17 });
     rig.keys("p");
     let req = rig.app.snapshot.take().unwrap();
     let dir = tempfile::tempdir().unwrap();
@@ -1426,7 +1446,7 @@ fn docs_pictures() -> Vec<(&'static str, String)> {
     let (w, h) = (120, 36);
     let mut rig = Rig::new();
     rig.moving_for(40);
-    rig.select(DeviceKey::Cube(17));
+    rig.select(Address::PowerCube { module: 17 });
     let mut out = vec![("dashboard.svg", super::screenshot::svg(rig.terminal(w, h).backend().buffer()))];
     rig.keys("c");
     out.push(("dashboard-chart.svg", super::screenshot::svg(rig.terminal(w, h).backend().buffer())));
@@ -1527,14 +1547,15 @@ fn a_round_sends_the_next_modules_reads_before_the_current_answers_are_read() {
     assert_eq!(polled.iter().map(|p| p.0).collect::<Vec<_>>(), devices);
     assert!(polled.iter().all(|p| p.1.is_ok()), "{polled:?}");
     for (d, p) in devices.iter().zip(&polled) {
-        let (DeviceKey::Cube(m), Some(snap)) = (d, p.1.as_ref().ok().and_then(|s| s.get::<CubeSnap>())) else {
+        let (Address::PowerCube { module: m }, Some(snap)) = (d, p.1.as_ref().ok().and_then(|s| s.get::<CubeSnap>()))
+        else {
             panic!("{p:?}")
         };
         assert!(snap.limits.max_pos > snap.limits.min_pos, "module {m}: {snap:?}");
     }
     let lines = trace.lock().unwrap().clone();
     let first_ack = lines.iter().position(|l| l == "ack").expect("answers read");
-    let DeviceKey::Cube(second) = devices[1] else { unreachable!() };
+    let Address::PowerCube { module: second } = devices[1] else { unreachable!() };
     assert!(
         lines[..first_ack].iter().any(|l| *l == format!("sent {second}")),
         "module {second}'s reads went out only after the first answers were read: {lines:?}"

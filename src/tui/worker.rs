@@ -21,12 +21,14 @@
 //! halts what the dashboard moved on the other links and quits: a panic
 //! never leaves an axis moving with nobody watching it.
 
+use crate::address::Address;
+use crate::device::face::MotionTarget;
 use std::sync::mpsc::{Receiver, RecvTimeoutError, Sender, TryRecvError};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use super::event::{Event, LinkEvent, LinkId, ToWorker};
-use super::source::{DeviceKey, DeviceSource, Health};
+use super::source::{DeviceSource, Health};
 use crate::clock::Clock;
 
 /// Opens the link again from the same path, with fresh device sources.
@@ -53,7 +55,7 @@ pub struct LinkWorker {
     link: LinkId,
     sources: Vec<Box<dyn DeviceSource>>,
     /// (source index, device), in display order.
-    devices: Vec<(usize, DeviceKey)>,
+    devices: Vec<(usize, Address)>,
     clock: Arc<dyn Clock>,
     rate: f64,
     last_round: Option<Instant>,
@@ -63,10 +65,10 @@ pub struct LinkWorker {
     down: Option<Down>,
     /// The devices polled when the link was lost: polled again after the
     /// reopen even if the scan misses them (a module still powering up).
-    lost: Vec<DeviceKey>,
+    lost: Vec<Address>,
     /// Devices this worker sent a motion to (acknowledged or not: a lost
     /// acknowledge may hide a taken motion), halted if the worker panics.
-    moved: Vec<DeviceKey>,
+    moved: Vec<Address>,
 }
 
 impl LinkWorker {
@@ -193,7 +195,7 @@ impl LinkWorker {
         false
     }
 
-    fn source_of(&self, dev: DeviceKey) -> Option<usize> {
+    fn source_of(&self, dev: Address) -> Option<usize> {
         self.devices
             .iter()
             .find(|(_, d)| *d == dev)
@@ -269,7 +271,7 @@ impl LinkWorker {
     }
 
     /// Devices this worker sent a motion to.
-    pub fn moved(&self) -> &[DeviceKey] {
+    pub fn moved(&self) -> &[Address] {
         &self.moved
     }
 
@@ -280,12 +282,13 @@ impl LinkWorker {
         let mut said = Vec::new();
         for dev in self.moved.clone() {
             // The face's halt, the one every way out of a motion uses.
-            let halted =
-                std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| match (self.source_of(dev), dev.target()) {
+            let halted = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+                match (self.source_of(dev), MotionTarget::try_from(dev).ok()) {
                     (Some(i), Some(at)) => self.sources[i].face().halt(at, 1).map(|_| ()).map_err(|e| e.to_string()),
                     (Some(_), None) => Err("no such device".into()),
                     (None, _) => Err("its link is closed".into()),
-                }));
+                }
+            }));
             said.push(match halted {
                 Ok(Ok(_)) => format!("halted {}", dev.label()),
                 Ok(Err(e)) => format!("HALT OF {} FAILED: {e}", dev.label()),

@@ -109,7 +109,8 @@ fn powercube_moves_take_relative_distances_from_the_current_position() {
     ok(&["--link", link, "move-ramp", "-m", "3", "-0.05", "--relative", "--wait"]);
     assert!((pos() - 0.15).abs() < 1e-3, "{}", pos());
     let r = ok(&["--link", link, "--json", "move-step", "-m", "3", "0.1", "--relative", "--time", "200"]);
-    assert!((r.json()["target"].as_f64().unwrap() - 0.25).abs() < 1e-3, "{}", r.stdout);
+    assert!((r.json()["target"]["value"].as_f64().unwrap() - 0.25).abs() < 1e-3, "{}", r.stdout);
+    assert_eq!(r.json()["target"]["unit"], "rad", "{}", r.stdout);
     let r = run(&["--link", link, "move-ramp", "-m", "3,5", "--sync", "0.1", "0.1", "--relative"]);
     assert_eq!(r.code, 2, "--relative with --sync is refused: {}", r.stderr);
 }

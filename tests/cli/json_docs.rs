@@ -72,7 +72,9 @@ fn family_link<'a>(sim: &'a common::Sim, args: &[&str]) -> &'a str {
 
 #[test]
 fn every_documented_example_matches_real_output() {
-    let document = schema("document");
+    let (document, stream) = (schema("document"), schema("stream_line"));
+    // A stream's example is one line of it.
+    let streams = ["cdios-watch", "record"];
     let mut checked = 0;
     for entry in std::fs::read_dir(concat!(env!("CARGO_MANIFEST_DIR"), "/docs")).unwrap() {
         let path = entry.unwrap().path();
@@ -95,8 +97,9 @@ fn every_documented_example_matches_real_output() {
             if let Err(e) = same_shape(&doc, &r.json(), "$") {
                 panic!("{name}: `axisctl {cmd}`: {e}");
             }
+            let schema = if args.iter().any(|a| streams.contains(a)) { &stream } else { &document };
             for (what, v) in [("real output", r.json()), ("documented example", doc)] {
-                if let Some(e) = schema_errors(&document, &v) {
+                if let Some(e) = schema_errors(schema, &v) {
                     panic!("{name}: `axisctl {cmd}`: the {what} breaks the schema:\n{e}");
                 }
             }
@@ -166,10 +169,11 @@ fn shape_comparison_notices_differences() {
 #[test]
 fn schema_rejects_broken_conventions() {
     let document = schema("document");
-    let good = serde_json::json!({"family": "powercube", "module": 17, "link": "sim", "acknowledged": true,
-        "state": {"raw": 2, "flags": ["STATE_HOME_OK"], "errors": [], "warnings": [],
-                  "details": [{"name": "STATE_HOME_OK", "mask": 2, "class": "info", "description": "homed"}],
-                  "unknown_bits": 0}});
+    let detail = serde_json::json!({"name": "SHORT_NOT_OK", "mask": 1, "class": "warning", "description": "not ok"});
+    let good = serde_json::json!({"family": "powercube", "module": 17, "link": "sim",
+        "short_state": {"raw": 1, "flags": ["SHORT_NOT_OK"], "errors": [], "warnings": ["SHORT_NOT_OK"],
+                        "details": [detail], "unknown_bits": 0},
+        "state": {"raw": 0, "flags": [], "errors": [], "warnings": [], "details": [], "unknown_bits": 0}});
     assert_eq!(schema_errors(&document, &good), None);
     let broken = |path: &str, v: Value| {
         let mut doc = good.clone();
@@ -180,16 +184,29 @@ fn schema_rejects_broken_conventions() {
         broken("/module", Value::from(0)),
         broken("/family", Value::from("pa-control")),
         broken("/state/unknown_bits", serde_json::json!([])),
-        broken("/state/details/0/class", Value::from("fatal")),
+        broken("/short_state/details/0/class", Value::from("fatal")),
         broken("/state", Value::from(1)),
-        broken("/acknowledged", Value::from(1)),
+        // The short state's old shape, a bare integer.
+        broken("/short_state", Value::from(1)),
+        serde_json::json!({"foo": 1}),
+        serde_json::json!({}),
         serde_json::json!({"family": "cdios", "link": "sim", "module": 0}),
         serde_json::json!({"module": 3, "error": 0}),
         serde_json::json!({"devices": [{"module": 3}]}),
         serde_json::json!({"family": "pac", "link": "sim", "axis": 2, "position": 200.5}),
         serde_json::json!({"family": "cdios", "link": "sim", "node": 1, "module": 0, "motor_speed": 300}),
+        // A broadcast names no module; a module's command is no broadcast.
+        serde_json::json!({"family": "powercube", "link": "sim", "module": 17, "command": "home",
+                           "acknowledged": false, "broadcast": true}),
+        serde_json::json!({"family": "powercube", "link": "sim", "module": null, "command": "home", "acknowledged": true}),
+        // A PA-CONTROL move always says where it goes.
+        serde_json::json!({"family": "pac", "link": "sim", "axis": 2, "command": "pac-move", "manual_command": "move-absolute",
+                           "command_code": "0A94", "acknowledged": true, "done": false}),
+        // A PowerCube move's old bare target.
+        serde_json::json!({"family": "powercube", "link": "sim", "module": 17, "command": "move-ramp",
+                           "acknowledged": true, "target": 0.1}),
     ] {
-        assert!(schema_errors(&document, &bad).is_some(), "accepted {bad}");
+        assert!(document.iter_errors(&bad).next().is_some(), "accepted {bad}");
     }
     let error = schema("error_document");
     assert_eq!(
@@ -205,6 +222,40 @@ fn schema_rejects_broken_conventions() {
     }
 }
 
+/// A real document turns invalid with an unknown key at the top level and
+/// in every nested object (a `{value, unit}`, the `state`, a detail), and
+/// the check that every test's schema validation makes
+/// (`common::schema_errors`) notices a schema that leaves one object open:
+/// the published schema with `additionalProperties: false` taken off
+/// `{value, unit}` accepts `position.axisctl_unknown_key`.
+#[test]
+fn an_unknown_key_in_any_object_of_a_real_document_makes_it_invalid() {
+    let r = common::run(&["--link", "sim", "--json", "pac-axis", "2"]);
+    assert_eq!(r.code, 0, "{}", r.stderr);
+    let doc = r.json();
+    let document = schema("document");
+    assert_eq!(schema_errors(&document, &doc), None, "{doc}");
+    let variants = common::with_an_unknown_key(&doc);
+    let at: Vec<&str> = variants.iter().map(|(p, _)| p.as_str()).collect();
+    for p in ["", "/position", "/speed", "/state", "/state/details/0"] {
+        assert!(at.contains(&p), "no copy with a key added at {p:?}: {at:?}");
+    }
+    for (p, d) in &variants {
+        assert!(document.iter_errors(d).next().is_some(), "an unknown key at {p:?} is accepted");
+    }
+
+    let text = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/schema/axisctl.schema.json")).unwrap();
+    let mut open: Value = serde_json::from_str(&text).unwrap();
+    let value = open.pointer_mut("/$defs/value").and_then(Value::as_object_mut).unwrap();
+    assert_eq!(value.remove("additionalProperties"), Some(Value::Bool(false)));
+    open.as_object_mut().unwrap().remove("anyOf");
+    open["$ref"] = Value::from("#/$defs/document");
+    let loose = jsonschema::validator_for(&open).unwrap();
+    let said = schema_errors(&loose, &doc).expect("the open {value, unit} is noticed");
+    assert!(said.contains("\"/position\""), "{said}");
+    assert!(!said.contains("\"\" "), "{said}");
+}
+
 /// Beyond the documented examples: every `--link sim` example of every
 /// subcommand's own help, run with `--json`, prints one document that the
 /// schema accepts (JSON Lines of stream lines for a stream), or on failure
@@ -216,7 +267,7 @@ fn every_help_example_under_json_follows_the_schema() {
     common::subcommands_and_sim_examples(&[], &mut subs);
     // Text, a terminal UI, or streams that run until stopped (tests/cli/json_streams.rs).
     let text_only = ["completions", "man", "sim", "dashboard", "watchdog keepalive", "cdios-watch", "monitor"];
-    let (mut documents, mut errors) = (0, 0);
+    let mut runs: Vec<Vec<String>> = Vec::new();
     for (path, examples) in subs {
         if text_only.iter().any(|t| path == *t || path.starts_with(&format!("{t} "))) {
             continue;
@@ -228,39 +279,46 @@ fn every_help_example_under_json_follows_the_schema() {
                 continue;
             }
             // `--link LINK` first, then `--json`.
-            let mut args: Vec<&str> = words.iter().map(String::as_str).filter(|w| *w != "--json").collect();
-            args.insert(2, "--json");
-            // Examples write files (`backup --out bench.json`): never into the checkout.
-            let cwd = concat!(env!("CARGO_TARGET_TMPDIR"), "/json-docs-cwd");
-            std::fs::create_dir_all(cwd).unwrap();
-            let out = common::bin().current_dir(cwd).args(&args).output().unwrap();
-            let r = common::Run {
-                code: out.status.code().unwrap_or(-1),
-                stdout: String::from_utf8_lossy(&out.stdout).into(),
-                stderr: String::from_utf8_lossy(&out.stderr).into(),
-            };
-            if r.code == 0 {
-                let docs: Vec<(Value, &jsonschema::Validator)> = match serde_json::from_str::<Value>(&r.stdout) {
-                    Ok(v) => vec![(v, &document)],
-                    Err(_) => r.stdout.lines().map(|l| (serde_json::from_str(l).unwrap(), &stream)).collect(),
-                };
-                for (v, schema) in docs {
-                    if let Some(e) = schema_errors(schema, &v) {
-                        panic!("`axisctl {}`: {v} breaks the schema:\n{e}", args.join(" "));
-                    }
-                }
-                documents += 1;
-            } else {
-                let line = r.stderr.lines().last().unwrap_or_default();
-                let v: Value = serde_json::from_str(line).unwrap_or_else(|e| panic!("{args:?}: {e}: {}", r.stderr));
-                if let Some(e) = schema_errors(&error, &v) {
-                    panic!("`axisctl {}`: {v} breaks the schema:\n{e}", args.join(" "));
-                }
-                assert_eq!(v["error"]["exit_code"], r.code, "{args:?}");
-                errors += 1;
-            }
+            let mut args: Vec<String> = words.into_iter().filter(|w| w != "--json").collect();
+            args.insert(2, "--json".into());
+            runs.push(args);
         }
     }
+    // Examples write files (`backup --out bench.json`): never into the checkout.
+    let cwd = concat!(env!("CARGO_TARGET_TMPDIR"), "/json-docs-cwd");
+    std::fs::create_dir_all(cwd).unwrap();
+    // A few at a time; one that names a file an earlier one wrote runs after it.
+    let lines: Vec<String> = runs.iter().map(|a| a.join(" ")).collect();
+    let (documents, errors) = (std::sync::atomic::AtomicUsize::new(0), std::sync::atomic::AtomicUsize::new(0));
+    common::pool::each_after(&runs, &common::pool::after_their_files(&lines), |args| {
+        let out = common::bin().current_dir(cwd).args(args).output().unwrap();
+        let r = common::Run {
+            code: out.status.code().unwrap_or(-1),
+            stdout: String::from_utf8_lossy(&out.stdout).into(),
+            stderr: String::from_utf8_lossy(&out.stderr).into(),
+        };
+        if r.code == 0 {
+            let docs: Vec<(Value, &jsonschema::Validator)> = match serde_json::from_str::<Value>(&r.stdout) {
+                Ok(v) => vec![(v, &document)],
+                Err(_) => r.stdout.lines().map(|l| (serde_json::from_str(l).unwrap(), &stream)).collect(),
+            };
+            for (v, schema) in docs {
+                if let Some(e) = schema_errors(schema, &v) {
+                    panic!("`axisctl {}`: {v} breaks the schema:\n{e}", args.join(" "));
+                }
+            }
+            documents.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        } else {
+            let line = r.stderr.lines().last().unwrap_or_default();
+            let v: Value = serde_json::from_str(line).unwrap_or_else(|e| panic!("{args:?}: {e}: {}", r.stderr));
+            if let Some(e) = schema_errors(&error, &v) {
+                panic!("`axisctl {}`: {v} breaks the schema:\n{e}", args.join(" "));
+            }
+            assert_eq!(v["error"]["exit_code"], r.code, "{args:?}");
+            errors.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        }
+    });
+    let (documents, errors) = (documents.into_inner(), errors.into_inner());
     assert!(documents > 60, "only {documents} examples printed a document ({errors} errors)");
 }
 

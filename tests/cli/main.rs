@@ -5,6 +5,7 @@
 #[path = "../common/mod.rs"]
 mod common;
 
+mod address;
 mod backup_cli;
 mod batch_cli;
 mod batch_pipeline;
@@ -23,6 +24,7 @@ mod flags_cli;
 mod guide_walkthrough;
 mod json_docs;
 mod json_streams;
+mod json_vocabulary;
 mod monitor_cli;
 mod multi_device_json;
 mod names_cli;

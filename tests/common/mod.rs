@@ -112,9 +112,57 @@ pub fn schema(def: &str) -> jsonschema::Validator {
 }
 
 /// Every way `doc` breaks the definition, one per line; `None` when valid.
+/// The schema describes each document exactly, so a valid document must
+/// turn invalid when a key it does not know is added to any of its objects
+/// (see [`with_an_unknown_key`]); each object that accepts one is reported.
 pub fn schema_errors(v: &jsonschema::Validator, doc: &serde_json::Value) -> Option<String> {
     let errors: Vec<String> = v.iter_errors(doc).map(|e| format!("{} at {}", e, e.instance_path())).collect();
-    (!errors.is_empty()).then(|| errors.join("\n"))
+    if !errors.is_empty() {
+        return Some(errors.join("\n"));
+    }
+    let open: Vec<String> = with_an_unknown_key(doc)
+        .into_iter()
+        .filter(|(_, d)| v.is_valid(d))
+        .map(|(at, _)| format!("an unknown key added at {at:?} is accepted"))
+        .collect();
+    (!open.is_empty()).then(|| open.join("\n"))
+}
+
+/// The key [`with_an_unknown_key`] adds: no document has it.
+pub const UNKNOWN_KEY: &str = "axisctl_unknown_key";
+
+/// One copy of `doc` per object in it, at any depth, with [`UNKNOWN_KEY`]
+/// added to that object, each with the object's JSON pointer ("" for the
+/// top level). The added value is itself an object of that one key, so a
+/// map keyed by names (`params`, `settings`, a recording's `values`) gets an
+/// entry of no shape it allows.
+pub fn with_an_unknown_key(doc: &serde_json::Value) -> Vec<(String, serde_json::Value)> {
+    fn pointers(v: &serde_json::Value, at: String, out: &mut Vec<String>) {
+        match v {
+            serde_json::Value::Object(o) => {
+                out.push(at.clone());
+                for (k, x) in o {
+                    pointers(x, format!("{at}/{}", k.replace('~', "~0").replace('/', "~1")), out);
+                }
+            }
+            serde_json::Value::Array(a) => {
+                for (i, x) in a.iter().enumerate() {
+                    pointers(x, format!("{at}/{i}"), out);
+                }
+            }
+            _ => {}
+        }
+    }
+    let mut at = Vec::new();
+    pointers(doc, String::new(), &mut at);
+    at.into_iter()
+        .map(|p| {
+            let mut d = doc.clone();
+            let o = d.pointer_mut(&p).and_then(serde_json::Value::as_object_mut).expect("an object");
+            o.insert(UNKNOWN_KEY.into(), serde_json::json!({ UNKNOWN_KEY: true }));
+            (p, d)
+        })
+        .collect()
 }
 
 /// How a child ended under a deadline: its exit code (-1 when a signal

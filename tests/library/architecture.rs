@@ -14,17 +14,21 @@ const LAYERS: &[(&str, &[&str])] = &[
     ("proto", &[]),
     ("link", &["proto", "clock"]),
     ("family", &["proto", "link"]),
+    ("address", &["family"]),
     ("session", &["proto", "link", "clock", "family"]),
     ("sim", &["proto", "link", "clock", "family"]),
     ("open", &["proto", "link", "clock", "family", "session", "sim"]),
-    ("bench", &["link", "family"]),
-    ("device", &["proto", "link", "session", "clock", "family"]),
-    ("backup", &["device", "proto", "family", "session"]),
+    ("bench", &["link", "family", "address"]),
+    ("device", &["proto", "link", "session", "clock", "family", "address"]),
+    ("backup", &["device", "proto", "family", "session", "address"]),
     ("monitor", &["proto", "family"]),
-    ("tui", &["device", "session", "proto", "link", "clock", "family", "monitor", "plot"]),
+    ("tui", &["device", "session", "proto", "link", "clock", "family", "monitor", "plot", "address"]),
     ("plot", &[]),
-    ("record", &["device", "session", "proto", "link", "clock", "family"]),
-    ("commission", &["device", "session", "proto", "link", "clock", "family", "backup", "record", "plot", "bench"]),
+    ("record", &["device", "session", "proto", "link", "clock", "family", "address"]),
+    (
+        "commission",
+        &["device", "session", "proto", "link", "clock", "family", "backup", "record", "plot", "bench", "address"],
+    ),
 ];
 
 /// Top-level modules of the binary crate (declared in main.rs): not layers
@@ -497,11 +501,18 @@ fn commands_hold_no_halt_sequence() {
 const FAMILY_MODULES: [&str; 3] = ["powercube", "pac", "cdios"];
 
 /// Whether a path under src/ is a family's own (`*/powercube*`, `*/pac*`,
-/// `*/cdios*`) or the registry of families (`family.rs`, `device/registry/`).
+/// `*/cdios*`) or the registry of families (`family.rs`, `address.rs`, the
+/// one device address with a variant per family, `device/registry/`).
 fn family_or_registry(rel: &str) -> bool {
     rel == "family.rs"
+        || rel == "address.rs"
         || rel.starts_with("device/registry/")
         || rel.split('/').any(|c| FAMILY_MODULES.iter().any(|f| c.starts_with(f)))
+}
+
+/// `pac`, or a module named after it (`pac_words`), not `package`.
+fn family_ident(name: &str, family: &str) -> bool {
+    name == family || name.strip_prefix(family).is_some_and(|rest| rest.starts_with('_'))
 }
 
 /// Whether code names a family's types: a path through a family's module
@@ -513,10 +524,13 @@ fn names_a_family(code: &str) -> bool {
     for f in FAMILY_MODULES {
         for (at, _) in code.match_indices(f) {
             let bytes = code.as_bytes();
-            if at > 0 && ident(bytes[at - 1]) || bytes.get(at + f.len()).is_some_and(|b| ident(*b)) {
+            // The family's module, or one named after it (`pac_words`): a
+            // family module renamed is still the family's code.
+            let end = at + f.len() + bytes[at + f.len()..].iter().take_while(|b| ident(**b)).count();
+            if at > 0 && ident(bytes[at - 1]) || !family_ident(&code[at..end], f) {
                 continue;
             }
-            if code[at + f.len()..].trim_start().starts_with("::") {
+            if code[end..].trim_start().starts_with("::") {
                 return true;
             }
         }
@@ -533,7 +547,7 @@ fn names_a_family(code: &str) -> bool {
         let segments = expand(&tree).into_iter().flat_map(|p| {
             p.split("::").map(|s| s.split(" as ").next().unwrap_or("").trim().to_string()).collect::<Vec<_>>()
         });
-        if segments.into_iter().any(|s| FAMILY_MODULES.contains(&s.as_str())) {
+        if segments.into_iter().any(|s| FAMILY_MODULES.iter().any(|f| family_ident(&s, f))) {
             return true;
         }
     }
@@ -565,6 +579,9 @@ fn names_a_family(code: &str) -> bool {
 /// serial line, `record DEVICE.VALUE` values and live devices of a backup
 /// to `commands/<family>/{dashboard,tap,record,backup}.rs`, picked by
 /// `commands::family_cli`; `restore --to` checks the registry's id ranges.
+/// Still 10 when `decode` found each family's words in its own file
+/// (commands/decode/): its dispatch names them (`pac_words::`), and a
+/// module named after a family is the family's code.
 const FAMILY_NAMING_FILES_AT_MOST: usize = 10;
 
 /// The files outside the family folders and the registry that name a
@@ -631,6 +648,8 @@ fn the_family_and_halt_rules_catch_what_they_forbid() {
     assert!(names_a_family("use axisctl::proto::{cdios, powercube};\nfn f() {}\n"));
     assert!(names_a_family("fn f(x: pac::Controller) {}\n"));
     assert!(names_a_family("fn f() { let n = cdios :: NodeId::new(1); }\n"));
+    assert!(names_a_family("fn f() { pac_words::axis_status(1); }\n"));
+    assert!(names_a_family("use super::{powercube_words, x};\n"));
     for fine in [
         "mod cdios;\nmod pac;\n",
         "let (pac, t) = open();\n",

@@ -15,8 +15,7 @@ pub use target::MotionTarget;
 use super::face::Face;
 use super::{cdios, pac, powercube};
 use crate::family::Family;
-use crate::proto::cdios::{ModuleId as CdiosModule, NodeId};
-use crate::proto::powercube::ModuleId;
+use crate::proto::cdios::NodeId;
 use crate::session::cdios::Cdios;
 use crate::session::pac::Pac;
 use crate::session::powercube::PowerCube;
@@ -59,20 +58,5 @@ pub fn open<S: Sessions + ?Sized>(
             let node = node.and_then(NodeId::new).unwrap_or(NodeId::new(1).expect("node 1 exists"));
             Box::new(cdios::Node::new(sessions.cdios()?, node, retry))
         }
-    })
-}
-
-/// The address of a device the family's face found, from its raw numbers
-/// (as a bench file and a dashboard key spell them); `None` out of range.
-pub fn target(family: Family, first: Option<u8>, second: Option<u8>) -> Option<MotionTarget> {
-    Some(match (family, first, second) {
-        (Family::PowerCube, Some(m), _) => MotionTarget::Cube(ModuleId::new(m)?),
-        (Family::PowerCube, None, _) => MotionTarget::CubeBus,
-        (Family::Pac, Some(a), _) => MotionTarget::PacAxis(a),
-        (Family::Pac, None, _) => MotionTarget::PacController,
-        (Family::Cdios, Some(n), Some(m)) => {
-            MotionTarget::Cdios { node: NodeId::new(n)?, module: CdiosModule::new(m)? }
-        }
-        (Family::Cdios, _, _) => return None,
     })
 }

@@ -111,7 +111,9 @@ pub fn describe_ack(resp: &Response) -> (String, serde_json::Value) {
                     st.flags.join(" "),
                     io.flags.join(" ")
                 ),
-                json!({"position": pos, "short_state": st.flags, "dio": io.flags}),
+                // The one state shape, as `state` gives its short state.
+                json!({"position": pos, "short_state": flags::SHORT_STATE.state_json(u32::from(*short_state)),
+                       "dio": flags::DIO.state_json(u32::from(*dio))}),
             )
         }
         Response::Simple(cmd) => (format!("{} ok", cmd.name()), serde_json::Value::Null),

@@ -57,12 +57,12 @@ impl HaltMotion for Fake {
         unreachable!("the fake answers its looks and halts itself")
     }
     fn still_moving(&mut self, at: Address) -> Option<bool> {
-        assert_eq!(at, Address::Module(17));
+        assert_eq!(at, Address::PowerCube { module: 17 });
         self.calls.borrow_mut().push("look");
         self.moving
     }
     fn halt(&mut self, at: Address, attempts: u32) -> Result<String, String> {
-        assert_eq!((at, attempts), (Address::Module(17), 3));
+        assert_eq!((at, attempts), (Address::PowerCube { module: 17 }, 3));
         self.calls.borrow_mut().push("halt");
         self.halt.clone()
     }
@@ -74,7 +74,7 @@ fn fake(moving: Option<bool>) -> Fake {
 
 #[test]
 fn at_the_end_asked_for_a_device_is_halted_unless_it_is_seen_standing() {
-    let at = Address::Module(17);
+    let at = Address::PowerCube { module: 17 };
     let mut standing = fake(Some(false));
     assert_eq!(halt_motion(&mut standing, at, HaltWhen::IfMoving, 3), None);
     assert_eq!(*standing.calls.borrow(), ["look"], "a device that stands is left alone");
@@ -88,7 +88,7 @@ fn at_the_end_asked_for_a_device_is_halted_unless_it_is_seen_standing() {
 
 #[test]
 fn any_other_end_halts_without_a_look_and_reports_a_failed_halt() {
-    let at = Address::Module(17);
+    let at = Address::PowerCube { module: 17 };
     for moving in [Some(false), Some(true), None] {
         let mut f = fake(moving);
         f.halt = Err("HALT FAILED: no answer".into());
@@ -144,7 +144,7 @@ impl Rig {
 fn a_powercube_module_is_seen_moving_and_halted() {
     let r = rig();
     let mut s = r.cubes(&[3]);
-    let at = Address::Module(3);
+    let at = Address::PowerCube { module: 3 };
     assert_eq!(s.still_moving(at), Some(false));
     s.cubes().move_module(ModuleId::new(3).unwrap(), Move::Vel(0.1), false, false).unwrap();
     r.run(Duration::from_millis(100));
@@ -154,8 +154,8 @@ fn a_powercube_module_is_seen_moving_and_halted() {
     assert!(!r.cube_moving(3));
     assert_eq!(s.still_moving(at), Some(false));
     // Module 9 is absent: its state cannot be read, its halt fails.
-    assert_eq!(s.still_moving(Address::Module(9)), None);
-    let failed = s.halt(Address::Module(9), 1).unwrap_err();
+    assert_eq!(s.still_moving(Address::PowerCube { module: 9 }), None);
+    let failed = s.halt(Address::PowerCube { module: 9 }, 1).unwrap_err();
     assert!(failed.starts_with("HALT FAILED: ") && failed.contains("module 9"), "{failed}");
 }
 
@@ -163,7 +163,7 @@ fn a_powercube_module_is_seen_moving_and_halted() {
 fn a_pac_axis_is_seen_moving_and_stopped() {
     let r = rig();
     let mut s = r.pac();
-    let at = Address::Axis(2);
+    let at = Address::Pac { axis: Some(2) };
     let ctl = s.controller();
     ctl.online().unwrap();
     ctl.send(0x0A83, 2, None).unwrap();
@@ -178,15 +178,15 @@ fn a_pac_axis_is_seen_moving_and_stopped() {
     // axis status says.
     let (_, done) = s.controller().start_reference(1).unwrap();
     assert!(!done);
-    assert_eq!(s.still_moving(Address::Axis(1)), Some(true));
-    assert!(s.halt(Address::Axis(1), 1).is_ok());
+    assert_eq!(s.still_moving(Address::Pac { axis: Some(1) }), Some(true));
+    assert!(s.halt(Address::Pac { axis: Some(1) }, 1).is_ok());
 }
 
 #[test]
 fn a_cdios_motor_is_seen_running_and_stopped() {
     let r = rig();
     let mut s = r.cdios();
-    let at = Address::CdiosModule { node: 1, module: 0 };
+    let at = Address::Cdios { node: 1, module: 0 };
     let m = CdiosModule::new(0).unwrap();
     assert_eq!(s.still_moving(at), Some(false));
     s.node().send(m, &enable_commands(false)).unwrap();
@@ -199,8 +199,8 @@ fn a_cdios_motor_is_seen_running_and_stopped() {
     // Stopped already: the refusal is the state asked for.
     assert_eq!(s.halt(at, 2), Ok("not running (it had come to rest)".into()));
     // Module 5 is not on the node.
-    assert_eq!(s.still_moving(Address::CdiosModule { node: 1, module: 5 }), None);
-    let failed = s.halt(Address::CdiosModule { node: 1, module: 5 }, 1).unwrap_err();
+    assert_eq!(s.still_moving(Address::Cdios { node: 1, module: 5 }), None);
+    let failed = s.halt(Address::Cdios { node: 1, module: 5 }, 1).unwrap_err();
     assert!(failed.starts_with("STOP FAILED: "), "{failed}");
 }
 
@@ -208,16 +208,17 @@ fn a_cdios_motor_is_seen_running_and_stopped() {
 fn an_address_of_another_family_is_never_taken_for_a_device() {
     let r = rig();
     let (mut cubes, mut pac, mut cdios) = (r.cubes(&[3]), r.pac(), r.cdios());
-    let (module, axis, motor) = (Address::Module(3), Address::Axis(2), Address::CdiosModule { node: 1, module: 0 });
-    for at in [axis, motor, Address::Module(0)] {
+    let (module, axis, motor) =
+        (Address::PowerCube { module: 3 }, Address::Pac { axis: Some(2) }, Address::Cdios { node: 1, module: 0 });
+    for at in [axis, motor, Address::PowerCube { module: 0 }] {
         assert_eq!(cubes.still_moving(at), None);
-        assert_eq!(cubes.halt(at, 1), Err(format!("HALT FAILED: {} is not a device of this recording", at.label())));
+        assert_eq!(cubes.halt(at, 1), Err(format!("HALT FAILED: {} is not a device of this recording", at.column())));
     }
     for at in [module, motor] {
         assert_eq!(pac.still_moving(at), None);
         assert!(pac.halt(at, 1).is_err_and(|e| e.contains("not a device of this recording")));
     }
-    for at in [module, axis, Address::CdiosModule { node: 1, module: 16 }] {
+    for at in [module, axis, Address::Cdios { node: 1, module: 16 }] {
         assert_eq!(cdios.still_moving(at), None);
         assert!(cdios.halt(at, 1).is_err_and(|e| e.contains("not a device of this recording")));
     }

@@ -60,7 +60,7 @@ fn a_recorded_motion_keeps_the_watchdog_alive_between_samples() {
     .unwrap();
     assert_eq!(worst & state::COMM_ERROR, 0, "tripped while recording: {worst:#x}");
     assert!(s.cubes().deadman_refreshing());
-    halt_motion(&mut s, Address::Module(3), HaltWhen::IfMoving, 1);
+    halt_motion(&mut s, Address::PowerCube { module: 3 }, HaltWhen::IfMoving, 1);
     s.release().unwrap();
     assert!(!s.cubes().deadman_refreshing());
     vclock.advance(Duration::from_millis(60));

@@ -1,6 +1,7 @@
 //! The right-hand pane: the selected device in full, as its family's pane
 //! draws it ([`super::pane::Pane::draw`]), under the staleness notice.
 
+use crate::address::Address;
 use ratatui::layout::Rect;
 use ratatui::style::{Modifier, Style};
 use ratatui::text::{Line, Span};
@@ -11,7 +12,6 @@ use super::pane::{Look, Pane};
 use super::{BOLD, CHANGED, DIM, YELLOW};
 use crate::device::face::MotionTarget;
 use crate::tui::app::{App, DeviceView};
-use crate::tui::source::DeviceKey;
 
 pub fn draw(f: &mut Frame, app: &App, area: Rect) {
     let Some(d) = app.selected() else {
@@ -58,7 +58,11 @@ pub fn draw(f: &mut Frame, app: &App, area: Rect) {
 }
 
 fn title_of(d: &DeviceView) -> String {
-    d.snap.as_ref().zip(d.key.target()).and_then(|(s, at)| s.title(at)).unwrap_or_else(|| d.key.label())
+    d.snap
+        .as_ref()
+        .zip(MotionTarget::try_from(d.key).ok())
+        .and_then(|(s, at)| s.title(at))
+        .unwrap_or_else(|| d.key.label())
 }
 
 /// How values are styled: highlighted when just changed, dim when stale.
@@ -97,7 +101,7 @@ impl Look for Values<'_> {
     }
 
     fn other(&self, at: MotionTarget) -> Option<(&dyn Pane, Box<dyn Look + '_>)> {
-        let d = self.app.device(DeviceKey::of(at)?)?;
+        let d = self.app.device(Address::try_from(at).ok()?)?;
         let look = Values { app: self.app, d, stale: self.app.stale(d).is_some() };
         Some((&**d.snap.as_ref()?, Box::new(look)))
     }

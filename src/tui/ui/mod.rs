@@ -16,6 +16,7 @@ pub mod pac;
 pub mod pane;
 pub mod powercube;
 
+use crate::address::Address;
 use ratatui::layout::{Constraint, Layout, Rect};
 use ratatui::style::{Color, Modifier, Style};
 use ratatui::text::{Line, Span};
@@ -24,7 +25,6 @@ use ratatui::Frame;
 
 use super::app::{App, DeviceView, Level, Mode};
 use super::keys::{self, KeyBinding, KEYS};
-use super::source::DeviceKey;
 
 pub(crate) const RED: Style = Style::new().fg(Color::Red);
 pub(crate) const YELLOW: Style = Style::new().fg(Color::Yellow);
@@ -105,7 +105,7 @@ pub(super) fn summary(app: &App, d: &DeviceView) -> (String, Style) {
     snap.summary()
 }
 
-fn group_title(key: DeviceKey) -> &'static str {
+fn group_title(key: Address) -> &'static str {
     key.family().display_name()
 }
 
@@ -120,10 +120,10 @@ fn draw_list(f: &mut Frame, app: &App, area: Rect) {
             lines.push(Line::styled(g, BOLD));
         }
         let name = match d.key {
-            DeviceKey::Cube(m) => format!("module {m}"),
-            DeviceKey::PacController => "controller".into(),
-            DeviceKey::PacAxis(a) => format!("axis {a}"),
-            DeviceKey::Cdios { node, module } => format!("node {node} mod {module}"),
+            Address::PowerCube { module: m } => format!("module {m}"),
+            Address::Pac { axis: None } => "controller".into(),
+            Address::Pac { axis: Some(a) } => format!("axis {a}"),
+            Address::Cdios { node, module } => format!("node {node} mod {module}"),
         };
         let (word, style) = summary(app, d);
         let sel = i == app.selected;

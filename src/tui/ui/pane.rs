@@ -4,8 +4,7 @@
 //! module (`ui::powercube`, `ui::pac`, `ui::cdios`): the list, the
 //! overview, the chart, the detail pane and the target prompt ask it and
 //! hold no family's code: a new family adds its pane and its source, and
-//! only the device key (`source::DeviceKey`, one variant per family until
-//! the one device address replaces it) gets a variant.
+//! the one device address ([`crate::Address`]) a variant.
 
 use std::any::Any;
 use std::fmt;

@@ -26,7 +26,7 @@ pub enum Address {
 }
 
 /// What the user may write where a device is asked for: an address, or a
-/// name from the bench file (resolved by [`super::Bench::resolve`]).
+/// name from the bench file (resolved by [`crate::bench::Bench::resolve`]).
 #[derive(Debug, Clone, PartialEq, Eq, Hash)]
 pub enum DeviceRef {
     Address(Address),
@@ -62,13 +62,15 @@ impl Address {
         }
     }
 
-    /// The raw numbers of the address, as the family registry takes them:
-    /// module, axis (`None`: the controller), or node and module.
-    pub fn ids(self) -> (Option<u8>, Option<u8>) {
-        match self {
-            Self::PowerCube { module } => (Some(module), None),
-            Self::Pac { axis } => (axis, None),
-            Self::Cdios { node, module } => (Some(node), Some(module)),
+    /// The device a decoded frame names by its raw ids (module; axis, `None`
+    /// the controller; node and module), checked against the registry's
+    /// ranges; `None` when they name no one device.
+    pub fn of_ids(family: Family, first: Option<u8>, second: Option<u8>) -> Option<Self> {
+        match (family, first, second) {
+            (Family::PowerCube, Some(m), _) => Self::powercube(m),
+            (Family::Pac, axis, _) => Self::pac(axis),
+            (Family::Cdios, Some(n), Some(m)) => Self::cdios(n, m),
+            (Family::PowerCube | Family::Cdios, ..) => None,
         }
     }
 
@@ -86,6 +88,30 @@ impl Address {
     pub fn cdios(node: u8, module: u8) -> Option<Self> {
         (family::CDIOS_NODE.contains(node) && family::CDIOS_MODULE.contains(module))
             .then_some(Self::Cdios { node, module })
+    }
+}
+
+impl Address {
+    /// `PowerCube 17`, `PA-CONTROL`, `PA axis 2`, `Cdios 1/0`: how the
+    /// dashboard's events and panes name the device.
+    pub fn label(self) -> String {
+        match self {
+            Self::PowerCube { module } => format!("PowerCube {module}"),
+            Self::Pac { axis: None } => "PA-CONTROL".into(),
+            Self::Pac { axis: Some(a) } => format!("PA axis {a}"),
+            Self::Cdios { node, module } => format!("Cdios {node}/{module}"),
+        }
+    }
+
+    /// `module 17`, `axis 2`, `node 1 module 0`: the device part of a
+    /// recording's CSV column and chart legend (the family is the link's).
+    pub fn column(self) -> String {
+        match self {
+            Self::PowerCube { module } => format!("module {module}"),
+            Self::Pac { axis: None } => "controller".into(),
+            Self::Pac { axis: Some(a) } => format!("axis {a}"),
+            Self::Cdios { node, module } => format!("node {node} module {module}"),
+        }
     }
 }
 
@@ -209,6 +235,30 @@ mod tests {
     }
 
     #[test]
+    fn the_dashboard_labels_and_a_recordings_columns() {
+        let labels: Vec<String> = [
+            Address::PowerCube { module: 17 },
+            Address::Pac { axis: None },
+            Address::Pac { axis: Some(2) },
+            Address::Cdios { node: 1, module: 0 },
+        ]
+        .iter()
+        .map(|a| a.label())
+        .collect();
+        assert_eq!(labels, ["PowerCube 17", "PA-CONTROL", "PA axis 2", "Cdios 1/0"]);
+        let columns: Vec<String> = [
+            Address::PowerCube { module: 17 },
+            Address::Pac { axis: None },
+            Address::Pac { axis: Some(2) },
+            Address::Cdios { node: 1, module: 0 },
+        ]
+        .iter()
+        .map(|a| a.column())
+        .collect();
+        assert_eq!(columns, ["module 17", "controller", "axis 2", "node 1 module 0"]);
+    }
+
+    #[test]
     fn ids_follow_the_registry_ranges() {
         let err = |s: &str| s.parse::<Address>().unwrap_err().to_string();
         assert_eq!(err("powercube:0"), "device address \"powercube:0\": module id 1 to 31, not \"0\"");
@@ -228,6 +278,18 @@ mod tests {
             assert_eq!(format!("powercube:{id}").parse::<Address>().is_ok(), family::POWERCUBE_MODULE.contains(id));
             assert_eq!(format!("pac:{id}").parse::<Address>().is_ok(), family::PAC_AXIS.contains(id));
         }
+    }
+
+    #[test]
+    fn raw_ids_name_a_device_only_within_the_ranges() {
+        assert_eq!(Address::of_ids(Family::PowerCube, Some(3), None), Some(Address::PowerCube { module: 3 }));
+        assert_eq!(Address::of_ids(Family::PowerCube, Some(0), None), None);
+        assert_eq!(Address::of_ids(Family::PowerCube, None, None), None);
+        assert_eq!(Address::of_ids(Family::Pac, None, None), Some(Address::Pac { axis: None }));
+        assert_eq!(Address::of_ids(Family::Pac, Some(17), None), None);
+        assert_eq!(Address::of_ids(Family::Cdios, Some(1), Some(0)), Some(Address::Cdios { node: 1, module: 0 }));
+        assert_eq!(Address::of_ids(Family::Cdios, Some(1), None), None);
+        assert_eq!(Address::of_ids(Family::Cdios, Some(1), Some(16)), None);
     }
 
     #[test]
