@@ -5,7 +5,7 @@
 use std::sync::Arc;
 use std::time::Duration;
 
-use crossterm::event::{KeyCode, KeyEvent, KeyModifiers};
+use crossterm::event::{KeyCode, KeyEvent, KeyEventKind, KeyModifiers};
 use ratatui::backend::TestBackend;
 use ratatui::style::Color;
 use ratatui::Terminal;
@@ -704,6 +704,30 @@ fn terminate_halts_a_jog_the_dashboard_started() {
         let halting = format!("{name}: halting");
         assert!(rig.app.events.iter().any(|e| e.text.starts_with(&halting)), "{:?}", rig.app.events);
     }
+}
+
+/// A terminal that reports key releases (Windows, or the kitty keyboard
+/// protocol) sends a press and a release for each stroke: only the press
+/// acts, or one stroke of a jog key would jog twice.
+#[test]
+fn a_key_release_acts_on_nothing() {
+    let mut rig = Rig::new();
+    rig.round();
+    rig.select(DeviceKey::Cube(17));
+    let release = |c| Event::Key(KeyEvent::new_with_kind(KeyCode::Char(c), KeyModifiers::NONE, KeyEventKind::Release));
+    for c in ['+', 'g', 'h', 'q'] {
+        assert!(rig.app.handle(release(c)).is_empty(), "the release of {c:?} asked the workers for something");
+    }
+    assert_eq!(rig.app.mode, Mode::Normal, "a release opens no prompt");
+    assert!(!rig.app.quit && rig.app.moved.is_empty());
+    let press = rig.app.handle(Event::Key(KeyEvent::new(KeyCode::Char('+'), KeyModifiers::NONE)));
+    assert!(
+        matches!(
+            press[..],
+            [super::app::Outgoing { msg: ToWorker::Act(DeviceKey::Cube(17), super::source::Action::Jog(_)), .. }]
+        ),
+        "the press jogs once"
+    );
 }
 
 /// The worker's own list (what it halts when it panics) keeps a jog.
