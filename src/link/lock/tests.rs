@@ -303,6 +303,29 @@ fn among_several_locks_the_live_axisctl_holder_wins() {
     assert_eq!(find_in(&[], device), Found::Nothing);
 }
 
+/// Between two locks that tell as much, the first place searched (the
+/// runtime directory comes first) names the holder, whatever the second says.
+#[test]
+fn between_equally_telling_locks_the_first_place_wins() {
+    let dirs: Vec<_> = (0..2).map(|_| tempfile::tempdir().unwrap()).collect();
+    let paths: Vec<PathBuf> = dirs.iter().map(|d| d.path().to_path_buf()).collect();
+    let device = "/dev/axisctl-tie-test";
+    let mut gone = Vec::new();
+    for _ in 0..2 {
+        let mut child = std::process::Command::new("true").spawn().unwrap();
+        gone.push(Holder { pid: child.id(), start: 1, ..sample() });
+        child.wait().unwrap();
+    }
+    assert_ne!(gone[0].pid, gone[1].pid);
+    for (dir, h) in paths.iter().zip(&gone) {
+        std::fs::write(lock_path_in(dir, device), h.to_text()).unwrap();
+    }
+    for (order, first) in [([0, 1], 0), ([1, 0], 1)] {
+        let these: Vec<PathBuf> = order.iter().map(|&i| paths[i].clone()).collect();
+        assert_eq!(find_in(&these, device), Found::Holder(gone[first].clone(), Verdict::Stale), "{order:?}");
+    }
+}
+
 // ---- the directories ----
 
 fn env_in(root: &Path) -> dir::Env {
