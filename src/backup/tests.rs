@@ -469,3 +469,51 @@ fn the_one_address_in_the_backups_form() {
     .collect();
     assert_eq!(said, ["powercube module 3", "pac", "pac axis 2", "cdios node 1 module 0"]);
 }
+
+/// The contract bench's PA-CONTROL, as `restore` opens it.
+fn pac_rig() -> (crate::device::pac::Controller, Bench) {
+    use crate::link::SerialFormat;
+    use crate::session::pac::Pac;
+    let clock: Arc<dyn Clock> = Arc::new(VirtualClock::new());
+    let bench = Bench::contract(Arc::clone(&clock));
+    let pac = Pac::new(Box::new(bench.pac_link(Arc::clone(&clock))), 9600, SerialFormat::F7N1).with_clock(clock);
+    (crate::device::pac::Controller::new(pac), bench)
+}
+
+// The checks against the controller: a changed value at either end of the
+// controller's own limits (1802 / 1801) passes and one past either end is
+// refused; the traverse area's min may reach its max but not lie above it.
+#[test]
+fn pac_live_checks_keep_the_controllers_limits_and_the_area_in_order() {
+    use crate::proto::pac::table;
+    let (mut c, _bench) = pac_rig();
+    let live = pac::capture_axis(&mut c, 1, "sim").unwrap();
+    assert!(pac::check_live(&mut c, &live, &live).unwrap().is_empty(), "what the axis holds passes");
+    let def = table::AXIS_PARAMS.iter().find(|p| p.name == "traverse-speed").unwrap();
+    let par1 = table::axis_param_par1(1, def.number);
+    let (lo, hi) = (c.read_f64(0x1802, par1).unwrap(), c.read_f64(0x1801, par1).unwrap());
+    let held = live.settings["traverse-speed"].value.as_f64().unwrap();
+    assert!(lo < held && held < hi, "the limits {lo} to {hi} hold {held} strictly inside");
+    for (v, refused) in [(lo - 1.0, true), (lo, false), (hi, false), (hi + 1.0, true)] {
+        let mut file = live.clone();
+        set(&mut file, "traverse-speed", v.into());
+        let problems = pac::check_live(&mut c, &file, &live).unwrap();
+        let said: Vec<&str> = problems.iter().map(|p| p.message.as_str()).collect();
+        if refused {
+            assert_eq!(problems.len(), 1, "{v}: {said:?}");
+            assert_eq!(problems[0].name, "traverse-speed");
+            assert!(said[0].contains("outside the controller's limits"), "{said:?}");
+        } else {
+            assert!(problems.is_empty(), "{v} lies within {lo} to {hi}: {said:?}");
+        }
+    }
+    let max = live.settings["traverse-area-max"].value.as_f64().unwrap();
+    let mut area = |min: f64| {
+        let mut file = live.clone();
+        set(&mut file, "traverse-area-min", min.into());
+        let problems = pac::check_live(&mut c, &file, &live).unwrap();
+        problems.into_iter().filter(|p| p.message.contains("traverse area min")).count()
+    };
+    assert_eq!(area(max), 0, "min may equal max");
+    assert_eq!(area(max + 1.0), 1, "min above max is refused");
+}

@@ -6,7 +6,7 @@ use crate::address::Address;
 use std::sync::Arc;
 use std::time::Duration;
 
-use crossterm::event::{KeyCode, KeyEvent, KeyModifiers};
+use crossterm::event::{KeyCode, KeyEvent, KeyEventKind, KeyModifiers};
 use ratatui::backend::TestBackend;
 use ratatui::style::Color;
 use ratatui::Terminal;
@@ -730,6 +730,33 @@ fn terminate_halts_a_jog_the_dashboard_started() {
     }
 }
 
+/// A terminal that reports key releases (Windows, or the kitty keyboard
+/// protocol) sends a press and a release for each stroke: only the press
+/// acts, or one stroke of a jog key would jog twice.
+#[test]
+fn a_key_release_acts_on_nothing() {
+    let mut rig = Rig::new();
+    rig.round();
+    rig.select(Address::PowerCube { module: 17 });
+    let release = |c| Event::Key(KeyEvent::new_with_kind(KeyCode::Char(c), KeyModifiers::NONE, KeyEventKind::Release));
+    for c in ['+', 'g', 'h', 'q'] {
+        assert!(rig.app.handle(release(c)).is_empty(), "the release of {c:?} asked the workers for something");
+    }
+    assert_eq!(rig.app.mode, Mode::Normal, "a release opens no prompt");
+    assert!(!rig.app.quit && rig.app.moved.is_empty());
+    let press = rig.app.handle(Event::Key(KeyEvent::new(KeyCode::Char('+'), KeyModifiers::NONE)));
+    assert!(
+        matches!(
+            press[..],
+            [super::app::Outgoing {
+                msg: ToWorker::Act(Address::PowerCube { module: 17 }, super::source::Action::Jog(_)),
+                ..
+            }]
+        ),
+        "the press jogs once"
+    );
+}
+
 /// The worker's own list (what it halts when it panics) keeps a jog.
 #[test]
 fn a_worker_halts_the_jog_it_sent_on_its_own() {
@@ -743,6 +770,39 @@ fn a_worker_halts_the_jog_it_sent_on_its_own() {
     rig.round();
     assert_ne!(rig.cube(17).1, 0.0, "module 17 jogging");
     assert_eq!(rig.workers[0].halt_moved(), "halted PowerCube 17");
+    let (cube, vel) = rig.cube(17);
+    assert_ne!(cube & state::HALTED, 0, "module 17 halted");
+    assert_eq!(vel, 0.0, "module 17 stands");
+}
+
+/// A device the worker's scan did not list (a module that missed a
+/// rescan) is still served, and halted, by the source of its family, not
+/// by another family's source on the same link.
+#[test]
+fn a_device_the_scan_did_not_list_is_served_by_its_familys_source() {
+    let rig = Rig::new();
+    let shared: Arc<dyn Clock> = Arc::new(rig.clock.clone());
+    let can = CanBus::new(Box::new(rig.bench.bus.open()), Arc::clone(&shared));
+    let cube: Box<dyn DeviceSource> = Box::new(CubeSource::new(
+        PowerCube::over_can(Box::new(can.port(Family::PowerCube))).with_clock(Arc::clone(&shared)),
+        None,
+    ));
+    let cdios: Box<dyn DeviceSource> = Box::new(CdiosSource::new(
+        Cdios::new(Box::new(can.port(Family::Cdios))).with_clock(Arc::clone(&shared)),
+        NodeId::new(1).unwrap(),
+        None,
+        RetryPolicy::default(),
+    ));
+    // Never scanned: no device is listed.
+    let mut worker = LinkWorker::new(0, vec![cube, cdios], Arc::clone(&shared), 10.0);
+    let mut said = Vec::new();
+    let jog = ToWorker::Act(Address::PowerCube { module: 17 }, super::source::Action::Jog(0.1));
+    worker.handle(vec![jog], &mut |ev| said.push(ev));
+    assert!(matches!(&said[..], [LinkEvent::Acted { result: Ok(_), .. }]), "{said:?}");
+    rig.clock.advance(Duration::from_millis(300));
+    lock(&rig.bench.powercube).advance(rig.clock.now());
+    assert_ne!(rig.cube(17).1, 0.0, "module 17 jogging");
+    assert_eq!(worker.halt_moved(), "halted PowerCube 17");
     let (cube, vel) = rig.cube(17);
     assert_ne!(cube & state::HALTED, 0, "module 17 halted");
     assert_eq!(vel, 0.0, "module 17 stands");
@@ -834,6 +894,11 @@ fn a_lost_link_is_closed_reopened_with_backoff_and_its_devices_come_back() {
     }
     assert!(rig.workers[0].is_down(), "{:?}", rig.app.events);
     assert!(rig.app.events.iter().any(|e| e.text.contains("link lost")), "{:?}", rig.app.events);
+    // A rescan while the link is closed scans nothing and says nothing, so
+    // the App keeps listing what was lost.
+    let mut said = Vec::new();
+    assert!(!rig.workers[0].handle(vec![ToWorker::Rescan], &mut |ev| said.push(ev)));
+    assert!(said.is_empty(), "{said:?}");
     // Backoff: no try before BACKOFF_MIN, then one failing try, then a longer wait.
     rig.round();
     assert_eq!(opens.load(std::sync::atomic::Ordering::SeqCst), 0);

@@ -124,6 +124,22 @@ mod tests {
         assert_eq!(OnlineLimits::parse(&l.to_text()), Some(l.clone()));
         assert_eq!(l.axes(), [1, 3]);
         assert_eq!(OnlineLimits::parse(&OnlineLimits::default().to_text()), Some(OnlineLimits::default()));
+        assert!(OnlineLimits::default().is_empty() && !l.is_empty());
+    }
+
+    /// The largest file `to_text` writes (both limits of every axis the
+    /// controller can have) reads back: the line ceiling refuses only more.
+    #[test]
+    fn the_limits_of_every_axis_read_back() {
+        let mut l = OnlineLimits::default();
+        for axis in 1..=table::MAX_AXES {
+            for param in PARAMS {
+                l.insert(axis, param, f64::from(axis), 1000.0 * f64::from(param));
+            }
+        }
+        assert_eq!(l.to_text().lines().count(), 2 * usize::from(table::MAX_AXES) + 1);
+        assert_eq!(OnlineLimits::parse(&l.to_text()), Some(l.clone()));
+        assert_eq!(OnlineLimits::parse(&format!("{}257 1 2\n", l.to_text())), None, "one line more");
     }
 
     #[test]

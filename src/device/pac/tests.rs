@@ -601,3 +601,22 @@ fn online_reads_the_speed_limits_and_refuses_values_outside_them_before_sending(
     ctl.offline().unwrap();
     assert!(ctl.online_limits().is_empty(), "leaving online mode ends the online values and their limits");
 }
+
+/// The face's look at a device (what `record` asks before it halts a
+/// motion that has ended): a running axis moves, a standing one does not;
+/// the controller moves outside home position.
+#[test]
+fn the_faces_state_says_a_running_axis_moves_and_a_standing_one_does_not() {
+    use crate::device::face::Face;
+    use crate::device::registry::MotionTarget;
+    let rig = Rig::new(2);
+    let mut ctl = rig.controller();
+    ctl.set_axes(vec![1, 2]);
+    assert!(!Face::state(&mut ctl, MotionTarget::PacController).unwrap().moving, "home position");
+    online(&mut ctl, 1);
+    ctl.start_move(1, 5000.0, false, true).unwrap();
+    rig.run(Duration::from_millis(300));
+    assert!(Face::state(&mut ctl, MotionTarget::PacAxis(1)).unwrap().moving, "axis 1 runs");
+    assert!(!Face::state(&mut ctl, MotionTarget::PacAxis(2)).unwrap().moving, "axis 2 stands");
+    assert!(Face::state(&mut ctl, MotionTarget::PacController).unwrap().moving, "online");
+}

@@ -198,6 +198,50 @@ fn a_zombie_holder_is_gone_and_is_never_signalled() {
     assert!(child.wait().unwrap().success());
 }
 
+const CHILD: &str = "AXISCTL_LOCK_TEST_CHILD";
+
+/// The holder of `a_live_axisctl_holder_is_signalled_and_ends`: a copy of
+/// this very program that waits to be signalled. In a plain test run it
+/// returns at once.
+#[test]
+fn a_child_that_waits_to_be_signalled() {
+    if std::env::var_os(CHILD).is_some() {
+        std::thread::sleep(Duration::from_secs(60));
+    }
+}
+
+/// A live copy of this very program is axisctl, so `terminate` signals it,
+/// and it ends by the SIGTERM (the other tests only see refusals).
+#[test]
+fn a_live_axisctl_holder_is_signalled_and_ends() {
+    use std::os::unix::process::ExitStatusExt;
+    let exe = std::env::current_exe().unwrap();
+    let mut child = std::process::Command::new(&exe)
+        .args(["--exact", "link::lock::tests::a_child_that_waits_to_be_signalled"])
+        .env(CHILD, "1")
+        .stdout(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    let pid = child.id();
+    let h = Holder { pid, start: proc_start(pid).unwrap().unwrap(), exe: without_deleted(&exe), ..sample() };
+    assert_eq!(h.check(), Verdict::Axisctl);
+    h.terminate().expect("signalled");
+    let deadline = Instant::now() + Duration::from_secs(30);
+    let status = loop {
+        if let Some(status) = child.try_wait().unwrap() {
+            break status;
+        }
+        if Instant::now() > deadline {
+            child.kill().unwrap();
+            panic!("the holder was not signalled: {:?}", child.wait().unwrap());
+        }
+        std::thread::sleep(Duration::from_millis(5));
+    };
+    assert_eq!(status.signal(), Some(libc::SIGTERM), "{status:?}");
+    assert!(h.is_gone());
+    assert!(matches!(h.terminate(), Err(TerminateError::Gone)), "an ended holder is not signalled again");
+}
+
 #[test]
 fn a_wait_for_a_live_process_runs_to_its_bound() {
     let t0 = Instant::now();
@@ -257,6 +301,29 @@ fn among_several_locks_the_live_axisctl_holder_wins() {
     }
     assert!(matches!(find_in(&paths[..1], device), Found::Unreadable(_)));
     assert_eq!(find_in(&[], device), Found::Nothing);
+}
+
+/// Between two locks that tell as much, the first place searched (the
+/// runtime directory comes first) names the holder, whatever the second says.
+#[test]
+fn between_equally_telling_locks_the_first_place_wins() {
+    let dirs: Vec<_> = (0..2).map(|_| tempfile::tempdir().unwrap()).collect();
+    let paths: Vec<PathBuf> = dirs.iter().map(|d| d.path().to_path_buf()).collect();
+    let device = "/dev/axisctl-tie-test";
+    let mut gone = Vec::new();
+    for _ in 0..2 {
+        let mut child = std::process::Command::new("true").spawn().unwrap();
+        gone.push(Holder { pid: child.id(), start: 1, ..sample() });
+        child.wait().unwrap();
+    }
+    assert_ne!(gone[0].pid, gone[1].pid);
+    for (dir, h) in paths.iter().zip(&gone) {
+        std::fs::write(lock_path_in(dir, device), h.to_text()).unwrap();
+    }
+    for (order, first) in [([0, 1], 0), ([1, 0], 1)] {
+        let these: Vec<PathBuf> = order.iter().map(|&i| paths[i].clone()).collect();
+        assert_eq!(find_in(&these, device), Found::Holder(gone[first].clone(), Verdict::Stale), "{order:?}");
+    }
 }
 
 // ---- the directories ----
