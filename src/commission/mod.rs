@@ -215,6 +215,38 @@ pub(crate) fn attach_recording(c: &mut Check, at: &str, t: &[f64], columns: &[Co
     c.svg = crate::plot::svg(&chart, 900, 520).ok();
 }
 
+/// The halt test's figures from its recording: the time from the halt (or
+/// stop) going out to the first sample at rest, against the plan's band,
+/// and how far the device went on after it (in `unit`). `what`: "halt" or
+/// "stop", for the message when there are none.
+pub(crate) fn measure_halt(
+    c: &mut Check,
+    h: &plan::Halt,
+    (t, pos): (&[f64], &[f64]),
+    (sent, rest): (Option<f64>, Option<f64>),
+    (what, unit): (&str, &str),
+) -> Result<(), String> {
+    let (Some(sent), Some(rest)) = (sent, rest) else {
+        return Err(if sent.is_none() {
+            format!("the move ended before the {what} was due")
+        } else {
+            "never at rest".into()
+        });
+    };
+    let secs = rest - sent;
+    c.measure(
+        "time_to_standstill",
+        serde_json::json!(round6(secs)),
+        h.standstill_s.text(),
+        "s",
+        h.standstill_s.holds(secs),
+    );
+    let at_sent = t.iter().position(|ti| *ti >= sent).map_or(f64::NAN, |i| pos[i]);
+    let end = pos.last().copied().unwrap_or(f64::NAN);
+    c.measure("distance_after_halt", serde_json::json!(round6((end - at_sent).abs())), "any".into(), unit, true);
+    Ok(())
+}
+
 /// Six decimals, and no -0: what a report shows.
 pub(crate) fn round6(v: f64) -> f64 {
     if v.is_finite() {

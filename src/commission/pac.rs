@@ -25,7 +25,7 @@ use serde_json::json;
 
 use super::plan::{Band, DevicePlan, Expected, Home, Moves, Settings};
 use super::report::{Check, Status};
-use super::{attach_recording, round6, sig, step_measures, Column, DefaultPlanError, Run};
+use super::{attach_recording, measure_halt, round6, sig, step_measures, Column, DefaultPlanError, Run};
 use crate::backup::{self, Device};
 use crate::bench::Address;
 use crate::device::face::{Face, MotionTarget};
@@ -611,15 +611,9 @@ fn halt_test(c: &mut Controller, axis: u8, at: &str, plan: &DevicePlan, run: &mu
         Ok(v) => v,
         Err(e) => return ck.fail(e),
     };
-    let (Some(stopped), Some(rest)) = (tr.stopped, tr.rest) else {
-        let why = if tr.stopped.is_none() { "the move ended before the stop was due" } else { "never at rest" };
+    if let Err(why) = measure_halt(&mut ck, h, (&tr.t, &tr.pos), (tr.stopped, tr.rest), ("stop", "AE")) {
         return ck.fail(why);
-    };
-    let secs = rest - stopped;
-    ck.measure("time_to_standstill", json!(round6(secs)), h.standstill_s.text(), "s", h.standstill_s.holds(secs));
-    let at_stop = tr.t.iter().position(|t| *t >= stopped).map_or(f64::NAN, |i| tr.pos[i]);
-    let end = tr.pos.last().copied().unwrap_or(f64::NAN);
-    ck.measure("distance_after_halt", json!(round6((end - at_stop).abs())), "any".into(), "AE", true);
+    }
     attach(&mut ck, at, &tr, run);
     ck
 }

@@ -15,7 +15,7 @@ use super::plan::{Band, DevicePlan, Expected, Halt, Home, Identity, Moves, Setti
 use super::report::{Check, Status};
 use super::DefaultPlanError;
 use super::Run;
-use super::{sig, sig7};
+use super::{measure_halt, round6, sig, sig7};
 use crate::address::Address;
 use crate::backup::{self, Device};
 use crate::device::face::{MotionTarget, Moving};
@@ -373,8 +373,8 @@ fn home(cubes: &mut Cubes, m: ModuleId, at: &str, plan: &DevicePlan, run: &mut R
     match waited {
         Ok(end) => {
             let secs = end.elapsed.as_secs_f64();
-            c.measure("time to home", json!(round(secs)), format!("<= {timeout}"), "s", secs <= timeout);
-            c.measure("position", json!(round(f64::from(end.position))), "any".into(), "", true);
+            c.measure("time to home", json!(round6(secs)), format!("<= {timeout}"), "s", secs <= timeout);
+            c.measure("position", json!(round6(f64::from(end.position))), "any".into(), "", true);
             if let Err(e) = released {
                 c = c.fail(format!("homed, but the dead-man backstop was not released: {e}"));
             }
@@ -584,7 +584,7 @@ fn move_check(mut c: Check, at: &str, plan: &Moves, here: f64, target: f64, tr: 
             (Some(_), None) => false,
             (None, _) => true,
         };
-        c.measure(name, json!(v.map(round)), limit, unit, ok);
+        c.measure(name, json!(v.map(round6)), limit, unit, ok);
     };
     match figures::step(t, y, target, plan.band_percent / 100.0) {
         Ok(f) => {
@@ -597,10 +597,10 @@ fn move_check(mut c: Check, at: &str, plan: &Moves, here: f64, target: f64, tr: 
         Err(e) => c = c.fail(format!("no figures: {e}")),
     }
     if let Ok((v, _)) = figures::peak_abs(&tr.t, &tr.vel) {
-        c.measure("peak_speed", json!(round(v)), "any".into(), &format!("{unit}/s"), true);
+        c.measure("peak_speed", json!(round6(v)), "any".into(), &format!("{unit}/s"), true);
     }
     if let Ok((a, _)) = figures::peak_abs(&tr.t, &tr.cur) {
-        c.measure("peak_current", json!(round(a)), "any".into(), "A", true);
+        c.measure("peak_current", json!(round6(a)), "any".into(), "A", true);
     }
     attach(&mut c, at, tr, run);
     c
@@ -675,15 +675,9 @@ fn halt_test(
         Ok(t) => t,
         Err(e) => return (back, c.fail(e)),
     };
-    let (Some(halted), Some(rest)) = (tr.halted, tr.rest) else {
-        let why = if tr.halted.is_none() { "the move ended before the halt was due" } else { "never at rest" };
+    if let Err(why) = measure_halt(&mut c, h, (&tr.t, &tr.pos), (tr.halted, tr.rest), ("halt", unit)) {
         return (back, c.fail(why));
-    };
-    let secs = rest - halted;
-    c.measure("time_to_standstill", json!(round(secs)), h.standstill_s.text(), "s", h.standstill_s.holds(secs));
-    let at_halt = tr.t.iter().position(|t| *t >= halted).map_or(f64::NAN, |i| tr.pos[i]);
-    let stopped = tr.pos.last().copied().unwrap_or(f64::NAN);
-    c.measure("distance_after_halt", json!(round((stopped - at_halt).abs())), "any".into(), unit, true);
+    }
     attach(&mut c, at, &tr, run);
     // The test halted it, and it stands: the Halt state is the test's, not
     // a finding, so a Reset leaves the module ready as it was found (a run
@@ -734,15 +728,6 @@ fn watchdog(cubes: &mut Cubes, m: ModuleId, at: &str) -> Check {
         Ok(c)
     };
     run(cubes).unwrap_or_else(|e| Check::new(at, "watchdog").fail(e))
-}
-
-fn round(v: f64) -> f64 {
-    if v.is_finite() {
-        // + 0.0: a -0 rounded from a tiny negative error reads as 0.
-        (v * 1e6).round() / 1e6 + 0.0
-    } else {
-        v
-    }
 }
 
 /// The unit of a module's positions, for the motions' list before anything
