@@ -230,13 +230,9 @@ fn stop(
 ) -> anyhow::Result<()> {
     let at = axis.map_or(MotionTarget::PacController, MotionTarget::PacAxis);
     let how = StopHow { at_standstill: wait, ..StopHow::default() };
+    let (code, _) = device::stop_command(at, how)?;
     let halt = Face::stop_with(d, at, how).map_err(|e| super::takeover::failed(e, takeover))?;
     let ack = d.session().last_ack().context("the PA-CONTROL stop left no acknowledge to report")?;
-    let code = match (axis, wait) {
-        (None, _) => 0x0600,
-        (Some(_), true) => 0x0A93,
-        (Some(_), false) => 0x0A9A,
-    };
     let holder = HolderReport::after_halt(takeover);
     if halt != Halt::AtRest {
         report_with(ctx, code, axis, None, ack, holder, json!({"already_stopped": false}));

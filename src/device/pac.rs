@@ -31,7 +31,7 @@ use std::fmt;
 
 pub use elements::{Element, Register, RegisterKind};
 pub use error::Error;
-pub use face::Follow;
+pub use face::{stop_command, Follow};
 pub use halt::{HaltStep, HaltTarget};
 pub use limits::OnlineLimits;
 pub use motion::{Halted, MoveProgress, MoveStart};

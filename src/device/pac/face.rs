@@ -102,18 +102,7 @@ impl Face for Controller {
     /// status read. The acknowledge, or the status read, stays the
     /// session's last (`Pac::last_ack`) for the command that reports it.
     fn stop_with(&mut self, at: MotionTarget, how: StopHow) -> Result<Halt, FaceError> {
-        if how.manner != Manner::Default || how.on_sync {
-            return Err(FaceError::Unsupported(format!("the PA-CONTROL has no {how}")));
-        }
-        let (code, par1) = match at {
-            MotionTarget::PacAxis(axis) if how.at_standstill => (0x0A93, i64::from(axis)),
-            MotionTarget::PacAxis(axis) => (0x0A9A, i64::from(axis)),
-            MotionTarget::PacController if !how.at_standstill => (0x0600, 0),
-            MotionTarget::PacController => {
-                return Err(FaceError::Unsupported("the PA-CONTROL's program stop is answered at once".into()))
-            }
-            other => return Err(not_here(other)),
-        };
+        let (code, par1) = stop_command(at, how)?;
         Ok(match self.stop_by_hand(code, par1)? {
             StopOutcome::Sent => Halt::Steps(format!("{code:04X} sent")),
             StopOutcome::AtRest => Halt::AtRest,
@@ -137,6 +126,24 @@ impl Face for Controller {
             })
             .collect()
     }
+}
+
+/// The command (and its PAR1) a person's stop of `at` sends: 0A93 (answered
+/// at standstill) or 0A9A for an axis, the program stop 0600 for the
+/// controller. What `pac-stop` reports it sent comes from here too.
+pub fn stop_command(at: MotionTarget, how: StopHow) -> Result<(u16, i64), FaceError> {
+    if how.manner != Manner::Default || how.on_sync {
+        return Err(FaceError::Unsupported(format!("the PA-CONTROL has no {how}")));
+    }
+    Ok(match at {
+        MotionTarget::PacAxis(axis) if how.at_standstill => (0x0A93, i64::from(axis)),
+        MotionTarget::PacAxis(axis) => (0x0A9A, i64::from(axis)),
+        MotionTarget::PacController if !how.at_standstill => (0x0600, 0),
+        MotionTarget::PacController => {
+            return Err(FaceError::Unsupported("the PA-CONTROL's program stop is answered at once".into()))
+        }
+        other => return Err(not_here(other)),
+    })
 }
 
 /// How a waited move is followed: the poll interval and the longest wait.
