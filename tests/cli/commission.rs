@@ -733,30 +733,40 @@ fn a_planned_module_that_does_not_answer_fails_and_its_other_checks_are_said_ski
     assert!(check(&report, "powercube:9", "identity")["detail"].as_str().unwrap().contains("no answer from module 9"));
 }
 
+/// A run of the default plan's `address` alone against a simulator served
+/// with `faults` (on its `family`'s link): it must exit 5. Its report, and
+/// the directory holding it and its recordings (`r/`).
+fn faulted_run(address: &str, family: &str, faults: &str) -> (tempfile::TempDir, Value) {
+    let dir = tempfile::tempdir().unwrap();
+    let mut plan = default_plan();
+    plan["device"].as_array_mut().unwrap().retain(|d| d["address"].as_str() == Some(address));
+    let file = dir.path().join("plan.toml");
+    std::fs::write(&file, toml::to_string(&plan).unwrap()).unwrap();
+    let sim = common::Sim::start(&["--fault", faults], 3);
+    let out = dir.path().join("r");
+    let args = ["--link", sim.link(family), "commission", "--plan", file.to_str().unwrap()];
+    let r = run(&[&args[..], &["--out", out.to_str().unwrap(), "--yes"]].concat());
+    assert_eq!(r.code, 5, "{}\n{}", r.stdout, r.stderr);
+    (dir, read_report(&out))
+}
+
+/// The names of a check's figures that missed their limits.
+fn failing(c: &Value) -> Vec<String> {
+    c["measured"].as_array().unwrap().iter().filter(|m| m["pass"] == false).map(|m| m["name"].to_string()).collect()
+}
+
 /// A module that overshoots (`sim --fault overshoot=20`: each ramp rings
 /// 20 % of its step past the target) and halts slowly (`slow-halt=800ms`)
 /// fails exactly its overshoot figures and its halt time, with the
 /// measured values, exit 5; everything else of the default plan passes.
 #[test]
 fn an_overshooting_module_that_halts_slowly_fails_exactly_those_figures() {
-    let dir = tempfile::tempdir().unwrap();
-    let mut plan = default_plan();
-    plan["device"].as_array_mut().unwrap().retain(|d| d["address"].as_str() == Some("powercube:17"));
-    let file = dir.path().join("plan.toml");
-    std::fs::write(&file, toml::to_string(&plan).unwrap()).unwrap();
-    let sim = common::Sim::start(&["--fault", "overshoot=20,slow-halt=800ms"], 3);
+    let (dir, report) = faulted_run("powercube:17", "powercube", "overshoot=20,slow-halt=800ms");
     let out = dir.path().join("r");
-    let args = ["--link", sim.link("powercube"), "commission", "--plan", file.to_str().unwrap()];
-    let r = run(&[&args[..], &["--out", out.to_str().unwrap(), "--yes"]].concat());
-    assert_eq!(r.code, 5, "{}\n{}", r.stdout, r.stderr);
-    let report = read_report(&out);
     assert_eq!(
         with_status(&report, "fail"),
         BTreeSet::from(["move_forward", "move_back", "halt"].map(|c| format!("powercube:17 {c}")))
     );
-    let failing = |c: &Value| -> Vec<String> {
-        c["measured"].as_array().unwrap().iter().filter(|m| m["pass"] == false).map(|m| m["name"].to_string()).collect()
-    };
     for mv in ["move_forward", "move_back"] {
         let c = check(&report, "powercube:17", mv);
         assert_eq!(failing(c), ["\"overshoot\""], "{c}");
@@ -831,24 +841,12 @@ fn a_rerun_into_the_same_out_leaves_no_file_of_the_earlier_run() {
 /// moves' overshoot and its halt time fail, with the measured values.
 #[test]
 fn a_pa_control_axis_that_overshoots_and_stops_slowly_fails_exactly_those_figures() {
-    let dir = tempfile::tempdir().unwrap();
-    let mut plan = default_plan();
-    plan["device"].as_array_mut().unwrap().retain(|d| d["address"].as_str() == Some("pac:1"));
-    let file = dir.path().join("plan.toml");
-    std::fs::write(&file, toml::to_string(&plan).unwrap()).unwrap();
-    let sim = common::Sim::start(&["--fault", "overshoot=20,slow-halt=1500ms"], 3);
+    let (dir, report) = faulted_run("pac:1", "pac", "overshoot=20,slow-halt=1500ms");
     let out = dir.path().join("r");
-    let args = ["--link", sim.link("pac"), "commission", "--plan", file.to_str().unwrap()];
-    let r = run(&[&args[..], &["--out", out.to_str().unwrap(), "--yes"]].concat());
-    assert_eq!(r.code, 5, "{}\n{}", r.stdout, r.stderr);
-    let report = read_report(&out);
     assert_eq!(
         with_status(&report, "fail"),
         BTreeSet::from(["move_forward", "move_back", "halt"].map(|c| format!("pac:1 {c}")))
     );
-    let failing = |c: &Value| -> Vec<String> {
-        c["measured"].as_array().unwrap().iter().filter(|m| m["pass"] == false).map(|m| m["name"].to_string()).collect()
-    };
     for mv in ["move_forward", "move_back"] {
         let c = check(&report, "pac:1", mv);
         assert_eq!(failing(c), ["\"overshoot\""], "{c}");
