@@ -32,16 +32,6 @@ pub trait Plan {
     fn sampler(&self, ctx: &Ctx, spec: &LinkSpec) -> anyhow::Result<Box<dyn Sampler>>;
 }
 
-/// The bench link a device is read on: the one the bench file names it
-/// on, else the one carrying its family.
-fn link_of(bench: &Bench, at: Address) -> anyhow::Result<&BenchLink> {
-    let named = bench.links().iter().find(|l| l.carries(at.family()) && l.devices.values().any(|a| *a == at));
-    Ok(match named {
-        Some(l) => l,
-        None => bench.link_for(at.family())?,
-    })
-}
-
 /// The devices of the values in the order first named, each with its values.
 fn devices<'b>(bench: &'b Bench, values: &[String]) -> anyhow::Result<Vec<Device<'b>>> {
     let mut by_device: Vec<(Address, Vec<String>)> = Vec::new();
@@ -62,7 +52,7 @@ fn devices<'b>(bench: &'b Bench, values: &[String]) -> anyhow::Result<Vec<Device
         .into_iter()
         .map(|(address, given)| {
             let plan = (super::super::family_cli(address.family()).record_plan)(address, &given)?;
-            Ok(Device { link: link_of(bench, address)?, plan })
+            Ok(Device { link: bench.link_of(address)?, plan })
         })
         .collect()
 }
