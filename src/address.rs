@@ -54,6 +54,16 @@ pub enum AddressError {
 const FORMS: &str = "powercube:MODULE, pac, pac:AXIS, cdios:NODE/MODULE";
 
 impl Address {
+    /// How a device of `family` is written: `powercube:MODULE`, `pac:AXIS`
+    /// (or `pac`, the controller), `cdios:NODE/MODULE`.
+    pub fn form(family: Family) -> &'static str {
+        match family {
+            Family::PowerCube => "powercube:MODULE",
+            Family::Pac => "pac:AXIS",
+            Family::Cdios => "cdios:NODE/MODULE",
+        }
+    }
+
     pub fn family(self) -> Family {
         match self {
             Self::PowerCube { .. } => Family::PowerCube,

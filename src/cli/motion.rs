@@ -6,20 +6,36 @@
 //! someone says whether it moves; a test walks the parser's tree and
 //! checks every subcommand against the list below.
 
+use axisctl::bench::{Address, DeviceRef};
 use axisctl::device::supervisor::MotionTarget;
 use clap::Parser;
 
 use super::backup::BackupCommand;
 use super::{Cli, Command};
 
+/// How a `-d` device is found while deciding what a line moves: through
+/// the bench (its file's names), `None` when it names no device. A `-d`
+/// that does not resolve, or names a device of another family, fails the
+/// line before anything is sent, so it moves nothing.
+pub type Names<'a> = &'a dyn Fn(&DeviceRef) -> Option<Address>;
+
+/// [`Names`] without a bench: addresses only.
+#[cfg(test)]
+pub fn addresses_only(r: &DeviceRef) -> Option<Address> {
+    match r {
+        DeviceRef::Address(a) => Some(*a),
+        DeviceRef::Name(_) => None,
+    }
+}
+
 impl Command {
     /// The device this command may set moving, `None` for a command that
     /// moves nothing.
-    pub fn starts_motion(&self) -> Option<MotionTarget> {
+    pub fn starts_motion(&self, names: Names) -> Option<MotionTarget> {
         match self {
-            Self::PowerCube(c) => c.starts_motion(),
-            Self::Pac(c) => c.starts_motion(),
-            Self::Cdios(c) => c.starts_motion(),
+            Self::PowerCube(c) => c.starts_motion(names),
+            Self::Pac(c) => c.starts_motion(names),
+            Self::Cdios(c) => c.starts_motion(names),
             Self::Backup(c) => c.starts_motion(),
             // A recording halts its own motion on every way out; the run
             // that holds it halts it once more, which is harmless.
@@ -27,7 +43,7 @@ impl Command {
                 let words = std::iter::once("axisctl".to_string()).chain(args.motion.iter().cloned());
                 match args.motion.is_empty() {
                     true => None,
-                    false => Cli::try_parse_from(words).ok().and_then(|cli| cli.command.starts_motion()),
+                    false => Cli::try_parse_from(words).ok().and_then(|cli| cli.command.starts_motion(names)),
                 }
             }
             // Every PowerCube module of the plan may move (it halts them
@@ -187,7 +203,7 @@ mod tests {
         for (path, lines) in crate::cli::examples::EXAMPLES {
             let name = path.split(' ').next().unwrap();
             for line in *lines {
-                let moves = parse(line).starts_motion();
+                let moves = parse(line).starts_motion(&addresses_only);
                 let plan_moves = !line.contains("--dry-run") && !line.contains("--print-plan");
                 let listed = MOVING.contains(&name)
                     || (name == "record" && line.contains(" -- "))
@@ -226,10 +242,36 @@ mod tests {
             ("record -m 17 ActPos -- move-ramp -m 17 0.1", cube(17)),
             ("record --axis 2 position -- pac-move 2 250", MotionTarget::PacAxis(2)),
         ] {
-            assert_eq!(parse(line).starts_motion(), Some(target), "{line}");
+            assert_eq!(parse(line).starts_motion(&addresses_only), Some(target), "{line}");
         }
         for line in ["record -m 17 ActPos --count 3", "record -m 17 ActPos -- no-such-command"] {
-            assert_eq!(parse(line).starts_motion(), None, "{line}");
+            assert_eq!(parse(line).starts_motion(&addresses_only), None, "{line}");
+        }
+    }
+
+    /// `-d` names the same device as the shorthand, through the bench's
+    /// names; one that names no device of the command's family moves
+    /// nothing (the line fails before sending).
+    #[test]
+    fn a_device_named_with_d_is_the_device_that_moves() {
+        let cube = |m| MotionTarget::Cube(ModuleId::new(m).unwrap());
+        let names = |r: &DeviceRef| match r {
+            DeviceRef::Name(n) if n == "wrist" => Address::powercube(9),
+            DeviceRef::Name(n) if n == "slide" => Address::pac(Some(2)),
+            r => addresses_only(r),
+        };
+        for (line, target) in [
+            ("move-vel -d powercube:9 0.1", Some(cube(9))),
+            ("move-vel -d wrist 0.1", Some(cube(9))),
+            ("home -d wrist", Some(cube(9))),
+            ("move-ramp -d wrist 0.1", Some(cube(9))),
+            ("move-ramp -d wrist,powercube:3 --sync 0.1 0.2", Some(MotionTarget::CubeBus)),
+            ("move-cur --device powercube:4 0.5", Some(cube(4))),
+            ("move-vel -d slide 0.1", None),
+            ("move-step -d nobody 0.1 --time 100", None),
+            ("record -m 17 ActPos -- move-vel -d wrist 0.1", Some(cube(9))),
+        ] {
+            assert_eq!(parse(line).starts_motion(&names), target, "{line}");
         }
     }
 }

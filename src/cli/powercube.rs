@@ -11,23 +11,33 @@ use super::WaitArgs;
 use axisctl::bench::DeviceRef;
 use axisctl::family::POWERCUBE_MODULE;
 
-#[derive(Debug, Args, Clone, Copy)]
+/// One module: `-m 17`, or `-d powercube:17` / a bench file's name for it.
+#[derive(Debug, Args, Clone)]
+#[group(required = true, multiple = false)]
 pub struct ModuleArg {
     /// PowerCube module address, 1 to 31
     #[arg(short, long, value_name = "ID", value_parser = ids::id(POWERCUBE_MODULE), add = super::complete::bench_modules())]
-    pub module: u8,
+    pub module: Option<u8>,
+    /// The module as a device of the bench: powercube:ID or the name a bench file gives it (instead of -m)
+    #[arg(short, long, value_name = "DEVICE")]
+    pub device: Option<DeviceRef>,
 }
 
-/// The modules a read is about: `-m 17`, `-m 3,5,17` or `-m all`.
+/// The modules a read is about: `-m 17`, `-m 3,5,17` or `-m all`, or
+/// `-d powercube:3,powercube:5` (bench-file names too).
 #[derive(Debug, Args, Clone)]
+#[group(required = true, multiple = false)]
 pub struct ModulesArg {
     /// PowerCube module address 1..31, a list (3,5,17 or 1-8: one object per module) or all (every module present)
     #[arg(short, long, value_name = "ID[,ID...]|all", value_parser = ids::devices(POWERCUBE_MODULE), add = super::complete::bench_modules())]
-    pub module: ids::Devices,
+    pub module: Option<ids::Devices>,
+    /// The modules as devices of the bench: powercube:ID or bench-file names, comma-separated (one device: one object; several: a list)
+    #[arg(short, long, value_name = "DEVICE[,DEVICE...]", value_delimiter = ',', num_args = 1)]
+    pub device: Option<Vec<DeviceRef>>,
 }
 
-/// `-m ID` or `--all` (broadcast).
-#[derive(Debug, Args, Clone, Copy)]
+/// `-m ID`, `-d DEVICE` or `--all` (broadcast).
+#[derive(Debug, Args, Clone)]
 #[group(required = true, multiple = false)]
 pub struct Target {
     /// PowerCube module address, 1 to 31
@@ -36,6 +46,9 @@ pub struct Target {
     /// Broadcast to every module on the bus (not acknowledged)
     #[arg(long)]
     pub all: bool,
+    /// The module as a device of the bench: powercube:ID or the name a bench file gives it (instead of -m)
+    #[arg(short, long, value_name = "DEVICE")]
+    pub device: Option<DeviceRef>,
 }
 
 /// What `halt` stops: `-m ID`, `--all` (the broadcast; over a bench every
@@ -57,7 +70,7 @@ pub struct HaltTarget {
 impl HaltTarget {
     /// The PowerCube target of `-m` or `--all`; `None` with `-d`.
     pub fn powercube(&self) -> Option<Target> {
-        self.device.is_none().then_some(Target { module: self.module, all: self.all })
+        self.device.is_none().then_some(Target { module: self.module, all: self.all, device: None })
     }
 }
 
@@ -113,8 +126,18 @@ pub enum PowerCubeCommand {
     /// Ramp (trapezoidal) motion to a position; with --sync several modules started together
     MoveRamp {
         /// PowerCube module address, 1 to 31; with --sync a list such as 3,5,17 (one position each, in order)
-        #[arg(short, long = "module", value_name = "ID[,ID...]", value_parser = module_list)]
-        modules: ModuleList,
+        #[arg(short, long = "module", value_name = "ID[,ID...]", value_parser = module_list, required_unless_present = "device")]
+        modules: Option<ModuleList>,
+        /// The modules as devices of the bench (instead of -m): powercube:ID or bench-file names; with --sync several, in order
+        #[arg(
+            short,
+            long,
+            value_name = "DEVICE[,DEVICE...]",
+            value_delimiter = ',',
+            num_args = 1,
+            conflicts_with = "modules"
+        )]
+        device: Option<Vec<DeviceRef>>,
         /// Target position (rad or m; encoder ticks with --ticks); with --sync one per module
         #[arg(allow_negative_numbers = true, required = true, num_args = 1..)]
         pos: Vec<f64>,

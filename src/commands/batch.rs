@@ -160,7 +160,8 @@ impl<'a> Engine<'a> {
         };
         // Armed before the line sends its motion: a line without `--wait`
         // leaves it running, and the run answers for it from then on.
-        if let Some(target) = command.starts_motion() {
+        let names = |r: &axisctl::bench::DeviceRef| self.ctx.given_bench().ok().flatten()?.resolve(r).ok();
+        if let Some(target) = command.starts_motion(&names) {
             self.moved.arm(&mut Reached(self.ctx), target);
         }
         self.report(n, text, |ctx| super::dispatch(ctx, &name, *command))

@@ -8,6 +8,7 @@ mod cdios;
 mod commission;
 mod dashboard;
 mod decode;
+mod devices;
 pub mod error_json;
 pub mod exit;
 pub mod input;
@@ -30,7 +31,7 @@ use std::io::Write;
 use std::sync::Arc;
 use std::time::Duration;
 
-use axisctl::bench::{Bench, BenchError};
+use axisctl::bench::{Bench, BenchError, BenchLink};
 use axisctl::clock::{Clock, SystemClock};
 use axisctl::device::{self, supervisor};
 use axisctl::family::Family;
@@ -203,6 +204,10 @@ pub struct Ctx {
     /// The subcommand being run as typed (`pac-online`), set by
     /// [`dispatch`]: the `command` key of its documents.
     command: std::sync::Mutex<String>,
+    /// The link `-d` pinned for the command being run: the one its devices
+    /// are on (a bench file may put a family on several links). Cleared by
+    /// [`dispatch`] for each command.
+    pinned: std::sync::Mutex<Option<(Family, String)>>,
     /// The links as the user gave them, for the JSON envelope.
     pub link_text: String,
     pub json: bool,
@@ -261,6 +266,7 @@ impl Ctx {
             bench: bench_of(g),
             family: std::sync::Mutex::new(None),
             command: std::sync::Mutex::new(String::new()),
+            pinned: std::sync::Mutex::new(None),
             link_text,
             json: g.json,
             timeout: g.timeout.map(Duration::from_millis),
@@ -307,19 +313,40 @@ impl Ctx {
     /// fails on it) or none was given.
     pub fn link_text_for(&self, family: Family) -> String {
         match self.given_bench() {
-            Ok(Some(bench)) => bench.link_for(family).map_or_else(|_| self.link_text.clone(), |l| l.text.clone()),
+            Ok(Some(bench)) => {
+                self.family_link(bench, family).map_or_else(|_| self.link_text.clone(), |l| l.text.clone())
+            }
             _ => self.link_text.clone(),
         }
     }
 
     /// The link carrying `family`; a usage error naming the links when none does.
     pub fn link_for(&self, family: Family) -> anyhow::Result<&LinkSpec> {
-        Ok(&self.bench()?.link_for(family)?.spec)
+        Ok(&self.family_link(self.bench()?, family)?.spec)
     }
 
-    fn pick<'b>(&self, bench: &'b Bench) -> Result<&'b axisctl::bench::BenchLink, BenchError> {
+    /// The link of `family`'s devices: the one `-d` pinned, else the first
+    /// that carries the family.
+    fn family_link<'b>(&self, bench: &'b Bench, family: Family) -> Result<&'b BenchLink, BenchError> {
+        let pinned = self.pinned.lock().unwrap_or_else(|e| e.into_inner());
+        match pinned.as_ref().filter(|(f, _)| *f == family) {
+            Some((_, text)) => {
+                bench.links().iter().find(|l| l.text == *text).map_or_else(|| bench.link_for(family), Ok)
+            }
+            None => bench.link_for(family),
+        }
+    }
+
+    /// Makes `link` the one every session of `family` opens for the rest of
+    /// the command (see [`devices::of_family`]), and the link its documents name.
+    pub fn pin_link(&self, family: Family, link: &BenchLink) {
+        *self.pinned.lock().unwrap_or_else(|e| e.into_inner()) = Some((family, link.text.clone()));
+        crate::output::set_link(&link.text);
+    }
+
+    fn pick<'b>(&self, bench: &'b Bench) -> Result<&'b BenchLink, BenchError> {
         match *self.family.lock().unwrap_or_else(|e| e.into_inner()) {
-            Some(f) => bench.link_for(f),
+            Some(f) => self.family_link(bench, f),
             None => bench.only_link(),
         }
     }
@@ -502,6 +529,7 @@ pub fn dispatch(ctx: &Ctx, name: &str, command: Command) -> anyhow::Result<()> {
         _ => None,
     };
     *ctx.family.lock().unwrap_or_else(|e| e.into_inner()) = family;
+    *ctx.pinned.lock().unwrap_or_else(|e| e.into_inner()) = None;
     // The error object names the link the command's family uses.
     crate::output::set_link(&family.map_or_else(|| ctx.link_text.clone(), |f| ctx.link_text_for(f)));
     match command {

@@ -25,25 +25,28 @@ use serde_json::json;
 use super::wait::waiting;
 use super::{interrupted, usage, Ctx, Interrupted};
 use crate::cli::ids::{Devices, IdList};
+use crate::cli::powercube::{ModuleArg, ModulesArg};
 use crate::cli::{PowerCubeCommand as Command, Target, WaitArgs, WatchdogAction};
 use crate::output;
 use crate::output::{say, say_part};
+use axisctl::bench::{Address, DeviceRef};
 use axisctl::device::face::{Face, MotionTarget, Moving};
 
 pub fn run(ctx: &Ctx, cmd: Command) -> anyhow::Result<()> {
     match cmd {
         Command::Scan { ids } => scan(ctx, &ids),
-        Command::Info(m) => read_each(ctx, &m.module, info),
-        Command::State(m) => read_each(ctx, &m.module, show_state),
-        Command::Home { target, wait, deadman } => home(ctx, target, wait, policy(deadman)),
-        Command::Reset { target } => simple(ctx, target, Simple::Reset),
+        Command::Info(m) => read_each(ctx, &modules_of(ctx, m)?, info),
+        Command::State(m) => read_each(ctx, &modules_of(ctx, m)?, show_state),
+        Command::Home { target, wait, deadman } => home(ctx, target_of(ctx, target)?, wait, policy(deadman)),
+        Command::Reset { target } => simple(ctx, target_of(ctx, target)?, Simple::Reset),
         Command::Halt { target } => match (target.powercube(), target.device) {
-            (Some(target), _) => halt(ctx, target),
+            (Some(t), _) => halt(ctx, Aim { module: t.module, all: t.all }),
             (None, devices) => super::bench::halt_devices(ctx, &devices.unwrap_or_default()),
         },
-        Command::MoveRamp { modules, pos, vel, acc, ticks, relative, force, sync, wait, deadman } => {
+        Command::MoveRamp { modules, device, pos, vel, acc, ticks, relative, force, sync, wait, deadman } => {
             let deadman = policy(deadman);
-            let ms: Vec<ModuleId> = modules.0.iter().map(|id| module(*id)).collect();
+            let ids = ramp_modules(ctx, modules.map(|l| l.0), device)?;
+            let ms: Vec<ModuleId> = ids.iter().map(|id| module(*id)).collect();
             if ms.len() > 1 {
                 // A failure of a synchronized move is the group's, not the
                 // last module's.
@@ -56,22 +59,87 @@ pub fn run(ctx: &Ctx, cmd: Command) -> anyhow::Result<()> {
             }
         }
         Command::MoveStep { module: m, pos, time, ticks, relative, force } => {
-            let m = module(m.module);
+            let m = module_of(ctx, &m)?;
             move_step(ctx, m, target(pos, relative), time, ticks, force)
         }
-        Command::MoveVel { module: m, vel, ticks, force } => move_vel(ctx, module(m.module), vel, ticks, force),
-        Command::MoveCur { module: m, amps, force } => move_cur(ctx, module(m.module), amps, force),
+        Command::MoveVel { module: m, vel, ticks, force } => move_vel(ctx, module_of(ctx, &m)?, vel, ticks, force),
+        Command::MoveCur { module: m, amps, force } => move_cur(ctx, module_of(ctx, &m)?, amps, force),
         Command::GetParam { module: m, params, all } => {
-            let read = ParamRead::new(&m.module, &params, all)?;
-            read_each(ctx, &m.module, |ctx, cubes, id| read.one(ctx, cubes, id))
+            let devices = modules_of(ctx, m)?;
+            let read = ParamRead::new(&devices, &params, all)?;
+            read_each(ctx, &devices, |ctx, cubes, id| read.one(ctx, cubes, id))
         }
-        Command::SetParam { module: m, param, value, force } => set_param(ctx, module(m.module), &param, &value, force),
-        Command::GetConfig(m) => get_config(ctx, module(m.module)),
+        Command::SetParam { module: m, param, value, force } => {
+            set_param(ctx, module_of(ctx, &m)?, &param, &value, force)
+        }
+        Command::GetConfig(m) => get_config(ctx, module_of(ctx, &m)?),
         Command::SetConfig { module: m, changes, raw, force } => {
-            set_config(ctx, module(m.module), &changes, raw.as_deref(), force)
+            set_config(ctx, module_of(ctx, &m)?, &changes, raw.as_deref(), force)
         }
-        Command::Dio { module: m, out } => dio(ctx, module(m.module), out.as_deref()),
+        Command::Dio { module: m, out } => dio(ctx, module_of(ctx, &m)?, out.as_deref()),
         Command::Watchdog { action } => watchdog(ctx, action),
+    }
+}
+
+/// The module ids `-d` names (PowerCube devices of one link, in the order
+/// given; see [`super::devices::of_family`]).
+pub(in crate::commands) fn module_ids(ctx: &Ctx, refs: &[DeviceRef]) -> anyhow::Result<Vec<u8>> {
+    let all = super::devices::of_family(ctx, Family::PowerCube, refs)?;
+    Ok(all
+        .into_iter()
+        .filter_map(|a| if let Address::PowerCube { module } = a { Some(module) } else { None })
+        .collect())
+}
+
+/// `move-ramp`'s modules, `-m` or `-d`, in the order given (positions pair
+/// with them by place).
+pub(in crate::commands) fn ramp_modules(
+    ctx: &Ctx,
+    modules: Option<Vec<u8>>,
+    device: Option<Vec<DeviceRef>>,
+) -> anyhow::Result<Vec<u8>> {
+    match (modules, device) {
+        (_, Some(refs)) => module_ids(ctx, &refs),
+        (Some(list), None) => Ok(list),
+        (None, None) => unreachable!("clap requires -m or -d"),
+    }
+}
+
+/// The one module of `-m ID` or `-d DEVICE`.
+pub(in crate::commands) fn module_of(ctx: &Ctx, m: &ModuleArg) -> anyhow::Result<ModuleId> {
+    match (&m.device, m.module) {
+        (Some(r), _) => Ok(module(module_ids(ctx, std::slice::from_ref(r))?[0])),
+        (None, Some(id)) => Ok(module(id)),
+        (None, None) => unreachable!("clap requires -m or -d"),
+    }
+}
+
+/// The modules of a read: `-m` as typed, or `-d`'s devices (one device is
+/// one object, several a list, as `-m 17` and `-m 3,5`).
+fn modules_of(ctx: &Ctx, m: ModulesArg) -> anyhow::Result<Devices> {
+    match (m.device, m.module) {
+        (Some(refs), _) => match module_ids(ctx, &refs)?[..] {
+            [one] if refs.len() == 1 => Ok(Devices::One(one)),
+            ref ids => Ok(Devices::List(IdList(ids.to_vec()))),
+        },
+        (None, Some(d)) => Ok(d),
+        (None, None) => unreachable!("clap requires -m or -d"),
+    }
+}
+
+/// What a command goes to once `-d` is resolved: one module, or `all`
+/// (the broadcast).
+#[derive(Debug, Clone, Copy)]
+struct Aim {
+    module: Option<u8>,
+    all: bool,
+}
+
+/// `-m`, `--all` or `-d` as the module or broadcast it names.
+fn target_of(ctx: &Ctx, t: Target) -> anyhow::Result<Aim> {
+    match t.device {
+        Some(r) => Ok(Aim { module: Some(module_ids(ctx, std::slice::from_ref(&r))?[0]), all: false }),
+        None => Ok(Aim { module: t.module, all: t.all }),
     }
 }
 
@@ -377,7 +445,7 @@ fn state_shown(ctx: &Ctx, m: ModuleId, cube: u32) -> anyhow::Result<serde_json::
 }
 
 /// One command to one module, or its broadcast to all.
-fn simple(ctx: &Ctx, target: Target, cmd: Simple) -> anyhow::Result<()> {
+fn simple(ctx: &Ctx, target: Aim, cmd: Simple) -> anyhow::Result<()> {
     cubes(ctx)?.simple(target.module.map(module), cmd)?;
     report_sent(ctx, target, &cmd.name().to_lowercase(), None);
     Ok(())
@@ -385,7 +453,7 @@ fn simple(ctx: &Ctx, target: Target, cmd: Simple) -> anyhow::Result<()> {
 
 /// Halt, also from another terminal: a module held by another axisctl
 /// process (a `--wait`, the dashboard) is released by it first.
-fn halt(ctx: &Ctx, target: Target) -> anyhow::Result<()> {
+fn halt(ctx: &Ctx, target: Aim) -> anyhow::Result<()> {
     if target.all && super::bench::whole(ctx)? {
         return super::bench::halt_all(ctx);
     }
@@ -399,7 +467,7 @@ fn halt(ctx: &Ctx, target: Target) -> anyhow::Result<()> {
     Ok(())
 }
 
-fn report_sent(ctx: &Ctx, target: Target, what: &str, holder: Option<&super::takeover::HolderReport>) {
+fn report_sent(ctx: &Ctx, target: Aim, what: &str, holder: Option<&super::takeover::HolderReport>) {
     if ctx.json {
         let mut out = match target.module {
             Some(m) => doc(ctx, module(m), json!({"command": what, "acknowledged": true})),
@@ -424,7 +492,7 @@ fn report_sent(ctx: &Ctx, target: Target, what: &str, holder: Option<&super::tak
     }
 }
 
-fn home(ctx: &Ctx, target: Target, wait: WaitArgs, deadman: Deadman) -> anyhow::Result<()> {
+fn home(ctx: &Ctx, target: Aim, wait: WaitArgs, deadman: Deadman) -> anyhow::Result<()> {
     let mut cubes = cubes(ctx)?;
     if !wait.wait {
         cubes.simple(target.module.map(module), Simple::Home)?;
@@ -440,7 +508,7 @@ fn home(ctx: &Ctx, target: Target, wait: WaitArgs, deadman: Deadman) -> anyhow::
     released(&mut cubes, r)
 }
 
-fn home_waited(ctx: &Ctx, cubes: &mut Cubes, target: Target, wait: WaitArgs) -> anyhow::Result<()> {
+fn home_waited(ctx: &Ctx, cubes: &mut Cubes, target: Aim, wait: WaitArgs) -> anyhow::Result<()> {
     let attempts = 1 + ctx.retry.read_retries;
     let modules = match target.module.map(module) {
         Some(m) => {
@@ -820,10 +888,12 @@ impl PipelinedRead {
     /// refuses (it runs on its own and says why).
     pub fn plan(cmd: &Command) -> Option<Self> {
         let (devices, params) = match cmd {
+            // `-d` is resolved through the bench by the line's own run.
             Command::GetParam { module: m, params, all: false } => {
-                (&m.module, Some(ParamRead::new(&m.module, params, false).ok()?))
+                let devices = m.module.as_ref()?;
+                (devices, Some(ParamRead::new(devices, params, false).ok()?))
             }
-            Command::State(m) => (&m.module, None),
+            Command::State(m) => (m.module.as_ref()?, None),
             _ => return None,
         };
         let modules: Vec<ModuleId> = match devices {
@@ -947,34 +1017,33 @@ fn dio(ctx: &Ctx, m: ModuleId, out: Option<&str>) -> anyhow::Result<()> {
 }
 
 fn watchdog(ctx: &Ctx, action: WatchdogAction) -> anyhow::Result<()> {
-    let mut cubes = cubes(ctx)?;
     match action {
-        WatchdogAction::On(a) => {
-            let m = module(a.module);
-            let changed = cubes.watchdog_on(m)?;
-            if ctx.json {
-                output::json(&doc(ctx, m, json!({"watchdog": "on", "changed": changed})));
-            } else if changed {
-                say!("module {m}: watchdog online; keep it alive with `axisctl watchdog keepalive`, or it halts within 50 ms");
-            } else {
-                say!("module {m}: watchdog already on (CONFIGID_MOD_WATCHDOG_ENABLE set); nothing sent");
-            }
-            Ok(())
-        }
-        WatchdogAction::Off(a) => {
-            let m = module(a.module);
-            let changed = cubes.watchdog_off(m)?;
-            if ctx.json {
-                output::json(&doc(ctx, m, json!({"watchdog": "off", "changed": changed})));
-            } else if changed {
-                say!("module {m}: watchdog off (CONFIGID_MOD_WATCHDOG_ENABLE cleared)");
-            } else {
-                say!("module {m}: watchdog already off; nothing sent");
-            }
-            Ok(())
-        }
-        WatchdogAction::Keepalive { interval, duration } => keepalive(ctx, cubes.session(), interval, duration),
+        WatchdogAction::On(a) => watchdog_switch(ctx, &a, true),
+        WatchdogAction::Off(a) => watchdog_switch(ctx, &a, false),
+        WatchdogAction::Keepalive { interval, duration } => keepalive(ctx, cubes(ctx)?.session(), interval, duration),
     }
+}
+
+/// `watchdog on` / `off`: the module is resolved before the link opens, so
+/// a bad `-d` sends nothing.
+fn watchdog_switch(ctx: &Ctx, a: &ModuleArg, on: bool) -> anyhow::Result<()> {
+    let m = module_of(ctx, a)?;
+    let mut cubes = cubes(ctx)?;
+    let changed = if on { cubes.watchdog_on(m)? } else { cubes.watchdog_off(m)? };
+    let state = if on { "on" } else { "off" };
+    if ctx.json {
+        output::json(&doc(ctx, m, json!({"watchdog": state, "changed": changed})));
+    } else if !changed {
+        say!(
+            "module {m}: watchdog already {state}{}; nothing sent",
+            if on { " (CONFIGID_MOD_WATCHDOG_ENABLE set)" } else { "" }
+        );
+    } else if on {
+        say!("module {m}: watchdog online; keep it alive with `axisctl watchdog keepalive`, or it halts within 50 ms");
+    } else {
+        say!("module {m}: watchdog off (CONFIGID_MOD_WATCHDOG_ENABLE cleared)");
+    }
+    Ok(())
 }
 
 /// Broadcasts the refresh on a fixed schedule (not "sleep after send", which

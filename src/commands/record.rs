@@ -24,6 +24,7 @@ use axisctl::Address;
 use clap::Parser;
 use serde_json::{json, Map, Value};
 
+use super::powercube::{module_of as cube_of, ramp_modules};
 use super::{usage, Ctx, Interrupted, OutputFailed};
 use crate::cli::ids::parse_list;
 use crate::cli::record::{Format, RecordArgs};
@@ -84,7 +85,7 @@ pub fn run(ctx: &Ctx, args: RecordArgs) -> anyhow::Result<()> {
         return several::run(ctx, &args);
     }
     let sel = selection(&args)?;
-    let motion = (!args.motion.is_empty()).then(|| motion(&args.motion)).transpose()?;
+    let motion = (!args.motion.is_empty()).then(|| motion(ctx, &args.motion)).transpose()?;
     if let Some(m) = &motion {
         let fam = match &sel {
             Selection::PowerCube { .. } => Family::PowerCube,
@@ -200,27 +201,40 @@ pub(in crate::commands) fn names<T>(
 
 /// The command after `--`, parsed by the real parser and limited to the
 /// motions the recording can supervise.
-fn motion(words: &[String]) -> anyhow::Result<Motion> {
+fn motion(ctx: &Ctx, words: &[String]) -> anyhow::Result<Motion> {
     let cli = Cli::try_parse_from(std::iter::once("axisctl".to_string()).chain(words.iter().cloned()))
         .map_err(|e| usage(format!("the motion after --: {}", e.kind_text(words))))?;
     let one = |m: u8| ModuleId::new(m).expect("the parser checked the range");
     let m = match cli.command {
         Command::PowerCube(PowerCubeCommand::MoveRamp {
-            modules, pos, vel, acc, ticks, relative, force, sync, ..
-        }) => match (&modules.0[..], &pos[..], sync) {
+            modules,
+            device,
+            pos,
+            vel,
+            acc,
+            ticks,
+            relative,
+            force,
+            sync,
+            ..
+        }) => match (&ramp_modules(ctx, modules.map(|l| l.0), device)?[..], &pos[..], sync) {
             ([m], [p], false) => {
                 Motion::Cube { module: one(*m), mv: Move::Ramp { pos: *p, vel, acc }, ticks, relative, force }
             }
             _ => return Err(usage("record -- move-ramp moves one module to one position (no --sync)")),
         },
-        Command::PowerCube(PowerCubeCommand::MoveStep { module, pos, time, ticks, relative, force }) => {
-            Motion::Cube { module: one(module.module), mv: Move::Step { pos, time_ms: time }, ticks, relative, force }
-        }
+        Command::PowerCube(PowerCubeCommand::MoveStep { module, pos, time, ticks, relative, force }) => Motion::Cube {
+            module: cube_of(ctx, &module)?,
+            mv: Move::Step { pos, time_ms: time },
+            ticks,
+            relative,
+            force,
+        },
         Command::PowerCube(PowerCubeCommand::MoveVel { module, vel, ticks, force }) => {
-            Motion::Cube { module: one(module.module), mv: Move::Vel(vel), ticks, relative: false, force }
+            Motion::Cube { module: cube_of(ctx, &module)?, mv: Move::Vel(vel), ticks, relative: false, force }
         }
         Command::PowerCube(PowerCubeCommand::MoveCur { module, amps, force }) => {
-            Motion::Cube { module: one(module.module), mv: Move::Cur(amps), ticks: false, relative: false, force }
+            Motion::Cube { module: cube_of(ctx, &module)?, mv: Move::Cur(amps), ticks: false, relative: false, force }
         }
         Command::Pac(PacCommand::PacMove { axis, pos, relative, force, .. }) => {
             Motion::Pac { axis: axis.axis, pos, relative, force }

@@ -13,7 +13,7 @@ fn cdios(t: &ModuleTarget) -> Option<MotionTarget> {
 }
 
 impl CdiosCommand {
-    pub fn starts_motion(&self) -> Option<MotionTarget> {
+    pub fn starts_motion(&self, _names: crate::cli::motion::Names) -> Option<MotionTarget> {
         match self {
             Self::Goto { target, .. } | Self::Traject { target, .. } | Self::Start { target, .. } => cdios(target),
             Self::Identify { .. }

@@ -5,7 +5,7 @@ use axisctl::device::supervisor::MotionTarget;
 use super::PacCommand;
 
 impl PacCommand {
-    pub fn starts_motion(&self) -> Option<MotionTarget> {
+    pub fn starts_motion(&self, _names: crate::cli::motion::Names) -> Option<MotionTarget> {
         match self {
             Self::PacMove { axis, .. } | Self::PacRef { axis, .. } => Some(MotionTarget::PacAxis(axis.axis)),
             // Online mode takes motion commands from the program and the

@@ -1,0 +1,120 @@
+//! `-d/--device` on the per-family commands: the same device as the
+//! family's shorthand (`-m`, axis numbers, `--node`), by address or by the
+//! name a bench file gives it, on the link the bench puts it on. A device of
+//! another family, an unknown name or devices on two links are usage errors
+//! (exit 2) before any link opens.
+
+use crate::common;
+
+use std::path::Path;
+
+use common::Run;
+
+/// The simulated bench with names (docs/sim-bench.toml).
+const SIM_BENCH: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/docs/sim-bench.toml");
+
+fn run(args: &[&str]) -> Run {
+    common::run(args)
+}
+
+fn bench_file(dir: &Path, text: &str) -> String {
+    let path = dir.join("bench.toml");
+    std::fs::write(&path, text).unwrap();
+    path.to_str().unwrap().to_string()
+}
+
+/// A bench whose first PowerCube link is a port that does not exist: a
+/// command that opened it would fail with exit 3.
+fn two_cube_links(dir: &Path) -> String {
+    bench_file(
+        dir,
+        "[[link]]\nspec = \"slcan:/dev/axisctl-no-such-tty\"\nfamilies = [\"powercube\"]\n\
+         devices = { far = \"powercube:5\" }\n\
+         [[link]]\nspec = \"sim\"\nfamilies = [\"powercube\", \"pac\", \"cdios\"]\n\
+         devices = { arm = \"powercube:3\" }\n",
+    )
+}
+
+#[test]
+fn powercube_reads_take_a_device_as_they_take_a_module() {
+    for (by_id, by_device) in [
+        (&["state", "-m", "3"][..], &["state", "-d", "powercube:3"][..]),
+        (&["state", "-m", "3"], &["state", "-d", "shoulder"]),
+        (&["info", "-m", "3,5"], &["info", "-d", "shoulder,elbow"]),
+        (&["get-param", "-m", "5", "ActPos"], &["get-param", "--device", "elbow", "ActPos"]),
+        (&["get-config", "-m", "3"], &["get-config", "-d", "shoulder"]),
+        (&["dio", "-m", "5"], &["dio", "-d", "powercube:5"]),
+    ] {
+        let with = |args: &[&str]| {
+            let mut all = vec!["--bench", SIM_BENCH, "--json"];
+            all.extend(args);
+            let r = run(&all);
+            assert_eq!(r.code, 0, "{args:?}: {}{}", r.stdout, r.stderr);
+            r.json()
+        };
+        assert_eq!(with(by_id), with(by_device), "{by_device:?}");
+    }
+}
+
+#[test]
+fn one_device_is_one_object_and_several_a_list() {
+    let r = run(&["--bench", SIM_BENCH, "--json", "state", "-d", "shoulder"]);
+    assert_eq!(r.json()["module"], 3, "{}", r.stdout);
+    let r = run(&["--bench", SIM_BENCH, "--json", "state", "-d", "shoulder,powercube:3,elbow"]);
+    let modules: Vec<_> = r.json()["devices"].as_array().unwrap().iter().map(|d| d["module"].clone()).collect();
+    assert_eq!(modules, [3, 5], "each device once, in the order named: {}", r.stdout);
+}
+
+#[test]
+fn powercube_motions_take_a_device() {
+    let r = run(&["--bench", SIM_BENCH, "--json", "move-ramp", "-d", "elbow", "0.2", "--wait"]);
+    assert_eq!(r.code, 0, "{}{}", r.stdout, r.stderr);
+    assert_eq!(r.json()["module"], 5);
+    assert_eq!(r.json()["command"], "move-ramp");
+    let r = run(&["--bench", SIM_BENCH, "--json", "home", "-d", "shoulder", "--wait"]);
+    assert_eq!((r.code, r.json()["module"].clone()), (0, 3.into()), "{}{}", r.stdout, r.stderr);
+}
+
+/// A named device is reached on the link the bench file puts it on, even
+/// when another link carries its family first.
+#[test]
+fn a_device_is_read_on_its_own_link() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = two_cube_links(dir.path());
+    let r = run(&["--bench", &file, "--json", "state", "-d", "arm"]);
+    assert_eq!(r.code, 0, "{}{}", r.stdout, r.stderr);
+    assert_eq!((r.json()["link"].as_str(), r.json()["module"].as_u64()), (Some("sim"), Some(3)));
+    // The shorthand takes the family's first link: the missing port.
+    let r = run(&["--bench", &file, "--json", "state", "-m", "3"]);
+    assert_eq!(r.code, 3, "{}{}", r.stdout, r.stderr);
+}
+
+/// Every refusal of `-d` is exit 2 with the reason, and nothing goes out:
+/// the log stays empty.
+#[test]
+fn a_device_the_command_cannot_take_is_refused_before_sending() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = two_cube_links(dir.path());
+    let log = dir.path().join("frames.log");
+    for (args, why) in [
+        (
+            &["move-vel", "-d", "slide", "0.1"][..],
+            "move-vel takes PowerCube devices (powercube:MODULE); slide is a PA-CONTROL device",
+        ),
+        (&["home", "-d", "cdios:1/0"], "home takes PowerCube devices (powercube:MODULE); cdios:1/0 is a Cdios device"),
+        (&["state", "-d", "wrist"], "\"wrist\" is not a device of the bench"),
+        (&["state", "-d", "powercube:32"], "module id 1 to 31"),
+    ] {
+        let mut all = vec!["--bench", SIM_BENCH, "--log", log.to_str().unwrap()];
+        all.extend(args);
+        let r = run(&all);
+        assert_eq!(r.code, 2, "{args:?}: {}{}", r.stdout, r.stderr);
+        assert!(r.stderr.contains(why), "{args:?}: {}", r.stderr);
+    }
+    let r =
+        run(&["--bench", &file, "--log", log.to_str().unwrap(), "move-ramp", "-d", "arm,far", "--sync", "0.1", "0.2"]);
+    assert_eq!(r.code, 2, "{}{}", r.stdout, r.stderr);
+    assert!(r.stderr.contains("arm is on sim and far on slcan:/dev/axisctl-no-such-tty"), "{}", r.stderr);
+    let logged = std::fs::read_to_string(&log).unwrap_or_default();
+    assert!(logged.is_empty(), "nothing is sent: {logged}");
+}
