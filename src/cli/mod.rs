@@ -210,10 +210,40 @@ fn finish(cmd: clap::Command, path: &str) -> clap::Command {
     })
 }
 
+/// Whether a command line names a device with `-d` / `--device` (before
+/// any `--`, after which words are another command's, as `record`'s motion).
+pub fn names_device<S: AsRef<std::ffi::OsStr>>(words: &[S]) -> bool {
+    words
+        .iter()
+        .map(|w| w.as_ref().to_string_lossy())
+        .take_while(|w| w != "--")
+        .any(|w| w == "--device" || w.starts_with("--device=") || (w.starts_with("-d") && !w.starts_with("--")))
+}
+
+/// The parser for `words`: `cmd`, or its form for a line that names a
+/// device with `-d`, where a PA-CONTROL command's AXIS is no positional
+/// ([`pac::device_form`]).
+pub fn for_words<S: AsRef<std::ffi::OsStr>>(cmd: clap::Command, words: &[S]) -> clap::Command {
+    if names_device(words) {
+        pac::device_form(cmd)
+    } else {
+        cmd
+    }
+}
+
+/// `Cli::try_parse_from` for a command given as words (`record`'s motion,
+/// a line of its own), `-d` included.
+pub fn parse_words(words: &[String]) -> Result<Cli, clap::Error> {
+    let argv: Vec<&str> = std::iter::once("axisctl").chain(words.iter().map(String::as_str)).collect();
+    let matches = for_words(Cli::command(), &argv).try_get_matches_from(&argv)?;
+    Cli::from_arg_matches(&matches)
+}
+
 /// Parses the process arguments.
 pub fn parse(exit_codes: &str) -> Result<Cli, clap::Error> {
-    let mut cmd = command(exit_codes);
-    let matches = cmd.try_get_matches_from_mut(std::env::args_os()).map_err(|e| suggest::subcommand(e, &cmd))?;
+    let args: Vec<_> = std::env::args_os().collect();
+    let mut cmd = for_words(command(exit_codes), &args);
+    let matches = cmd.try_get_matches_from_mut(args).map_err(|e| suggest::subcommand(e, &cmd))?;
     let mut cli = Cli::from_arg_matches(&matches).map_err(|e| e.with_cmd(&cmd))?;
     let from_env = |id| matches.value_source(id) == Some(clap::parser::ValueSource::EnvVariable);
     cli.global.link_from_env = from_env("link");

@@ -8,10 +8,9 @@
 
 use axisctl::bench::{Address, DeviceRef};
 use axisctl::device::supervisor::MotionTarget;
-use clap::Parser;
 
 use super::backup::BackupCommand;
-use super::{Cli, Command};
+use super::Command;
 
 /// How a `-d` device is found while deciding what a line moves: through
 /// the bench (its file's names), `None` when it names no device. A `-d`
@@ -39,13 +38,10 @@ impl Command {
             Self::Backup(c) => c.starts_motion(),
             // A recording halts its own motion on every way out; the run
             // that holds it halts it once more, which is harmless.
-            Self::Record(args) => {
-                let words = std::iter::once("axisctl".to_string()).chain(args.motion.iter().cloned());
-                match args.motion.is_empty() {
-                    true => None,
-                    false => Cli::try_parse_from(words).ok().and_then(|cli| cli.command.starts_motion(names)),
-                }
-            }
+            Self::Record(args) => match args.motion.is_empty() {
+                true => None,
+                false => super::parse_words(&args.motion).ok().and_then(|cli| cli.command.starts_motion(names)),
+            },
             // Every PowerCube module of the plan may move (it halts them
             // itself on every way out).
             Self::Commission(a) if !a.dry_run && !a.print_plan => Some(MotionTarget::CubeBus),
@@ -177,13 +173,13 @@ mod tests {
     ];
 
     fn parse(line: &str) -> Command {
-        let parser = crate::cli::command("");
         // An example may go on into the shell: `> file`, `| man -l -`.
         let words = shlex::split(line).expect("an example splits");
         let words = words.into_iter().take_while(|w| !w.starts_with(['>', '<', '|', '&', ';']));
-        let words = std::iter::once("axisctl".to_string()).chain(words);
+        let words: Vec<String> = std::iter::once("axisctl".to_string()).chain(words).collect();
+        let parser = crate::cli::for_words(crate::cli::command(""), &words);
         let matches = parser.try_get_matches_from(words).unwrap_or_else(|e| panic!("{line}: {e}"));
-        Cli::from_arg_matches(&matches).unwrap().command
+        crate::cli::Cli::from_arg_matches(&matches).unwrap().command
     }
 
     #[test]

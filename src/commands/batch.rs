@@ -106,12 +106,21 @@ impl<'a> Engine<'a> {
         if words.is_empty() {
             return Ok(None);
         }
-        let argv = std::iter::once("axisctl".to_string()).chain(words);
-        let matches = match self.parser.try_get_matches_from_mut(argv) {
+        let argv: Vec<String> = std::iter::once("axisctl".to_string()).chain(words).collect();
+        // A line naming a device with -d takes the parser's -d form, for
+        // this line only (cli::for_words).
+        let mut with_device;
+        let parser = if crate::cli::names_device(&argv) {
+            with_device = crate::cli::for_words(self.parser.clone(), &argv);
+            &mut with_device
+        } else {
+            &mut self.parser
+        };
+        let matches = match parser.try_get_matches_from_mut(argv) {
             Ok(m) => m,
             Err(e) if !e.use_stderr() => return Ok(Some(Line::Text(e.render().to_string()))),
             Err(e) => {
-                let e = crate::cli::suggest::subcommand(e, &self.parser);
+                let e = crate::cli::suggest::subcommand(e, parser);
                 let doc = error_json::usage(&e, exit::code(ErrorKind::Usage));
                 let mut message = doc["error"]["message"].as_str().unwrap_or_default().to_string();
                 // clap's tips ("a similar subcommand exists") are what fixes a typo.

@@ -14,6 +14,7 @@
 
 mod backup;
 mod dashboard;
+mod devices;
 pub mod names;
 mod record;
 mod tap;
@@ -40,68 +41,76 @@ use crate::cli::Switch;
 use crate::output;
 use crate::output::{say, tell_part};
 
-pub fn run(ctx: &Ctx, cmd: PacCommand) -> anyhow::Result<()> {
+pub(in crate::commands) use devices::axis_number;
+
+pub fn run(ctx: &Ctx, mut cmd: PacCommand) -> anyhow::Result<()> {
+    // `-d` is resolved (and its link pinned) before the link opens: a
+    // device the command cannot take sends nothing.
+    devices::resolve(ctx, &mut cmd)?;
     // The stops work from another terminal too: a line held by another
     // axisctl process (a `--wait`, the dashboard) is released by it first.
-    let stops = matches!(cmd, PacCommand::PacStop | PacCommand::PacStopAxis { .. });
+    let stops = matches!(cmd, PacCommand::PacStop(_) | PacCommand::PacStopAxis { .. });
     let (pac, takeover) =
         if stops { super::takeover::open(ctx, |o, spec, opts| o.pac(spec, opts))? } else { (ctx.pac()?, None) };
     let mut d = Controller::new(pac);
     let d = &mut d;
     match cmd {
-        PacCommand::PacOnline => online(ctx, d),
-        PacCommand::PacOffline => offline(ctx, d),
-        PacCommand::PacStop => stop(ctx, d, None, false, takeover.as_ref()),
-        PacCommand::PacAutoStart => simple(ctx, d, 0x0602, None, None),
-        PacCommand::PacAutoAbort => simple(ctx, d, 0x0A41, None, None),
-        PacCommand::PacState => state(ctx, d),
-        PacCommand::PacError => error(ctx, d),
-        PacCommand::PacResetError => reset_error(ctx, d),
+        PacCommand::PacOnline(_) => online(ctx, d),
+        PacCommand::PacOffline(_) => offline(ctx, d),
+        PacCommand::PacStop(_) => stop(ctx, d, None, false, takeover.as_ref()),
+        PacCommand::PacAutoStart(_) => simple(ctx, d, 0x0602, None, None),
+        PacCommand::PacAutoAbort(_) => simple(ctx, d, 0x0A41, None, None),
+        PacCommand::PacState(_) => state(ctx, d),
+        PacCommand::PacError(_) => error(ctx, d),
+        PacCommand::PacResetError(_) => reset_error(ctx, d),
         PacCommand::PacMove { axis, pos, relative, force, wait } => {
-            move_axis(ctx, d, axis.axis, pos, relative, force, wait)
+            move_axis(ctx, d, axis.number(), pos, relative, force, wait)
         }
-        PacCommand::PacRef { axis, wait } => reference(ctx, d, axis.axis, wait),
-        PacCommand::PacNoRef(a) => simple(ctx, d, 0x0A83, Some(a.axis), None),
-        PacCommand::PacZero(a) => simple(ctx, d, 0x0A85, Some(a.axis), None),
-        PacCommand::PacSetPos { axis, pos } => simple(ctx, d, 0x0A86, Some(axis.axis), Some(finite("POS", pos)?)),
+        PacCommand::PacRef { axis, wait } => reference(ctx, d, axis.number(), wait),
+        PacCommand::PacNoRef(a) => simple(ctx, d, 0x0A83, Some(a.number()), None),
+        PacCommand::PacZero(a) => simple(ctx, d, 0x0A85, Some(a.number()), None),
+        PacCommand::PacSetPos { axis, pos } => simple(ctx, d, 0x0A86, Some(axis.number()), Some(finite("POS", pos)?)),
         PacCommand::PacSpeed { axis, speed } => {
             let speed = finite("speed", speed)?;
-            limited(ctx, d, 0x0A8D, axis.axis, speed)?;
-            simple(ctx, d, 0x0A8D, Some(axis.axis), Some(speed))
+            limited(ctx, d, 0x0A8D, axis.number(), speed)?;
+            simple(ctx, d, 0x0A8D, Some(axis.number()), Some(speed))
         }
         PacCommand::PacAccel { axis, accel } => {
             let accel = finite("acceleration", accel)?;
-            limited(ctx, d, 0x0A8E, axis.axis, accel)?;
-            simple(ctx, d, 0x0A8E, Some(axis.axis), Some(accel))
+            limited(ctx, d, 0x0A8E, axis.number(), accel)?;
+            simple(ctx, d, 0x0A8E, Some(axis.number()), Some(accel))
         }
-        PacCommand::PacStopAxis { axis, wait, no_wait: _ } => stop(ctx, d, Some(axis.axis), wait, takeover.as_ref()),
-        PacCommand::PacAxis(a) => axes_info(ctx, d, &a.axis),
-        PacCommand::PacAxes => axes(ctx, d),
+        PacCommand::PacStopAxis { axis, wait, no_wait: _ } => {
+            stop(ctx, d, Some(axis.number()), wait, takeover.as_ref())
+        }
+        PacCommand::PacAxis(a) => axes_info(ctx, d, a.axis.as_ref().expect("-d is resolved to AXIS above")),
+        PacCommand::PacAxes(_) => axes(ctx, d),
         PacCommand::PacAxisPower { axis, state } => {
-            simple(ctx, d, if state.is_on() { 0x0A97 } else { 0x0A98 }, Some(axis.axis), None)
+            simple(ctx, d, if state.is_on() { 0x0A97 } else { 0x0A98 }, Some(axis.number()), None)
         }
-        PacCommand::PacAxisOn(a) => simple(ctx, d, 0x0A97, Some(a.axis), None),
-        PacCommand::PacAxisOff(a) => simple(ctx, d, 0x0A98, Some(a.axis), None),
+        PacCommand::PacAxisOn(a) => simple(ctx, d, 0x0A97, Some(a.number()), None),
+        PacCommand::PacAxisOff(a) => simple(ctx, d, 0x0A98, Some(a.number()), None),
         PacCommand::PacMeasure { axis, state, off } => {
             let on = !off && state.is_some_and(Switch::is_on);
-            simple(ctx, d, if on { 0x0AA0 } else { 0x0AA1 }, Some(axis.axis), None)
+            simple(ctx, d, if on { 0x0AA0 } else { 0x0AA1 }, Some(axis.number()), None)
         }
-        PacCommand::PacLimitSwitch { axis, state } => {
+        PacCommand::PacLimitSwitch { axis, state, .. } => {
+            let axis = axis.expect("-d is resolved to AXIS above");
             simple(ctx, d, 0x0AA2, Some(axis), Some(if state.is_on() { 1.0 } else { 0.0 }))
         }
-        PacCommand::PacIn { number, word } => element(ctx, d, Element::Input, number, None, word),
-        PacCommand::PacOut { number, value, word } => element(ctx, d, Element::Output, number, value, word),
-        PacCommand::PacFlag { number, value, word, system } => {
+        PacCommand::PacIn { number, word, .. } => element(ctx, d, Element::Input, number, None, word),
+        PacCommand::PacOut { number, value, word, .. } => element(ctx, d, Element::Output, number, value, word),
+        PacCommand::PacFlag { number, value, word, system, .. } => {
             if system {
                 element(ctx, d, Element::SystemFlag, number, value, false)
             } else {
                 element(ctx, d, Element::Flag, number, value, word)
             }
         }
-        PacCommand::PacReg { register, value } => reg(ctx, d, &register, value.as_deref()),
-        PacCommand::PacSysParam { param, access } => sys_param(ctx, d, &param, &access),
-        PacCommand::PacAxisParam { axis, param, access } => axis_param(ctx, d, axis.axis, &param, &access),
-        PacCommand::PacRaw { code, par1, par2 } => {
+        PacCommand::PacReg { register, value, .. } => reg(ctx, d, &register, value.as_deref()),
+        PacCommand::PacSysParam { param, access, .. } => sys_param(ctx, d, &param, &access),
+        PacCommand::PacAxisParam { axis, param, access } => axis_param(ctx, d, axis.number(), &param, &access),
+        PacCommand::PacRaw { code, par1, par2, .. } => {
             // A raw 0A8D / 0A8E is checked as pac-speed's (silently: raw is for those who know).
             d.know_online_limits(pac_limits::load(ctx.link_for(Family::Pac)?).unwrap_or_default());
             raw(ctx, d, &code, par1, par2.as_deref())

@@ -21,14 +21,13 @@ use axisctl::record::pac::{PacSampler, PacValue};
 use axisctl::record::powercube::CubeSampler;
 use axisctl::record::{self, Channel, End, HaltMotion, HaltWhen, RecordError, Recording, Sample, Until};
 use axisctl::Address;
-use clap::Parser;
 use serde_json::{json, Map, Value};
 
 use super::powercube::{module_of as cube_of, ramp_modules};
 use super::{usage, Ctx, Interrupted, OutputFailed};
 use crate::cli::ids::parse_list;
 use crate::cli::record::{Format, RecordArgs};
-use crate::cli::{cdios::CdiosCommand, pac::PacCommand, Cli, Command, PowerCubeCommand};
+use crate::cli::{cdios::CdiosCommand, pac::PacCommand, Command, PowerCubeCommand};
 use crate::output::{self, say};
 
 pub(in crate::commands) mod several;
@@ -202,8 +201,8 @@ pub(in crate::commands) fn names<T>(
 /// The command after `--`, parsed by the real parser and limited to the
 /// motions the recording can supervise.
 fn motion(ctx: &Ctx, words: &[String]) -> anyhow::Result<Motion> {
-    let cli = Cli::try_parse_from(std::iter::once("axisctl".to_string()).chain(words.iter().cloned()))
-        .map_err(|e| usage(format!("the motion after --: {}", e.kind_text(words))))?;
+    let cli =
+        crate::cli::parse_words(words).map_err(|e| usage(format!("the motion after --: {}", e.kind_text(words))))?;
     let one = |m: u8| ModuleId::new(m).expect("the parser checked the range");
     let m = match cli.command {
         Command::PowerCube(PowerCubeCommand::MoveRamp {
@@ -237,7 +236,7 @@ fn motion(ctx: &Ctx, words: &[String]) -> anyhow::Result<Motion> {
             Motion::Cube { module: cube_of(ctx, &module)?, mv: Move::Cur(amps), ticks: false, relative: false, force }
         }
         Command::Pac(PacCommand::PacMove { axis, pos, relative, force, .. }) => {
-            Motion::Pac { axis: axis.axis, pos, relative, force }
+            Motion::Pac { axis: super::pac::axis_number(ctx, &axis)?, pos, relative, force }
         }
         Command::Cdios(CdiosCommand::Goto {
             target, position, relative, setpoint_relative, latched, speed, ..
