@@ -129,6 +129,7 @@ pub const EXAMPLES: &[(&str, &[&str])] = &[
         &[
             "--link 'sim?pac=online' pac-move 2 150 --wait",
             "--link 'sim?pac=online' pac-move 2 -10 --relative --wait --wait-timeout 30",
+            "--link 'sim?pac=online' pac-move -d pac:2 150 --wait     # the axis as a device (or a bench-file name)",
         ],
     ),
     ("pac-ref", &["--link 'sim?pac=online' pac-ref 2 --wait"]),
@@ -272,7 +273,7 @@ mod tests {
             for line in *lines {
                 let mut argv = vec!["axisctl"];
                 argv.extend(words(line));
-                let m = match crate::cli::command("").try_get_matches_from(&argv) {
+                let m = match crate::cli::for_words(crate::cli::command(""), &argv).try_get_matches_from(&argv) {
                     Ok(m) => m,
                     Err(e) => {
                         bad.push(format!("{line:?}: {}", e.render().to_string().lines().next().unwrap_or("")));

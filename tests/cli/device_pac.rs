@@ -219,3 +219,20 @@ fn a_device_a_pac_command_cannot_take_is_refused_before_sending() {
     let logged = std::fs::read_to_string(&log).unwrap_or_default();
     assert!(logged.is_empty(), "nothing is sent: {logged}");
 }
+
+/// docs/guide.md's examples of `-d` on the PA-CONTROL run as written.
+#[test]
+fn the_guides_pac_device_examples_run() {
+    let guide = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/docs/guide.md")).unwrap();
+    let section = guide.split("### Naming the axis or the controller with -d\n").nth(1).expect("the guide's section");
+    let section = section.split("\n### ").next().unwrap();
+    let examples: Vec<&str> = section.lines().filter_map(|l| l.strip_prefix("    axisctl ")).collect();
+    assert!(examples.len() >= 4, "{examples:?}");
+    for line in examples {
+        let words: Vec<&str> = line.split_whitespace().map(|w| w.trim_matches('\'')).collect();
+        let mut child = common::bin();
+        child.args(&words).current_dir(env!("CARGO_MANIFEST_DIR"));
+        let out = child.output().unwrap();
+        assert!(out.status.success(), "{line}: {}", String::from_utf8_lossy(&out.stderr));
+    }
+}
