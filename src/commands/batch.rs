@@ -18,7 +18,7 @@ use std::io::{BufRead, BufReader, Read};
 
 use anyhow::Context;
 use axisctl::device::registry;
-use axisctl::device::supervisor::{self, HaltOutcome, MovedDevices, Reach, RunFace};
+use axisctl::device::supervisor::{self, HaltOutcome, MotionTarget, MovedDevices, Reach, RunFace};
 use axisctl::family::Family;
 use axisctl::session::ErrorKind;
 use clap::parser::ValueSource;
@@ -77,6 +77,9 @@ pub struct Engine<'a> {
     moved: MovedDevices,
     /// The exit code of the first failure.
     pub first_failure: Option<u8>,
+    /// The link each family's armed motions go out on: the run halts a
+    /// family's devices through one face, opened on that link.
+    armed_on: Vec<(Family, String)>,
 }
 
 impl<'a> Engine<'a> {
@@ -89,6 +92,7 @@ impl<'a> Engine<'a> {
             parser: crate::cli::command(&exit::summary()),
             moved: MovedDevices::new(ctx.retry),
             first_failure: None,
+            armed_on: Vec::new(),
         })
     }
 
@@ -169,11 +173,50 @@ impl<'a> Engine<'a> {
         };
         // Armed before the line sends its motion: a line without `--wait`
         // leaves it running, and the run answers for it from then on.
-        let names = |r: &axisctl::bench::DeviceRef| self.ctx.given_bench().ok().flatten()?.resolve(r).ok();
-        if let Some(target) = command.starts_motion(&names) {
-            self.moved.arm(&mut Reached(self.ctx), target);
+        let bench = self.ctx.given_bench().ok().flatten();
+        let named_on = std::cell::Cell::new(None);
+        let names = |r: &axisctl::bench::DeviceRef| {
+            let bench = bench?;
+            let at = bench.resolve(r).ok()?;
+            named_on.set(bench.link_of(at).ok());
+            Some(at)
+        };
+        let refused = match command.starts_motion(&names) {
+            Some(target) => self.arm_on(target, named_on.get()).err(),
+            None => None,
+        };
+        self.report(n, text, |ctx| match refused {
+            Some(e) => Err(e),
+            None => super::dispatch(ctx, &name, *command),
+        })
+    }
+
+    /// Arms the halt of `target` on the link its line moves it on: `on`, the
+    /// link its `-d` devices are on, else its family's first (not a link an
+    /// earlier line's `-d` left pinned). The run halts a family through one
+    /// face, so a line that would move a family on a second link is refused
+    /// before it sends anything.
+    fn arm_on(&mut self, target: MotionTarget, on: Option<&axisctl::bench::BenchLink>) -> anyhow::Result<()> {
+        let family = target.family();
+        self.ctx.unpin();
+        if let Some(link) = on {
+            self.ctx.pin_link(family, link);
         }
-        self.report(n, text, |ctx| super::dispatch(ctx, &name, *command))
+        let link = self.ctx.link_text_for(family);
+        let moving: Vec<Family> = self.moved.targets().iter().map(|t| t.family()).collect();
+        self.armed_on.retain(|(f, _)| moving.contains(f));
+        match self.armed_on.iter().find(|(f, _)| *f == family) {
+            Some((_, first)) if *first != link => {
+                return Err(super::usage(format!(
+                    "this run moved {family} devices on {first}; this line would move one on {link}, which a \
+                     failure could not halt with them: run it in a batch of its own; nothing was sent"
+                )))
+            }
+            Some(_) => {}
+            None => self.armed_on.push((family, link)),
+        }
+        self.moved.arm(&mut Reached(self.ctx), target);
+        Ok(())
     }
 
     /// Runs `line` as line `n` and reports it: what it prints, in line

@@ -344,6 +344,12 @@ impl Ctx {
         crate::output::set_link(&link.text);
     }
 
+    /// Forgets the link `-d` pinned: each family's first link again (a pin
+    /// lasts until the next command; `batch` arms a line's halt before it).
+    pub fn unpin(&self) {
+        *self.pinned.lock().unwrap_or_else(|e| e.into_inner()) = None;
+    }
+
     fn pick<'b>(&self, bench: &'b Bench) -> Result<&'b BenchLink, BenchError> {
         match *self.family.lock().unwrap_or_else(|e| e.into_inner()) {
             Some(f) => self.family_link(bench, f),
@@ -529,7 +535,7 @@ pub fn dispatch(ctx: &Ctx, name: &str, command: Command) -> anyhow::Result<()> {
         _ => None,
     };
     *ctx.family.lock().unwrap_or_else(|e| e.into_inner()) = family;
-    *ctx.pinned.lock().unwrap_or_else(|e| e.into_inner()) = None;
+    ctx.unpin();
     // The error object names the link the command's family uses.
     crate::output::set_link(&family.map_or_else(|| ctx.link_text.clone(), |f| ctx.link_text_for(f)));
     match command {

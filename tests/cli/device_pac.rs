@@ -153,11 +153,17 @@ fn record_and_batch_move_the_named_axis() {
     assert!(r.stderr.ends_with("halted: `pac-stop-axis 2`\n"), "{}", r.stderr);
 }
 
-/// With two PA-CONTROLs on two serial lines, `-d` picks the line: the
-/// controller by its bench-file name (or `pac`, where the file names it),
-/// an axis by its name. The second serves 5 axes, the first 3.
-#[test]
-fn a_device_picks_its_controllers_serial_link() {
+/// Two PA-CONTROLs served on two serial lines, the first with 3 axes, the
+/// second with 5, and a bench file naming axis 2 of the first `near`, the
+/// second controller `right` and its axis 5 `far`.
+struct TwoControllers {
+    three: Sim,
+    five: Sim,
+    _dir: tempfile::TempDir,
+    file: String,
+}
+
+fn two_controllers() -> TwoControllers {
     let three = Sim::start(&["--pac", "pty-serial"], 1);
     let five = Sim::start(&["--pac", "pty-serial", "--axes", "5"], 1);
     let dir = tempfile::tempdir().unwrap();
@@ -170,6 +176,15 @@ fn a_device_picks_its_controllers_serial_link() {
             five.link("pac")
         ),
     );
+    TwoControllers { three, five, _dir: dir, file }
+}
+
+/// With two PA-CONTROLs on two serial lines, `-d` picks the line: the
+/// controller by its bench-file name (or `pac`, where the file names it),
+/// an axis by its name.
+#[test]
+fn a_device_picks_its_controllers_serial_link() {
+    let TwoControllers { three, five, file, .. } = &two_controllers();
     let lead = ["--bench", file.as_str(), "--json"];
     let count = |args: &[&str]| doc(&lead, args)["devices"].as_array().map(Vec::len);
     assert_eq!(count(&["pac-axes"]), Some(3), "without -d: the first link");
@@ -189,6 +204,45 @@ fn a_device_picks_its_controllers_serial_link() {
     let r = with(&lead, &["pac-axis", "-d", "near,far"]);
     assert_eq!(r.code, 2, "{}{}", r.stdout, r.stderr);
     assert!(r.stderr.contains("a PA-CONTROL command talks to one link"), "{}", r.stderr);
+}
+
+/// A batch halts a moved axis on the line it moved on: the link of the
+/// line's `-d`, else the family's first, whatever link an earlier line
+/// named; a line that would move a second link of a family that moves is
+/// refused before sending. A halted axis says "was stopped" (status 2),
+/// one that was never moved "in position" (0).
+#[test]
+fn a_batch_halts_each_axis_on_its_own_line() {
+    let two = two_controllers();
+    let lead = ["--bench", two.file.as_str()];
+    for (link, axis) in [(two.three.link("pac"), "2"), (two.five.link("pac"), "5")] {
+        assert_eq!(run(&["--link", link, "pac-online"]).code, 0);
+        assert_eq!(run(&["--link", link, "pac-no-ref", axis]).code, 0);
+    }
+    let status =
+        |name: &str| doc(&["--bench", two.file.as_str(), "--json"], &["pac-axis", "-d", name])["axis_status"].clone();
+    let batch = |text: &str| run_with_stdin(&[&lead[..], &["batch", "-"]].concat(), text);
+
+    // Moved by name on the second line, halted there.
+    let r = batch("pac-move -d far 9000\npac-axis 9\n");
+    assert_eq!(r.code, 5, "{}", r.stderr);
+    assert!(r.stderr.ends_with("halted: `pac-stop-axis 5`\n"), "{}", r.stderr);
+    assert_eq!(status("far"), 2, "axis 5 of the second controller was stopped");
+
+    // Moved by number after a line that named the second controller's
+    // axis: the first controller's axis 2 is halted, not the second's.
+    let r = batch("pac-axis -d far\npac-move 2 5000\npac-axis 9\n");
+    assert_eq!(r.code, 5, "{}", r.stderr);
+    assert!(r.stderr.ends_with("halted: `pac-stop-axis 2`\n"), "{}", r.stderr);
+    assert_eq!(status("near"), 2, "axis 2 of the first controller was stopped");
+
+    // Two controllers' moves in one run: the second is refused unsent.
+    assert_eq!(run(&["--link", two.three.link("pac"), "pac-set-pos", "2", "100"]).code, 0);
+    let r = batch("pac-move -d far 100\npac-move -d near 300\n");
+    assert_eq!(r.code, 2, "{}", r.stderr);
+    assert!(r.stderr.contains("which a failure could not halt with them"), "{}", r.stderr);
+    let near = doc(&["--bench", two.file.as_str(), "--json"], &["pac-axis", "-d", "near"]);
+    assert_eq!(near["position"]["value"], 100.0, "nothing went to the first controller: {near}");
 }
 
 /// Every refusal of `-d` is exit 2 with the reason, and nothing goes out.
