@@ -22,7 +22,7 @@ fn axis_parser() -> impl Fn(&str) -> Result<u8, String> + Clone + Send + Sync + 
 /// it always was.
 #[derive(Debug, Args, Clone)]
 pub struct AxisArg {
-    /// Axis number, 1 to 16
+    /// Axis number, 1 to 16 (or -d DEVICE in its place)
     #[arg(value_name = "AXIS", value_parser = axis_parser(), required = true)]
     pub axis: Option<u8>,
     /// The axis as a device of the bench: pac:AXIS or the name a bench file gives it (instead of AXIS)
@@ -42,7 +42,7 @@ impl AxisArg {
 /// (bench-file names too; see [`AxisArg`]).
 #[derive(Debug, Args, Clone)]
 pub struct AxesArg {
-    /// Axis number 1..16, a list (1,3 or 1-3: one object per axis) or all (every configured axis)
+    /// Axis number 1..16, a list (1,3 or 1-3: one object per axis) or all (every configured axis); or -d DEVICE[,DEVICE...] in its place
     #[arg(value_name = "AXIS[,AXIS...]|all", value_parser = ids::devices(PAC_AXIS), required = true)]
     pub axis: Option<ids::Devices>,
     /// The axes as devices of the bench: pac:AXIS or bench-file names, comma-separated (one device: one object; several: a list)
@@ -210,7 +210,7 @@ pub enum PacCommand {
     },
     /// PA-CONTROL: limit switch monitoring of an axis (0 = all axes) on or off (0AA2)
     PacLimitSwitch {
-        /// Axis number, or 0 for all axes
+        /// Axis number, or 0 for all axes (or -d DEVICE in its place)
         #[arg(value_parser = ids::id(IdRange { min: 0, ..PAC_AXIS }), required = true)]
         axis: Option<u8>,
         /// The axis as a device of the bench, pac:AXIS or a bench-file name; pac (the controller) for all axes (instead of AXIS)
