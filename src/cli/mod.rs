@@ -211,13 +211,15 @@ fn finish(cmd: clap::Command, path: &str) -> clap::Command {
 }
 
 /// Whether a command line names a device with `-d` / `--device` (before
-/// any `--`, after which words are another command's, as `record`'s motion).
+/// any `--`, after which words are another command's, as `record`'s motion),
+/// also after the global flags in one cluster (`-vd slide`).
 pub fn names_device<S: AsRef<std::ffi::OsStr>>(words: &[S]) -> bool {
-    words
-        .iter()
-        .map(|w| w.as_ref().to_string_lossy())
-        .take_while(|w| w != "--")
-        .any(|w| w == "--device" || w.starts_with("--device=") || (w.starts_with("-d") && !w.starts_with("--")))
+    words.iter().map(|w| w.as_ref().to_string_lossy()).take_while(|w| w != "--").any(|w| {
+        let short = w.strip_prefix('-').filter(|s| !s.starts_with('-'));
+        w == "--device"
+            || w.starts_with("--device=")
+            || short.is_some_and(|s| s.trim_start_matches(['v', 'q']).starts_with('d'))
+    })
 }
 
 /// The parser for `words`: `cmd`, or its form for a line that names a

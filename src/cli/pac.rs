@@ -376,6 +376,8 @@ mod tests {
             ("pac-move --device slide --relative -5 --wait", &by_device, (-5.0, true, true)),
             ("pac-move 900 -d slide", &by_device, (900.0, false, false)),
             ("pac-move -dslide -- -5", &by_device, (-5.0, false, false)),
+            ("pac-move -vqd slide 900", &by_device, (900.0, false, false)),
+            ("pac-move -v 2 -5", &by_number, (-5.0, false, false)),
         ] {
             let c = parse(line).unwrap_or_else(|e| panic!("{line}: {e}"));
             assert_eq!((&axis(&c), pos(&c)), (who, moved), "{line}");
