@@ -19,6 +19,7 @@ mod completions_man;
 mod dashboard_tmux;
 mod decode_cli;
 mod device_flag;
+mod doc_examples;
 mod emergency_halt;
 mod faults_cli;
 mod flags_cli;
