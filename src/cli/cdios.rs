@@ -8,6 +8,7 @@ use clap::{Args, Subcommand, ValueEnum};
 
 use super::ids;
 use super::WaitArgs;
+use axisctl::bench::DeviceRef;
 use axisctl::family::{CDIOS_MODULE, CDIOS_NODE};
 
 /// Which node, and how it is talked to.
@@ -24,14 +25,18 @@ pub struct NodeArgs {
     pub no_confirm: bool,
 }
 
-/// A 6168 module on a node.
-#[derive(Debug, Args, Clone, Copy)]
+/// A 6168 module on a node: `--node N -m ID`, or `-d cdios:N/ID` / a bench
+/// file's name for it.
+#[derive(Debug, Args, Clone)]
 pub struct ModuleTarget {
     #[command(flatten)]
     pub node: NodeArgs,
     /// 6168 module id on the node (DIP switch), 0 to 15
-    #[arg(short, long, value_name = "ID", value_parser = ids::id(CDIOS_MODULE))]
-    pub module: u8,
+    #[arg(short, long, value_name = "ID", value_parser = ids::id(CDIOS_MODULE), required_unless_present = "device")]
+    pub module: Option<u8>,
+    /// The module as a device of the bench: cdios:NODE/ID or the name a bench file gives it (instead of --node and -m)
+    #[arg(short, long, value_name = "DEVICE", conflicts_with_all = ["node", "module"])]
+    pub device: Option<DeviceRef>,
 }
 
 /// The nodes a read is about: `--node 1` or a list, `--node 1,2`.
@@ -61,14 +66,31 @@ impl NodesArgs {
 }
 
 /// The 6168 modules a read is about: `-m 0`, `-m 0,1` or `-m all`, on one
-/// node or several.
+/// node or several; or `-d cdios:1/0,cdios:2/1` (bench-file names too), the
+/// modules named and no others.
 #[derive(Debug, Args, Clone)]
 pub struct ModulesTarget {
     #[command(flatten)]
     pub node: NodesArgs,
     /// 6168 module id 0..15, a list (0,1 or 0-3: one object per module) or all (every module the node reports)
-    #[arg(short, long, value_name = "ID[,ID...]|all", value_parser = ids::devices(CDIOS_MODULE))]
-    pub module: ids::Devices,
+    #[arg(
+        short,
+        long,
+        value_name = "ID[,ID...]|all",
+        value_parser = ids::devices(CDIOS_MODULE),
+        required_unless_present = "device"
+    )]
+    pub module: Option<ids::Devices>,
+    /// The modules as devices of the bench: cdios:NODE/ID or bench-file names, comma-separated, on one node or several (one device: one object; several: a list in the order named) (instead of --node and -m)
+    #[arg(
+        short,
+        long,
+        value_name = "DEVICE[,DEVICE...]",
+        value_delimiter = ',',
+        num_args = 1,
+        conflicts_with_all = ["node", "module"]
+    )]
+    pub device: Option<Vec<DeviceRef>>,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
@@ -124,6 +146,9 @@ pub enum CdiosCommand {
     Identify {
         #[command(flatten)]
         node: NodeArgs,
+        /// A module of the node as a device of the bench: cdios:NODE/ID or a bench-file name; its node is identified (instead of --node)
+        #[arg(short, long, value_name = "DEVICE", conflicts_with = "node")]
+        device: Option<DeviceRef>,
     },
     /// Cdios: the four motor status bytes decoded, motor speed and RPM error (26h)
     #[command(name = "cdios-status")]
