@@ -9,13 +9,13 @@ use clap::{Args, Subcommand, ValueEnum};
 use super::ids;
 use super::WaitArgs;
 use axisctl::bench::DeviceRef;
-use axisctl::family::{CDIOS_MODULE, CDIOS_NODE};
+use axisctl::family::{CDIOS_FACTORY_NODE, CDIOS_MODULE, CDIOS_NODE};
 
 /// Which node, and how it is talked to.
 #[derive(Debug, Args, Clone, Copy)]
 pub struct NodeArgs {
     /// Cdios node id (CANopen), 1 to 127; 1 is the factory setting
-    #[arg(long, value_name = "N", default_value_t = 1, value_parser = ids::id(CDIOS_NODE))]
+    #[arg(long, value_name = "N", default_value_t = CDIOS_FACTORY_NODE, value_parser = ids::id(CDIOS_NODE))]
     pub node: u8,
     /// Do not send the NMT start (the node is operational already)
     #[arg(long)]
@@ -43,7 +43,12 @@ pub struct ModuleTarget {
 #[derive(Debug, Args, Clone)]
 pub struct NodesArgs {
     /// Cdios node id (CANopen) 1 to 127, or a list (1,2 or 1-3: the modules of each node); 1 is the factory setting
-    #[arg(long, value_name = "N[,N...]", default_value = "1", value_parser = ids::nodes(CDIOS_NODE))]
+    #[arg(
+        long,
+        value_name = "N[,N...]",
+        default_value_t = ids::Devices::One(CDIOS_FACTORY_NODE),
+        value_parser = ids::nodes(CDIOS_NODE)
+    )]
     pub node: ids::Devices,
     /// Do not send the NMT start (the node is operational already)
     #[arg(long)]
