@@ -152,28 +152,18 @@ fn record_takes_a_goto_named_by_its_device() {
     assert_eq!(lines.len(), 20, "{}", r.stdout);
     assert!(pos(lines[19]).as_i64() > pos(lines[0]).as_i64(), "module 0 moved: {}", r.stdout);
 
+    // The goto's node, by -d or by a typed --node, is the recording's or
+    // nothing goes out (a goto without --node takes the recording's node).
     let log = dir.path().join("frames.log");
-    let r = run(&[
-        "--bench",
-        &file,
-        "--log",
-        log.to_str().unwrap(),
-        "record",
-        "--node",
-        "2",
-        "-m",
-        "0",
-        "position",
-        "--count",
-        "3",
-        "--",
-        "cdios-goto",
-        "-d",
-        "gripper",
-        "3000",
-    ]);
-    assert_eq!(r.code, 2, "{}{}", r.stdout, r.stderr);
-    assert!(r.stderr.contains("on Cdios node 1 but the recording is of node 2"), "{}", r.stderr);
+    for goto in [&["-d", "gripper"][..], &["--node", "1", "-m", "0"], &["--node=1", "-m", "0"]] {
+        let mut args = vec!["--bench", &file, "--log", log.to_str().unwrap(), "record", "--node", "2", "-m", "0"];
+        args.extend(["position", "--count", "3", "--", "cdios-goto"]);
+        args.extend(goto);
+        args.push("3000");
+        let r = run(&args);
+        assert_eq!(r.code, 2, "{goto:?}: {}{}", r.stdout, r.stderr);
+        assert!(r.stderr.contains("on Cdios node 1 but the recording is of node 2"), "{goto:?}: {}", r.stderr);
+    }
     let logged = std::fs::read_to_string(&log).unwrap_or_default();
     assert!(logged.is_empty(), "nothing is sent: {logged}");
 }
