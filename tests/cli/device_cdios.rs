@@ -184,6 +184,33 @@ fn a_batch_halts_the_motor_a_line_named_by_its_device() {
     );
 }
 
+/// A named module is reached on the link the bench file puts it on, even
+/// when another link carries the Cdios first (a port that does not exist:
+/// a command that opened it would exit 3).
+#[test]
+fn a_module_is_reached_on_its_own_link() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("bench.toml");
+    std::fs::write(
+        &path,
+        "[[link]]\nspec = \"slcan:/dev/axisctl-no-such-tty\"\nfamilies = [\"cdios\"]\n\
+         devices = { far = \"cdios:1/0\" }\n\
+         [[link]]\nspec = \"sim\"\nfamilies = [\"cdios\"]\ndevices = { near = \"cdios:1/1\" }\n",
+    )
+    .unwrap();
+    let file = path.to_str().unwrap();
+    let d = doc(file, &["cdios-status", "-d", "near"]);
+    assert_eq!((d["link"].as_str(), d["node"].as_u64(), d["module"].as_u64()), (Some("sim"), Some(1), Some(1)), "{d}");
+    let d = doc(file, &["cdios-identify", "-d", "near"]);
+    assert_eq!(d["link"], "sim", "{d}");
+    // The shorthand takes the family's first link: the missing port.
+    let r = run(&["--bench", file, "cdios-status", "-m", "1"]);
+    assert_eq!(r.code, 3, "{}{}", r.stdout, r.stderr);
+    let r = run(&["--bench", file, "cdios-position", "-d", "near,far"]);
+    assert_eq!(r.code, 2, "{}{}", r.stdout, r.stderr);
+    assert!(r.stderr.contains("near is on sim and far on slcan:/dev/axisctl-no-such-tty"), "{}", r.stderr);
+}
+
 /// Every refusal of `-d` is exit 2 with the reason, and nothing goes out.
 #[test]
 fn a_device_a_cdios_command_cannot_take_is_refused_before_sending() {
