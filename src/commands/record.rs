@@ -42,30 +42,13 @@ enum Selection {
 }
 
 /// A motion of `record ... -- MOTION`, checked as far as can be without
-/// the link.
+/// the link. A Cdios `node` is the node the motion named (`-d`, or a typed
+/// `--node`), which must be the recording's; `None` takes the recording's.
 #[derive(Debug, Clone, Copy)]
 enum Motion {
-    Cube {
-        module: ModuleId,
-        mv: Move,
-        ticks: bool,
-        relative: bool,
-        force: bool,
-    },
-    Pac {
-        axis: u8,
-        pos: f64,
-        relative: bool,
-        force: bool,
-    },
-    /// `node`: the node the motion named (`-d`, or `--node` typed), which
-    /// must be the recording's; `None` takes the recording's node.
-    Cdios {
-        node: Option<u8>,
-        module: CdiosModule,
-        mode: GotoMode,
-        position: i64,
-    },
+    Cube { module: ModuleId, mv: Move, ticks: bool, relative: bool, force: bool },
+    Pac { axis: u8, pos: f64, relative: bool, force: bool },
+    Cdios { node: Option<u8>, module: CdiosModule, mode: GotoMode, position: i64 },
 }
 
 impl Motion {
