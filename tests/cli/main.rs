@@ -20,6 +20,7 @@ mod dashboard_tmux;
 mod decode_cli;
 mod device_cdios;
 mod device_flag;
+mod doc_examples;
 mod emergency_halt;
 mod faults_cli;
 mod flags_cli;
