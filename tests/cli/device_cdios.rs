@@ -239,19 +239,3 @@ fn a_device_a_cdios_command_cannot_take_is_refused_before_sending() {
     let logged = std::fs::read_to_string(&log).unwrap_or_default();
     assert!(logged.is_empty(), "nothing is sent: {logged}");
 }
-
-/// The `-d` examples of docs/guide.md's Cdios section run as written.
-#[test]
-fn the_guides_cdios_device_examples_run() {
-    let guide = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/docs/guide.md")).unwrap();
-    let section = guide.split("\n## Cdios 6168\n").nth(1).expect("the section").split("\n## ").next().unwrap();
-    let lines: Vec<&str> =
-        section.lines().filter_map(|l| l.strip_prefix("    axisctl ")).filter(|l| l.contains(" -d ")).collect();
-    assert_eq!(lines.len(), 2, "{lines:?}");
-    for line in lines {
-        let args: Vec<&str> = line.split_whitespace().collect();
-        let r = common::bin().current_dir(env!("CARGO_MANIFEST_DIR")).args(&args).output().unwrap();
-        assert!(r.status.success(), "{line}: {}", String::from_utf8_lossy(&r.stderr));
-        assert!(String::from_utf8_lossy(&r.stdout).contains("node 1 module 0: "), "{line}");
-    }
-}
