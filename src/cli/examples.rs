@@ -72,7 +72,14 @@ pub const EXAMPLES: &[(&str, &[&str])] = &[
     ),
     ("monitor", &["--link slcan:/dev/ttyACM0 monitor -m 3,5", "monitor --from-log bus.log --family powercube --stats"]),
     ("cdios-identify", &["--link sim cdios-identify", "--link sim --json cdios-identify --node 1"]),
-    ("cdios-status", &["--link sim cdios-status -m 0", "--link sim --json cdios-status -m all --node 1"]),
+    (
+        "cdios-status",
+        &[
+            "--link sim cdios-status -m 0",
+            "--link sim --json cdios-status -m all --node 1",
+            "--link sim cdios-status -d cdios:1/1,cdios:1/0   # the modules named, in that order (or a bench file's names)",
+        ],
+    ),
     (
         "cdios-position",
         &[

@@ -17,7 +17,7 @@ use crate::output::{self, say};
 
 /// The Cdios node every Cdios command defaults to (`--node 1`): probed on
 /// every CAN link, beside the nodes the bench file names.
-const DEFAULT_NODE: u8 = 1;
+const DEFAULT_NODE: u8 = axisctl::family::CDIOS_FACTORY_NODE;
 
 /// One device found by a scan.
 struct Seen {
