@@ -9,7 +9,7 @@ use clap::{Args, Subcommand, ValueEnum};
 use super::ids;
 use super::WaitArgs;
 use axisctl::bench::DeviceRef;
-use axisctl::family::{CDIOS_FACTORY_NODE, CDIOS_MODULE, CDIOS_NODE};
+use axisctl::family::{Family, CDIOS_FACTORY_NODE, CDIOS_MODULE, CDIOS_NODE};
 
 /// Which node, and how it is talked to.
 #[derive(Debug, Args, Clone, Copy)]
@@ -35,7 +35,7 @@ pub struct ModuleTarget {
     #[arg(short, long, value_name = "ID", value_parser = ids::id(CDIOS_MODULE), required_unless_present = "device")]
     pub module: Option<u8>,
     /// The module as a device of the bench: cdios:NODE/ID or the name a bench file gives it (instead of --node and -m)
-    #[arg(short, long, value_name = "DEVICE", conflicts_with_all = ["node", "module"])]
+    #[arg(short, long, value_name = "DEVICE", conflicts_with_all = ["node", "module"], add = super::complete::bench_devices(Some(Family::Cdios)))]
     pub device: Option<DeviceRef>,
 }
 
@@ -93,7 +93,8 @@ pub struct ModulesTarget {
         value_name = "DEVICE[,DEVICE...]",
         value_delimiter = ',',
         num_args = 1,
-        conflicts_with_all = ["node", "module"]
+        conflicts_with_all = ["node", "module"],
+        add = super::complete::bench_devices(Some(Family::Cdios))
     )]
     pub device: Option<Vec<DeviceRef>>,
 }
@@ -152,7 +153,7 @@ pub enum CdiosCommand {
         #[command(flatten)]
         node: NodeArgs,
         /// A module of the node as a device of the bench: cdios:NODE/ID or a bench-file name; its node is identified (instead of --node)
-        #[arg(short, long, value_name = "DEVICE", conflicts_with = "node")]
+        #[arg(short, long, value_name = "DEVICE", conflicts_with = "node", add = super::complete::bench_devices(Some(Family::Cdios)))]
         device: Option<DeviceRef>,
     },
     /// Cdios: the four motor status bytes decoded, motor speed and RPM error (26h)
