@@ -8,7 +8,7 @@ use clap::{Args, Subcommand};
 
 use super::{ids, Switch};
 use axisctl::bench::DeviceRef;
-use axisctl::family::{IdRange, PAC_AXIS};
+use axisctl::family::{Family, IdRange, PAC_AXIS};
 
 /// An axis number (the controller's own count is checked when known).
 fn axis_parser() -> impl Fn(&str) -> Result<u8, String> + Clone + Send + Sync + 'static {
@@ -26,7 +26,7 @@ pub struct AxisArg {
     #[arg(value_name = "AXIS", value_parser = axis_parser(), required = true)]
     pub axis: Option<u8>,
     /// The axis as a device of the bench: pac:AXIS or the name a bench file gives it (instead of AXIS)
-    #[arg(short, long, value_name = "DEVICE", conflicts_with = "axis")]
+    #[arg(short, long, value_name = "DEVICE", conflicts_with = "axis", add = super::complete::bench_devices(Some(Family::Pac)))]
     pub device: Option<DeviceRef>,
 }
 
@@ -52,7 +52,8 @@ pub struct AxesArg {
         value_name = "DEVICE[,DEVICE...]",
         value_delimiter = ',',
         num_args = 1,
-        conflicts_with = "axis"
+        conflicts_with = "axis",
+        add = super::complete::bench_devices(Some(Family::Pac))
     )]
     pub device: Option<Vec<DeviceRef>>,
 }
@@ -63,7 +64,7 @@ pub struct AxesArg {
 #[derive(Debug, Args, Clone, Default)]
 pub struct ControllerArg {
     /// The controller as a device of the bench: pac or the name a bench file gives it (picks its link)
-    #[arg(short, long, value_name = "DEVICE")]
+    #[arg(short, long, value_name = "DEVICE", add = super::complete::bench_devices(Some(Family::Pac)))]
     pub device: Option<DeviceRef>,
 }
 
@@ -214,7 +215,7 @@ pub enum PacCommand {
         #[arg(value_parser = ids::id(IdRange { min: 0, ..PAC_AXIS }), required = true)]
         axis: Option<u8>,
         /// The axis as a device of the bench, pac:AXIS or a bench-file name; pac (the controller) for all axes (instead of AXIS)
-        #[arg(short, long, value_name = "DEVICE", conflicts_with = "axis")]
+        #[arg(short, long, value_name = "DEVICE", conflicts_with = "axis", add = super::complete::bench_devices(Some(Family::Pac)))]
         device: Option<DeviceRef>,
         /// on or off
         #[arg(value_enum)]

@@ -274,19 +274,26 @@ fn a_device_a_pac_command_cannot_take_is_refused_before_sending() {
     assert!(logged.is_empty(), "nothing is sent: {logged}");
 }
 
-/// docs/guide.md's examples of `-d` on the PA-CONTROL run as written.
+/// Completion offers the bench file's PA-CONTROL devices after `-d`, on an
+/// axis command and on a controller command alike.
 #[test]
-fn the_guides_pac_device_examples_run() {
-    let guide = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/docs/guide.md")).unwrap();
-    let section = guide.split("### Naming the axis or the controller with -d\n").nth(1).expect("the guide's section");
-    let section = section.split("\n### ").next().unwrap();
-    let examples: Vec<&str> = section.lines().filter_map(|l| l.strip_prefix("    axisctl ")).collect();
-    assert!(examples.len() >= 4, "{examples:?}");
-    for line in examples {
-        let words: Vec<&str> = line.split_whitespace().map(|w| w.trim_matches('\'')).collect();
-        let mut child = common::bin();
-        child.args(&words).current_dir(env!("CARGO_MANIFEST_DIR"));
-        let out = child.output().unwrap();
-        assert!(out.status.success(), "{line}: {}", String::from_utf8_lossy(&out.stderr));
-    }
+fn bash_completes_the_pac_devices_of_the_bench_file() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(
+        dir.path().join("axisctl.toml"),
+        "[[link]]\nspec = \"sim\"\ndevices = { panel = \"pac\", slide = \"pac:2\", shoulder = \"powercube:3\" }\n",
+    )
+    .unwrap();
+    let bench = dir.path().join("axisctl.toml");
+    let env = [("AXISCTL_BENCH", bench.to_str().unwrap())];
+    let complete = |words: &[&str]| -> Vec<String> {
+        let got = common::bash_completion(words, &env);
+        got.iter().map(|l| l.split_whitespace().next().unwrap_or("").to_string()).collect()
+    };
+    let got = complete(&["pac-move", "-d", ""]);
+    assert_eq!(got, ["pac", "pac:2", "panel", "slide"], "the PA-CONTROL devices, by name and address");
+    let got = complete(&["pac-axis", "-d", "slide,p"]);
+    assert_eq!(got, ["slide,pac", "slide,pac:2", "slide,panel"], "after the comma");
+    let got = complete(&["pac-state", "-d", "s"]);
+    assert_eq!(got, ["slide"]);
 }
