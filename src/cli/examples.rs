@@ -175,9 +175,17 @@ pub const EXAMPLES: &[(&str, &[&str])] = &[
             "--link serial:/dev/ttyUSB0 backup --family pac --out pac.json",
             "--link slcan:/dev/ttyACM0 --link serial:/dev/ttyUSB0 backup --out bench.json",
             "--link sim backup --out - | axisctl --link sim diff -",
+            "--bench docs/sim-bench.toml backup -d shoulder,slide,cdios:1/0 --out three.json",
         ],
     ),
-    ("diff", &["--link sim diff bench.json", "--json diff before.json after.json"]),
+    (
+        "diff",
+        &[
+            "--link sim diff bench.json",
+            "--json diff before.json after.json",
+            "--link sim diff bench.json -d powercube:3,pac:2",
+        ],
+    ),
     (
         "restore",
         &[
@@ -185,6 +193,7 @@ pub const EXAMPLES: &[(&str, &[&str])] = &[
             "--link sim restore bench.json --skip-invalid",
             "--link socketcan:can0 restore module17.json --to 12",
             "--link sim restore cdios.json --store",
+            "--link sim restore bench.json -d cdios:1/0,pac --dry-run",
         ],
     ),
     (

@@ -1,0 +1,202 @@
+//! `-d/--device` on the whole-bench commands (`backup`, `diff`, `restore`,
+//! ...): exactly the devices named, of any family and on any link of the
+//! bench, by address or by the name a bench file gives. A device named that
+//! the command cannot take is a usage error (exit 2) before anything is
+//! sent; one that does not answer is named (exit 4).
+
+use crate::common;
+
+use std::collections::BTreeSet;
+use std::path::{Path, PathBuf};
+
+use common::{run, Run, Sim};
+use serde_json::Value;
+
+/// The simulated bench with names (docs/sim-bench.toml): shoulder =
+/// powercube:3, elbow = powercube:5, slide = pac:2, gripper = cdios:1/0.
+const SIM_BENCH: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/docs/sim-bench.toml");
+
+fn ok(r: &Run, what: &str) {
+    assert_eq!(r.code, 0, "{what}: stdout {}\nstderr {}", r.stdout, r.stderr);
+}
+
+fn s(p: &Path) -> &str {
+    p.to_str().unwrap()
+}
+
+fn read_json(p: &Path) -> Value {
+    serde_json::from_str(&std::fs::read_to_string(p).unwrap()).unwrap()
+}
+
+fn write_json(p: &Path, v: &Value) {
+    std::fs::write(p, serde_json::to_string_pretty(v).unwrap()).unwrap();
+}
+
+/// A device of a backup, diff or restore document as `-d` writes it.
+fn address(d: &Value) -> String {
+    let family = d["family"].as_str().unwrap();
+    match family {
+        "powercube" => format!("powercube:{}", d["module"]),
+        "cdios" => format!("cdios:{}/{}", d["node"], d["module"]),
+        _ => match d.get("axis") {
+            Some(a) => format!("pac:{a}"),
+            None => "pac".into(),
+        },
+    }
+}
+
+fn addresses(doc: &Value) -> Vec<String> {
+    doc["devices"].as_array().unwrap().iter().map(address).collect()
+}
+
+/// The PowerCube modules a candump `--log` has frames of (request ids
+/// 0x0C0 + module, answers 0x0A0 + module).
+fn cube_modules(log: &Path) -> BTreeSet<u32> {
+    common::logged_frames(log)
+        .into_iter()
+        .filter_map(|(_, f)| u32::from_str_radix(f.split_once('#')?.0, 16).ok())
+        .filter(|id| (0x0A0..=0x0DF).contains(id))
+        .map(|id| id & 0x1F)
+        .collect()
+}
+
+fn logged(log: &Path) -> String {
+    std::fs::read_to_string(log).unwrap_or_default()
+}
+
+#[test]
+fn backup_d_saves_exactly_the_devices_named_as_the_whole_backup_has_them() {
+    let dir = tempfile::tempdir().unwrap();
+    let (all, some, log) = (dir.path().join("all.json"), dir.path().join("some.json"), dir.path().join("frames.log"));
+    ok(&run(&["--bench", SIM_BENCH, "backup", "--out", s(&all)]), "whole backup");
+    let r = run(&[
+        "--bench",
+        SIM_BENCH,
+        "--json",
+        "--log",
+        s(&log),
+        "backup",
+        "-d",
+        "shoulder,pac:3,gripper,pac,powercube:3",
+        "--out",
+        s(&some),
+    ]);
+    ok(&r, "backup -d");
+    let named = ["powercube:3", "pac:3", "cdios:1/0", "pac"];
+    assert_eq!(addresses(&r.json()), named, "each once, in the order named: {}", r.stdout);
+    let (all, some) = (read_json(&all), read_json(&some));
+    assert_eq!(addresses(&some), named);
+    // The same devices as the whole backup saves them, in the same shape.
+    for d in some["devices"].as_array().unwrap() {
+        let whole = all["devices"].as_array().unwrap().iter().find(|w| address(w) == address(d)).unwrap();
+        assert_eq!(d, whole, "{}", address(d));
+    }
+    assert_eq!(some["schema"], all["schema"]);
+    assert_eq!(cube_modules(&log), BTreeSet::from([3]), "no frame of another module: {}", logged(&log));
+}
+
+#[test]
+fn backup_d_names_a_device_that_does_not_answer_and_writes_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("b.json");
+    let r = run(&["--bench", SIM_BENCH, "backup", "-d", "shoulder,powercube:9,cdios:1/5,pac:7", "--out", s(&out)]);
+    assert_eq!(r.code, 4, "{}{}", r.stdout, r.stderr);
+    for absent in ["powercube:9 (on sim)", "cdios:1/5 (on sim)", "pac:7 (on sim)", "no backup was written"] {
+        assert!(r.stderr.contains(absent), "{absent}: {}", r.stderr);
+    }
+    assert!(!r.stderr.contains("powercube:3"), "the one that answered is not missing: {}", r.stderr);
+    assert!(!out.exists(), "no backup is written");
+}
+
+/// A backup of every device, then changes to three of them on a served
+/// bench of two links: `diff -d` compares, and `restore -d` writes, the
+/// devices named only, on whichever link each is.
+#[test]
+fn diff_and_restore_d_limit_to_the_devices_named_on_a_served_bench_of_two_links() {
+    let sim = Sim::start(&[], 3);
+    let (can, serial) = (sim.link("powercube").to_string(), sim.link("pac").to_string());
+    let links = ["--link", &can, "--link", &serial];
+    let with = |args: &[&str]| {
+        let mut all = links.to_vec();
+        all.extend_from_slice(args);
+        run(&all)
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let saved: PathBuf = dir.path().join("bench.json");
+    let r = with(&["--json", "backup", "-d", "powercube:3,pac:3,cdios:1/1", "--out", s(&saved)]);
+    ok(&r, "backup -d on two links");
+    assert_eq!(addresses(&r.json()), ["powercube:3", "pac:3", "cdios:1/1"]);
+    let doc = r.json();
+    let on: Vec<&str> = doc["devices"].as_array().unwrap().iter().map(|d| d["link"].as_str().unwrap()).collect();
+    assert_eq!(on, [can.as_str(), serial.as_str(), can.as_str()]);
+    ok(&with(&["set-param", "-m", "3", "ActC0", "40"]), "set-param");
+    ok(&with(&["pac-axis-param", "3", "acceleration", "2500"]), "pac-axis-param");
+    ok(&with(&["cdios-config", "-m", "1", "speeds.slope=20"]), "cdios-config");
+    let differing = |r: &Run| -> Vec<String> {
+        r.json()["devices"].as_array().unwrap().iter().filter(|d| d["differs"] == true).map(address).collect()
+    };
+    let r = with(&["--json", "diff", s(&saved), "-d", "pac:3,powercube:3"]);
+    ok(&r, "diff -d");
+    assert_eq!(addresses(&r.json()), ["powercube:3", "pac:3"], "the file's order: {}", r.stdout);
+    assert_eq!(differing(&r), ["powercube:3", "pac:3"]);
+    // A dry run of two of them writes nothing: the three still differ after it.
+    let r = with(&["--json", "restore", s(&saved), "-d", "pac:3,cdios:1/1", "--dry-run"]);
+    ok(&r, "restore -d --dry-run");
+    assert_eq!((r.json()["summary"]["written"].as_u64(), r.json()["dry_run"].as_bool()), (Some(0), Some(true)));
+    assert_eq!(addresses(&r.json()), ["pac:3", "cdios:1/1"]);
+    assert_eq!(differing(&with(&["--json", "diff", s(&saved)])), ["powercube:3", "pac:3", "cdios:1/1"]);
+    let r = with(&["--json", "restore", s(&saved), "-d", "pac:3,cdios:1/1"]);
+    ok(&r, "restore -d");
+    assert_eq!(r.json()["summary"]["written"], 2, "{}", r.stdout);
+    let r = with(&["--json", "diff", s(&saved)]);
+    assert_eq!(differing(&r), ["powercube:3"], "the module not named is left as it was: {}", r.stdout);
+}
+
+/// Every refusal of `-d` by backup, diff and restore is exit 2 with the
+/// reason, and nothing goes out: the log stays empty.
+#[test]
+fn a_device_backup_diff_or_restore_cannot_take_is_refused_before_sending() {
+    let dir = tempfile::tempdir().unwrap();
+    let (file, log) = (dir.path().join("two.json"), dir.path().join("frames.log"));
+    ok(&run(&["--bench", SIM_BENCH, "backup", "-d", "shoulder,slide", "--out", s(&file)]), "backup");
+    let file = s(&file);
+    for (args, why) in [
+        (&["backup", "-d", "wrist"][..], "\"wrist\" is not a device of the bench"),
+        (&["backup", "-d", "shoulder", "-m", "3"], "cannot be used with"),
+        (&["backup", "-d", "shoulder", "--family", "pac"], "cannot be used with"),
+        (&["backup", "-d", "powercube:32"], "module id 1 to 31"),
+        (&["diff", file, "-d", "elbow"], "elbow (powercube:5) is not a device of"),
+        (&["diff", file, "-d", "cdios:1/0"], "cdios:1/0 is not a device of"),
+        (&["restore", file, "-d", "slide,pac:1", "--dry-run"], "pac:1 is not a device of"),
+        (&["restore", file, "-d", "shoulder,gripper"], "gripper (cdios:1/0) is not a device of"),
+    ] {
+        let mut all = vec!["--bench", SIM_BENCH, "--log", s(&log)];
+        all.extend(args);
+        let r = run(&all);
+        assert_eq!(r.code, 2, "{args:?}: {}{}", r.stdout, r.stderr);
+        assert!(r.stderr.contains(why), "{args:?}: {}", r.stderr);
+    }
+    // The one --link of old carries the CAN families only.
+    let r = run(&["--link", "slcan:/dev/axisctl-no-such-tty", "backup", "-d", "pac:2"]);
+    assert_eq!(r.code, 2, "{}{}", r.stdout, r.stderr);
+    assert!(r.stderr.contains("no link of the bench carries the PA-CONTROL"), "{}", r.stderr);
+    assert_eq!(logged(&log), "", "nothing is sent");
+}
+
+/// `restore -d` picks one device of a file of several, which `--to` then
+/// writes to another address.
+#[test]
+fn restore_d_picks_the_one_device_to_writes() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("all.json");
+    ok(&run(&["--link", "sim", "backup", "--family", "powercube", "--out", s(&file)]), "backup");
+    let r = run(&["--link", "sim", "restore", s(&file), "--to", "9", "--dry-run"]);
+    assert_eq!(r.code, 2, "{}{}", r.stdout, r.stderr);
+    let mut doc = read_json(&file);
+    doc["devices"][0]["settings"]["ActC0"]["value"] = 40.into();
+    write_json(&file, &doc);
+    let r = run(&["--link", "sim", "--json", "restore", s(&file), "-d", "powercube:3", "--to", "5", "--dry-run"]);
+    ok(&r, "restore -d --to");
+    assert_eq!(addresses(&r.json()), ["powercube:5"], "{}", r.stdout);
+    assert_eq!(r.json()["differs"], true, "module 3's file against module 5: {}", r.stdout);
+}
