@@ -214,6 +214,7 @@ pub const EXAMPLES: &[(&str, &[&str])] = &[
             "--link sim commission --print-plan > plan.toml",
             "--link sim commission --plan plan.toml --out handover --yes",
             "--link sim commission --out check --dry-run",
+            "--link sim commission -d powercube:3 --out m3 --yes",
         ],
     ),
     (

@@ -70,3 +70,25 @@ pub fn any_family<'b>(ctx: &'b Ctx, refs: &[DeviceRef]) -> anyhow::Result<Vec<(A
     }
     Ok(out)
 }
+
+/// Makes each family's link the one its `named` devices are on, for a
+/// command that opens one session per family (`commission -d`). Devices of
+/// one family on two links are a usage error.
+pub fn pin_families(ctx: &Ctx, named: &[(Address, &BenchLink)]) -> anyhow::Result<()> {
+    for (i, (at, link)) in named.iter().enumerate() {
+        let two = named[..i].iter().find(|(a, l)| a.family() == at.family() && l.text != link.text);
+        if let Some((first, l)) = two {
+            return Err(usage(format!(
+                "{first} is on {} and {at} on {}: {command} talks to the {family} on one link; run it once per link",
+                l.text,
+                link.text,
+                command = ctx.command_name(),
+                family = at.family(),
+            )));
+        }
+    }
+    for (at, link) in named {
+        ctx.pin_link(at.family(), link);
+    }
+    Ok(())
+}

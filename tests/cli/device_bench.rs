@@ -200,3 +200,135 @@ fn restore_d_picks_the_one_device_to_writes() {
     assert_eq!(addresses(&r.json()), ["powercube:5"], "{}", r.stdout);
     assert_eq!(r.json()["differs"], true, "module 3's file against module 5: {}", r.stdout);
 }
+
+// ---- commission ----
+
+fn planned(doc: &Value) -> Vec<&str> {
+    doc["plan"]["device"].as_array().unwrap().iter().map(|d| d["address"].as_str().unwrap()).collect()
+}
+
+/// The devices a commissioning report has checks of, each once in order.
+fn checked(report: &Path) -> Vec<String> {
+    let mut out: Vec<String> = Vec::new();
+    for c in read_json(report)["checks"].as_array().unwrap() {
+        let d = c["device"].as_str().unwrap().to_string();
+        if !out.contains(&d) {
+            out.push(d);
+        }
+    }
+    out
+}
+
+#[test]
+fn commission_d_plans_and_runs_only_the_devices_named() {
+    let r = run(&["--bench", SIM_BENCH, "--json", "commission", "--print-plan", "-d", "gripper,slide,shoulder"]);
+    ok(&r, "print-plan -d");
+    assert_eq!(planned(&r.json()), ["powercube:3", "pac:2", "cdios:1/0"], "{}", r.stdout);
+    let dir = tempfile::tempdir().unwrap();
+    let (out, log) = (dir.path().join("m3"), dir.path().join("frames.log"));
+    let r = run(&[
+        "--link",
+        "sim",
+        "--json",
+        "--log",
+        s(&log),
+        "commission",
+        "-d",
+        "powercube:3",
+        "--out",
+        s(&out),
+        "--yes",
+    ]);
+    ok(&r, "commission -d");
+    assert_eq!(checked(&out.join("report.json")), ["powercube:3"]);
+    assert_eq!(addresses(&read_json(&out.join("backup.json"))), ["powercube:3"]);
+    assert_eq!(cube_modules(&log), BTreeSet::from([3]), "no frame of another module");
+}
+
+/// With a plan file, `-d` runs the plan's entries of those devices; one the
+/// plan does not have is refused before anything is sent.
+#[test]
+fn commission_d_takes_the_plans_devices_and_refuses_others_before_sending() {
+    let dir = tempfile::tempdir().unwrap();
+    let (plan, log) = (dir.path().join("plan.toml"), dir.path().join("frames.log"));
+    let r = run(&["--bench", SIM_BENCH, "commission", "--print-plan", "-d", "shoulder,elbow"]);
+    ok(&r, "print-plan");
+    std::fs::write(&plan, &r.stdout).unwrap();
+    let out = dir.path().join("dry");
+    let r =
+        run(&["--bench", SIM_BENCH, "commission", "--plan", s(&plan), "-d", "elbow", "--dry-run", "--out", s(&out)]);
+    ok(&r, "commission --plan -d --dry-run");
+    assert_eq!(checked(&out.join("report.json")), ["powercube:5"]);
+    let out = dir.path().join("never");
+    for (args, code, why) in [
+        (&["--plan", s(&plan), "-d", "gripper"][..], 2, "cdios:1/0 is not a device of the plan"),
+        (&["--plan", s(&plan), "-d", "wrist"], 2, "\"wrist\" is not a device of the bench"),
+        (&["-d", "cdios:1/5,pac:7"], 4, "not found on the bench, so not planned: cdios:1/5, pac:7"),
+    ] {
+        let mut all = vec!["--bench", SIM_BENCH, "--log", s(&log), "commission", "--out", s(&out), "--yes"];
+        all.extend(args);
+        let r = run(&all);
+        assert_eq!(r.code, code, "{args:?}: {}{}", r.stdout, r.stderr);
+        assert!(r.stderr.contains(why), "{args:?}: {}", r.stderr);
+        assert!(!out.exists(), "{args:?}: no report");
+        if code == 2 {
+            assert_eq!(logged(&log), "", "{args:?}: nothing is sent");
+        }
+    }
+}
+
+/// A plan of devices on two links of a served bench, for the devices named.
+#[test]
+fn commission_d_plans_devices_on_two_served_links() {
+    let sim = Sim::start(&[], 3);
+    let (can, serial) = (sim.link("powercube"), sim.link("pac"));
+    let r = run(&[
+        "--link",
+        can,
+        "--link",
+        serial,
+        "--json",
+        "commission",
+        "--print-plan",
+        "-d",
+        "cdios:1/1,pac:3,powercube:17",
+    ]);
+    ok(&r, "print-plan -d on two links");
+    assert_eq!(planned(&r.json()), ["powercube:17", "pac:3", "cdios:1/1"], "{}", r.stdout);
+}
+
+/// A bench file whose first PowerCube link is a port that does not exist: a
+/// command that opened it would fail with exit 3.
+fn two_cube_links(dir: &Path) -> String {
+    let path = dir.join("bench.toml");
+    std::fs::write(
+        &path,
+        "[[link]]\nspec = \"slcan:/dev/axisctl-no-such-tty\"\nfamilies = [\"powercube\"]\n\
+         devices = { far = \"powercube:5\" }\n\
+         [[link]]\nspec = \"sim\"\nfamilies = [\"powercube\", \"pac\", \"cdios\"]\n\
+         devices = { arm = \"powercube:3\" }\n",
+    )
+    .unwrap();
+    path.to_str().unwrap().to_string()
+}
+
+/// Each family runs on the link its devices named are on, beside the
+/// links of the other families; one family's devices on two links are refused.
+#[test]
+fn commission_d_runs_each_family_on_the_link_of_its_devices() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = two_cube_links(dir.path());
+    let r = run(&["--bench", &file, "--json", "commission", "--print-plan", "-d", "arm,pac:1"]);
+    ok(&r, "print-plan -d arm");
+    assert_eq!(planned(&r.json()), ["powercube:3", "pac:1"]);
+    // Without -d the PowerCube's first link is the missing port.
+    let r = run(&["--bench", &file, "commission", "--print-plan"]);
+    assert_eq!(r.code, 3, "{}{}", r.stdout, r.stderr);
+    let r = run(&["--bench", &file, "commission", "--print-plan", "-d", "arm,far"]);
+    assert_eq!(r.code, 2, "{}{}", r.stdout, r.stderr);
+    assert!(
+        r.stderr.contains("powercube:3 is on sim and powercube:5 on slcan:/dev/axisctl-no-such-tty"),
+        "{}",
+        r.stderr
+    );
+}
