@@ -115,7 +115,14 @@ pub const EXAMPLES: &[(&str, &[&str])] = &[
         ],
     ),
     ("shell", &["--link sim shell", "--link socketcan:can0 shell --history /tmp/axisctl-history"]),
-    ("dashboard", &["--link sim dashboard", "--link socketcan:can0 dashboard -m 3,5,17 --without pac"]),
+    (
+        "dashboard",
+        &[
+            "--link sim dashboard",
+            "--link socketcan:can0 dashboard -m 3,5,17 --without pac",
+            "--link sim dashboard -d powercube:17,pac:2,cdios:1/1",
+        ],
+    ),
     ("pac-online", &["--link sim pac-online"]),
     ("pac-offline", &["--link 'sim?pac=online' pac-offline"]),
     ("pac-stop", &["--link 'sim?pac=online' pac-stop"]),
@@ -175,7 +182,7 @@ pub const EXAMPLES: &[(&str, &[&str])] = &[
             "--link serial:/dev/ttyUSB0 backup --family pac --out pac.json",
             "--link slcan:/dev/ttyACM0 --link serial:/dev/ttyUSB0 backup --out bench.json",
             "--link sim backup --out - | axisctl --link sim diff -",
-            "--bench docs/sim-bench.toml backup -d shoulder,slide,cdios:1/0 --out three.json",
+            "--link sim backup -d powercube:3,pac:2,cdios:1/0 --out three.json",
         ],
     ),
     (

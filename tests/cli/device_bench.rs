@@ -332,3 +332,27 @@ fn commission_d_runs_each_family_on_the_link_of_its_devices() {
         r.stderr
     );
 }
+
+// ---- dashboard ----
+
+/// The dashboard over a served bench of two links shows the devices named
+/// and no other (src/commands/dashboard.rs has the in-process cases).
+#[test]
+fn dashboard_d_shows_the_devices_named_on_two_served_links() {
+    let sim = Sim::start(&[], 3);
+    let (can, serial) = (sim.link("powercube"), sim.link("pac"));
+    let t = common::tmux::Tmux::start("device-bench", 120, 30, &[]);
+    t.wait_for("READY$");
+    let bin = env!("CARGO_BIN_EXE_axisctl");
+    t.keys(&[&format!("{bin} --link {can} --link {serial} dashboard -d powercube:5,pac:2,cdios:1/1"), "Enter"]);
+    t.wait_for("node 1 mod 1");
+    t.keys(&["v"]);
+    let screen = t.wait_for("Overview · 4 device(s)");
+    for want in ["PowerCube 5", "PA-CONTROL", "PA axis 2", "Cdios 1/1"] {
+        assert!(screen.contains(want), "{want:?} missing:\n{screen}");
+    }
+    for other in ["PowerCube 3", "PowerCube 17", "PA axis 1", "PA axis 3", "Cdios 1/0"] {
+        assert!(!screen.contains(other), "{other:?} shown:\n{screen}");
+    }
+    t.keys(&["q"]);
+}
