@@ -67,7 +67,14 @@ pub const EXAMPLES: &[(&str, &[&str])] = &[
         "send",
         &["--link sim send 0C3#0A3C", "--link sim --json send 0C3#0A3C --listen 200", "--link sim send '190C;1;0;0'"],
     ),
-    ("monitor", &["--link slcan:/dev/ttyACM0 monitor -m 3,5", "monitor --from-log bus.log --family powercube --stats"]),
+    (
+        "monitor",
+        &[
+            "--link slcan:/dev/ttyACM0 monitor -m 3,5",
+            "monitor --from-log bus.log --family powercube --stats",
+            "--link slcan:/dev/ttyACM0 --link serial:/dev/ttyUSB0 monitor -d powercube:3,cdios:1/0",
+        ],
+    ),
     ("cdios-identify", &["--link sim cdios-identify", "--link sim --json cdios-identify --node 1"]),
     ("cdios-status", &["--link sim cdios-status -m 0", "--link sim --json cdios-status -m all --node 1"]),
     (

@@ -356,3 +356,90 @@ fn dashboard_d_shows_the_devices_named_on_two_served_links() {
     }
     t.keys(&["q"]);
 }
+
+// ---- monitor ----
+
+/// The device a monitor line is of, as `-d` writes it.
+fn frame_device(l: &Value) -> Option<String> {
+    match l["family"].as_str()? {
+        "powercube" => Some(format!("powercube:{}", l.get("module")?)),
+        "cdios" => Some(format!("cdios:{}/{}", l.get("node")?, l.get("module")?)),
+        _ => None,
+    }
+}
+
+#[test]
+fn monitor_d_shows_only_the_frames_of_the_devices_named() {
+    let dir = tempfile::tempdir().unwrap();
+    let log = dir.path().join("bus.log");
+    for args in [&["state", "-m", "3,5,17"][..], &["cdios-status", "-m", "0"], &["cdios-status", "-m", "1"]] {
+        let mut all = vec!["--link", "sim", "--log", s(&log)];
+        all.extend_from_slice(args);
+        ok(&run(&all), &format!("{args:?}"));
+    }
+    let r = run(&["--json", "monitor", "--from-log", s(&log), "-d", "powercube:3,cdios:1/0"]);
+    ok(&r, "monitor -d");
+    let lines: Vec<Value> = r.stdout.lines().map(|l| serde_json::from_str(l).unwrap()).collect();
+    let seen: BTreeSet<Option<String>> = lines.iter().map(frame_device).collect();
+    assert_eq!(seen, BTreeSet::from([Some("powercube:3".into()), Some("cdios:1/0".into())]), "{}", r.stdout);
+    // The bench file's names are the same devices.
+    let by_name = run(&["--bench", SIM_BENCH, "--json", "monitor", "--from-log", s(&log), "-d", "shoulder,gripper"]);
+    assert_eq!(by_name.stdout, r.stdout);
+}
+
+/// Live, on a bench of a CAN link and a serial line, the monitor listens to
+/// the link of the devices named (without -d it takes one link only). The
+/// test plays the CAN adapter on a pty (it never acknowledges commands, as
+/// a CANable 1) and puts frames of modules 3 and 5 on its bus.
+#[test]
+fn monitor_d_listens_to_the_link_of_its_devices() {
+    use serialport::SerialPort;
+    use std::io::Write;
+    use std::process::Stdio;
+    use std::time::{Duration, Instant};
+    let (mut adapter, host) = serialport::TTYPort::pair().expect("pty pair");
+    let can = format!("slcan:{}", host.name().unwrap());
+    let links = ["--link", &can, "--link", "serial:/dev/axisctl-no-such-tty"];
+    let r = run(&[&links[..], &["monitor", "--count", "1"]].concat());
+    assert_eq!(r.code, 2, "one link without -d: {}", r.stderr);
+    let mut child = common::bin()
+        .args(links)
+        .args(["--json", "monitor", "-d", "powercube:3", "--count", "3"])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let out = child.stdout.take().unwrap();
+    let reader = std::thread::spawn(move || std::io::read_to_string(out).unwrap());
+    let deadline = Instant::now() + Duration::from_secs(20);
+    while child.try_wait().unwrap().is_none() && Instant::now() < deadline {
+        adapter.write_all(b"t0A560A3C0000803F\rt0A360A3C0000803F\r").unwrap();
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    let _ = child.kill();
+    let status = child.wait().unwrap();
+    let text = reader.join().unwrap();
+    assert!(status.success(), "{status}: {text}");
+    let lines: Vec<Value> = text.lines().map(|l| serde_json::from_str(l).unwrap()).collect();
+    assert_eq!(lines.len(), 3, "{text}");
+    for l in &lines {
+        assert_eq!((frame_device(l).as_deref(), l["link"].as_str()), (Some("powercube:3"), Some(can.as_str())), "{l}");
+    }
+}
+
+#[test]
+fn a_device_the_monitor_cannot_show_is_refused_before_listening() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = two_cube_links(dir.path());
+    for (args, why) in [
+        (&["--bench", SIM_BENCH, "monitor", "-d", "slide"][..], "slide (pac:2) is a PA-CONTROL device"),
+        (&["--bench", SIM_BENCH, "monitor", "--from-log", "-", "-d", "pac:2"], "pac:2 is a PA-CONTROL device"),
+        (&["--bench", SIM_BENCH, "monitor", "-d", "wrist"], "\"wrist\" is not a device of the bench"),
+        (&["--link", "sim", "monitor", "-d", "powercube:3", "-m", "3"], "cannot be used with"),
+        (&["--bench", &file, "monitor", "-d", "arm,far"], "the monitor listens to one link"),
+    ] {
+        let r = run(args);
+        assert_eq!(r.code, 2, "{args:?}: {}{}", r.stdout, r.stderr);
+        assert!(r.stderr.contains(why), "{args:?}: {}", r.stderr);
+    }
+}
