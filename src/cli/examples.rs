@@ -4,7 +4,14 @@
 
 /// (subcommand path, example command lines after `axisctl`).
 pub const EXAMPLES: &[(&str, &[&str])] = &[
-    ("scan", &["--link socketcan:can0 scan", "--link sim --json scan -m 3,5,17"]),
+    (
+        "scan",
+        &[
+            "--link socketcan:can0 scan",
+            "--link sim --json scan -m 3,5,17",
+            "--link sim --json scan -d powercube:3,pac:2,cdios:1/0",
+        ],
+    ),
     ("info", &["--link sim info -m 17"]),
     ("state", &["--link sim state -m 17", "--link sim --json state -m 17"]),
     ("home", &["--link sim home -m 17 --wait", "--link sim home --all"]),

@@ -443,3 +443,47 @@ fn a_device_the_monitor_cannot_show_is_refused_before_listening() {
         assert!(r.stderr.contains(why), "{args:?}: {}", r.stderr);
     }
 }
+
+// ---- scan ----
+
+fn scanned(doc: &Value, key: &str) -> Vec<(String, String)> {
+    doc[key]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|d| (d["address"].as_str().unwrap().to_string(), d["link"].as_str().unwrap().to_string()))
+        .collect()
+}
+
+#[test]
+fn scan_d_probes_only_the_devices_named_and_lists_the_silent_ones_missing() {
+    let dir = tempfile::tempdir().unwrap();
+    let log = dir.path().join("frames.log");
+    let r = run(&["--bench", SIM_BENCH, "--json", "--log", s(&log), "scan", "-d", "shoulder,slide,cdios:1/1"]);
+    ok(&r, "scan -d");
+    let sim = |a: &str| (a.to_string(), "sim".to_string());
+    assert_eq!(scanned(&r.json(), "devices"), [sim("powercube:3"), sim("pac:2"), sim("cdios:1/1")]);
+    assert_eq!(r.json()["devices"][0]["name"], "shoulder");
+    assert_eq!(scanned(&r.json(), "missing"), []);
+    assert_eq!(common::schema_errors(&common::schema("scan_bench"), &r.json()), None);
+    assert_eq!(cube_modules(&log), BTreeSet::from([3]), "no other module probed");
+    let r = run(&["--bench", SIM_BENCH, "--json", "scan", "-d", "shoulder,powercube:9,cdios:4/0,pac:7"]);
+    assert_eq!(r.code, 4, "{}{}", r.stdout, r.stderr);
+    assert_eq!(scanned(&r.json(), "devices"), [sim("powercube:3")]);
+    assert_eq!(scanned(&r.json(), "missing"), [sim("powercube:9"), sim("cdios:4/0"), sim("pac:7")]);
+    assert!(r.stderr.contains("named but not answering: powercube:9 (on sim), cdios:4/0 (on sim), pac:7 (on sim)"));
+    let r = run(&["--bench", SIM_BENCH, "--log", s(&log), "scan", "-d", "shoulder,wrist"]);
+    assert_eq!(r.code, 2, "{}{}", r.stdout, r.stderr);
+    let r = run(&["--link", "sim", "scan", "-d", "powercube:3", "-m", "3"]);
+    assert_eq!(r.code, 2, "{}{}", r.stdout, r.stderr);
+}
+
+#[test]
+fn scan_d_finds_devices_on_two_served_links() {
+    let sim = Sim::start(&[], 3);
+    let (can, serial) = (sim.link("powercube"), sim.link("pac"));
+    let r = run(&["--link", can, "--link", serial, "--json", "scan", "-d", "cdios:1/0,pac:1,powercube:17"]);
+    ok(&r, "scan -d on two links");
+    let on = |a: &str, l: &str| (a.to_string(), l.to_string());
+    assert_eq!(scanned(&r.json(), "devices"), [on("cdios:1/0", can), on("pac:1", serial), on("powercube:17", can)]);
+}
