@@ -427,7 +427,8 @@ fn targets(doc: &Document, to: Option<u8>) -> anyhow::Result<Vec<(Device, Addres
     let Some(to) = to else { return Ok(doc.devices.iter().map(|d| (d.clone(), d.address())).collect()) };
     let [one] = &doc.devices[..] else {
         return Err(usage(format!(
-            "--to names one device, but the file holds {}: take a backup of one device (backup -m ID)",
+            "--to names one device, but {} are to be restored: name one with -d, or take a backup of one device \
+             (backup -d DEVICE)",
             doc.devices.len()
         )));
     };

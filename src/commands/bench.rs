@@ -259,13 +259,10 @@ pub fn halt_all(ctx: &Ctx) -> anyhow::Result<()> {
 pub fn halt_devices(ctx: &Ctx, devices: &[DeviceRef]) -> anyhow::Result<()> {
     let bench = ctx.bench()?;
     let mut named: Vec<(Address, &BenchLink, MotionTarget)> = Vec::new();
-    for d in devices {
-        let at = bench.resolve(d)?;
+    for (at, link) in super::devices::any_family(ctx, devices)? {
         let target = MotionTarget::try_from(at)
             .map_err(|_| super::usage(format!("{at} is not a device its family can stop")))?;
-        if !named.iter().any(|(a, ..)| *a == at) {
-            named.push((at, bench.link_of(at)?, target));
-        }
+        named.push((at, link, target));
     }
     share_links(ctx);
     let mut steps = Vec::new();

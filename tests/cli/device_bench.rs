@@ -487,3 +487,15 @@ fn scan_d_finds_devices_on_two_served_links() {
     let on = |a: &str, l: &str| (a.to_string(), l.to_string());
     assert_eq!(scanned(&r.json(), "devices"), [on("cdios:1/0", can), on("pac:1", serial), on("powercube:17", can)]);
 }
+
+// ---- halt ----
+
+/// `halt -d` resolves its devices as the other whole-bench commands do: a
+/// family the one `--link` cannot carry is refused before any port opens
+/// (the port here does not exist: opening it would be exit 3).
+#[test]
+fn halt_d_refuses_a_family_the_link_cannot_carry_before_opening() {
+    let r = run(&["--link", "slcan:/dev/axisctl-no-such-tty", "halt", "-d", "powercube:3,pac:2"]);
+    assert_eq!(r.code, 2, "{}{}", r.stdout, r.stderr);
+    assert!(r.stderr.contains("no link of the bench carries the PA-CONTROL"), "{}", r.stderr);
+}
