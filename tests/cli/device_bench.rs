@@ -239,7 +239,8 @@ fn commission_d_plans_and_runs_only_the_devices_named() {
         s(&out),
         "--yes",
     ]);
-    ok(&r, "commission -d");
+    let report = std::fs::read_to_string(out.join("report.json")).unwrap_or_default();
+    assert_eq!(r.code, 0, "commission -d: {}\nreport: {report}", r.stderr);
     assert_eq!(checked(&out.join("report.json")), ["powercube:3"]);
     assert_eq!(addresses(&read_json(&out.join("backup.json"))), ["powercube:3"]);
     assert_eq!(cube_modules(&log), BTreeSet::from([3]), "no frame of another module");
