@@ -73,6 +73,10 @@ pub const POWERCUBE_MODULE: IdRange =
 pub const PAC_AXIS: IdRange = IdRange { what: "axis", min: 1, max: pac::table::MAX_AXES };
 /// Cdios CANopen node id (the range of [`cdios::NodeId`]).
 pub const CDIOS_NODE: IdRange = IdRange { what: "node id", min: cdios::NodeId::MIN, max: cdios::NodeId::MAX };
+/// The Cdios node id a controller ships with: the node every Cdios command
+/// talks to unless told another (`--node`), and the one a bench-wide scan
+/// always probes.
+pub const CDIOS_FACTORY_NODE: u8 = cdios::NodeId::FACTORY.get();
 /// Cdios 6168 module id on a node (the range of [`cdios::ModuleId`]).
 pub const CDIOS_MODULE: IdRange = IdRange { what: "module id", min: 0, max: cdios::ModuleId::MAX };
 

@@ -8,13 +8,14 @@ use clap::{Args, Subcommand, ValueEnum};
 
 use super::ids;
 use super::WaitArgs;
-use axisctl::family::{CDIOS_MODULE, CDIOS_NODE};
+use axisctl::bench::DeviceRef;
+use axisctl::family::{Family, CDIOS_FACTORY_NODE, CDIOS_MODULE, CDIOS_NODE};
 
 /// Which node, and how it is talked to.
 #[derive(Debug, Args, Clone, Copy)]
 pub struct NodeArgs {
     /// Cdios node id (CANopen), 1 to 127; 1 is the factory setting
-    #[arg(long, value_name = "N", default_value_t = 1, value_parser = ids::id(CDIOS_NODE))]
+    #[arg(long, value_name = "N", default_value_t = CDIOS_FACTORY_NODE, value_parser = ids::id(CDIOS_NODE))]
     pub node: u8,
     /// Do not send the NMT start (the node is operational already)
     #[arg(long)]
@@ -24,21 +25,30 @@ pub struct NodeArgs {
     pub no_confirm: bool,
 }
 
-/// A 6168 module on a node.
-#[derive(Debug, Args, Clone, Copy)]
+/// A 6168 module on a node: `--node N -m ID`, or `-d cdios:N/ID` / a bench
+/// file's name for it.
+#[derive(Debug, Args, Clone)]
 pub struct ModuleTarget {
     #[command(flatten)]
     pub node: NodeArgs,
     /// 6168 module id on the node (DIP switch), 0 to 15
-    #[arg(short, long, value_name = "ID", value_parser = ids::id(CDIOS_MODULE))]
-    pub module: u8,
+    #[arg(short, long, value_name = "ID", value_parser = ids::id(CDIOS_MODULE), required_unless_present = "device")]
+    pub module: Option<u8>,
+    /// The module as a device of the bench: cdios:NODE/ID or the name a bench file gives it (instead of --node and -m)
+    #[arg(short, long, value_name = "DEVICE", conflicts_with_all = ["node", "module"], add = super::complete::bench_devices(Some(Family::Cdios)))]
+    pub device: Option<DeviceRef>,
 }
 
 /// The nodes a read is about: `--node 1` or a list, `--node 1,2`.
 #[derive(Debug, Args, Clone)]
 pub struct NodesArgs {
     /// Cdios node id (CANopen) 1 to 127, or a list (1,2 or 1-3: the modules of each node); 1 is the factory setting
-    #[arg(long, value_name = "N[,N...]", default_value = "1", value_parser = ids::nodes(CDIOS_NODE))]
+    #[arg(
+        long,
+        value_name = "N[,N...]",
+        default_value_t = ids::Devices::One(CDIOS_FACTORY_NODE),
+        value_parser = ids::nodes(CDIOS_NODE)
+    )]
     pub node: ids::Devices,
     /// Do not send the NMT start (the node is operational already)
     #[arg(long)]
@@ -61,14 +71,32 @@ impl NodesArgs {
 }
 
 /// The 6168 modules a read is about: `-m 0`, `-m 0,1` or `-m all`, on one
-/// node or several.
+/// node or several; or `-d cdios:1/0,cdios:2/1` (bench-file names too), the
+/// modules named and no others.
 #[derive(Debug, Args, Clone)]
 pub struct ModulesTarget {
     #[command(flatten)]
     pub node: NodesArgs,
     /// 6168 module id 0..15, a list (0,1 or 0-3: one object per module) or all (every module the node reports)
-    #[arg(short, long, value_name = "ID[,ID...]|all", value_parser = ids::devices(CDIOS_MODULE))]
-    pub module: ids::Devices,
+    #[arg(
+        short,
+        long,
+        value_name = "ID[,ID...]|all",
+        value_parser = ids::devices(CDIOS_MODULE),
+        required_unless_present = "device"
+    )]
+    pub module: Option<ids::Devices>,
+    /// The modules as devices of the bench: cdios:NODE/ID or bench-file names, comma-separated, on one node or several (one device: one object; several: a list in the order named) (instead of --node and -m)
+    #[arg(
+        short,
+        long,
+        value_name = "DEVICE[,DEVICE...]",
+        value_delimiter = ',',
+        num_args = 1,
+        conflicts_with_all = ["node", "module"],
+        add = super::complete::bench_devices(Some(Family::Cdios))
+    )]
+    pub device: Option<Vec<DeviceRef>>,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
@@ -124,6 +152,9 @@ pub enum CdiosCommand {
     Identify {
         #[command(flatten)]
         node: NodeArgs,
+        /// A module of the node as a device of the bench: cdios:NODE/ID or a bench-file name; its node is identified (instead of --node)
+        #[arg(short, long, value_name = "DEVICE", conflicts_with = "node", add = super::complete::bench_devices(Some(Family::Cdios)))]
+        device: Option<DeviceRef>,
     },
     /// Cdios: the four motor status bytes decoded, motor speed and RPM error (26h)
     #[command(name = "cdios-status")]

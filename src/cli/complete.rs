@@ -155,6 +155,33 @@ fn modules_in(path: &std::path::Path, family: Family, current: &OsStr) -> Vec<Co
         .collect()
 }
 
+/// `-d` of a family's commands (`None`: of any family, `halt -d` and the
+/// whole-bench commands): the devices the bench file names, by name and by
+/// address, the name's address as its help; after a comma, the list's next.
+pub fn bench_devices(family: Option<Family>) -> ArgValueCompleter {
+    ArgValueCompleter::new(move |current: &OsStr| devices_in(&bench_file(), family, current))
+}
+
+fn devices_in(path: &std::path::Path, family: Option<Family>, current: &OsStr) -> Vec<CompletionCandidate> {
+    use axisctl::bench::Bench;
+    let Ok(bench) = Bench::from_file(path) else { return Vec::new() };
+    let typed = current.to_string_lossy();
+    let (done, last) = typed.rsplit_once(',').map_or(("", typed.as_ref()), |(d, l)| (d, l));
+    let devices = bench.links().iter().flat_map(|l| l.devices.iter());
+    let mut out: Vec<(String, String)> = devices
+        .filter(|(_, a)| family.is_none_or(|f| a.family() == f))
+        .flat_map(|(name, a)| [(name.clone(), a.to_string()), (a.to_string(), name.clone())])
+        .filter(|(value, _)| value.starts_with(last))
+        .collect();
+    out.sort();
+    out.into_iter()
+        .map(|(value, help)| {
+            let value = if done.is_empty() { value } else { format!("{done},{value}") };
+            CompletionCandidate::new(value).help(Some(help.into()))
+        })
+        .collect()
+}
+
 /// `--link`: `sim`, the forms with the serial ports and CAN interfaces of
 /// this machine.
 pub fn links() -> ArgValueCompleter {
@@ -280,5 +307,28 @@ mod tests {
         assert_eq!(got("1").iter().map(|(v, _)| v.as_str()).collect::<Vec<_>>(), ["17"]);
         assert_eq!(got("3,1").iter().map(|(v, _)| v.as_str()).collect::<Vec<_>>(), ["3,17"], "after a comma");
         assert!(modules_in(&dir.path().join("none.toml"), Family::PowerCube, OsStr::new("")).is_empty());
+    }
+
+    #[test]
+    fn devices_come_from_the_bench_file_by_name_and_address() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("axisctl.toml");
+        std::fs::write(&path, "[[link]]\nspec = \"sim\"\ndevices = { wrist = \"powercube:17\", slide = \"pac:2\" }\n")
+            .unwrap();
+        let got = |family, typed: &str| -> Vec<(String, String)> {
+            devices_in(&path, family, OsStr::new(typed))
+                .iter()
+                .map(|c| {
+                    let help = c.get_help().map(|h| h.to_string()).unwrap_or_default();
+                    (c.get_value().to_string_lossy().into_owned(), help)
+                })
+                .collect()
+        };
+        let pair = |v: &str, h: &str| (v.to_string(), h.to_string());
+        assert_eq!(got(Some(Family::PowerCube), ""), [pair("powercube:17", "wrist"), pair("wrist", "powercube:17")]);
+        assert_eq!(got(None, "s"), [pair("slide", "pac:2")]);
+        assert_eq!(got(None, "wrist,p"), [pair("wrist,pac:2", "slide"), pair("wrist,powercube:17", "wrist")]);
+        assert!(got(Some(Family::Cdios), "").is_empty(), "no Cdios device in the file");
+        assert!(devices_in(&dir.path().join("none.toml"), None, OsStr::new("")).is_empty());
     }
 }

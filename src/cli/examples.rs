@@ -13,7 +13,10 @@ pub const EXAMPLES: &[(&str, &[&str])] = &[
         ],
     ),
     ("info", &["--link sim info -m 17"]),
-    ("state", &["--link sim state -m 17", "--link sim --json state -m 17"]),
+    (
+        "state",
+        &["--link sim state -m 17", "--link sim --json state -m 17", "--link sim state -d powercube:3,powercube:5"],
+    ),
     ("home", &["--link sim home -m 17 --wait", "--link sim home --all"]),
     ("reset", &["--link sim reset -m 17", "--link sim reset --all"]),
     ("halt", &["--link sim halt -m 17", "--link sim halt --all", "--link sim halt -d powercube:3,pac:2,cdios:1/0"]),
@@ -29,7 +32,7 @@ pub const EXAMPLES: &[(&str, &[&str])] = &[
         "move-step",
         &["--link sim move-step -m 17 0.05 --time 2000", "--link sim move-step -m 3 -0.1 --relative --time 500"],
     ),
-    ("move-vel", &["--link sim move-vel -m 3 -0.05", "--link sim move-vel -m 3 0"]),
+    ("move-vel", &["--link sim move-vel -m 3 -0.05", "--link sim move-vel -d powercube:3 0"]),
     ("move-cur", &["--link sim move-cur -m 3 0.5"]),
     (
         "get-param",
@@ -83,7 +86,14 @@ pub const EXAMPLES: &[(&str, &[&str])] = &[
         ],
     ),
     ("cdios-identify", &["--link sim cdios-identify", "--link sim --json cdios-identify --node 1"]),
-    ("cdios-status", &["--link sim cdios-status -m 0", "--link sim --json cdios-status -m all --node 1"]),
+    (
+        "cdios-status",
+        &[
+            "--link sim cdios-status -m 0",
+            "--link sim --json cdios-status -m all --node 1",
+            "--link sim cdios-status -d cdios:1/1,cdios:1/0   # the modules named, in that order (or a bench file's names)",
+        ],
+    ),
     (
         "cdios-position",
         &[

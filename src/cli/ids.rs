@@ -107,6 +107,17 @@ pub enum Devices {
     All,
 }
 
+/// As typed: `17`, `3,5,17`, `all` (clap shows a default this way).
+impl std::fmt::Display for Devices {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Self::One(id) => write!(f, "{id}"),
+            Self::List(list) => list.fmt(f),
+            Self::All => f.write_str("all"),
+        }
+    }
+}
+
 /// A clap parser for [`Devices`] of `range`.
 pub fn devices(range: IdRange) -> impl Fn(&str) -> Result<Devices, String> + Clone + Send + Sync + 'static {
     move |text| {
@@ -146,6 +157,17 @@ pub fn list_or_none(range: IdRange) -> impl Fn(&str) -> Result<IdList, String> +
 mod tests {
     use super::*;
     use axisctl::family::{CDIOS_MODULE, PAC_AXIS, POWERCUBE_MODULE};
+
+    /// A default given as a value (`--node`'s factory node) reads back as
+    /// itself.
+    #[test]
+    fn devices_are_shown_as_they_are_typed() {
+        let parse = devices(POWERCUBE_MODULE);
+        for text in ["17", "3,5,17", "1-8", "all"] {
+            let d = parse(text).unwrap();
+            assert_eq!((d.to_string(), parse(&d.to_string()).unwrap()), (text.to_string(), d));
+        }
+    }
 
     #[test]
     fn lists_take_ids_and_ranges_once_each() {

@@ -9,7 +9,7 @@ use clap::{Args, Subcommand};
 use super::ids::{self, IdList};
 use super::WaitArgs;
 use axisctl::bench::DeviceRef;
-use axisctl::family::POWERCUBE_MODULE;
+use axisctl::family::{Family, POWERCUBE_MODULE};
 
 /// One module: `-m 17`, or `-d powercube:17` / a bench file's name for it.
 #[derive(Debug, Args, Clone)]
@@ -19,7 +19,7 @@ pub struct ModuleArg {
     #[arg(short, long, value_name = "ID", value_parser = ids::id(POWERCUBE_MODULE), add = super::complete::bench_modules())]
     pub module: Option<u8>,
     /// The module as a device of the bench: powercube:ID or the name a bench file gives it (instead of -m)
-    #[arg(short, long, value_name = "DEVICE")]
+    #[arg(short, long, value_name = "DEVICE", add = super::complete::bench_devices(Some(Family::PowerCube)))]
     pub device: Option<DeviceRef>,
 }
 
@@ -32,7 +32,7 @@ pub struct ModulesArg {
     #[arg(short, long, value_name = "ID[,ID...]|all", value_parser = ids::devices(POWERCUBE_MODULE), add = super::complete::bench_modules())]
     pub module: Option<ids::Devices>,
     /// The modules as devices of the bench: powercube:ID or bench-file names, comma-separated (one device: one object; several: a list)
-    #[arg(short, long, value_name = "DEVICE[,DEVICE...]", value_delimiter = ',', num_args = 1)]
+    #[arg(short, long, value_name = "DEVICE[,DEVICE...]", value_delimiter = ',', num_args = 1, add = super::complete::bench_devices(Some(Family::PowerCube)))]
     pub device: Option<Vec<DeviceRef>>,
 }
 
@@ -47,7 +47,7 @@ pub struct Target {
     #[arg(long)]
     pub all: bool,
     /// The module as a device of the bench: powercube:ID or the name a bench file gives it (instead of -m)
-    #[arg(short, long, value_name = "DEVICE")]
+    #[arg(short, long, value_name = "DEVICE", add = super::complete::bench_devices(Some(Family::PowerCube)))]
     pub device: Option<DeviceRef>,
 }
 
@@ -63,7 +63,7 @@ pub struct HaltTarget {
     #[arg(long)]
     pub all: bool,
     /// Devices of the bench, any family: powercube:3, pac:2, cdios:1/0 or a bench file's name; each is stopped through its family (exit 0 when already at rest)
-    #[arg(short, long, value_name = "DEVICE[,DEVICE...]", value_delimiter = ',', num_args = 1)]
+    #[arg(short, long, value_name = "DEVICE[,DEVICE...]", value_delimiter = ',', num_args = 1, add = super::complete::bench_devices(None))]
     pub device: Option<Vec<DeviceRef>>,
 }
 
@@ -145,7 +145,8 @@ pub enum PowerCubeCommand {
             value_name = "DEVICE[,DEVICE...]",
             value_delimiter = ',',
             num_args = 1,
-            conflicts_with = "modules"
+            conflicts_with = "modules",
+            add = super::complete::bench_devices(Some(Family::PowerCube))
         )]
         device: Option<Vec<DeviceRef>>,
         /// Target position (rad or m; encoder ticks with --ticks); with --sync one per module

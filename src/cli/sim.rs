@@ -3,7 +3,7 @@
 use clap::Args;
 
 use super::ids::{self, IdList};
-use axisctl::family::{CDIOS_MODULE, CDIOS_NODE, PAC_AXIS, POWERCUBE_MODULE};
+use axisctl::family::{CDIOS_FACTORY_NODE, CDIOS_MODULE, CDIOS_NODE, PAC_AXIS, POWERCUBE_MODULE};
 
 #[derive(Debug, Args)]
 pub struct SimArgs {
@@ -30,7 +30,7 @@ pub struct SimArgs {
     #[arg(long, value_name = "N", default_value_t = 3, value_parser = ids::id(PAC_AXIS))]
     pub axes: u8,
     /// Cdios node id
-    #[arg(long, default_value_t = 1, value_parser = ids::id(CDIOS_NODE))]
+    #[arg(long, default_value_t = CDIOS_FACTORY_NODE, value_parser = ids::id(CDIOS_NODE))]
     pub node: u8,
     /// Cdios 6168 module ids, e.g. 0,1 (empty: none)
     #[arg(long = "cdios-module", alias = "cdios-modules", value_name = "LIST", default_value = "0,1",

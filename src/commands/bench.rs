@@ -6,7 +6,7 @@
 use std::collections::BTreeSet;
 
 use axisctl::bench::{Address, Bench, BenchLink, DeviceRef};
-use axisctl::device::face::{Halt, MotionTarget};
+use axisctl::device::face::{Face, FaceError, Halt, MotionTarget};
 use axisctl::device::registry;
 use axisctl::family::Family;
 use serde_json::{json, Map, Value};
@@ -17,7 +17,7 @@ use crate::output::{self, say};
 
 /// The Cdios node every Cdios command defaults to (`--node 1`): probed on
 /// every CAN link, beside the nodes the bench file names.
-const DEFAULT_NODE: u8 = 1;
+const DEFAULT_NODE: u8 = axisctl::family::CDIOS_FACTORY_NODE;
 
 /// One device found by a scan.
 struct Seen {
@@ -211,45 +211,75 @@ struct Step {
     result: Result<String, anyhow::Error>,
 }
 
+/// The steps of a halt over the bench and the holders it took ports from:
+/// every step is tried whatever the others did, then reported once.
+#[derive(Default)]
+struct Halts {
+    steps: Vec<Step>,
+    holders: Vec<HolderReport>,
+}
+
+impl Halts {
+    /// Opens `family`'s face (the Cdios: of `node`) on `link`, taking the
+    /// port over from an axisctl that holds it, and records what `stop`
+    /// does with it, a step per device; `stop` returns `None` when there is
+    /// nothing to report. A face that does not open is one failed step, of
+    /// the device `at` when one was named.
+    fn on(
+        &mut self,
+        ctx: &Ctx,
+        link: &BenchLink,
+        (family, node): (Family, Option<u8>),
+        at: Option<Address>,
+        stop: impl FnOnce(&mut dyn Face) -> Option<Vec<(Option<Address>, Result<Halt, FaceError>)>>,
+    ) {
+        let step = |address, result| Step { link: link.text.clone(), family, address, node, result };
+        let opened = ctx.opener().take_over(|o| {
+            let mut sessions = On { opener: o, spec: &link.spec, opts: ctx.session_options() };
+            registry::open(family, node, &mut sessions, ctx.retry)
+        });
+        let (mut face, t) = match opened {
+            Ok(x) => x,
+            Err(e) => return self.steps.push(step(at, Err(e.into()))),
+        };
+        let Some(done) = stop(face.as_mut()) else { return };
+        for (address, result) in done {
+            self.steps.push(step(address, result.map(said).map_err(|e| takeover::failed(e, t.as_ref()))));
+        }
+        self.holders.extend(HolderReport::after_halt(t.as_ref()));
+    }
+
+    /// The report, then the first failure (its exit code) if a step failed.
+    fn report(self, ctx: &Ctx, bench: &Bench, all: bool) -> anyhow::Result<()> {
+        print_halt(ctx, bench, &self.steps, &self.holders, all);
+        let failed = self.steps.iter().filter(|s| s.result.is_err()).count();
+        let (what, unit) = if all { ("halt --all", "step(s) failed") } else { ("halt -d", "device(s) not stopped") };
+        match self.steps.into_iter().find_map(|s| s.result.err()) {
+            Some(first) => Err(first.context(format!("{what}: {failed} {unit}; see the report above"))),
+            None => Ok(()),
+        }
+    }
+}
+
 pub fn halt_all(ctx: &Ctx) -> anyhow::Result<()> {
     let bench = ctx.bench()?;
     share_links(ctx);
-    let mut steps = Vec::new();
-    let mut holders = Vec::new();
+    let mut halts = Halts::default();
     for (link, family) in bench.pairs() {
         for unit in registry::units(family, &cdios_nodes(link)) {
-            let step = |address, result| Step { link: link.text.clone(), family, address, node: unit, result };
-            let opened = ctx.opener().take_over(|o| {
-                let mut sessions = On { opener: o, spec: &link.spec, opts: ctx.session_options() };
-                registry::open(family, unit, &mut sessions, ctx.retry)
-            });
-            let (mut face, t) = match opened {
-                Ok(x) => x,
-                Err(e) => {
-                    steps.push(step(None, Err(e.into())));
-                    continue;
+            halts.on(ctx, link, (family, unit), None, |face| {
+                // The face's own sequence: it finds its devices and stops each.
+                let done = face.halt_all(None);
+                // The default Cdios node, absent and not expected: nothing to stop.
+                let absent = matches!(&done[..], [one] if one.target.is_none() && one.result.is_err());
+                if absent && unit == Some(DEFAULT_NODE) && !bench.links().iter().any(|l| named_node(l, DEFAULT_NODE)) {
+                    return None;
                 }
-            };
-            // The face's own sequence: it finds its devices and stops each.
-            let done = face.halt_all(None);
-            // The default Cdios node, absent and not expected: nothing to stop.
-            let absent = matches!(&done[..], [one] if one.target.is_none() && one.result.is_err());
-            if absent && unit == Some(DEFAULT_NODE) && !bench.links().iter().any(|l| named_node(l, DEFAULT_NODE)) {
-                continue;
-            }
-            for s in done {
-                let result = s.result.map(said).map_err(|e| takeover::failed(e, t.as_ref()));
-                steps.push(step(s.target.and_then(|t| Address::try_from(t).ok()), result));
-            }
-            holders.extend(HolderReport::after_halt(t.as_ref()));
+                Some(done.into_iter().map(|s| (s.target.and_then(|t| Address::try_from(t).ok()), s.result)).collect())
+            });
         }
     }
-    print_halt(ctx, bench, &steps, &holders, true);
-    let failed = steps.iter().filter(|s| s.result.is_err()).count();
-    match steps.into_iter().find_map(|s| s.result.err()) {
-        Some(first) => Err(first.context(format!("halt --all: {failed} step(s) failed; see the report above"))),
-        None => Ok(()),
-    }
+    halts.report(ctx, bench, true)
 }
 
 /// `halt -d DEVICE,...`: a person's stop of each device named, through its
@@ -265,30 +295,11 @@ pub fn halt_devices(ctx: &Ctx, devices: &[DeviceRef]) -> anyhow::Result<()> {
         named.push((at, link, target));
     }
     share_links(ctx);
-    let mut steps = Vec::new();
-    let mut holders = Vec::new();
+    let mut halts = Halts::default();
     for (at, link, target) in named {
-        let node = target.node();
-        let step = |result| Step { link: link.text.clone(), family: at.family(), address: Some(at), node, result };
-        let opened = ctx.opener().take_over(|o| {
-            let mut sessions = On { opener: o, spec: &link.spec, opts: ctx.session_options() };
-            registry::open(at.family(), node, &mut sessions, ctx.retry)
-        });
-        match opened {
-            Ok((mut face, t)) => {
-                let result = face.stop(target).map(said).map_err(|e| takeover::failed(e, t.as_ref()));
-                steps.push(step(result));
-                holders.extend(HolderReport::after_halt(t.as_ref()));
-            }
-            Err(e) => steps.push(step(Err(e.into()))),
-        }
+        halts.on(ctx, link, (at.family(), target.node()), Some(at), |face| Some(vec![(Some(at), face.stop(target))]));
     }
-    print_halt(ctx, bench, &steps, &holders, false);
-    let failed = steps.iter().filter(|s| s.result.is_err()).count();
-    match steps.into_iter().find_map(|s| s.result.err()) {
-        Some(first) => Err(first.context(format!("halt -d: {failed} device(s) not stopped; see the report above"))),
-        None => Ok(()),
-    }
+    halts.report(ctx, bench, false)
 }
 
 /// How the report says a step went.

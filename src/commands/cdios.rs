@@ -32,14 +32,16 @@ use crate::cli::ids::Devices;
 use crate::cli::WaitArgs;
 use crate::output;
 use crate::output::say;
+use axisctl::bench::{Address, DeviceRef};
 
 pub fn run(ctx: &Ctx, cmd: CdiosCommand) -> anyhow::Result<()> {
     match cmd {
-        CdiosCommand::Identify { node } => identify(ctx, node),
-        CdiosCommand::Status(t) => status(ctx, t),
-        CdiosCommand::Position { target, source, all } => position(ctx, target, source, all),
-        CdiosCommand::SetPosition { target, position } => set_position(ctx, target, position),
+        CdiosCommand::Identify { node, device } => identify(ctx, node_of(ctx, node, device)?),
+        CdiosCommand::Status(t) => status(ctx, reads_of(ctx, t)?),
+        CdiosCommand::Position { target, source, all } => position(ctx, reads_of(ctx, target)?, source, all),
+        CdiosCommand::SetPosition { target, position } => set_position(ctx, target_of(ctx, target)?, position),
         CdiosCommand::Goto { target, position, relative, setpoint_relative, latched, speed, force, wait } => {
+            let target = target_of(ctx, target)?;
             let mode = match (relative, setpoint_relative, latched) {
                 (false, false, false) => GotoMode::Absolute,
                 (false, false, true) => GotoMode::AbsoluteSync,
@@ -50,9 +52,11 @@ pub fn run(ctx: &Ctx, cmd: CdiosCommand) -> anyhow::Result<()> {
             };
             goto(ctx, target, mode, position, (speed, force), wait)
         }
-        CdiosCommand::Traject { target, traject, latched, wait } => run_traject(ctx, target, traject, latched, wait),
+        CdiosCommand::Traject { target, traject, latched, wait } => {
+            run_traject(ctx, target_of(ctx, target)?, traject, latched, wait)
+        }
         CdiosCommand::Start { target, direction, option, speed, latched } => {
-            start(ctx, target, direction, option, speed, latched)
+            start(ctx, target_of(ctx, target)?, direction, option, speed, latched)
         }
         CdiosCommand::Stop { target, option, latched } => {
             let option = match option {
@@ -62,17 +66,21 @@ pub fn run(ctx: &Ctx, cmd: CdiosCommand) -> anyhow::Result<()> {
                 StopOptionArg::ReleaseEmergency => StopOption::ReleaseEmergency,
                 StopOptionArg::ClearHold => StopOption::ClearHold,
             };
-            stop(ctx, target, option, latched)
+            stop(ctx, target_of(ctx, target)?, option, latched)
         }
         CdiosCommand::Enable { target, release_emergency } => {
-            simple(ctx, target, "cdios-enable", &device::enable_commands(release_emergency))
+            simple(ctx, target_of(ctx, target)?, "cdios-enable", &device::enable_commands(release_emergency))
         }
         CdiosCommand::Disable(t) => {
-            simple(ctx, t, "cdios-disable", &[device::stop_command(StopOption::Disable, false)])
+            simple(ctx, target_of(ctx, t)?, "cdios-disable", &[device::stop_command(StopOption::Disable, false)])
         }
-        CdiosCommand::Config { target, items } => config(ctx, target, &items),
-        CdiosCommand::Outputs { target, set, latched } => outputs(ctx, target, set.as_deref(), latched),
-        CdiosCommand::Analog { target, output, set, latched } => analog(ctx, target, output, set, latched),
+        CdiosCommand::Config { target, items } => config(ctx, target_of(ctx, target)?, &items),
+        CdiosCommand::Outputs { target, set, latched } => {
+            outputs(ctx, target_of(ctx, target)?, set.as_deref(), latched)
+        }
+        CdiosCommand::Analog { target, output, set, latched } => {
+            analog(ctx, target_of(ctx, target)?, output, set, latched)
+        }
         CdiosCommand::Events {
             target,
             mask,
@@ -90,12 +98,109 @@ pub fn run(ctx: &Ctx, cmd: CdiosCommand) -> anyhow::Result<()> {
                 speed_interval,
                 speed_on_change,
             )?;
-            events(ctx, target, &change)
+            events(ctx, target_of(ctx, target)?, &change)
         }
-        CdiosCommand::Store { target, defaults } => store(ctx, target, defaults),
+        CdiosCommand::Store { target, defaults } => store(ctx, target_of(ctx, target)?, defaults),
         CdiosCommand::Watch { target, poll, no_poll, count, duration } => {
-            watch(ctx, target, poll, no_poll, count, duration)
+            watch(ctx, target_of(ctx, target)?, poll, no_poll, count, duration)
         }
+    }
+}
+
+// ---- the devices a command names ----
+
+/// One module once `-d` is resolved: its node, with the node's options,
+/// and its id. `--node N -m ID` is shorthand for the same.
+#[derive(Debug, Clone, Copy)]
+pub(in crate::commands) struct Target {
+    pub node: NodeArgs,
+    pub module: u8,
+}
+
+/// The (node, module) pairs `-d` names: Cdios modules of one link, each
+/// once, in the order given (see [`super::devices::of_family`]).
+fn pairs(ctx: &Ctx, refs: &[DeviceRef]) -> anyhow::Result<Vec<(u8, u8)>> {
+    let all = super::devices::of_family(ctx, Family::Cdios, refs)?;
+    Ok(all
+        .into_iter()
+        .filter_map(|a| if let Address::Cdios { node, module } = a { Some((node, module)) } else { None })
+        .collect())
+}
+
+/// The one module of `--node N -m ID` or `-d DEVICE`.
+pub(in crate::commands) fn target_of(ctx: &Ctx, t: ModuleTarget) -> anyhow::Result<Target> {
+    match (t.device, t.module) {
+        (Some(r), _) => {
+            let (node, module) = pairs(ctx, std::slice::from_ref(&r))?[0];
+            Ok(Target { node: NodeArgs { node, ..t.node }, module })
+        }
+        (None, Some(module)) => Ok(Target { node: t.node, module }),
+        (None, None) => unreachable!("clap requires -m or -d"),
+    }
+}
+
+/// A node-level command's node: `--node N`, or the node of the module `-d`
+/// names.
+fn node_of(ctx: &Ctx, n: NodeArgs, device: Option<DeviceRef>) -> anyhow::Result<NodeArgs> {
+    match device {
+        Some(r) => Ok(NodeArgs { node: pairs(ctx, std::slice::from_ref(&r))?[0].0, ..n }),
+        None => Ok(n),
+    }
+}
+
+/// The modules of a node a read goes to.
+#[derive(Debug, Clone, PartialEq, Eq)]
+enum Ids {
+    These(Vec<u8>),
+    /// Every module the node reports (`-m all`).
+    Present,
+}
+
+/// What a read goes over: each node with its modules, in the order read,
+/// and whether the document is one object (`--node N -m ID`, `-d` of one
+/// device) or a `{"devices": [...]}` list.
+#[derive(Debug, Clone)]
+struct Reads {
+    groups: Vec<(NodeArgs, Ids)>,
+    one: bool,
+}
+
+impl Reads {
+    /// `--node` × `-m`: every module named on every node named, in id order.
+    fn shorthand(nodes: &crate::cli::cdios::NodesArgs, modules: &Devices) -> Self {
+        let ids = match modules {
+            Devices::One(m) => Ids::These(vec![*m]),
+            Devices::List(l) => Ids::These(l.0.clone()),
+            Devices::All => Ids::Present,
+        };
+        let one = matches!((&nodes.node, modules), (Devices::One(_), Devices::One(_)));
+        Self { groups: nodes.each().into_iter().map(|n| (n, ids.clone())).collect(), one }
+    }
+
+    /// `-d`: exactly the pairs named, in the order named; neighbours on one
+    /// node are read in one go. One device is one object, several a list
+    /// (as `-m 0` and `-m 0,1`).
+    fn named(options: NodeArgs, pairs: &[(u8, u8)], devices: usize) -> Self {
+        let mut groups: Vec<(NodeArgs, Ids)> = Vec::new();
+        for &(node, module) in pairs {
+            match groups.last_mut() {
+                Some((n, Ids::These(ids))) if n.node == node => ids.push(module),
+                _ => groups.push((NodeArgs { node, ..options }, Ids::These(vec![module]))),
+            }
+        }
+        Self { groups, one: devices == 1 }
+    }
+}
+
+/// The reads of `--node`/`-m` or `-d`, resolved before any link opens.
+fn reads_of(ctx: &Ctx, t: ModulesTarget) -> anyhow::Result<Reads> {
+    match (t.device, t.module) {
+        (Some(refs), _) => {
+            let options = NodeArgs { node: 0, no_nmt: t.node.no_nmt, no_confirm: t.node.no_confirm };
+            Ok(Reads::named(options, &pairs(ctx, &refs)?, refs.len()))
+        }
+        (None, Some(m)) => Ok(Reads::shorthand(&t.node, &m)),
+        (None, None) => unreachable!("clap requires -m or -d"),
     }
 }
 
@@ -105,7 +210,7 @@ fn node_id(n: &NodeArgs) -> NodeId {
     NodeId::new(n.node).expect("clap checks 1..=127")
 }
 
-fn module_id(t: &ModuleTarget) -> ModuleId {
+fn module_id(t: &Target) -> ModuleId {
     output::target(Family::Cdios, &[("node", t.node.node.into()), ("module", t.module.into())]);
     ModuleId::new(t.module).expect("clap checks 0..=15")
 }
@@ -187,7 +292,7 @@ fn identify(ctx: &Ctx, n: NodeArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
-fn status(ctx: &Ctx, t: ModulesTarget) -> anyhow::Result<()> {
+fn status(ctx: &Ctx, t: Reads) -> anyhow::Result<()> {
     read_each(ctx, &t, |ctx, s, node, m| {
         let r = s.status(m)?;
         let (speed, rpm_error) = s.speed(m)?;
@@ -218,19 +323,18 @@ fn status(ctx: &Ctx, t: ModulesTarget) -> anyhow::Result<()> {
     })
 }
 
-/// A read of each module asked for: one JSON object for `--node N -m ID`,
-/// else `{"devices": [...]}` in (node, module) order (`-m all`: the modules
-/// each node reports). `read` prints the human form itself and returns the
-/// JSON object. One session serves every node.
+/// A read of each module asked for: one JSON object for `--node N -m ID`
+/// or one `-d` device, else `{"devices": [...]}` in the order of `t`
+/// (`-m all`: the modules each node reports). `read` prints the human form
+/// itself and returns the JSON object. One session serves every node.
 fn read_each(
     ctx: &Ctx,
-    t: &ModulesTarget,
+    t: &Reads,
     mut read: impl FnMut(&Ctx, &mut Node, NodeId, ModuleId) -> anyhow::Result<Value>,
 ) -> anyhow::Result<()> {
-    let nodes = t.node.each();
     let mut session = None;
     let mut docs = Vec::new();
-    for n in &nodes {
+    for (n, ids) in &t.groups {
         let node = node_id(n);
         output::target(Family::Cdios, &[("node", node.get().into())]);
         let s = match session.take() {
@@ -238,21 +342,20 @@ fn read_each(
             None => ctx.cdios()?,
         };
         let mut s = self::node(s, n, ctx);
-        let ids: Vec<u8> = match &t.module {
-            Devices::One(m) => vec![*m],
-            Devices::List(l) => l.0.clone(),
-            Devices::All => s.identify()?.iter().filter(|slot| slot.ty != 0).map(|slot| slot.module).collect(),
+        let ids: Vec<u8> = match ids {
+            Ids::These(ids) => ids.clone(),
+            Ids::Present => s.identify()?.iter().filter(|slot| slot.ty != 0).map(|slot| slot.module).collect(),
         };
         for id in ids {
-            let m = module_id(&ModuleTarget { node: *n, module: id });
+            let m = module_id(&Target { node: *n, module: id });
             docs.push(read(ctx, &mut s, node, m)?);
         }
         session = Some(s.into_session());
     }
     if ctx.json {
-        match (&t.node.node, &t.module) {
-            (Devices::One(_), Devices::One(_)) => output::json(&docs[0]),
-            _ => output::json(&json!({ "devices": docs })),
+        match t.one {
+            true => output::json(&docs[0]),
+            false => output::json(&json!({ "devices": docs })),
         }
     }
     Ok(())
@@ -272,7 +375,7 @@ fn source_of(k: PositionKind) -> PositionSource {
     }
 }
 
-fn position(ctx: &Ctx, t: ModulesTarget, kind: PositionKind, all: bool) -> anyhow::Result<()> {
+fn position(ctx: &Ctx, t: Reads, kind: PositionKind, all: bool) -> anyhow::Result<()> {
     read_each(ctx, &t, |ctx, s, node, m| {
         if all {
             let cur = s.position(m, PositionSource::Current)?;
@@ -318,7 +421,7 @@ fn report_sent(ctx: &Ctx, node: NodeId, m: ModuleId, what: &str, confirmed: bool
 }
 
 /// Commands sent one after the other, each awaited.
-fn simple(ctx: &Ctx, t: ModuleTarget, what: &str, cmds: &[Command]) -> anyhow::Result<()> {
+fn simple(ctx: &Ctx, t: Target, what: &str, cmds: &[Command]) -> anyhow::Result<()> {
     let m = module_id(&t);
     device::check(cmds, m)?;
     let mut s = open(ctx, &t.node)?;
@@ -330,7 +433,7 @@ fn simple(ctx: &Ctx, t: ModuleTarget, what: &str, cmds: &[Command]) -> anyhow::R
 /// cdios-stop, also from another terminal: a link held by another axisctl
 /// process (a `--wait`, the dashboard) is released by it first.
 /// A motor already at rest is the state asked for (exit 0, `already_stopped`).
-fn stop(ctx: &Ctx, t: ModuleTarget, option: StopOption, latched: bool) -> anyhow::Result<()> {
+fn stop(ctx: &Ctx, t: Target, option: StopOption, latched: bool) -> anyhow::Result<()> {
     let m = module_id(&t);
     device::check(&[device::stop_command(option, latched)], m)?;
     let (session, takeover) = super::takeover::open(ctx, |o, spec, opts| o.cdios(spec, opts))?;
@@ -377,7 +480,7 @@ fn stop(ctx: &Ctx, t: ModuleTarget, option: StopOption, latched: bool) -> anyhow
 }
 
 /// A refusal that says nothing but "the motor is not running".
-fn set_position(ctx: &Ctx, t: ModuleTarget, position: i64) -> anyhow::Result<()> {
+fn set_position(ctx: &Ctx, t: Target, position: i64) -> anyhow::Result<()> {
     let position = device::field_value::<i32>("set_position", "position", position)?;
     let (node, m) = (node_id(&t.node), module_id(&t));
     let cmd = Command::SetPosition { position };
@@ -413,7 +516,7 @@ fn check_goto_speed(s: &mut Node, m: ModuleId, speed: i64) -> anyhow::Result<()>
 
 fn goto(
     ctx: &Ctx,
-    t: ModuleTarget,
+    t: Target,
     mode: GotoMode,
     position: i64,
     (speed, force): (Option<i64>, bool),
@@ -454,7 +557,7 @@ fn goto(
     Ok(())
 }
 
-fn run_traject(ctx: &Ctx, t: ModuleTarget, traject: i64, latched: bool, wait: WaitArgs) -> anyhow::Result<()> {
+fn run_traject(ctx: &Ctx, t: Target, traject: i64, latched: bool, wait: WaitArgs) -> anyhow::Result<()> {
     let cmd = device::traject_command(traject, latched)?;
     let (node, m) = (node_id(&t.node), module_id(&t));
     device::check(&[cmd], m)?;
@@ -476,7 +579,7 @@ fn run_traject(ctx: &Ctx, t: ModuleTarget, traject: i64, latched: bool, wait: Wa
 
 fn start(
     ctx: &Ctx,
-    t: ModuleTarget,
+    t: Target,
     direction: DirectionArg,
     option: StartOptionArg,
     speed: Option<i64>,
@@ -537,7 +640,7 @@ fn print_wait_end(ctx: &Ctx, (node, m): (NodeId, ModuleId), what: &str, end: &Wa
 
 // ---- configuration ----
 
-fn config(ctx: &Ctx, t: ModuleTarget, items: &[String]) -> anyhow::Result<()> {
+fn config(ctx: &Ctx, t: Target, items: &[String]) -> anyhow::Result<()> {
     // Every name and value is resolved and checked before anything is sent.
     items.iter().try_for_each(|i| names::check_config_item(i))?;
     match ConfigRequest::parse(items)? {
@@ -550,7 +653,7 @@ fn config(ctx: &Ctx, t: ModuleTarget, items: &[String]) -> anyhow::Result<()> {
     }
 }
 
-fn show_config(ctx: &Ctx, s: &mut Node, t: ModuleTarget, groups: &[String]) -> anyhow::Result<()> {
+fn show_config(ctx: &Ctx, s: &mut Node, t: Target, groups: &[String]) -> anyhow::Result<()> {
     let (node, m) = (node_id(&t.node), module_id(&t));
     let mut doc = serde_json::Map::new();
     let mut rows = vec![["FIELD", "VALUE", "UNIT", "RANGE"].map(String::from).to_vec()];
@@ -582,7 +685,7 @@ fn show_config(ctx: &Ctx, s: &mut Node, t: ModuleTarget, groups: &[String]) -> a
 
 // ---- outputs ----
 
-fn outputs(ctx: &Ctx, t: ModuleTarget, set: Option<&str>, latched: bool) -> anyhow::Result<()> {
+fn outputs(ctx: &Ctx, t: Target, set: Option<&str>, latched: bool) -> anyhow::Result<()> {
     let set = set.map(device::outputs_value).transpose()?;
     let (node, m) = (node_id(&t.node), module_id(&t));
     let state = open(ctx, &t.node)?.outputs(m, set, latched)?;
@@ -599,7 +702,7 @@ fn outputs(ctx: &Ctx, t: ModuleTarget, set: Option<&str>, latched: bool) -> anyh
     Ok(())
 }
 
-fn analog(ctx: &Ctx, t: ModuleTarget, output: Option<i64>, set: Option<i64>, latched: bool) -> anyhow::Result<()> {
+fn analog(ctx: &Ctx, t: Target, output: Option<i64>, set: Option<i64>, latched: bool) -> anyhow::Result<()> {
     let (outs, set) = device::analog_request(output, set, latched)?;
     let (node, m) = (node_id(&t.node), module_id(&t));
     if let Some(c) = set {
@@ -622,7 +725,7 @@ fn analog(ctx: &Ctx, t: ModuleTarget, output: Option<i64>, set: Option<i64>, lat
 
 // ---- events ----
 
-fn events(ctx: &Ctx, t: ModuleTarget, change: &EventChange) -> anyhow::Result<()> {
+fn events(ctx: &Ctx, t: Target, change: &EventChange) -> anyhow::Result<()> {
     let (node, m) = (node_id(&t.node), module_id(&t));
     let setup = open(ctx, &t.node)?.events(m, change)?;
     let (masks, timers) = (setup.masks, setup.timers);
@@ -658,7 +761,7 @@ fn events(ctx: &Ctx, t: ModuleTarget, change: &EventChange) -> anyhow::Result<()
 
 // ---- store ----
 
-fn store(ctx: &Ctx, t: ModuleTarget, defaults: bool) -> anyhow::Result<()> {
+fn store(ctx: &Ctx, t: Target, defaults: bool) -> anyhow::Result<()> {
     let (node, m) = (node_id(&t.node), module_id(&t));
     device::check(&[Command::StoreConfiguration { defaults }], m)?;
     let elapsed = open(ctx, &t.node)?.store(m, defaults)?;
@@ -704,7 +807,7 @@ fn event_json(ctx: &Ctx, ev: &Event, start: Instant) -> Value {
 
 fn watch(
     ctx: &Ctx,
-    t: ModuleTarget,
+    t: Target,
     poll: u64,
     no_poll: bool,
     count: Option<u64>,

@@ -42,12 +42,13 @@ enum Selection {
 }
 
 /// A motion of `record ... -- MOTION`, checked as far as can be without
-/// the link.
+/// the link. A Cdios `node` is the node the motion named (`-d`, or a typed
+/// `--node`), which must be the recording's; `None` takes the recording's.
 #[derive(Debug, Clone, Copy)]
 enum Motion {
     Cube { module: ModuleId, mv: Move, ticks: bool, relative: bool, force: bool },
     Pac { axis: u8, pos: f64, relative: bool, force: bool },
-    Cdios { module: CdiosModule, mode: GotoMode, position: i64 },
+    Cdios { node: Option<u8>, module: CdiosModule, mode: GotoMode, position: i64 },
 }
 
 impl Motion {
@@ -99,6 +100,16 @@ pub fn run(ctx: &Ctx, args: RecordArgs) -> anyhow::Result<()> {
                 m.family().display_name(),
                 fam.display_name()
             )));
+        }
+        // The recording's node is the one its session talks to: a motion
+        // of another node would go to the recording's module of that id.
+        if let (Motion::Cdios { node: Some(moved), .. }, Selection::Cdios { node, .. }) = (m, &sel) {
+            if *moved != node.get() {
+                return Err(usage(format!(
+                    "the motion after -- is on Cdios node {moved} but the recording is of node {node}: record \
+                     the node that moves; nothing was sent"
+                )));
+            }
         }
     }
     let (period, until, format) = pace(ctx, &args)?;
@@ -245,17 +256,17 @@ fn motion(ctx: &Ctx, words: &[String]) -> anyhow::Result<Motion> {
             if latched || speed.is_some() {
                 return Err(usage("record -- cdios-goto takes no --latched or --speed (set the speed first)"));
             }
-            if target.node.node != NodeId::new(target.node.node).map_or(0, |n| n.get()) {
-                return Err(usage("node id out of range"));
-            }
             let mode = match (relative, setpoint_relative) {
                 (true, _) => GotoMode::Relative,
                 (false, true) => GotoMode::SetpointRelative,
                 _ => GotoMode::Absolute,
             };
+            // `--node` left out is the recording's node, as it always was.
+            let typed = target.device.is_some() || words.iter().any(|w| w == "--node" || w.starts_with("--node="));
+            let target = super::cdios::target_of(ctx, target)?;
             let module = CdiosModule::new(target.module).expect("the parser checked the range");
             cdios_dev::check(&cdios_dev::goto_commands(mode, position, None)?, module)?;
-            Motion::Cdios { module, mode, position }
+            Motion::Cdios { node: typed.then_some(target.node.node), module, mode, position }
         }
         _ => return Err(usage(format!("record -- takes one motion command: {MOTIONS}"))),
     };
@@ -377,7 +388,7 @@ fn start_pac(s: &mut PacSampler, m: &Motion) -> Result<String, RecordError> {
 }
 
 fn start_cdios(s: &mut CdiosSampler, m: &Motion, attempts: u32) -> Result<String, RecordError> {
-    let Motion::Cdios { module, mode, position } = *m else { unreachable!("a Cdios motion") };
+    let Motion::Cdios { module, mode, position, .. } = *m else { unreachable!("a Cdios motion") };
     let cmds = cdios_dev::goto_commands(mode, position, None)?;
     let confirmed = s.node().send_supervised(module, &cmds, attempts)?;
     Ok(format!("goto {} {position} {}", cdios_dev::mode_name(mode), if confirmed { "confirmed" } else { "sent" }))

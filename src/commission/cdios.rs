@@ -26,7 +26,7 @@ use serde_json::json;
 
 use super::plan::{Band, DevicePlan, Moves, Settings};
 use super::report::{Check, Status};
-use super::{attach_recording, measure_halt, round6, step_measures, Column, DefaultPlanError, Run};
+use super::{attach_recording, halt_target, measure_halt, round6, step_measures, Column, DefaultPlanError, Run};
 use crate::backup::{self, Device};
 use crate::bench::{Address, Bench};
 use crate::device::cdios::{self as dev, Node, Slot};
@@ -260,13 +260,6 @@ impl Open {
     }
 }
 
-fn skip_rest(run: &mut Run, at: &str, names: &[&'static str], why: &str) {
-    for name in names {
-        let t = run.begin(at, name);
-        run.end(Check::new(at, name).skipped(why), t);
-    }
-}
-
 fn run_module(node: &mut Node, m: ModuleId, plan: &DevicePlan, expected: Option<&Device>, run: &mut Run) {
     let at = plan.address.as_str();
     let names = planned(plan);
@@ -279,7 +272,7 @@ fn run_module(node: &mut Node, m: ModuleId, plan: &DevicePlan, expected: Option<
         Ok(v) => v,
         Err(e) => {
             run.end(Check::new(at, "identity").fail(format!("module {m} could not be read: {e}")), t);
-            return skip_rest(run, at, &names[1..], "not run: the module could not be read");
+            return run.skip(at, &names[1..], "not run: the module could not be read");
         }
     };
     let id = identity(at, plan, slot);
@@ -302,9 +295,9 @@ fn run_module(node: &mut Node, m: ModuleId, plan: &DevicePlan, expected: Option<
     }
     if !motion.is_empty() && !run.interrupted {
         if run.dry_run {
-            skip_rest(run, at, &motion, "dry run: not moved");
+            run.skip(at, &motion, "dry run: not moved");
         } else if blocked {
-            skip_rest(run, at, &motion, "not run: the identity is not the planned one");
+            run.skip(at, &motion, "not run: the identity is not the planned one");
         } else {
             motions_of(node, m, plan, &motion, run);
         }
@@ -361,11 +354,11 @@ fn motions_of(node: &mut Node, m: ModuleId, plan: &DevicePlan, names: &[&'static
     let at = plan.address.as_str();
     let was_enabled = match node.status(m) {
         Ok(s) => s.flags.contains(&"ENABLED"),
-        Err(e) => return skip_rest(run, at, names, &format!("not run: the status could not be read: {e}")),
+        Err(e) => return run.skip(at, names, &format!("not run: the status could not be read: {e}")),
     };
     if !was_enabled {
         if let Err(e) = node.send(m, &dev::enable_commands(false)) {
-            return skip_rest(run, at, names, &format!("not run: the motor was not enabled: {e}"));
+            return run.skip(at, names, &format!("not run: the motor was not enabled: {e}"));
         }
     }
     let mut blocked: Option<String> = None;
@@ -554,12 +547,10 @@ fn halt_test(node: &mut Node, m: ModuleId, at: &str, plan: &DevicePlan, run: &mu
         Ok(p) => p,
         Err(e) => return ck.fail(e),
     };
-    let window = plan.moves.as_ref().map(|mv| mv.window);
-    let fits = |p: f64| window.is_none_or(|[lo, hi]| (lo..=hi).contains(&p));
-    let target = if fits(here + h.distance) { here + h.distance } else { here - h.distance };
-    if !fits(target) {
-        return ck.fail(format!("no room for {} counts inside the move window: not moved", h.distance));
-    }
+    let target = match halt_target(here, h.distance, plan.moves.as_ref().map(|mv| mv.window), "counts") {
+        Ok(t) => t,
+        Err(why) => return ck.fail(why),
+    };
     let vel = plan.moves.as_ref().and_then(|mv| mv.vel);
     let tr = match record_goto(node, m, (target, vel), Some(h.after_s), h.after_s + 30.0, run) {
         Ok(t) => t,

@@ -58,6 +58,15 @@ pub struct Run<'a> {
 }
 
 impl<'a> Run<'a> {
+    /// Each of `names` reported as not run, with `why`: the rest of a
+    /// device's plan is said, never silently dropped.
+    pub fn skip(&mut self, at: &str, names: &[&'static str], why: &str) {
+        for name in names {
+            let t = self.begin(at, name);
+            self.end(Check::new(at, name).skipped(why), t);
+        }
+    }
+
     pub fn new(
         clock: Arc<dyn Clock>,
         link: &str,
@@ -215,6 +224,18 @@ pub(crate) fn attach_recording(c: &mut Check, at: &str, t: &[f64], columns: &[Co
     c.svg = crate::plot::svg(&chart, 900, 520).ok();
 }
 
+/// Where the halt test moves: `distance` from `here`, forward when that
+/// stays inside the plan's move window (if it has one), else back; an
+/// error (in `unit`) when neither fits, so nothing moves.
+pub(crate) fn halt_target(here: f64, distance: f64, window: Option<[f64; 2]>, unit: &str) -> Result<f64, String> {
+    let fits = |p: f64| window.is_none_or(|[lo, hi]| (lo..=hi).contains(&p));
+    let target = if fits(here + distance) { here + distance } else { here - distance };
+    match fits(target) {
+        true => Ok(target),
+        false => Err(format!("no room for {distance} {unit} inside the move window: not moved")),
+    }
+}
+
 /// The halt test's figures from its recording: the time from the halt (or
 /// stop) going out to the first sample at rest, against the plan's band,
 /// and how far the device went on after it (in `unit`). `what`: "halt" or
@@ -321,6 +342,17 @@ mod tests {
     use super::*;
     use plan::{Expected, Settings};
     use report::Status;
+
+    #[test]
+    fn the_halt_test_moves_forward_inside_the_window_else_back() {
+        assert_eq!(halt_target(1.0, 0.5, None, "rad"), Ok(1.5));
+        assert_eq!(halt_target(1.0, 0.5, Some([0.0, 2.0]), "rad"), Ok(1.5));
+        assert_eq!(halt_target(1.8, 0.5, Some([0.0, 2.0]), "rad"), Ok(1.3));
+        assert_eq!(
+            halt_target(1.0, 5.0, Some([0.0, 2.0]), "AE"),
+            Err("no room for 5 AE inside the move window: not moved".into())
+        );
+    }
 
     fn device(values: &[(&str, serde_json::Value, bool)]) -> backup::Device {
         let mut d = backup::Device::new(Family::PowerCube, "sim");

@@ -25,7 +25,7 @@ use serde_json::json;
 
 use super::plan::{Band, DevicePlan, Expected, Home, Moves, Settings};
 use super::report::{Check, Status};
-use super::{attach_recording, measure_halt, round6, sig, step_measures, Column, DefaultPlanError, Run};
+use super::{attach_recording, halt_target, measure_halt, round6, sig, step_measures, Column, DefaultPlanError, Run};
 use crate::backup::{self, Device};
 use crate::bench::Address;
 use crate::device::face::{Face, MotionTarget};
@@ -226,13 +226,6 @@ impl Open {
 }
 
 /// The rest of a device's plan said, not silently dropped.
-fn skip_rest(run: &mut Run, at: &str, names: &[&'static str], why: &str) {
-    for name in names {
-        let t = run.begin(at, name);
-        run.end(Check::new(at, name).skipped(why), t);
-    }
-}
-
 fn run_controller(c: &mut Controller, plan: &DevicePlan, expected: Option<&Device>, run: &mut Run) {
     let at = plan.address.as_str();
     let names = planned(Address::Pac { axis: None }, plan);
@@ -241,7 +234,7 @@ fn run_controller(c: &mut Controller, plan: &DevicePlan, expected: Option<&Devic
         Ok(d) => d,
         Err(e) => {
             run.end(Check::new(at, "identity").fail(format!("the controller could not be read: {e}")), t);
-            skip_rest(run, at, &names[1..], "not run: the controller could not be read");
+            run.skip(at, &names[1..], "not run: the controller could not be read");
             return;
         }
     };
@@ -288,14 +281,14 @@ fn run_axis(c: &mut Controller, axis: u8, plan: &DevicePlan, expected: Option<&D
     };
     if id.status != Status::Pass {
         run.end(id, t);
-        skip_rest(run, at, &names[1..], "not run: the identity is not the planned one");
+        run.skip(at, &names[1..], "not run: the identity is not the planned one");
         return;
     }
     let live = match backup::pac::capture_axis(c, axis, &run.link_of(Family::Pac)) {
         Ok(d) => d,
         Err(e) => {
             run.end(id.fail(format!("axis {axis} could not be read: {e}")), t);
-            skip_rest(run, at, &names[1..], "not run: the axis could not be read");
+            run.skip(at, &names[1..], "not run: the axis could not be read");
             return;
         }
     };
@@ -371,12 +364,12 @@ fn motions_of(c: &mut Controller, axis: u8, plan: &DevicePlan, run: &mut Run) {
         names.push("halt");
     }
     if run.dry_run {
-        return skip_rest(run, at, &names, "dry run: not moved");
+        return run.skip(at, &names, "dry run: not moved");
     }
     // Online mode as `pac-online` enters it; the axis is released by its
     // reference drive, or by 0A83 when the plan has none.
     if let Err(e) = c.online() {
-        return skip_rest(run, at, &names, &format!("not run: the controller did not go online (0603): {e}"));
+        return run.skip(at, &names, &format!("not run: the controller did not go online (0603): {e}"));
     }
     let mut blocked: Option<String> = None;
     if plan.home.is_none() {
@@ -609,12 +602,10 @@ fn halt_test(c: &mut Controller, axis: u8, at: &str, plan: &DevicePlan, run: &mu
         Ok(p) => p,
         Err(e) => return ck.fail(format!("190C could not be read: {e}")),
     };
-    let window = plan.moves.as_ref().map(|m| m.window);
-    let fits = |p: f64| window.is_none_or(|[lo, hi]| (lo..=hi).contains(&p));
-    let target = if fits(here + h.distance) { here + h.distance } else { here - h.distance };
-    if !fits(target) {
-        return ck.fail(format!("no room for {} AE inside the move window: not moved", h.distance));
-    }
+    let target = match halt_target(here, h.distance, plan.moves.as_ref().map(|m| m.window), "AE") {
+        Ok(t) => t,
+        Err(why) => return ck.fail(why),
+    };
     let (_, tr) = match record_move(c, axis, target, Some(h.after_s), h.after_s + 30.0, run) {
         Ok(v) => v,
         Err(e) => return ck.fail(e),

@@ -15,7 +15,7 @@ use super::plan::{Band, DevicePlan, Expected, Halt, Home, Identity, Moves, Setti
 use super::report::{Check, Status};
 use super::DefaultPlanError;
 use super::Run;
-use super::{measure_halt, round6, sig, sig7};
+use super::{halt_target, measure_halt, round6, sig, sig7};
 use crate::address::Address;
 use crate::backup::{self, Device};
 use crate::device::face::{MotionTarget, Moving};
@@ -200,10 +200,7 @@ fn run_module(
         Err(e) => {
             run.end(Check::new(at, "identity").fail(format!("module {m} could not be read: {e}")), t);
             // The rest of its plan is said, not silently dropped.
-            for name in planned(plan).into_iter().skip(1) {
-                let t = run.begin(at, name);
-                run.end(Check::new(at, name).skipped("not run: the module could not be read"), t);
-            }
+            run.skip(at, &planned(plan)[1..], "not run: the module could not be read");
             return Some(cubes);
         }
     };
@@ -675,12 +672,10 @@ fn halt_test(
     };
     // Inside the move window when there is one, else the module's limits
     // (the device layer refuses a ramp beyond them anyway).
-    let window = plan.moves.as_ref().map(|mv| mv.window);
-    let fits = |p: f64| window.is_none_or(|[lo, hi]| (lo..=hi).contains(&p));
-    let target = if fits(here + h.distance) { here + h.distance } else { here - h.distance };
-    if !fits(target) {
-        return (Some(cubes), c.fail(format!("no room for {} {unit} inside the move window: not moved", h.distance)));
-    }
+    let target = match halt_target(here, h.distance, plan.moves.as_ref().map(|mv| mv.window), unit) {
+        Ok(t) => t,
+        Err(why) => return (Some(cubes), c.fail(why)),
+    };
     let (vel, acc) = plan.moves.as_ref().map_or((None, None), |mv| (mv.vel, mv.acc));
     let mv = Move::Ramp { pos: target, vel, acc };
     let timeout = h.after_s + 30.0;

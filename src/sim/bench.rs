@@ -36,7 +36,13 @@ pub struct BenchConfig {
 impl Default for BenchConfig {
     /// The contract's bench.
     fn default() -> Self {
-        Self { modules: vec![3, 5, 17], linear: vec![17], node: 1, cdios_modules: vec![0, 1], axes: 3 }
+        Self {
+            modules: vec![3, 5, 17],
+            linear: vec![17],
+            node: NodeId::FACTORY.get(),
+            cdios_modules: vec![0, 1],
+            axes: 3,
+        }
     }
 }
 

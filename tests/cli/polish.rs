@@ -307,3 +307,14 @@ fn bash_completes_module_ids_from_the_bench_file() {
     let got = complete_bash_on_bench(bench, &["get-param", "-m", "3,"]);
     assert_eq!(got, ["3,3", "3,5"]);
 }
+
+#[test]
+fn bash_completes_devices_from_the_bench_file() {
+    let bench = std::path::Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/docs/sim-bench.toml"));
+    let got = complete_bash_on_bench(bench, &["state", "-d", ""]);
+    assert_eq!(got, ["elbow", "powercube:3", "powercube:5", "shoulder"], "the PowerCube devices, by name and address");
+    let got = complete_bash_on_bench(bench, &["cdios-status", "-d", "g"]);
+    assert_eq!(got, ["gripper"]);
+    let got = complete_bash_on_bench(bench, &["halt", "-d", "shoulder,s"]);
+    assert_eq!(got, ["shoulder,shoulder", "shoulder,slide"], "any family for halt -d, after the comma");
+}

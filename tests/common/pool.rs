@@ -82,3 +82,47 @@ pub fn after_their_files(lines: &[String]) -> Vec<Vec<usize>> {
     let files: Vec<BTreeSet<String>> = lines.iter().map(|l| files_named(l)).collect();
     (0..lines.len()).map(|i| (0..i).filter(|&j| !files[i].is_disjoint(&files[j])).collect()).collect()
 }
+
+/// Runs each shell line with bash in `cwd`, the built `axisctl` first on
+/// the PATH and the environment of [`crate::common::bin`], [`WORKERS`] at a
+/// time (a line that names a file an earlier line wrote runs after it),
+/// each under a deadline of `secs`. Returns the lines that failed, each
+/// with its exit status and first line of stderr.
+pub fn failing_lines(lines: &[String], cwd: &std::path::Path, secs: u64) -> Vec<String> {
+    let bin_dir = std::path::Path::new(env!("CARGO_BIN_EXE_axisctl")).parent().unwrap().to_path_buf();
+    let path = format!("{}:{}", bin_dir.display(), std::env::var("PATH").unwrap_or_default());
+    let failed = Mutex::new(Vec::new());
+    each_after(lines, &after_their_files(lines), |line| {
+        let mut child = std::process::Command::new("bash")
+            .args(["--norc", "--noprofile", "-c", line])
+            .current_dir(cwd)
+            .env("PATH", &path)
+            .env_remove("AXISCTL_LINK")
+            .env_remove("AXISCTL_BENCH")
+            .env("NO_COLOR", "1")
+            .env("AXISCTL_TIMEOUT", "400")
+            .stdin(std::process::Stdio::null())
+            .stdout(std::process::Stdio::null())
+            .stderr(std::process::Stdio::piped())
+            .spawn()
+            .unwrap();
+        let deadline = std::time::Instant::now() + std::time::Duration::from_secs(secs);
+        while child.try_wait().unwrap().is_none() {
+            if std::time::Instant::now() > deadline {
+                let _ = child.kill();
+                break;
+            }
+            std::thread::sleep(std::time::Duration::from_millis(20));
+        }
+        let out = child.wait_with_output().unwrap();
+        if !out.status.success() {
+            let err = String::from_utf8_lossy(&out.stderr);
+            failed.lock().unwrap().push(format!(
+                "{line}: {:?} {}",
+                out.status.code(),
+                err.lines().next().unwrap_or("(ended by the deadline)")
+            ));
+        }
+    });
+    failed.into_inner().unwrap()
+}

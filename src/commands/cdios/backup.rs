@@ -64,7 +64,7 @@ impl LiveFamily for NodesLive {
 
     fn capture(&mut self, ctx: &Ctx, link: &BenchLink, at: Address) -> anyhow::Result<Device> {
         let m = module(at)?;
-        let (node, slots) = self.node(ctx, link, at.node.unwrap_or(1))?;
+        let (node, slots) = self.node(ctx, link, at.node.unwrap_or(NodeId::FACTORY.get()))?;
         let slot = slots.iter().find(|s| s.module == m.get()).copied();
         let (ty, version) = slot.map_or((0, 0), |s| (s.ty, s.version));
         Ok(backup::cdios::capture(node, m, ty, version, &link.text)?)
@@ -84,20 +84,20 @@ impl LiveFamily for NodesLive {
     ) -> anyhow::Result<Vec<ValueResult>> {
         let at = live.address();
         let m = module(at)?;
-        let (node, _) = self.node(ctx, link, at.node.unwrap_or(1))?;
+        let (node, _) = self.node(ctx, link, at.node.unwrap_or(NodeId::FACTORY.get()))?;
         Ok(backup::cdios::restore(node, m, file, live, steps.skip, steps.stop)?)
     }
 
     fn ensure_at_rest(&mut self, ctx: &Ctx, link: &BenchLink, at: Address) -> anyhow::Result<()> {
         let m = module(at)?;
-        let (node, _) = self.node(ctx, link, at.node.unwrap_or(1))?;
+        let (node, _) = self.node(ctx, link, at.node.unwrap_or(NodeId::FACTORY.get()))?;
         Ok(backup::cdios::ensure_at_rest(node, m)?)
     }
 
     /// The EEPROM store (05h) of one module.
     fn store(&mut self, ctx: &Ctx, link: &BenchLink, at: Address) -> anyhow::Result<()> {
         let m = module(at)?;
-        let (node, _) = self.node(ctx, link, at.node.unwrap_or(1))?;
+        let (node, _) = self.node(ctx, link, at.node.unwrap_or(NodeId::FACTORY.get()))?;
         Ok(backup::cdios::store(node, m)?)
     }
 }

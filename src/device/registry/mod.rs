@@ -55,7 +55,7 @@ pub fn open<S: Sessions + ?Sized>(
         Family::PowerCube => Box::new(powercube::Cubes::new(sessions.powercube()?)),
         Family::Pac => Box::new(pac::Controller::new(sessions.pac()?)),
         Family::Cdios => {
-            let node = node.and_then(NodeId::new).unwrap_or(NodeId::new(1).expect("node 1 exists"));
+            let node = node.and_then(NodeId::new).unwrap_or(NodeId::FACTORY);
             Box::new(cdios::Node::new(sessions.cdios()?, node, retry))
         }
     })
