@@ -25,7 +25,7 @@ pub struct Selection {
     #[arg(long, conflicts_with = "module")]
     pub all: bool,
     /// Only these devices, of any family on any link of the bench: powercube:ID, pac, pac:AXIS, cdios:NODE/MODULE or bench-file names, comma-separated (one that does not answer: exit 4, nothing written)
-    #[arg(short, long, value_name = "DEVICE[,DEVICE...]", value_delimiter = ',', num_args = 1,
+    #[arg(short, long, value_name = "DEVICE[,DEVICE...]", value_delimiter = ',', num_args = 1, add = super::complete::bench_devices(None),
           conflicts_with_all = ["family", "module", "node", "all"])]
     pub device: Vec<DeviceRef>,
 }
@@ -47,7 +47,7 @@ pub enum BackupCommand {
         /// A second backup to compare with instead of the live bench
         file2: Option<PathBuf>,
         /// Compare only these devices of the file: addresses (powercube:ID, pac, pac:AXIS, cdios:NODE/MODULE) or bench-file names, comma-separated
-        #[arg(short, long, value_name = "DEVICE[,DEVICE...]", value_delimiter = ',', num_args = 1)]
+        #[arg(short, long, value_name = "DEVICE[,DEVICE...]", value_delimiter = ',', num_args = 1, add = super::complete::bench_devices(None))]
         device: Vec<DeviceRef>,
     },
     /// Write a backup's settings back: shows the diff, checks every value, then writes and reads back
@@ -67,7 +67,7 @@ pub enum BackupCommand {
         #[arg(long)]
         store: bool,
         /// Restore only these devices of the file: addresses (powercube:ID, pac, pac:AXIS, cdios:NODE/MODULE) or bench-file names, comma-separated
-        #[arg(short, long, value_name = "DEVICE[,DEVICE...]", value_delimiter = ',', num_args = 1)]
+        #[arg(short, long, value_name = "DEVICE[,DEVICE...]", value_delimiter = ',', num_args = 1, add = super::complete::bench_devices(None))]
         device: Vec<DeviceRef>,
     },
 }

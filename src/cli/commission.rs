@@ -23,6 +23,6 @@ pub struct CommissionArgs {
     #[arg(long)]
     pub dry_run: bool,
     /// Only these devices of the plan (or of the default plan; with --print-plan, the plan for them): powercube:ID, pac, pac:AXIS, cdios:NODE/MODULE or bench-file names, comma-separated
-    #[arg(short, long, value_name = "DEVICE[,DEVICE...]", value_delimiter = ',', num_args = 1)]
+    #[arg(short, long, value_name = "DEVICE[,DEVICE...]", value_delimiter = ',', num_args = 1, add = super::complete::bench_devices(None))]
     pub device: Vec<DeviceRef>,
 }

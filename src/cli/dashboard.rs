@@ -39,7 +39,7 @@ pub struct DashboardArgs {
     #[arg(long, value_name = "FAMILY", value_parser = parse_family)]
     pub without: Vec<Family>,
     /// Only these devices, of any family on any link of the bench (instead of -m, --axis, --node, --cdios-module): powercube:ID, pac, pac:AXIS, cdios:NODE/MODULE or bench-file names, comma-separated
-    #[arg(short, long, value_name = "DEVICE[,DEVICE...]", value_delimiter = ',', num_args = 1,
+    #[arg(short, long, value_name = "DEVICE[,DEVICE...]", value_delimiter = ',', num_args = 1, add = super::complete::bench_devices(None),
           conflicts_with_all = ["modules", "axes", "node", "cdios_modules", "without", "cube_link", "pac_link", "cdios_link"])]
     pub device: Vec<DeviceRef>,
 }

@@ -27,7 +27,8 @@ pub struct MonitorArgs {
         value_name = "DEVICE[,DEVICE...]",
         value_delimiter = ',',
         num_args = 1,
-        conflicts_with = "module"
+        conflicts_with = "module",
+        add = super::complete::bench_devices(None)
     )]
     pub device: Vec<DeviceRef>,
     /// Only these CAN ids, hex (e.g. 0F1; repeatable)

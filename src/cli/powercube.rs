@@ -105,7 +105,8 @@ pub enum PowerCubeCommand {
             value_name = "DEVICE[,DEVICE...]",
             value_delimiter = ',',
             num_args = 1,
-            conflicts_with = "ids"
+            conflicts_with = "ids",
+            add = super::complete::bench_devices(None)
         )]
         device: Vec<DeviceRef>,
     },
