@@ -2,12 +2,14 @@
 
 use std::path::PathBuf;
 
+use axisctl::bench::DeviceRef;
 use axisctl::family::{Family, CDIOS_NODE, POWERCUBE_MODULE};
 use clap::{Args, Subcommand};
 
 use super::ids;
 
-/// Which devices of the link: the families, and the PowerCube modules.
+/// Which devices of the bench: the families and the PowerCube modules, or
+/// the devices themselves (`-d`).
 #[derive(Debug, Args)]
 pub struct Selection {
     /// Only these families (powercube, pac, cdios; repeat or comma-separate); default: every family of every link of the bench
@@ -22,6 +24,10 @@ pub struct Selection {
     /// Every device of the bench (the default; says so in a script)
     #[arg(long, conflicts_with = "module")]
     pub all: bool,
+    /// Only these devices, of any family on any link of the bench: powercube:ID, pac, pac:AXIS, cdios:NODE/MODULE or bench-file names, comma-separated (one that does not answer: exit 4, nothing written)
+    #[arg(short, long, value_name = "DEVICE[,DEVICE...]", value_delimiter = ',', num_args = 1, add = super::complete::bench_devices(None),
+          conflicts_with_all = ["family", "module", "node", "all"])]
+    pub device: Vec<DeviceRef>,
 }
 
 #[derive(Debug, Subcommand)]
@@ -40,6 +46,9 @@ pub enum BackupCommand {
         file: PathBuf,
         /// A second backup to compare with instead of the live bench
         file2: Option<PathBuf>,
+        /// Compare only these devices of the file: addresses (powercube:ID, pac, pac:AXIS, cdios:NODE/MODULE) or bench-file names, comma-separated
+        #[arg(short, long, value_name = "DEVICE[,DEVICE...]", value_delimiter = ',', num_args = 1, add = super::complete::bench_devices(None))]
+        device: Vec<DeviceRef>,
     },
     /// Write a backup's settings back: shows the diff, checks every value, then writes and reads back
     Restore {
@@ -57,5 +66,8 @@ pub enum BackupCommand {
         /// Cdios: store the configuration in the module's EEPROM (05h) after the restore
         #[arg(long)]
         store: bool,
+        /// Restore only these devices of the file: addresses (powercube:ID, pac, pac:AXIS, cdios:NODE/MODULE) or bench-file names, comma-separated
+        #[arg(short, long, value_name = "DEVICE[,DEVICE...]", value_delimiter = ',', num_args = 1, add = super::complete::bench_devices(None))]
+        device: Vec<DeviceRef>,
     },
 }

@@ -2,6 +2,7 @@
 
 use std::path::PathBuf;
 
+use axisctl::bench::DeviceRef;
 use clap::Args;
 
 #[derive(Debug, Args)]
@@ -21,4 +22,7 @@ pub struct CommissionArgs {
     /// Run only the checks that do not move; list the motions the plan would make
     #[arg(long)]
     pub dry_run: bool,
+    /// Only these devices of the plan (or of the default plan; with --print-plan, the plan for them): powercube:ID, pac, pac:AXIS, cdios:NODE/MODULE or bench-file names, comma-separated
+    #[arg(short, long, value_name = "DEVICE[,DEVICE...]", value_delimiter = ',', num_args = 1, add = super::complete::bench_devices(None))]
+    pub device: Vec<DeviceRef>,
 }

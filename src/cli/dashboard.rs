@@ -3,6 +3,7 @@
 use clap::Args;
 
 use super::ids::{self, IdList};
+use axisctl::bench::DeviceRef;
 use axisctl::family::{Family, CDIOS_MODULE, CDIOS_NODE, PAC_AXIS, POWERCUBE_MODULE};
 
 #[derive(Debug, Args)]
@@ -37,6 +38,10 @@ pub struct DashboardArgs {
     /// Leave out families: powercube, pac, cdios (repeatable)
     #[arg(long, value_name = "FAMILY", value_parser = parse_family)]
     pub without: Vec<Family>,
+    /// Only these devices, of any family on any link of the bench (instead of -m, --axis, --node, --cdios-module): powercube:ID, pac, pac:AXIS, cdios:NODE/MODULE or bench-file names, comma-separated
+    #[arg(short, long, value_name = "DEVICE[,DEVICE...]", value_delimiter = ',', num_args = 1, add = super::complete::bench_devices(None),
+          conflicts_with_all = ["modules", "axes", "node", "cdios_modules", "without", "cube_link", "pac_link", "cdios_link"])]
+    pub device: Vec<DeviceRef>,
 }
 
 /// A family by its registry name or alias.

@@ -4,7 +4,14 @@
 
 /// (subcommand path, example command lines after `axisctl`).
 pub const EXAMPLES: &[(&str, &[&str])] = &[
-    ("scan", &["--link socketcan:can0 scan", "--link sim --json scan -m 3,5,17"]),
+    (
+        "scan",
+        &[
+            "--link socketcan:can0 scan",
+            "--link sim --json scan -m 3,5,17",
+            "--link sim --json scan -d powercube:3,pac:2,cdios:1/0",
+        ],
+    ),
     ("info", &["--link sim info -m 17"]),
     (
         "state",
@@ -70,7 +77,14 @@ pub const EXAMPLES: &[(&str, &[&str])] = &[
         "send",
         &["--link sim send 0C3#0A3C", "--link sim --json send 0C3#0A3C --listen 200", "--link sim send '190C;1;0;0'"],
     ),
-    ("monitor", &["--link slcan:/dev/ttyACM0 monitor -m 3,5", "monitor --from-log bus.log --family powercube --stats"]),
+    (
+        "monitor",
+        &[
+            "--link slcan:/dev/ttyACM0 monitor -m 3,5",
+            "monitor --from-log bus.log --family powercube --stats",
+            "--link slcan:/dev/ttyACM0 --link serial:/dev/ttyUSB0 monitor -d powercube:3,cdios:1/0",
+        ],
+    ),
     ("cdios-identify", &["--link sim cdios-identify", "--link sim --json cdios-identify --node 1"]),
     (
         "cdios-status",
@@ -125,7 +139,14 @@ pub const EXAMPLES: &[(&str, &[&str])] = &[
         ],
     ),
     ("shell", &["--link sim shell", "--link socketcan:can0 shell --history /tmp/axisctl-history"]),
-    ("dashboard", &["--link sim dashboard", "--link socketcan:can0 dashboard -m 3,5,17 --without pac"]),
+    (
+        "dashboard",
+        &[
+            "--link sim dashboard",
+            "--link socketcan:can0 dashboard -m 3,5,17 --without pac",
+            "--link sim dashboard -d powercube:17,pac:2,cdios:1/1",
+        ],
+    ),
     ("pac-online", &["--link sim pac-online"]),
     ("pac-offline", &["--link 'sim?pac=online' pac-offline"]),
     ("pac-stop", &["--link 'sim?pac=online' pac-stop"]),
@@ -186,9 +207,17 @@ pub const EXAMPLES: &[(&str, &[&str])] = &[
             "--link serial:/dev/ttyUSB0 backup --family pac --out pac.json",
             "--link slcan:/dev/ttyACM0 --link serial:/dev/ttyUSB0 backup --out bench.json",
             "--link sim backup --out - | axisctl --link sim diff -",
+            "--link sim backup -d powercube:3,pac:2,cdios:1/0 --out three.json",
         ],
     ),
-    ("diff", &["--link sim diff bench.json", "--json diff before.json after.json"]),
+    (
+        "diff",
+        &[
+            "--link sim diff bench.json",
+            "--json diff before.json after.json",
+            "--link sim diff bench.json -d powercube:3,pac:2",
+        ],
+    ),
     (
         "restore",
         &[
@@ -196,6 +225,7 @@ pub const EXAMPLES: &[(&str, &[&str])] = &[
             "--link sim restore bench.json --skip-invalid",
             "--link socketcan:can0 restore module17.json --to 12",
             "--link sim restore cdios.json --store",
+            "--link sim restore bench.json -d cdios:1/0,pac --dry-run",
         ],
     ),
     (
@@ -216,6 +246,7 @@ pub const EXAMPLES: &[(&str, &[&str])] = &[
             "--link sim commission --print-plan > plan.toml",
             "--link sim commission --plan plan.toml --out handover --yes",
             "--link sim commission --out check --dry-run",
+            "--link sim commission -d powercube:3 --out m3 --yes",
         ],
     ),
     (

@@ -5,6 +5,7 @@ use std::path::PathBuf;
 use clap::Args;
 
 use super::ids::{self, IdList};
+use axisctl::bench::DeviceRef;
 use axisctl::family::{IdRange, CDIOS_MODULE, POWERCUBE_MODULE};
 use axisctl::monitor::{FamilyFilter, IdFilter};
 
@@ -19,6 +20,17 @@ pub struct MonitorArgs {
     /// Only frames of these module ids, e.g. 3,5 or 1-8 (PowerCube 1 to 31, Cdios 0 to 15; repeatable)
     #[arg(short, long, value_name = "IDS", value_parser = ids::list(ANY_MODULE))]
     pub module: Vec<IdList>,
+    /// Only frames of these devices (instead of -m): powercube:ID, cdios:NODE/MODULE or bench-file names, comma-separated; live, the link they are on is listened to
+    #[arg(
+        short,
+        long,
+        value_name = "DEVICE[,DEVICE...]",
+        value_delimiter = ',',
+        num_args = 1,
+        conflicts_with = "module",
+        add = super::complete::bench_devices(None)
+    )]
+    pub device: Vec<DeviceRef>,
     /// Only these CAN ids, hex (e.g. 0F1; repeatable)
     #[arg(long, value_name = "HEX")]
     pub id: Vec<String>,

@@ -43,8 +43,12 @@ impl Command {
                 false => super::parse_words(&args.motion).ok().and_then(|cli| cli.command.starts_motion(names)),
             },
             // Every PowerCube module of the plan may move (it halts them
-            // itself on every way out).
-            Self::Commission(a) if !a.dry_run && !a.print_plan => Some(MotionTarget::CubeBus),
+            // itself on every way out); with one device named (`-d`), that
+            // device, whatever its family.
+            Self::Commission(a) if !a.dry_run && !a.print_plan => match &a.device[..] {
+                [one] => names(one).and_then(|at| MotionTarget::try_from(at).ok()),
+                _ => Some(MotionTarget::CubeBus),
+            },
             Self::Send(args) => args.starts_motion(),
             Self::Commission(_)
             | Self::Decode { .. }
@@ -266,6 +270,11 @@ mod tests {
             ("move-vel -d slide 0.1", None),
             ("move-step -d nobody 0.1 --time 100", None),
             ("record -m 17 ActPos -- move-vel -d wrist 0.1", Some(cube(9))),
+            ("commission --out o --yes", Some(MotionTarget::CubeBus)),
+            ("commission -d slide --out o --yes", Some(MotionTarget::PacAxis(2))),
+            ("commission -d wrist --out o --yes", Some(cube(9))),
+            ("commission -d wrist,slide --out o --yes", Some(MotionTarget::CubeBus)),
+            ("commission -d slide --out o --dry-run", None),
         ] {
             assert_eq!(parse(line).starts_motion(&names), target, "{line}");
         }

@@ -98,6 +98,17 @@ pub enum PowerCubeCommand {
         #[arg(short = 'm', long = "module", alias = "ids", value_name = "LIST", default_value = "1-31",
               value_parser = ids::list(POWERCUBE_MODULE))]
         ids: IdList,
+        /// Probe only these devices, of any family on any link of the bench (instead of -m): powercube:ID, pac, pac:AXIS, cdios:NODE/MODULE or bench-file names, comma-separated; one that does not answer is listed as missing (exit 4)
+        #[arg(
+            short,
+            long,
+            value_name = "DEVICE[,DEVICE...]",
+            value_delimiter = ',',
+            num_args = 1,
+            conflicts_with = "ids",
+            add = super::complete::bench_devices(None)
+        )]
+        device: Vec<DeviceRef>,
     },
     /// Identity, kind, limits, position and state of modules
     Info(ModulesArg),

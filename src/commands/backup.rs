@@ -9,7 +9,7 @@ use std::collections::BTreeSet;
 use std::path::Path;
 
 use axisctl::backup::{self, Address, Device, Difference, Document, Problem, ValueResult};
-use axisctl::bench::{self, Bench, BenchError, BenchLink};
+use axisctl::bench::{self, Bench, BenchError, BenchLink, DeviceRef};
 use axisctl::device::supervisor;
 use axisctl::family::{Family, CDIOS_MODULE, POWERCUBE_MODULE};
 use axisctl::link::LinkSpec;
@@ -18,15 +18,16 @@ use serde_json::{json, Value};
 
 use super::{usage, Ctx, Interrupted, NoAnswer};
 use crate::cli::backup::{BackupCommand, Selection};
+use crate::cli::ids;
 use crate::output::{self, say};
 use live::{Live, Wanted};
 
 pub fn run(ctx: &Ctx, cmd: BackupCommand) -> anyhow::Result<()> {
     match cmd {
         BackupCommand::Backup { select, out } => save(ctx, &select, out.as_deref()),
-        BackupCommand::Diff { file, file2 } => diff(ctx, &file, file2.as_deref()),
-        BackupCommand::Restore { file, dry_run, skip_invalid, to, store } => {
-            restore(ctx, &file, Options { dry_run, skip_invalid, to, store })
+        BackupCommand::Diff { file, file2, device } => diff(ctx, &file, file2.as_deref(), &device),
+        BackupCommand::Restore { file, dry_run, skip_invalid, to, store, device } => {
+            restore(ctx, &file, Options { dry_run, skip_invalid, to, store }, &device)
         }
     }
 }
@@ -133,7 +134,9 @@ fn envelope(at: Address, link: &str) -> serde_json::Map<String, Value> {
     doc
 }
 
-fn save(ctx: &Ctx, select: &Selection, out: Option<&Path>) -> anyhow::Result<()> {
+/// The devices of a backup by family (`--family`, `-m`, `--node`, or every
+/// device of the bench), and the links they are on.
+fn read_selection<'c>(ctx: &'c Ctx, select: &Selection) -> anyhow::Result<(Vec<Device>, Vec<&'c str>)> {
     // -m names PowerCube modules: alone, it selects them only.
     let named = if select.family.is_empty() && select.module.is_some() {
         vec![Family::PowerCube]
@@ -145,13 +148,17 @@ fn save(ctx: &Ctx, select: &Selection, out: Option<&Path>) -> anyhow::Result<()>
     if select.module.is_some() && !pairs.iter().any(|(_, f)| *f == Family::PowerCube) {
         return Err(usage("-m names PowerCube modules, but the backup reads no PowerCube"));
     }
-    // `--out -` is stdout, as no --out.
-    let out = out.filter(|p| *p != Path::new("-"));
+    let modules = match &select.module {
+        Some(ids::Devices::One(id)) => Some(vec![*id]),
+        Some(ids::Devices::List(list)) => Some(list.0.clone()),
+        Some(ids::Devices::All) | None => None,
+    };
     let mut live = Live::new(ctx);
     let mut links: Vec<&str> = Vec::new();
     let mut devices = Vec::new();
     for (link, family) in pairs {
-        let wanted = Wanted { select, nodes: nodes(bench, link, select.node), named: !named.is_empty() };
+        let wanted =
+            Wanted { modules: modules.clone(), nodes: nodes(bench, link, select.node), named: !named.is_empty() };
         for at in live.present(link, family, &wanted)? {
             devices.push(live.capture(link, at)?);
         }
@@ -172,6 +179,55 @@ fn save(ctx: &Ctx, select: &Selection, out: Option<&Path>) -> anyhow::Result<()>
             NoAnswer(format!("expected but not answering: {}; no backup was written", absent.join(", "))).into()
         );
     }
+    Ok((devices, links))
+}
+
+/// `backup -d`: exactly the devices named, in the order named, each read on
+/// its own link. Each is first asked of its family as a whole backup asks
+/// (the modules a Cdios node reports, the axes a PA-CONTROL has configured,
+/// which also wants it in home position), so one that is not there is told
+/// from one that fails. One that does not answer is named and nothing is
+/// written (exit 4), as a device the bench file expects.
+fn read_named<'c>(ctx: &'c Ctx, refs: &[DeviceRef]) -> anyhow::Result<(Vec<Device>, Vec<&'c str>)> {
+    let named = super::devices::any_family(ctx, refs)?;
+    let mut live = Live::new(ctx);
+    let (mut links, mut devices, mut absent): (Vec<&str>, _, Vec<String>) = (Vec::new(), Vec::new(), Vec::new());
+    for (at, link) in named {
+        let one = Address::from(at);
+        let (modules, nodes) = match at {
+            bench::Address::PowerCube { module } => (Some(vec![module]), Vec::new()),
+            bench::Address::Cdios { node, .. } => (None, vec![node]),
+            bench::Address::Pac { .. } => (None, Vec::new()),
+        };
+        let wanted = Wanted { modules, nodes, named: true };
+        let read = live.present(link, one.family, &wanted).and_then(|there| {
+            if there.contains(&one) {
+                live.capture(link, one)
+            } else {
+                Err(NoAnswer(format!("the {} reports no {at}", one.family)).into())
+            }
+        });
+        match read {
+            Ok(d) => devices.push(d),
+            Err(e) if live::is_missing(&e) || e.is::<NoAnswer>() => {
+                absent.push(format!("{at} (on {}): {}", link.text, super::error_json::message(&e)));
+            }
+            Err(e) => return Err(e),
+        }
+        if !links.contains(&link.text.as_str()) {
+            links.push(&link.text);
+        }
+    }
+    live::done();
+    if !absent.is_empty() {
+        return Err(NoAnswer(format!("named but not answering: {}; no backup was written", absent.join(", "))).into());
+    }
+    Ok((devices, links))
+}
+
+fn save(ctx: &Ctx, select: &Selection, out: Option<&Path>) -> anyhow::Result<()> {
+    let (devices, links) =
+        if select.device.is_empty() { read_selection(ctx, select)? } else { read_named(ctx, &select.device)? };
     let doc = Document {
         schema: backup::SCHEMA.into(),
         created_by: format!("axisctl {}", env!("AXISCTL_VERSION")),
@@ -179,7 +235,8 @@ fn save(ctx: &Ctx, select: &Selection, out: Option<&Path>) -> anyhow::Result<()>
         devices,
     };
     let text = serde_json::to_string_pretty(&doc)?;
-    let Some(path) = out else {
+    // `--out -` is stdout, as no --out.
+    let Some(path) = out.filter(|p| *p != Path::new("-")) else {
         say!("{text}");
         return Ok(());
     };
@@ -205,6 +262,47 @@ fn read_file(path: &Path) -> anyhow::Result<Document> {
     Ok(backup::parse(&path.display().to_string(), &text)?)
 }
 
+/// `diff -d` / `restore -d`: the devices of `doc` named, in the file's
+/// order (a device on two links of the file: both). A device named that the
+/// file does not hold is a usage error before anything opens. A bench-file
+/// name needs the bench; an address does not (a diff of two files).
+fn only_named(ctx: &Ctx, path: &Path, mut doc: Document, refs: &[DeviceRef]) -> anyhow::Result<Document> {
+    if refs.is_empty() {
+        return Ok(doc);
+    }
+    let mut wanted = Vec::new();
+    for r in refs {
+        let at = match r {
+            DeviceRef::Address(a) => *a,
+            DeviceRef::Name(_) => ctx.bench()?.resolve(r)?,
+        };
+        let one = Address::from(at);
+        if !doc.devices.iter().any(|d| d.address() == one) {
+            let held: Vec<String> = doc.devices.iter().map(|d| as_written(d.address())).collect();
+            let named = if r.to_string() == at.to_string() { r.to_string() } else { format!("{r} ({at})") };
+            return Err(usage(format!(
+                "{named} is not a device of {}; nothing was sent (it holds {})",
+                path.display(),
+                if held.is_empty() { "none".into() } else { held.join(", ") }
+            )));
+        }
+        wanted.push(one);
+    }
+    doc.devices.retain(|d| wanted.contains(&d.address()));
+    Ok(doc)
+}
+
+/// A file's device as `-d` takes it (`powercube:3`), or in the file's own
+/// terms when its ids are no device's (`powercube module 40`).
+fn as_written(a: Address) -> String {
+    let (first, second) = match a.family {
+        Family::Cdios => (a.node, a.module),
+        Family::Pac => (a.axis, None),
+        Family::PowerCube => (a.module, None),
+    };
+    bench::Address::of_ids(a.family, first, second).map_or_else(|| a.to_string(), |one| one.to_string())
+}
+
 /// The live bench in the shape of `file`: each of its devices read at its
 /// own address on the link that reaches it. A device not on the bench is
 /// left out of the live side and listed; any other failure ends the diff.
@@ -223,6 +321,15 @@ fn capture_like<'d>(ctx: &Ctx, file: &'d Document) -> anyhow::Result<(Document, 
     live::done();
     let links: Vec<&str> = bench.links().iter().map(|l| l.text.as_str()).collect();
     Ok((Document { devices, link: links.join(" "), ..file.clone() }, missing))
+}
+
+/// `right` with only the devices `left` holds when `-d` cut `left` to the
+/// devices named; whole otherwise (a device only in `right` is a difference).
+fn keep_like(mut right: Document, left: &Document, named: &[DeviceRef]) -> Document {
+    if !named.is_empty() {
+        right.devices.retain(|d| left.devices.iter().any(|l| l.address() == d.address()));
+    }
+    right
 }
 
 fn diff_json(diffs: &[backup::DeviceDiff]) -> Vec<Value> {
@@ -271,10 +378,11 @@ fn plural(n: usize) -> &'static str {
     }
 }
 
-fn diff(ctx: &Ctx, file: &Path, file2: Option<&Path>) -> anyhow::Result<()> {
-    let left = read_file(file)?;
+fn diff(ctx: &Ctx, file: &Path, file2: Option<&Path>, named: &[DeviceRef]) -> anyhow::Result<()> {
+    let left = only_named(ctx, file, read_file(file)?, named)?;
     let (right, right_name, missing) = match file2 {
-        Some(p) => (read_file(p)?, p.display().to_string(), Vec::new()),
+        // The second file's devices of the same name: one it lacks shows as a difference.
+        Some(p) => (keep_like(read_file(p)?, &left, named), p.display().to_string(), Vec::new()),
         None => {
             let (doc, missing) = capture_like(ctx, &left)?;
             (doc, "live".to_string(), missing)
@@ -319,7 +427,8 @@ fn targets(doc: &Document, to: Option<u8>) -> anyhow::Result<Vec<(Device, Addres
     let Some(to) = to else { return Ok(doc.devices.iter().map(|d| (d.clone(), d.address())).collect()) };
     let [one] = &doc.devices[..] else {
         return Err(usage(format!(
-            "--to names one device, but the file holds {}: take a backup of one device (backup -m ID)",
+            "--to names one device, but {} are to be restored: name one with -d, or take a backup of one device \
+             (backup -d DEVICE)",
             doc.devices.len()
         )));
     };
@@ -360,8 +469,8 @@ fn problems_text(problems: &Problems) -> String {
     problems.iter().map(|(_, p)| format!("\n  {p}")).collect()
 }
 
-fn restore(ctx: &Ctx, path: &Path, opts: Options) -> anyhow::Result<()> {
-    let doc = read_file(path)?;
+fn restore(ctx: &Ctx, path: &Path, opts: Options, named: &[DeviceRef]) -> anyhow::Result<()> {
+    let doc = only_named(ctx, path, read_file(path)?, named)?;
     let pairs = targets(&doc, opts.to)?;
     if opts.store && !pairs.iter().any(|(d, _)| d.family == Family::Cdios) {
         return Err(usage("--store stores a Cdios configuration, but the file holds no Cdios device"));

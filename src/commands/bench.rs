@@ -65,10 +65,10 @@ pub fn scan(ctx: &Ctx, ids: &[u8]) -> anyhow::Result<()> {
             }
         }
     }
-    let missing: Vec<(&str, Address, &str)> = bench
+    let missing: Vec<(Option<&str>, Address, &str)> = bench
         .links()
         .iter()
-        .flat_map(|l| l.devices.iter().map(move |(n, a)| (n.as_str(), *a, l.text.as_str())))
+        .flat_map(|l| l.devices.iter().map(move |(n, a)| (Some(n.as_str()), *a, l.text.as_str())))
         .filter(|(_, a, _)| !seen.iter().any(|s| s.address == *a))
         .collect();
     print_scan(ctx, bench, &seen, &missing);
@@ -76,10 +76,66 @@ pub fn scan(ctx: &Ctx, ids: &[u8]) -> anyhow::Result<()> {
         return Err(NoAnswer(format!("no device answered on any link of the bench: {}", bench.describe())).into());
     }
     if !missing.is_empty() {
-        let names: Vec<_> = missing.iter().map(|(n, a, l)| format!("{n} ({a} on {l})")).collect();
+        let names: Vec<_> = missing.iter().map(|(n, a, l)| format!("{} ({a} on {l})", n.unwrap_or("-"))).collect();
         return Err(NoAnswer(format!("expected but not answering: {}", names.join(", "))).into());
     }
     Ok(())
+}
+
+/// `scan -d DEVICE,...`: probes only the devices named, each on its link
+/// through its family's face (the PowerCube modules named, the PA-CONTROL,
+/// the Cdios node of each module named), and lists those that answered;
+/// the others are missing (exit 4), as a bench file's expected devices are.
+/// Every device is checked before a link opens.
+pub fn scan_devices(ctx: &Ctx, refs: &[DeviceRef]) -> anyhow::Result<()> {
+    let named = super::devices::any_family(ctx, refs)?;
+    let bench = ctx.bench()?;
+    share_links(ctx);
+    // One face per link, family and unit (a Cdios node), in the order named.
+    let mut units: Vec<(&BenchLink, Family, Option<u8>)> = Vec::new();
+    for (at, link) in &named {
+        let unit = registry::units(at.family(), &cdios_node(*at)).into_iter().next().flatten();
+        if !units.iter().any(|(l, f, u)| l.text == link.text && *f == at.family() && *u == unit) {
+            units.push((link, at.family(), unit));
+        }
+    }
+    let mut seen = Vec::new();
+    for (link, family, unit) in units {
+        // The ids to probe where the family probes a range: the modules named.
+        let ids: Vec<u8> = named
+            .iter()
+            .filter_map(|(at, l)| match at {
+                Address::PowerCube { module } if l.text == link.text => Some(*module),
+                _ => None,
+            })
+            .collect();
+        let mut face = registry::open(family, unit, &mut on(ctx, link), ctx.retry)?;
+        for f in face.discover(&ids)? {
+            let Ok(address) = Address::try_from(f.target) else { continue };
+            if named.iter().any(|(a, l)| *a == address && l.text == link.text) {
+                seen.push(Seen { address, link: link.text.clone(), detail: f.detail });
+            }
+        }
+    }
+    let missing: Vec<(Option<&str>, Address, &str)> = named
+        .iter()
+        .filter(|(a, l)| !seen.iter().any(|s| s.address == *a && s.link == l.text))
+        .map(|(a, l)| (bench.name_of(*a), *a, l.text.as_str()))
+        .collect();
+    print_scan(ctx, bench, &seen, &missing);
+    if !missing.is_empty() {
+        let names: Vec<_> = missing.iter().map(|(_, a, l)| format!("{a} (on {l})")).collect();
+        return Err(NoAnswer(format!("named but not answering: {}", names.join(", "))).into());
+    }
+    Ok(())
+}
+
+/// The node of a Cdios device, as [`registry::units`] takes it.
+fn cdios_node(at: Address) -> Vec<u8> {
+    match at {
+        Address::Cdios { node, .. } => vec![node],
+        _ => Vec::new(),
+    }
 }
 
 /// The envelope of docs/json.md for a device of the bench: family, link, the
@@ -106,7 +162,7 @@ fn envelope(family: Family, link: &str, address: Option<Address>, node: Option<u
     o
 }
 
-fn print_scan(ctx: &Ctx, bench: &Bench, seen: &[Seen], missing: &[(&str, Address, &str)]) {
+fn print_scan(ctx: &Ctx, bench: &Bench, seen: &[Seen], missing: &[(Option<&str>, Address, &str)]) {
     let name = |a: Address| bench.name_of(a).map(str::to_string);
     if ctx.json {
         let devices: Vec<Value> = seen
@@ -134,7 +190,12 @@ fn print_scan(ctx: &Ctx, bench: &Bench, seen: &[Seen], missing: &[(&str, Address
         rows.push(vec![s.address.to_string(), name(s.address).unwrap_or("-".into()), s.link.clone(), s.detail.clone()]);
     }
     for (n, a, l) in missing {
-        rows.push(vec![a.to_string(), n.to_string(), l.to_string(), ctx.style.error("missing: no answer")]);
+        rows.push(vec![
+            a.to_string(),
+            n.unwrap_or("-").to_string(),
+            l.to_string(),
+            ctx.style.error("missing: no answer"),
+        ]);
     }
     output::table(&rows, ctx.style);
 }
@@ -228,13 +289,10 @@ pub fn halt_all(ctx: &Ctx) -> anyhow::Result<()> {
 pub fn halt_devices(ctx: &Ctx, devices: &[DeviceRef]) -> anyhow::Result<()> {
     let bench = ctx.bench()?;
     let mut named: Vec<(Address, &BenchLink, MotionTarget)> = Vec::new();
-    for d in devices {
-        let at = bench.resolve(d)?;
+    for (at, link) in super::devices::any_family(ctx, devices)? {
         let target = MotionTarget::try_from(at)
             .map_err(|_| super::usage(format!("{at} is not a device its family can stop")))?;
-        if !named.iter().any(|(a, ..)| *a == at) {
-            named.push((at, bench.link_of(at)?, target));
-        }
+        named.push((at, link, target));
     }
     share_links(ctx);
     let mut halts = Halts::default();

@@ -10,8 +10,9 @@ use std::path::{Path, PathBuf};
 use std::time::SystemTime;
 
 use axisctl::backup::{self, Document};
+use axisctl::bench::{Address, DeviceRef};
 use axisctl::commission::devices::{self, Planned};
-use axisctl::commission::plan::Plan;
+use axisctl::commission::plan::{DevicePlan, Plan};
 use axisctl::commission::report::{self, Check, Report};
 use axisctl::commission::{Run, BACKUP_FILE};
 use axisctl::device::supervisor;
@@ -19,13 +20,15 @@ use serde_json::json;
 
 mod out_dir;
 
-use super::{usage, Ctx, DeviceFault, Interrupted, OnBench};
+use super::{usage, Ctx, DeviceFault, Interrupted, NoAnswer, OnBench};
 use crate::cli::commission::CommissionArgs;
 use crate::output::{self, say};
 
 pub fn run(ctx: &Ctx, args: CommissionArgs) -> anyhow::Result<()> {
+    // `-d`: the devices named, each checked before anything opens.
+    let only = named(ctx, &args.device)?;
     if args.print_plan {
-        let plan = default_plan(ctx)?;
+        let plan = default_plan(ctx, &only)?;
         if ctx.json {
             output::json(&json!({"command": "commission", "plan": plan}));
         } else {
@@ -36,8 +39,8 @@ pub fn run(ctx: &Ctx, args: CommissionArgs) -> anyhow::Result<()> {
     let out = args.out.clone().ok_or_else(|| usage("--out DIR is needed: where the report is written"))?;
     let earlier = out_dir::inspect(&out).map_err(usage)?;
     let (plan, plan_dir) = match &args.plan {
-        Some(p) => (read_plan(p)?, p.parent().map(Path::to_path_buf).unwrap_or_default()),
-        None => (default_plan(ctx)?, PathBuf::new()),
+        Some(p) => (of_plan(ctx, read_plan(p)?, &only, p)?, p.parent().map(Path::to_path_buf).unwrap_or_default()),
+        None => (default_plan(ctx, &only)?, PathBuf::new()),
     };
     // Every address and file of the plan is checked before anything is sent.
     let devices = devices::resolve(ctx.bench()?, &plan).map_err(usage)?;
@@ -266,12 +269,57 @@ fn print_summary(ctx: &Ctx, report: &Report, out: &Path) {
     );
 }
 
-/// The default plan for every device of every family the bench carries.
-fn default_plan(ctx: &Ctx) -> anyhow::Result<Plan> {
+/// The devices `commission -d` names, in the order given and each once;
+/// each family is then run on the link its devices are on.
+fn named(ctx: &Ctx, refs: &[DeviceRef]) -> anyhow::Result<Vec<Address>> {
+    if refs.is_empty() {
+        return Ok(Vec::new());
+    }
+    let named = super::devices::any_family(ctx, refs)?;
+    super::devices::pin_families(ctx, &named)?;
+    Ok(named.into_iter().map(|(at, _)| at).collect())
+}
+
+/// The plan's devices that `only` names (the whole plan when it names
+/// none). A device named that the plan does not have is a usage error
+/// before anything is sent; an entry that names no device of the bench is
+/// kept, so that the plan's check refuses it as it would without `-d`.
+fn of_plan(ctx: &Ctx, mut plan: Plan, only: &[Address], path: &Path) -> anyhow::Result<Plan> {
+    if only.is_empty() {
+        return Ok(plan);
+    }
+    let bench = ctx.bench()?;
+    let at = |d: &DevicePlan| d.address.parse().ok().and_then(|r: DeviceRef| bench.resolve(&r).ok());
+    if let Some(absent) = only.iter().find(|a| !plan.device.iter().any(|d| at(d) == Some(**a))) {
+        let held: Vec<&str> = plan.device.iter().map(|d| d.address.as_str()).collect();
+        return Err(usage(format!(
+            "{absent} is not a device of the plan {}; nothing was sent (it plans {})",
+            path.display(),
+            if held.is_empty() { "none".into() } else { held.join(", ") }
+        )));
+    }
+    plan.device.retain(|d| at(d).is_none_or(|a| only.contains(&a)));
+    Ok(plan)
+}
+
+/// The default plan for every device of every family the bench carries,
+/// or for the devices `only` names: one that was not found has no plan and
+/// is said (exit 4) before anything moves.
+fn default_plan(ctx: &Ctx, only: &[Address]) -> anyhow::Result<Plan> {
     ctx.opener().keep_links_open();
     let link = |f| ctx.link_text_for(f);
-    devices::default_plan(ctx.bench()?, &mut OnBench(ctx), &link).map_err(|e| match e {
+    let plan = devices::default_plan(ctx.bench()?, &mut OnBench(ctx), &link, only).map_err(|e| match e {
         axisctl::commission::DefaultPlanError::Open(e) => e,
         axisctl::commission::DefaultPlanError::Read(e) => e.into(),
-    })
+    })?;
+    let planned = |a: &Address| plan.device.iter().any(|d| d.address.parse().is_ok_and(|p: Address| p == *a));
+    let absent: Vec<String> = only.iter().filter(|a| !planned(a)).map(|a| a.to_string()).collect();
+    if !absent.is_empty() {
+        return Err(NoAnswer(format!(
+            "not found on the bench, so not planned: {}; nothing was moved",
+            absent.join(", ")
+        ))
+        .into());
+    }
+    Ok(plan)
 }

@@ -9,6 +9,7 @@
 use std::io::IsTerminal;
 use std::sync::Arc;
 
+use axisctl::bench::Address;
 use axisctl::family::{self, Family};
 use axisctl::link::LinkSpec;
 use axisctl::open::{OpenedLink, Opener, SessionOptions};
@@ -78,6 +79,57 @@ fn fits(spec: &LinkSpec, f: Family) -> Result<(), String> {
         }
         _ => Ok(()),
     }
+}
+
+/// `dashboard -d`: each family of the devices named, on the link they are
+/// on, showing those devices only: the PowerCube modules, the PA-CONTROL
+/// axes (with their controller, the pane's head; `pac` alone: the
+/// controller), the Cdios modules of one node.
+fn named(ctx: &Ctx, args: &DashboardArgs) -> anyhow::Result<(Assignment, Setup)> {
+    let named = super::devices::any_family(ctx, &args.device)?;
+    super::devices::pin_families(ctx, &named)?;
+    let mut a = Assignment::default();
+    for f in Family::ALL {
+        if let Some((_, link)) = named.iter().find(|(at, _)| at.family() == f) {
+            a.0.push((f, link.spec.clone()));
+        }
+    }
+    let list = |id: &dyn Fn(Address) -> Option<u8>| {
+        let ids: Vec<u8> = named.iter().filter_map(|(at, _)| id(*at)).collect();
+        IdList(ids)
+    };
+    let has = |f: Family| a.0.iter().any(|(g, _)| *g == f);
+    let mut setup = Setup::new(ctx, args);
+    setup.modules = has(Family::PowerCube).then(|| {
+        list(&|at| match at {
+            Address::PowerCube { module } => Some(module),
+            _ => None,
+        })
+    });
+    setup.axes = has(Family::Pac).then(|| {
+        list(&|at| match at {
+            Address::Pac { axis } => axis,
+            _ => None,
+        })
+    });
+    let cdios: Vec<(u8, u8)> = named
+        .iter()
+        .filter_map(|(at, _)| match at {
+            Address::Cdios { node, module } => Some((*node, *module)),
+            _ => None,
+        })
+        .collect();
+    if let Some((node, _)) = cdios.first() {
+        if let Some((other, _)) = cdios.iter().find(|(n, _)| n != node) {
+            return Err(usage(format!(
+                "the dashboard shows one Cdios node; {} names nodes {node} and {other}",
+                args.device.iter().map(ToString::to_string).collect::<Vec<_>>().join(",")
+            )));
+        }
+        setup.node = *node;
+        setup.cdios_modules = Some(IdList(cdios.iter().map(|(_, m)| *m).collect()));
+    }
+    Ok((a, setup))
 }
 
 fn assign(ctx: &Ctx, args: &DashboardArgs) -> anyhow::Result<Assignment> {
@@ -192,8 +244,12 @@ fn link_name(spec: &LinkSpec, can: bool) -> String {
 }
 
 fn plan(ctx: &Ctx, args: &DashboardArgs) -> anyhow::Result<Vec<LinkPlan>> {
-    // Ids were checked by clap, before any link opens: a typo sends nothing.
-    let a = assign(ctx, args)?;
+    // Ids were checked by clap, and `-d` by the bench, before any link
+    // opens: a typo sends nothing.
+    let (a, setup) = match args.device.is_empty() {
+        true => (assign(ctx, args)?, Setup::new(ctx, args)),
+        false => named(ctx, args)?,
+    };
     let opener = ctx.opener();
     // Families on one CAN link share it and its worker; a serial line carries
     // one family. Links keep the order in which their first family comes.
@@ -205,7 +261,6 @@ fn plan(ctx: &Ctx, args: &DashboardArgs) -> anyhow::Result<Vec<LinkPlan>> {
             None => links.push((spec, can, vec![*f])),
         }
     }
-    let setup = Setup::new(ctx, args);
     let mut plans = Vec::new();
     for (spec, can, fams) in links {
         let sources = setup.open(opener, &ctx.clock, spec, can, &fams)?;
@@ -317,6 +372,80 @@ mod tests {
                     let _ = s.poll(d);
                 }
             }
+        }
+    }
+
+    /// The devices the dashboard of `argv` shows (each source's discovery, in
+    /// the order of its links), after one poll of each; the PowerCube
+    /// modules its traffic names (`--log`, as candump ids 0x0A0..0x0DF).
+    fn shown(argv: &[&str]) -> (Vec<Address>, std::collections::BTreeSet<u32>) {
+        let dir = tempfile::tempdir().unwrap();
+        let log = dir.path().join("frames.log");
+        let mut all = vec!["axisctl", "--log", log.to_str().unwrap()];
+        all.extend_from_slice(&argv[1..]);
+        let cli = crate::cli::Cli::try_parse_from(&all).unwrap();
+        let ctx = Ctx::resolve(&cli.global).unwrap();
+        let crate::cli::Command::Dashboard(args) = cli.command else { panic!("not a dashboard") };
+        let mut out = Vec::new();
+        for p in plan(&ctx, &args).unwrap() {
+            for mut s in p.sources {
+                let devices = s.discover().unwrap_or_else(|e| panic!("{}: {e}", p.name));
+                for d in &devices {
+                    let _ = s.poll(*d);
+                }
+                out.extend(devices);
+            }
+        }
+        let text = std::fs::read_to_string(&log).unwrap_or_default();
+        let modules = text
+            .lines()
+            .filter_map(|l| axisctl::proto::candump::parse_candump_line(l).ok())
+            .map(|(_, _, f)| f.id())
+            .filter(|id| (0x0A0..=0x0DF).contains(id))
+            .map(|id| id & 0x1F)
+            .collect();
+        (out, modules)
+    }
+
+    /// `-d` shows exactly the devices named, of every family, by address or
+    /// bench file name; a PA-CONTROL axis with its controller.
+    #[test]
+    fn d_shows_exactly_the_devices_named() {
+        let bench = concat!(env!("CARGO_MANIFEST_DIR"), "/docs/sim-bench.toml");
+        let (pc, pac, cdios) = (
+            |module| Address::PowerCube { module },
+            |axis| Address::Pac { axis },
+            |node, module| Address::Cdios { node, module },
+        );
+        let (devices, modules) = shown(&["axisctl", "--link", "sim", "dashboard", "-d", "pac:2,powercube:5,cdios:1/1"]);
+        assert_eq!(devices, [pc(5), cdios(1, 1), pac(None), pac(Some(2))]);
+        assert_eq!(modules, [5].into(), "no frame of another module");
+        let (devices, _) = shown(&["axisctl", "--bench", bench, "dashboard", "-d", "gripper,shoulder"]);
+        assert_eq!(devices, [pc(3), cdios(1, 0)], "no PA-CONTROL source");
+        let (devices, _) = shown(&["axisctl", "--link", "sim", "dashboard", "--device", "pac"]);
+        assert_eq!(devices, [pac(None)]);
+    }
+
+    #[test]
+    fn a_device_the_dashboard_cannot_show_is_refused_before_opening() {
+        for argv in [
+            &["axisctl", "--link", "sim", "dashboard", "-d", "cdios:1/0,cdios:2/0"][..],
+            &["axisctl", "--link", "sim", "dashboard", "-d", "wrist"],
+            &["axisctl", "--link", "socketcan:axisctl-none", "dashboard", "-d", "pac:1"],
+        ] {
+            let cli = crate::cli::Cli::try_parse_from(argv).unwrap();
+            let ctx = Ctx::resolve(&cli.global).unwrap();
+            let crate::cli::Command::Dashboard(args) = cli.command else { panic!("not a dashboard") };
+            let e = plan(&ctx, &args).err().unwrap_or_else(|| panic!("{argv:?} accepted"));
+            assert_eq!(super::super::classify(&e), axisctl::session::ErrorKind::Usage, "{argv:?}: {e}");
+        }
+        for argv in [
+            &["axisctl", "--link", "sim", "dashboard", "-d", "powercube:3", "-m", "3"][..],
+            &["axisctl", "--link", "sim", "dashboard", "-d", "powercube:3", "--without", "pac"],
+            &["axisctl", "--link", "sim", "dashboard", "-d", "pac:1", "--pac-link", "sim"],
+        ] {
+            let e = crate::cli::Cli::try_parse_from(argv).err().unwrap_or_else(|| panic!("{argv:?} accepted"));
+            assert!(e.use_stderr(), "{argv:?}");
         }
     }
 

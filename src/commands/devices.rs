@@ -3,9 +3,10 @@
 //! file gives): each device resolved through the bench to the one
 //! [`Address`], checked to be of the command's family, before any link opens.
 //! The per-family flags (`-m`, `--node`, axis numbers) are shorthand for the
-//! same addresses.
+//! same addresses. The whole-bench commands (`backup -d`, `commission -d`, ...)
+//! take devices of any family on any link: [`any_family`].
 
-use axisctl::bench::{Address, DeviceRef};
+use axisctl::bench::{self, Address, BenchError, BenchLink, DeviceRef};
 use axisctl::family::Family;
 
 use super::{usage, Ctx};
@@ -47,4 +48,47 @@ pub fn of_family(ctx: &Ctx, family: Family, refs: &[DeviceRef]) -> anyhow::Resul
         ctx.pin_link(family, link);
     }
     Ok(out)
+}
+
+/// The devices `refs` name, of any family, each with the link of the bench
+/// it is reached on, in the order given and each once: what a whole-bench
+/// command limited with `-d` works on. Nothing is opened. An unknown name,
+/// or a family the one `--link` of old cannot reach (`-d pac:2` on a CAN
+/// link), is a usage error.
+pub fn any_family<'b>(ctx: &'b Ctx, refs: &[DeviceRef]) -> anyhow::Result<Vec<(Address, &'b BenchLink)>> {
+    let bench = ctx.bench()?;
+    let mut out: Vec<(Address, &BenchLink)> = Vec::new();
+    for r in refs {
+        let at = bench.resolve(r)?;
+        let link = bench.link_of(at)?;
+        if !bench::fits(&link.spec, at.family()) {
+            return Err(BenchError::NoLink { family: at.family(), links: bench.describe() }.into());
+        }
+        if !out.iter().any(|(a, _)| *a == at) {
+            out.push((at, link));
+        }
+    }
+    Ok(out)
+}
+
+/// Makes each family's link the one its `named` devices are on, for a
+/// command that opens one session per family (`commission -d`). Devices of
+/// one family on two links are a usage error.
+pub fn pin_families(ctx: &Ctx, named: &[(Address, &BenchLink)]) -> anyhow::Result<()> {
+    for (i, (at, link)) in named.iter().enumerate() {
+        let two = named[..i].iter().find(|(a, l)| a.family() == at.family() && l.text != link.text);
+        if let Some((first, l)) = two {
+            return Err(usage(format!(
+                "{first} is on {} and {at} on {}: {command} talks to the {family} on one link; run it once per link",
+                l.text,
+                link.text,
+                command = ctx.command_name(),
+                family = at.family(),
+            )));
+        }
+    }
+    for (at, link) in named {
+        ctx.pin_link(at.family(), link);
+    }
+    Ok(())
 }

@@ -204,10 +204,10 @@ pub struct Ctx {
     /// The subcommand being run as typed (`pac-online`), set by
     /// [`dispatch`]: the `command` key of its documents.
     command: std::sync::Mutex<String>,
-    /// The link `-d` pinned for the command being run: the one its devices
-    /// are on (a bench file may put a family on several links). Cleared by
-    /// [`dispatch`] for each command.
-    pinned: std::sync::Mutex<Option<(Family, String)>>,
+    /// The links `-d` pinned for the command being run, one per family: the
+    /// one its devices are on (a bench file may put a family on several
+    /// links). Cleared by [`dispatch`] for each command.
+    pinned: std::sync::Mutex<Vec<(Family, String)>>,
     /// The links as the user gave them, for the JSON envelope.
     pub link_text: String,
     pub json: bool,
@@ -266,7 +266,7 @@ impl Ctx {
             bench: bench_of(g),
             family: std::sync::Mutex::new(None),
             command: std::sync::Mutex::new(String::new()),
-            pinned: std::sync::Mutex::new(None),
+            pinned: std::sync::Mutex::new(Vec::new()),
             link_text,
             json: g.json,
             timeout: g.timeout.map(Duration::from_millis),
@@ -329,7 +329,7 @@ impl Ctx {
     /// that carries the family.
     fn family_link<'b>(&self, bench: &'b Bench, family: Family) -> Result<&'b BenchLink, BenchError> {
         let pinned = self.pinned.lock().unwrap_or_else(|e| e.into_inner());
-        match pinned.as_ref().filter(|(f, _)| *f == family) {
+        match pinned.iter().find(|(f, _)| *f == family) {
             Some((_, text)) => {
                 bench.links().iter().find(|l| l.text == *text).map_or_else(|| bench.link_for(family), Ok)
             }
@@ -340,14 +340,16 @@ impl Ctx {
     /// Makes `link` the one every session of `family` opens for the rest of
     /// the command (see [`devices::of_family`]), and the link its documents name.
     pub fn pin_link(&self, family: Family, link: &BenchLink) {
-        *self.pinned.lock().unwrap_or_else(|e| e.into_inner()) = Some((family, link.text.clone()));
+        let mut pinned = self.pinned.lock().unwrap_or_else(|e| e.into_inner());
+        pinned.retain(|(f, _)| *f != family);
+        pinned.push((family, link.text.clone()));
         crate::output::set_link(&link.text);
     }
 
     /// Forgets the link `-d` pinned: each family's first link again (a pin
     /// lasts until the next command; `batch` arms a line's halt before it).
     pub fn unpin(&self) {
-        *self.pinned.lock().unwrap_or_else(|e| e.into_inner()) = None;
+        self.pinned.lock().unwrap_or_else(|e| e.into_inner()).clear();
     }
 
     fn pick<'b>(&self, bench: &'b Bench) -> Result<&'b BenchLink, BenchError> {

@@ -5,6 +5,7 @@ use std::io::BufRead;
 use std::io::Write;
 use std::time::{Duration, SystemTime, UNIX_EPOCH};
 
+use axisctl::bench::{Address, BenchLink, DeviceRef};
 use axisctl::family::Family;
 use std::io::IsTerminal;
 
@@ -20,12 +21,14 @@ use crate::cli::MonitorArgs;
 struct Filter {
     families: Vec<FamilyFilter>,
     modules: Vec<u8>,
+    /// `-d`: the devices whose frames are shown.
+    devices: Vec<Address>,
     ids: Vec<u32>,
     masks: Vec<IdFilter>,
 }
 
 impl Filter {
-    fn new(a: &MonitorArgs) -> anyhow::Result<Self> {
+    fn new(a: &MonitorArgs, devices: Vec<Address>) -> anyhow::Result<Self> {
         let ids =
             a.id.iter()
                 .map(|i| {
@@ -38,6 +41,7 @@ impl Filter {
         Ok(Self {
             families: a.family.clone(),
             modules: a.module.iter().flat_map(|l| l.0.iter().copied()).collect(),
+            devices,
             ids,
             masks: a.filter.clone(),
         })
@@ -51,9 +55,22 @@ impl Filter {
         let CanEvent::Frame(f) = event else { return family };
         family
             && (self.modules.is_empty() || i.module.is_some_and(|m| self.modules.contains(&m)))
+            && (self.devices.is_empty() || device_of(i).is_some_and(|d| self.devices.contains(&d)))
             && (self.ids.is_empty() || self.ids.contains(&f.id()))
             && passes_any(&self.masks, f)
     }
+}
+
+/// The one device a frame is of (`powercube:3`, `cdios:1/0`), by the ids
+/// its family decoded; `None` for a broadcast, a frame of a whole node (NMT,
+/// the controller's own) or of no known family.
+fn device_of(i: &FrameInfo) -> Option<Address> {
+    // A Cdios frame names its node and module, the others their module.
+    let (first, second) = match i.node {
+        Some(node) => (Some(node), Some(i.module?)),
+        None => (i.module, None),
+    };
+    Address::of_ids(i.family?, first, second)
 }
 
 struct Printer<'a> {
@@ -167,12 +184,17 @@ pub fn run(ctx: &Ctx, a: &MonitorArgs) -> anyhow::Result<()> {
     if a.table && (a.candump || ctx.json) {
         return Err(usage("--table is a live view for a person: use it without --json and --candump"));
     }
-    let filter = Filter::new(a)?;
+    let (devices, on) = named(ctx, a)?;
+    let filter = Filter::new(a, devices)?;
     let mut stats = Stats::default();
     let mut shown = 0u64;
     let limit = a.count.unwrap_or(u64::MAX);
-    let iface = ctx.given_link().ok().flatten().map_or_else(|| "can0".to_string(), axisctl::link::log::log_iface);
-    let link = a.from_log.is_none().then_some(ctx.link_text.as_str());
+    let given = match on {
+        Some(l) => Some(&l.spec),
+        None => ctx.given_link().ok().flatten(),
+    };
+    let iface = given.map_or_else(|| "can0".to_string(), axisctl::link::log::log_iface);
+    let link = a.from_log.is_none().then_some(on.map_or(ctx.link_text.as_str(), |l| l.text.as_str()));
     let mut p = Printer {
         ctx,
         candump: a.candump,
@@ -224,14 +246,18 @@ pub fn run(ctx: &Ctx, a: &MonitorArgs) -> anyhow::Result<()> {
             }
         }
     } else {
-        if matches!(ctx.link()?, axisctl::link::LinkSpec::Sim(_)) && !ctx.json {
+        let spec = match on {
+            Some(l) => &l.spec,
+            None => ctx.link()?,
+        };
+        if matches!(spec, axisctl::link::LinkSpec::Sim(_)) && !ctx.json {
             crate::output::err_line(format_args!(
                 "axisctl: monitor: the in-process bench has no other client, so nothing will show; \
                  serve it with `axisctl sim` and monitor the link it prints (Ctrl-C ends)"
             ));
         }
         arm_interrupt()?;
-        let mut link = ctx.can_link()?;
+        let mut link = ctx.opener().can(spec, None)?;
         // A listener shows the bus's error frames too (SocketCAN's error
         // filter; an slcan adapter's reports come anyway).
         link.report_errors();
@@ -267,6 +293,45 @@ pub fn run(ctx: &Ctx, a: &MonitorArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// `monitor -d`: the devices whose frames are shown and, listening live,
+/// the link they are on (one CAN link of the bench, which may have several).
+/// A PA-CONTROL device (RS232, no CAN frame), devices on two links or an
+/// unknown name are usage errors before the link opens. Replaying a log,
+/// an address needs no bench.
+fn named<'c>(ctx: &'c Ctx, a: &MonitorArgs) -> anyhow::Result<(Vec<Address>, Option<&'c BenchLink>)> {
+    if a.device.is_empty() {
+        return Ok((Vec::new(), None));
+    }
+    let mut devices = Vec::new();
+    for r in &a.device {
+        let at = match r {
+            DeviceRef::Address(at) => *at,
+            DeviceRef::Name(_) => ctx.bench()?.resolve(r)?,
+        };
+        if !at.family().link_kind().can() {
+            let named = if r.to_string() == at.to_string() { at.to_string() } else { format!("{r} ({at})") };
+            return Err(usage(format!(
+                "the monitor shows CAN frames; {named} is a {} device, which talks RS232 (--log on its commands \
+                 records its traffic)",
+                at.family()
+            )));
+        }
+        devices.push(at);
+    }
+    if a.from_log.is_some() {
+        return Ok((devices, None));
+    }
+    let named = super::devices::any_family(ctx, &a.device)?;
+    let (first, on) = named[0];
+    if let Some((at, l)) = named.iter().find(|(_, l)| l.text != on.text) {
+        return Err(usage(format!(
+            "{first} is on {} and {at} on {}: the monitor listens to one link; run one per link",
+            on.text, l.text
+        )));
+    }
+    Ok((devices, Some(on)))
+}
+
 /// The longest candump line: `(seconds.micros) iface ID#` and 8 data bytes
 /// (64 for CAN FD) need far less; a longer one is no candump line.
 const MAX_LOG_LINE: usize = 4096;
@@ -293,5 +358,24 @@ impl BoundedLines {
         std::str::from_utf8(&self.line)
             .map(|l| Some(l.trim_end_matches(['\n', '\r'])))
             .map_err(|_| std::io::Error::other("not text: not a candump log"))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn device(frame: &str) -> Option<Address> {
+        device_of(&axisctl::monitor::describe(&frame.parse().unwrap()))
+    }
+
+    #[test]
+    fn a_frame_names_its_one_device() {
+        assert_eq!(device("0F1#01"), Some(Address::PowerCube { module: 17 }), "a request");
+        assert_eq!(device("0B1#0A2702000000"), Some(Address::PowerCube { module: 17 }), "its acknowledge");
+        assert_eq!(device("201#2301008813000000"), Some(Address::Cdios { node: 1, module: 1 }));
+        assert_eq!(device("100#0200"), None, "a broadcast is every module's");
+        assert_eq!(device("000#0101"), None, "NMT is the bus's");
+        assert_eq!(device("7FF#00"), None);
     }
 }

@@ -34,7 +34,8 @@ use axisctl::device::face::{Face, MotionTarget, Moving};
 
 pub fn run(ctx: &Ctx, cmd: Command) -> anyhow::Result<()> {
     match cmd {
-        Command::Scan { ids } => scan(ctx, &ids),
+        Command::Scan { device, .. } if !device.is_empty() => super::bench::scan_devices(ctx, &device),
+        Command::Scan { ids, .. } => scan(ctx, &ids),
         Command::Info(m) => read_each(ctx, &modules_of(ctx, m)?, info),
         Command::State(m) => read_each(ctx, &modules_of(ctx, m)?, show_state),
         Command::Home { target, wait, deadman } => home(ctx, target_of(ctx, target)?, wait, policy(deadman)),

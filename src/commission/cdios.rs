@@ -131,17 +131,24 @@ pub fn planned(plan: &DevicePlan) -> Vec<&'static str> {
     asked.into_iter().filter(|(_, on)| *on).map(|(name, _)| name).collect()
 }
 
-/// The nodes of the bench: node 1 (every command's default), and each node
-/// the bench file expects a module on.
-fn nodes(bench: &Bench) -> Vec<u8> {
-    let mut nodes = vec![1];
-    for link in bench.links().iter().filter(|l| l.carries(Family::Cdios)) {
-        for a in link.devices.values() {
-            if let Address::Cdios { node, .. } = a {
-                if !nodes.contains(node) {
-                    nodes.push(*node);
-                }
-            }
+/// The nodes of the bench: node 1 (every command's default), each node
+/// the bench file expects a module on, and each node of `only` (a plan of
+/// the devices named); with `only`, its nodes alone.
+fn nodes(bench: &Bench, only: &[Address]) -> Vec<u8> {
+    let expected = bench.links().iter().filter(|l| l.carries(Family::Cdios)).flat_map(|l| l.devices.values());
+    let of = |a: &Address| match a {
+        Address::Cdios { node, .. } => Some(*node),
+        _ => None,
+    };
+    let all: Vec<u8> = if only.is_empty() {
+        std::iter::once(1).chain(expected.filter_map(of)).collect()
+    } else {
+        only.iter().filter_map(of).collect()
+    };
+    let mut nodes = Vec::new();
+    for n in all {
+        if !nodes.contains(&n) {
+            nodes.push(n);
         }
     }
     nodes
@@ -157,15 +164,17 @@ pub fn default_plan<S: Sessions>(
     sessions: &mut S,
     link: &str,
     bench: &Bench,
+    only: &[Address],
 ) -> Result<Vec<DevicePlan>, DefaultPlanError<S::Error>> {
     let read = |e| DefaultPlanError::read(Family::Cdios, e);
     let mut out = Vec::new();
-    for n in nodes(bench) {
+    for n in nodes(bench, only) {
         let Some(id) = NodeId::new(n) else { continue };
         let mut node = Node::new(sessions.cdios().map_err(DefaultPlanError::Open)?, id, Default::default());
         // A node that does not answer has no module to plan.
         let Ok(slots) = node.identify() else { continue };
-        for m in node.scan().map_err(read)? {
+        let wanted = |m: ModuleId| only.is_empty() || only.contains(&Address::Cdios { node: n, module: m.get() });
+        for m in node.scan().map_err(read)?.into_iter().filter(|m| wanted(*m)) {
             let slot = slot_of(&slots, m);
             let live = backup::cdios::capture(&mut node, m, slot.ty, slot.version, link).map_err(read)?;
             let here = node.position(m, crate::proto::cdios::PositionSource::Current).map_err(read)?;

@@ -65,10 +65,15 @@ pub fn planned(d: &Planned) -> Vec<&'static str> {
 
 /// The default plan for every device of every family the bench carries:
 /// each family's devices as its face finds them, in the registry's order.
+/// With `only` (`commission -d`), the plan of those devices alone, and only
+/// their families are asked (a link of another family is not opened), and
+/// of those only the devices named are read; one not found is not in the
+/// plan (a PowerCube module that does not answer: its timeout).
 pub fn default_plan<S>(
     bench: &Bench,
     sessions: &mut S,
     run_link: &dyn Fn(Family) -> String,
+    only: &[Address],
 ) -> Result<Plan, DefaultPlanError<S::Error>>
 where
     S: Sessions,
@@ -76,12 +81,13 @@ where
 {
     let mut device = Vec::new();
     let carried: Vec<Family> = bench.pairs().map(|(_, f)| f).collect();
-    for family in crate::device::registry::FACES.into_iter().filter(|f| carried.contains(f)) {
+    let asked = |f: Family| carried.contains(&f) && (only.is_empty() || only.iter().any(|a| a.family() == f));
+    for family in crate::device::registry::FACES.into_iter().filter(|f| asked(*f)) {
         let link = run_link(family);
         let found = match family {
-            Family::PowerCube => powercube::default_plan(sessions, &link),
-            Family::Pac => pac::default_plan(sessions, &link),
-            Family::Cdios => cdios::default_plan(sessions, &link, bench),
+            Family::PowerCube => powercube::default_plan(sessions, &link, only),
+            Family::Pac => pac::default_plan(sessions, &link, only),
+            Family::Cdios => cdios::default_plan(sessions, &link, bench, only),
         };
         device.extend(found?);
     }

@@ -122,8 +122,15 @@ pub fn planned(at: Address, plan: &DevicePlan) -> Vec<&'static str> {
 /// they are, the reference drive, a move of a tenth of its traverse area
 /// each way with bands from the ramp's own duration, and a stop half-way
 /// into such a move, allowed twice its braking time at its acceleration.
-pub fn default_plan<S: Sessions>(sessions: &mut S, link: &str) -> Result<Vec<DevicePlan>, DefaultPlanError<S::Error>> {
+/// With `only` (`commission -d`), the controller and the configured axes it
+/// names.
+pub fn default_plan<S: Sessions>(
+    sessions: &mut S,
+    link: &str,
+    only: &[Address],
+) -> Result<Vec<DevicePlan>, DefaultPlanError<S::Error>> {
     let read = |e| DefaultPlanError::read(Family::Pac, e);
+    let wanted = |a: Address| only.is_empty() || only.contains(&a);
     let mut c = Controller::new(sessions.pac().map_err(DefaultPlanError::Open)?);
     let axes = c.configured_axes().map_err(read)?;
     let mut out = vec![DevicePlan {
@@ -137,7 +144,8 @@ pub fn default_plan<S: Sessions>(sessions: &mut S, link: &str) -> Result<Vec<Dev
         watchdog: false,
         backup: true,
     }];
-    for axis in 1..=axes {
+    out.retain(|_| wanted(Address::Pac { axis: None }));
+    for axis in (1..=axes).filter(|a| wanted(Address::Pac { axis: Some(*a) })) {
         let live = backup::pac::capture_axis(&mut c, axis, link).map_err(read)?;
         out.push(default_axis(axis, &live));
     }

@@ -112,15 +112,29 @@ impl Open {
 /// The default plan for every module found: its identity and limits as
 /// they are, homing, a move of a tenth of its range each way at half its
 /// speed and acceleration inside its limits, with bands from the ramp's
-/// own duration, and a halt test half-way into such a move.
-pub fn default_plan<S>(sessions: &mut S, link: &str) -> Result<Vec<DevicePlan>, DefaultPlanError<S::Error>>
+/// own duration, and a halt test half-way into such a move. With `only`
+/// (`commission -d`), the modules it names, read without a scan of the
+/// bus: one that does not answer ends the plan with its timeout.
+pub fn default_plan<S>(
+    sessions: &mut S,
+    link: &str,
+    only: &[Address],
+) -> Result<Vec<DevicePlan>, DefaultPlanError<S::Error>>
 where
     S: Sessions,
 {
     let read = |e| DefaultPlanError::read(Family::PowerCube, e);
     let mut cubes = Cubes::new(sessions.powercube().map_err(DefaultPlanError::Open)?);
     let mut device = Vec::new();
-    for m in cubes.present().map_err(read)? {
+    let named: Vec<ModuleId> = only
+        .iter()
+        .filter_map(|a| match a {
+            Address::PowerCube { module } => ModuleId::new(*module),
+            _ => None,
+        })
+        .collect();
+    let modules = if only.is_empty() { cubes.present().map_err(read)? } else { named };
+    for m in modules {
         let live = backup::powercube::capture(&mut cubes, m, link).map_err(read)?;
         device.push(default_device(m, &live));
     }

@@ -18,6 +18,7 @@ mod commission;
 mod completions_man;
 mod dashboard_tmux;
 mod decode_cli;
+mod device_bench;
 mod device_cdios;
 mod device_flag;
 mod device_pac;

@@ -317,4 +317,18 @@ fn bash_completes_devices_from_the_bench_file() {
     assert_eq!(got, ["gripper"]);
     let got = complete_bash_on_bench(bench, &["halt", "-d", "shoulder,s"]);
     assert_eq!(got, ["shoulder,shoulder", "shoulder,slide"], "any family for halt -d, after the comma");
+    // The whole-bench commands' -d: any family.
+    for command in [
+        &["backup"][..],
+        &["diff", "b.json"],
+        &["restore", "b.json"],
+        &["commission"],
+        &["dashboard"],
+        &["monitor"],
+        &["scan"],
+    ] {
+        let mut words = command.to_vec();
+        words.extend(["-d", "s"]);
+        assert_eq!(complete_bash_on_bench(bench, &words), ["shoulder", "slide"], "{command:?}");
+    }
 }

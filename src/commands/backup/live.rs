@@ -11,7 +11,6 @@ use axisctl::family::Family;
 use axisctl::session::ErrorKind;
 
 use super::super::{classify, usage, Ctx};
-use crate::cli::backup::Selection;
 use crate::output;
 
 /// The sessions of the command: one [`LiveFamily`] per (link, family)
@@ -22,8 +21,10 @@ pub struct Live<'a> {
 }
 
 /// Which devices of a family on a link a backup reads.
-pub struct Wanted<'s> {
-    pub select: &'s Selection,
+pub struct Wanted {
+    /// The PowerCube modules named (`-m 3,5`, `-d powercube:3`); `None`:
+    /// every module that answers.
+    pub modules: Option<Vec<u8>>,
     /// The Cdios nodes probed on the link.
     pub nodes: Vec<u8>,
     /// The family was asked for (`--family`, `-m`, a node the bench file

@@ -7,7 +7,6 @@ use axisctl::proto::powercube::ModuleId;
 use axisctl::backup::{self, Address, Device, Problem, ValueResult};
 use axisctl::bench::BenchLink;
 
-use crate::cli::ids::Devices;
 use crate::commands::backup::live::{LiveFamily, Steps, Wanted};
 use crate::commands::{usage, Ctx};
 
@@ -34,10 +33,9 @@ fn module(at: Address) -> anyhow::Result<ModuleId> {
 
 impl LiveFamily for CubesLive {
     fn present(&mut self, ctx: &Ctx, link: &BenchLink, w: &Wanted) -> anyhow::Result<Vec<Address>> {
-        let ids: Vec<u8> = match &w.select.module {
-            Some(Devices::One(id)) => vec![*id],
-            Some(Devices::List(list)) => list.0.clone(),
-            Some(Devices::All) | None => {
+        let ids: Vec<u8> = match &w.modules {
+            Some(ids) => ids.clone(),
+            None => {
                 let found: Vec<u8> = self.cubes(ctx, link)?.present()?.iter().map(|m| m.get()).collect();
                 if found.is_empty() && w.named {
                     let ids = format!("{}-{}", POWERCUBE_MODULE.min, POWERCUBE_MODULE.max);
