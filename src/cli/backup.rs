@@ -3,7 +3,7 @@
 use std::path::PathBuf;
 
 use axisctl::bench::DeviceRef;
-use axisctl::family::{Family, CDIOS_NODE, POWERCUBE_MODULE};
+use axisctl::family::{Family, CDIOS_FACTORY_NODE, CDIOS_NODE, POWERCUBE_MODULE};
 use clap::{Args, Subcommand};
 
 use super::ids;
@@ -19,7 +19,7 @@ pub struct Selection {
     #[arg(short, long, value_name = "ID[,ID...]|all", value_parser = ids::devices(POWERCUBE_MODULE))]
     pub module: Option<ids::Devices>,
     /// Cdios node id (CANopen), 1 to 127
-    #[arg(long, value_name = "N", default_value_t = 1, value_parser = ids::id(CDIOS_NODE))]
+    #[arg(long, value_name = "N", default_value_t = CDIOS_FACTORY_NODE, value_parser = ids::id(CDIOS_NODE))]
     pub node: u8,
     /// Every device of the bench (the default; says so in a script)
     #[arg(long, conflicts_with = "module")]

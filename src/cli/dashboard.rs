@@ -4,7 +4,7 @@ use clap::Args;
 
 use super::ids::{self, IdList};
 use axisctl::bench::DeviceRef;
-use axisctl::family::{Family, CDIOS_MODULE, CDIOS_NODE, PAC_AXIS, POWERCUBE_MODULE};
+use axisctl::family::{Family, CDIOS_FACTORY_NODE, CDIOS_MODULE, CDIOS_NODE, PAC_AXIS, POWERCUBE_MODULE};
 
 #[derive(Debug, Args)]
 pub struct DashboardArgs {
@@ -27,7 +27,7 @@ pub struct DashboardArgs {
     #[arg(long = "axis", alias = "axes", value_name = "LIST", value_parser = ids::list(PAC_AXIS))]
     pub axes: Option<IdList>,
     /// Cdios node id
-    #[arg(long, value_name = "N", default_value_t = 1, value_parser = ids::id(CDIOS_NODE))]
+    #[arg(long, value_name = "N", default_value_t = CDIOS_FACTORY_NODE, value_parser = ids::id(CDIOS_NODE))]
     pub node: u8,
     /// Cdios 6168 module ids, e.g. 0,1 (default: scan 0 to 15 at start)
     #[arg(long = "cdios-module", alias = "cdios-modules", value_name = "LIST", value_parser = ids::list(CDIOS_MODULE))]
