@@ -237,6 +237,7 @@ pub const EXAMPLES: &[(&str, &[&str])] = &[
             "--link 'sim?pac=online' record --axis 2 position speed --for 5s -- pac-move 2 150",
             "--link 'sim?cdios=enabled' record --node 1 -m 0 position speed --count 50 -- cdios-goto -m 0 5000",
             "--link sim record powercube:17.ActPos pac:2.position cdios:1/0.speed --count 20",
+            "--link sim record -d pac:2,cdios:1/0 position --count 20",
             "--bench docs/sim-bench.toml --json record shoulder.ActPos slide.position gripper.position --count 5",
         ],
     ),

@@ -27,6 +27,10 @@ pub struct RecordArgs {
     /// Cdios node id (1..127): record the Cdios 6168 modules given with -m on it
     #[arg(long, value_name = "N")]
     pub node: Option<u8>,
+    /// The devices to record, of any family on any link of the bench (instead of -m, --axis, --node): powercube:ID, pac:AXIS, cdios:NODE/MODULE or bench-file names; each VALUE of each device
+    #[arg(short, long, value_name = "DEVICE[,DEVICE...]", value_delimiter = ',', num_args = 1,
+          conflicts_with_all = ["module", "axis", "node"], add = super::complete::bench_devices(None))]
+    pub device: Option<Vec<axisctl::bench::DeviceRef>>,
     /// The values: PowerCube parameter names (ActPos ActVel Cur; `axisctl params powercube`);
     /// PA-CONTROL position, speed, status; Cdios position, setpoint, speed, rpm-error.
     /// Or DEVICE.VALUE for devices anywhere on the bench (powercube:3.ActPos pac:2.position

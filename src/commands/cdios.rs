@@ -318,7 +318,7 @@ fn status(ctx: &Ctx, t: Reads) -> anyhow::Result<()> {
         for (b, bit) in &r.reserved {
             say!("  {}", ctx.style.warn(&format!("status {b} bit {bit} is set (reserved)")));
         }
-        say!("  motor speed {speed} RPM, RPM error {rpm_error}");
+        say!("  motor speed {speed} {u}, RPM error {rpm_error} {u}", u = table::SPEED_UNIT);
         Ok(Value::Null)
     })
 }
@@ -507,8 +507,9 @@ fn check_goto_speed(s: &mut Node, m: ModuleId, speed: i64) -> anyhow::Result<()>
     };
     match bound {
         Some((side, which, v)) => Err(usage(format!(
-            "--speed {speed} RPM is {side} module {m}'s configured {which} speed {v} RPM (the controller would \
-             clamp it); nothing was sent (use --force to send it anyway)"
+            "--speed {speed} {u} is {side} module {m}'s configured {which} speed {v} {u} (the controller would \
+             clamp it); nothing was sent (use --force to send it anyway)",
+            u = table::SPEED_UNIT
         ))),
         None => Ok(()),
     }

@@ -6,6 +6,7 @@
 
 use std::time::Duration;
 
+use axisctl::bench::DeviceRef;
 use axisctl::device::cdios::{self as cdios_dev, Node};
 use axisctl::device::face::Moving;
 use axisctl::device::face::{FaceError, MotionTarget};
@@ -80,7 +81,10 @@ impl Motion {
 
 const MOTIONS: &str = "move-ramp, move-step, move-vel, move-cur (PowerCube), pac-move (PA-CONTROL), cdios-goto (Cdios)";
 
-pub fn run(ctx: &Ctx, args: RecordArgs) -> anyhow::Result<()> {
+pub fn run(ctx: &Ctx, mut args: RecordArgs) -> anyhow::Result<()> {
+    if let Some(refs) = args.device.take() {
+        args = with_devices(ctx, args, &refs)?;
+    }
     if several::addressed(&args.values) {
         return several::run(ctx, &args);
     }
@@ -164,6 +168,52 @@ fn pace(ctx: &Ctx, args: &RecordArgs) -> anyhow::Result<(Option<Duration>, Until
 }
 
 /// The devices and values, every name checked before anything is sent.
+/// `record -d DEVICES VALUE...`: each value of each device. Devices of one
+/// family on one link (the Cdios: modules of one node, the PA-CONTROL: its
+/// axes) are the plain form (`-m`, `--axis`, `--node -m`), which also takes
+/// a motion after `--`, on the link they are on; any other set is
+/// `DEVICE.VALUE` for each, read on each device's link.
+fn with_devices(ctx: &Ctx, mut args: RecordArgs, refs: &[DeviceRef]) -> anyhow::Result<RecordArgs> {
+    if several::addressed(&args.values) {
+        return Err(usage("with -d the values are given without a device (ActPos, not shoulder.ActPos)"));
+    }
+    let named = super::devices::any_family(ctx, refs)?;
+    let ids = |f: fn(Address) -> Option<String>| named.iter().map(|(a, _)| f(*a)).collect::<Option<Vec<_>>>();
+    let one_link = named.iter().all(|(_, l)| l.text == named[0].1.text);
+    let plain = match named.first().map(|(a, _)| *a) {
+        Some(Address::PowerCube { .. }) => ids(|a| match a {
+            Address::PowerCube { module } => Some(module.to_string()),
+            _ => None,
+        })
+        .map(|m| (m, None, None)),
+        Some(Address::Pac { .. }) => ids(|a| match a {
+            Address::Pac { axis: Some(axis) } => Some(axis.to_string()),
+            _ => None,
+        })
+        .map(|axes| (Vec::new(), Some(axes.join(",")), None)),
+        Some(Address::Cdios { node, .. }) => ids(move |a| match a {
+            Address::Cdios { module, .. } => Some(module.to_string()),
+            _ => None,
+        })
+        .filter(|_| named.iter().all(|(a, _)| matches!(a, Address::Cdios { node: n, .. } if *n == node)))
+        .map(|m| (m, None, Some(node))),
+        None => None,
+    };
+    match plain {
+        Some((modules, axis, node)) if one_link => {
+            ctx.pin_link(named[0].0.family(), named[0].1);
+            args.module = (!modules.is_empty()).then(|| modules.join(","));
+            args.axis = axis;
+            args.node = node;
+        }
+        _ => {
+            let values = std::mem::take(&mut args.values);
+            args.values = named.iter().flat_map(|(a, _)| values.iter().map(move |v| format!("{a}.{v}"))).collect();
+        }
+    }
+    Ok(args)
+}
+
 fn selection(args: &RecordArgs) -> anyhow::Result<Selection> {
     let list = |text: &str, range| parse_list(text, range, false).map_err(usage);
     match (&args.module, &args.axis, args.node) {

@@ -33,7 +33,7 @@ use crate::device::cdios::{self as dev, Node, Slot};
 use crate::device::face::{Face, MotionTarget};
 use crate::device::registry::Sessions;
 use crate::family::Family;
-use crate::proto::cdios::table::decode_status;
+use crate::proto::cdios::table::{decode_status, POSITION_UNIT, SPEED_UNIT};
 use crate::proto::cdios::{GotoMode, ModuleId, NodeId, StopOption};
 
 /// How often a move is sampled at most.
@@ -337,7 +337,7 @@ fn limits(at: &str, live: &Device) -> Check {
     let num = |n: &str| live.settings.get(n).and_then(|s| s.value.as_f64());
     let (lo, hi) = (num(MIN_SPEED), num(MAX_SPEED));
     let ok = matches!((lo, hi), (Some(a), Some(b)) if a < b);
-    c.measure("maximum_speed - minimum_speed", json!(hi.zip(lo).map(|(b, a)| b - a)), "> 0".into(), "RPM", ok);
+    c.measure("maximum_speed - minimum_speed", json!(hi.zip(lo).map(|(b, a)| b - a)), "> 0".into(), SPEED_UNIT, ok);
     // The backup's own range check: the manual's range of each field.
     let problems = backup::cdios::check_file(live);
     for name in [MIN_SPEED, MAX_SPEED, SLOPE, PULSES] {
@@ -527,14 +527,14 @@ fn test_move(node: &mut Node, m: ModuleId, at: &str, plan: &Moves, forward: bool
         Ok(t) => t,
         Err(e) => return ck.fail(e),
     };
-    ck.measure("start", json!(here), "any".into(), "counts", true);
-    ck.measure("target", json!(target), format!("[{lo}, {hi}]"), "counts", true);
-    step_measures(&mut ck, plan, &tr.t, &tr.pos, target, "counts");
+    ck.measure("start", json!(here), "any".into(), POSITION_UNIT, true);
+    ck.measure("target", json!(target), format!("[{lo}, {hi}]"), POSITION_UNIT, true);
+    step_measures(&mut ck, plan, &tr.t, &tr.pos, target, POSITION_UNIT);
     if let Ok((v, _)) = super::figures::peak_abs(&tr.t, &tr.speed) {
-        ck.measure("peak_speed", json!(round6(v)), "any".into(), "RPM", true);
+        ck.measure("peak_speed", json!(round6(v)), "any".into(), SPEED_UNIT, true);
     }
     if let Ok((v, _)) = super::figures::peak_abs(&tr.t, &tr.rpm_error) {
-        ck.measure("peak_rpm_error", json!(round6(v)), "any".into(), "RPM", true);
+        ck.measure("peak_rpm_error", json!(round6(v)), "any".into(), SPEED_UNIT, true);
     }
     attach(&mut ck, at, &tr, run);
     ck
@@ -547,7 +547,7 @@ fn halt_test(node: &mut Node, m: ModuleId, at: &str, plan: &DevicePlan, run: &mu
         Ok(p) => p,
         Err(e) => return ck.fail(e),
     };
-    let target = match halt_target(here, h.distance, plan.moves.as_ref().map(|mv| mv.window), "counts") {
+    let target = match halt_target(here, h.distance, plan.moves.as_ref().map(|mv| mv.window), POSITION_UNIT) {
         Ok(t) => t,
         Err(why) => return ck.fail(why),
     };
@@ -556,7 +556,7 @@ fn halt_test(node: &mut Node, m: ModuleId, at: &str, plan: &DevicePlan, run: &mu
         Ok(t) => t,
         Err(e) => return ck.fail(e),
     };
-    if let Err(why) = measure_halt(&mut ck, h, (&tr.t, &tr.pos), (tr.stopped, tr.rest), ("stop", "counts")) {
+    if let Err(why) = measure_halt(&mut ck, h, (&tr.t, &tr.pos), (tr.stopped, tr.rest), ("stop", POSITION_UNIT)) {
         return ck.fail(why);
     }
     attach(&mut ck, at, &tr, run);
@@ -565,10 +565,10 @@ fn halt_test(node: &mut Node, m: ModuleId, at: &str, plan: &DevicePlan, run: &mu
 
 fn attach(ck: &mut Check, at: &str, tr: &Trace, run: &mut Run) {
     let columns = [
-        Column { name: "position", unit: "counts", values: &tr.pos, plotted: true },
-        Column { name: "setpoint", unit: "counts", values: &tr.setpoint, plotted: true },
-        Column { name: "speed", unit: "RPM", values: &tr.speed, plotted: true },
-        Column { name: "rpm_error", unit: "RPM", values: &tr.rpm_error, plotted: true },
+        Column { name: "position", unit: POSITION_UNIT, values: &tr.pos, plotted: true },
+        Column { name: "setpoint", unit: POSITION_UNIT, values: &tr.setpoint, plotted: true },
+        Column { name: "speed", unit: SPEED_UNIT, values: &tr.speed, plotted: true },
+        Column { name: "rpm_error", unit: SPEED_UNIT, values: &tr.rpm_error, plotted: true },
     ];
     attach_recording(ck, at, &tr.t, &columns, run);
 }

@@ -5,6 +5,7 @@ use super::{Channel, HaltMotion, RecordError, Sampler};
 use crate::address::Address;
 use crate::device::cdios::{Error, Node};
 use crate::device::face::{Face, FaceError};
+use crate::proto::cdios::table;
 use crate::proto::cdios::{Address as CdiosAddress, Command, ModuleId, PositionSource, StatusSelector};
 
 /// A module value that can be recorded.
@@ -38,8 +39,8 @@ impl CdiosValue {
 
     fn unit(self) -> &'static str {
         match self {
-            Self::Position | Self::Setpoint => "",
-            Self::Speed | Self::RpmError => "rpm",
+            Self::Position | Self::Setpoint => table::POSITION_UNIT,
+            Self::Speed | Self::RpmError => table::SPEED_UNIT,
         }
     }
 

@@ -461,7 +461,7 @@ fn cdios_backup_restore_round_trip_and_the_store_only_when_asked() {
     let m0 = device(&mut doc, "cdios", "module", 0);
     assert_eq!(m0["node"], 1);
     assert!(m0["identity"]["type"].is_i64() && m0["identity"]["version"].is_i64());
-    assert_eq!(m0["settings"]["speeds.maximum_speed"]["unit"], "RPM");
+    assert_eq!(m0["settings"]["speeds.maximum_speed"]["unit"], "rpm");
     for name in ["events.mask1", "events.speed_on_change", "outputs.digital", "traject1.speed3"] {
         assert!(m0["settings"].get(name).is_some(), "{name}");
     }

@@ -97,7 +97,7 @@ fn the_simulated_bench_passes_and_every_file_is_written() {
             let header = match m.split(':').next() {
                 Some("powercube") => "t [s],ActPos",
                 Some("pac") => "t [s],position [AE],speed [AE/s],status,following_error [AE]",
-                _ => "t [s],position [counts],setpoint [counts],speed [RPM],rpm_error [RPM]",
+                _ => "t [s],position [counts],setpoint [counts],speed [rpm],rpm_error [rpm]",
             };
             assert!(text.starts_with(header), "{}", csv.display());
             assert!(text.lines().count() > 20, "a recording of samples: {}", csv.display());

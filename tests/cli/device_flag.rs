@@ -118,3 +118,44 @@ fn a_device_the_command_cannot_take_is_refused_before_sending() {
     let logged = std::fs::read_to_string(&log).unwrap_or_default();
     assert!(logged.is_empty(), "nothing is sent: {logged}");
 }
+
+/// `record -d`: each value of each device. One family's devices are the
+/// `-m` form (a motion after `--` included); several families are
+/// `DEVICE.VALUE` for each, one stream.
+#[test]
+fn record_takes_devices_of_one_family_or_several() {
+    let devices = |args: &[&str]| -> Vec<(String, Vec<String>)> {
+        let mut all = vec!["--bench", SIM_BENCH, "--json", "record"];
+        all.extend(args);
+        let r = run(&all);
+        assert_eq!(r.code, 0, "{args:?}: {}{}", r.stdout, r.stderr);
+        let first: serde_json::Value = serde_json::from_str(r.stdout.lines().next().unwrap()).unwrap();
+        first["devices"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|d| {
+                let id = ["module", "axis"].iter().find_map(|k| d[k].as_u64()).unwrap();
+                let values = d["values"].as_object().unwrap().keys().cloned().collect();
+                (format!("{} {id}", d["family"].as_str().unwrap()), values)
+            })
+            .collect()
+    };
+    let cube = |id: &str| (format!("powercube {id}"), vec!["ActPos".to_string()]);
+    assert_eq!(devices(&["-d", "shoulder,elbow", "ActPos", "--count", "1"]), [cube("3"), cube("5")]);
+    assert_eq!(
+        devices(&["-d", "shoulder,elbow", "ActPos", "--count", "1"]),
+        devices(&["-m", "3,5", "ActPos", "--count", "1"])
+    );
+    assert_eq!(
+        devices(&["-d", "elbow", "ActPos", "--count", "3", "--", "move-ramp", "-d", "elbow", "0.01"]),
+        [cube("5")]
+    );
+    let position = |d: &str| (d.to_string(), vec!["position".to_string()]);
+    assert_eq!(devices(&["-d", "slide,gripper", "position", "--count", "1"]), [position("pac 2"), position("cdios 0")]);
+    let r = run(&["--bench", SIM_BENCH, "record", "-d", "shoulder,slide", "ActPos", "--count", "1"]);
+    assert_eq!(r.code, 2, "a value the PA-CONTROL axis does not have: {}", r.stderr);
+    let r = run(&["--bench", SIM_BENCH, "record", "-d", "shoulder", "shoulder.ActPos", "--count", "1"]);
+    assert_eq!(r.code, 2, "{}", r.stderr);
+    assert!(r.stderr.contains("with -d the values are given without a device"), "{}", r.stderr);
+}

@@ -139,7 +139,7 @@ fn keepalive_interval_says_what_it_accepts() {
 fn cdios_goto_checks_speed_against_the_configured_speeds_unless_forced() {
     let r = run(&["--link", "sim", "--trace", "cdios-goto", "-m", "0", "1000", "--speed", "9000"]);
     assert_eq!(r.code, 2, "{}", r.stderr);
-    assert!(r.stderr.contains("configured maximum speed 8000 RPM") && r.stderr.contains("--force"), "{}", r.stderr);
+    assert!(r.stderr.contains("configured maximum speed 8000 rpm") && r.stderr.contains("--force"), "{}", r.stderr);
     assert!(r.stderr.contains("read_servo_speeds"), "the speeds were read: {}", r.stderr);
     assert!(!r.stderr.lines().any(|l| l.starts_with("-> 201#23")), "a goto was sent: {}", r.stderr);
     let r = run(&["--link", "sim", "--trace", "cdios-goto", "-m", "0", "1000", "--speed", "9000", "--force"]);

@@ -26,7 +26,7 @@ fn params_lists_every_family_offline() {
         .iter()
         .find(|p| p["name"] == "speeds.maximum_speed")
         .expect("field");
-    assert_eq!((max["unit"].as_str(), max["range"].as_str()), (Some("RPM"), Some("50 to 32000")), "{max}");
+    assert_eq!((max["unit"].as_str(), max["range"].as_str()), (Some("rpm"), Some("50 to 32000")), "{max}");
     assert_eq!(run(&["params", "robots"]).code, 2);
 }
 

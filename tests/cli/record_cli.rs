@@ -128,7 +128,7 @@ fn csv_names_each_column_with_its_unit() {
         "--link", "sim", "record", "--format", "csv", "--node", "1", "-m", "0", "position", "speed", "--count", "2",
     ]);
     assert_eq!(r.code, 0, "{}", r.stderr);
-    assert_eq!(r.stdout.lines().next(), Some("t [s],node 1 module 0 position,node 1 module 0 speed [rpm]"));
+    assert_eq!(r.stdout.lines().next(), Some("t [s],node 1 module 0 position [counts],node 1 module 0 speed [rpm]"));
 }
 
 #[test]

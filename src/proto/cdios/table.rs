@@ -360,7 +360,7 @@ const SERVO_SPEEDS: &[Field] = &[
         key: "minimum_speed",
         name: "Minimum Speed",
         kind: Kind::U16,
-        unit: "RPM",
+        unit: SPEED_UNIT,
         min: 1,
         max: 2500,
         default: Some(50),
@@ -372,7 +372,7 @@ const SERVO_SPEEDS: &[Field] = &[
         name: "Maximum Speed",
         offset: 5,
         kind: Kind::U16,
-        unit: "RPM",
+        unit: SPEED_UNIT,
         min: 50,
         max: 32000,
         default: Some(8000),
@@ -537,7 +537,7 @@ const TRAJECT_END: &[Field] = &[
     },
 ];
 
-const SPEED_32767: Field = Field { kind: Kind::U16, unit: "RPM", max: 32767, default: Some(0), ..F };
+const SPEED_32767: Field = Field { kind: Kind::U16, unit: SPEED_UNIT, max: 32767, default: Some(0), ..F };
 
 const TRAJECT_INITIAL_SPEED: &[Field] = &[Field {
     key: "initial_speed",
@@ -608,7 +608,7 @@ const START_FIELDS: &[Field] = &[
         name: "MotorSpeed",
         offset: 5,
         kind: Kind::U16,
-        unit: "RPM",
+        unit: SPEED_UNIT,
         max: 30000,
         description: "target speed, used with option 3",
         ..F
@@ -635,7 +635,7 @@ const MOTOR_SPEED: Field = Field {
     key: "motor_speed",
     name: "MotorSpeed",
     kind: Kind::U16,
-    unit: "RPM",
+    unit: SPEED_UNIT,
     max: 30000,
     description: "actual motor speed (depends on Pulses Per Revolution)",
     ..F
@@ -650,7 +650,7 @@ const SPEED_AND_ERROR: &[Field] = &[
         name: "RPM_Error",
         offset: 5,
         kind: Kind::I16,
-        unit: "RPM",
+        unit: SPEED_UNIT,
         min: -30000,
         max: 30000,
         description: "actual minus desired speed; < 0 runs too slow",
