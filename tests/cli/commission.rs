@@ -70,6 +70,7 @@ fn device<'a>(plan: &'a mut toml::Table, at: &str) -> &'a mut toml::Table {
 
 #[test]
 fn the_simulated_bench_passes_and_every_file_is_written() {
+    let _busy = common::heavy::slot();
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("handover");
     let r = run(&["--link", "sim", "commission", "--out", out.to_str().unwrap(), "--yes"]);
@@ -165,6 +166,7 @@ fn the_simulated_bench_passes_and_every_file_is_written() {
 
 #[test]
 fn a_serial_and_an_overshoot_band_the_plan_misses_fail_exactly_those_checks() {
+    let _busy = common::heavy::slot();
     let dir = tempfile::tempdir().unwrap();
     let mut plan = default_plan();
     device(&mut plan, "powercube:5")["identity"]["serial"] = toml::Value::Integer(4711);
@@ -340,6 +342,7 @@ fn a_dry_run_sends_no_motion_frame_and_lists_the_motions() {
 
 #[test]
 fn ctrl_c_during_the_second_test_move_halts_it_and_leaves_an_incomplete_report() {
+    let _busy = common::heavy::slot();
     let dir = tempfile::tempdir().unwrap();
     let mut plan = default_plan();
     for at in ["powercube:3", "powercube:5", "powercube:17"] {
@@ -457,6 +460,7 @@ fn a_bad_plan_is_refused_before_anything_is_sent() {
 /// simulated bench (its backup file taken there first) and passes.
 #[test]
 fn the_guides_plan_runs_as_written() {
+    let _busy = common::heavy::slot();
     let guide = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/docs/guide.md")).unwrap();
     let section = guide.split("\n## Commissioning\n").nth(1).unwrap().split("\n## ").next().unwrap();
     let plan = section.split("```toml\n").nth(1).unwrap().split("```").next().unwrap();
@@ -491,6 +495,7 @@ fn the_guides_plan_runs_as_written() {
 /// as written on the simulated bench and passes every check it names.
 #[test]
 fn the_guides_plan_of_the_other_families_runs_as_written() {
+    let _busy = common::heavy::slot();
     let guide = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/docs/guide.md")).unwrap();
     let section = guide.split("\n## Commissioning\n").nth(1).unwrap().split("\n## ").next().unwrap();
     let plan = section.split("```toml\n").nth(2).unwrap().split("```").next().unwrap();
@@ -549,6 +554,7 @@ fn the_watchdog_check_sees_it_trip_and_recover() {
 /// the slower link's sampling changes; a second run on it gives it again.
 #[test]
 fn a_served_bench_gives_the_same_report_as_the_in_process_one() {
+    let _busy = common::heavy::slot();
     let dir = tempfile::tempdir().unwrap();
     let mut plan = default_plan();
     plan["device"].as_array_mut().unwrap().retain(|d| d["address"].as_str() == Some("powercube:17"));
@@ -585,6 +591,7 @@ fn a_served_bench_gives_the_same_report_as_the_in_process_one() {
 /// pty, gives the report `--link sim` gives, within the tolerances.
 #[test]
 fn a_served_slcan_and_serial_bench_gives_the_same_report_for_every_family() {
+    let _busy = common::heavy::slot();
     let dir = tempfile::tempdir().unwrap();
     let mut plan = default_plan();
     let wanted = ["powercube:17", "pac", "pac:1", "cdios:1/0"];
@@ -812,6 +819,7 @@ fn steepest(samples: &[(f64, f64)]) -> f64 {
 /// measured values, exit 5; everything else of the default plan passes.
 #[test]
 fn an_overshooting_module_that_halts_slowly_fails_exactly_those_figures() {
+    let _busy = common::heavy::slot();
     let (dir, report) = faulted_run("powercube:17", "powercube", "overshoot=20,slow-halt=800ms");
     let out = dir.path().join("r");
     assert_eq!(
@@ -844,6 +852,7 @@ fn files_in(dir: &Path) -> BTreeSet<String> {
 /// no report is refused before anything is sent.
 #[test]
 fn a_rerun_into_the_same_out_leaves_no_file_of_the_earlier_run() {
+    let _busy = common::heavy::slot();
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("r");
     let mut plan = default_plan();
@@ -893,6 +902,7 @@ fn a_rerun_into_the_same_out_leaves_no_file_of_the_earlier_run() {
 /// moves' overshoot and its halt time fail, with the measured values.
 #[test]
 fn a_pa_control_axis_that_overshoots_and_stops_slowly_fails_exactly_those_figures() {
+    let _busy = common::heavy::slot();
     let (dir, report) = faulted_run("pac:1", "pac", "overshoot=20,slow-halt=1500ms");
     let out = dir.path().join("r");
     assert_eq!(

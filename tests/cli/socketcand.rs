@@ -469,6 +469,7 @@ fn a_batch_and_a_bench_file_use_the_remote_bus() {
 /// and halted over TCP.
 #[test]
 fn the_commissioning_run_passes_over_the_remote_bus() {
+    let _busy = common::heavy::slot();
     let (_sim, link) = served();
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("report");
