@@ -105,15 +105,28 @@ candump -L vcan0,0C3:7FF,#FFFFFFFF >/log/candump-filtered.txt 2>/log/candump-fil
 CDF=$!
 candump -L vcan0,#FFFFFFFF >/log/candump-errors.txt 2>/log/candump-errors.err &
 CDE=$!
-axisctl --link "$LINK" monitor --candump --filter 0C3:7FF --for 20 >/log/monitor-filtered.txt 2>/log/monitor-filtered.err &
+# Each monitor is ended by Ctrl-C once it showed the last frame sent (below); --for is a
+# backstop only.
+axisctl --link "$LINK" monitor --candump --filter 0C3:7FF --for 60 >/log/monitor-filtered.txt 2>/log/monitor-filtered.err &
 MONF=$!
-axisctl --link "$LINK" --json monitor --for 20 >/log/monitor-json.txt 2>/log/monitor-json.err &
+axisctl --link "$LINK" --json monitor --for 60 >/log/monitor-json.txt 2>/log/monitor-json.err &
 MONJ=$!
 sleep 2
 for args in "state -m 3" "state -m 17" "get-param -m 3 ActPos" "state -m 5"; do
     axisctl --link "$LINK" --timeout 1000 $args >/dev/null 2>&1
 done
 cansend vcan0 20000040#0000000000000000 2>>/log/guest-stderr.txt
+# The error frame is the last frame on the bus: once both monitors printed it they have seen
+# every frame, and Ctrl-C ends a monitor with exit 0. Waited for 30 s at most (the host's
+# checks then say what is missing).
+i=0
+until grep -q ' 20000040#' /log/monitor-filtered.txt 2>/dev/null &&
+    grep '"kind":"error"' /log/monitor-json.txt 2>/dev/null | grep -q 'bus off'; do
+    i=$((i + 1))
+    [ "$i" -gt 300 ] && break
+    sleep 0.1
+done
+kill -INT "$MONF" "$MONJ"
 wait "$MONF"
 echo $? >/log/monitor-filtered.rc
 wait "$MONJ"

@@ -72,6 +72,7 @@ fn family_link<'a>(sim: &'a common::Sim, args: &[&str]) -> &'a str {
 
 #[test]
 fn every_documented_example_matches_real_output() {
+    let _busy = common::heavy::slot();
     let (document, stream) = (schema("document"), schema("stream_line"));
     // A stream's example is one line of it.
     let streams = ["cdios-watch", "record"];
@@ -262,6 +263,7 @@ fn an_unknown_key_in_any_object_of_a_real_document_makes_it_invalid() {
 /// one error object on stderr carrying the exit code.
 #[test]
 fn every_help_example_under_json_follows_the_schema() {
+    let _busy = common::heavy::slot();
     let (document, stream, error) = (schema("document"), schema("stream_line"), schema("error_document"));
     let mut subs = Vec::new();
     common::subcommands_and_sim_examples(&[], &mut subs);
@@ -331,6 +333,7 @@ fn every_help_example_under_json_follows_the_schema() {
 /// `docs/...`. The dashboard needs a terminal (tests/cli/dashboard_tmux.rs).
 #[test]
 fn every_sim_example_of_every_help_runs_as_written_and_ends() {
+    let _busy = common::heavy::slot();
     fn pages(path: &[String], out: &mut Vec<String>) {
         let mut args: Vec<&str> = path.iter().map(String::as_str).collect();
         args.push("--help");
@@ -404,4 +407,37 @@ fn the_example_pool_orders_by_files_and_runs_everything() {
     }));
     assert!(caught.is_err());
     assert_eq!(*ran.lock().unwrap(), lines.len());
+}
+
+/// At most two busy tests at once, and a busy test that panics gives its
+/// slot back.
+#[test]
+fn the_busy_slots_hold_two_at_a_time_and_come_back_after_a_panic() {
+    use std::sync::atomic::{AtomicUsize, Ordering};
+    let slots = common::heavy::Slots::new(2);
+    let (now, most) = (AtomicUsize::new(0), AtomicUsize::new(0));
+    std::thread::scope(|s| {
+        for i in 0..6 {
+            let (slots, now, most) = (&slots, &now, &most);
+            s.spawn(move || {
+                let _ = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+                    let _slot = slots.take();
+                    let n = now.fetch_add(1, Ordering::SeqCst) + 1;
+                    most.fetch_max(n, Ordering::SeqCst);
+                    // Holds its slot until a second holder came (or 2 s
+                    // passed), then a moment more for a wrongful third.
+                    let deadline = std::time::Instant::now() + std::time::Duration::from_secs(2);
+                    while now.load(Ordering::SeqCst) < 2 && std::time::Instant::now() < deadline {
+                        std::thread::sleep(std::time::Duration::from_millis(1));
+                    }
+                    most.fetch_max(now.load(Ordering::SeqCst), Ordering::SeqCst);
+                    std::thread::sleep(std::time::Duration::from_millis(20));
+                    now.fetch_sub(1, Ordering::SeqCst);
+                    assert!(i % 2 == 0, "a busy test that fails");
+                }));
+            });
+        }
+    });
+    assert_eq!(most.into_inner(), 2);
+    assert_eq!(slots.taken(), 0);
 }

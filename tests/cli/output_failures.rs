@@ -188,6 +188,7 @@ fn errors_to_a_broken_stderr_keep_their_exit_code() {
 /// full disk and end quietly (exit 0) on the closed pipe.
 #[test]
 fn every_documented_sim_example_survives_a_full_disk_and_a_closed_pipe() {
+    let _busy = common::heavy::slot();
     let docs = concat!(env!("CARGO_MANIFEST_DIR"), "/docs");
     let mut lines: Vec<String> = Vec::new();
     for entry in std::fs::read_dir(docs).unwrap() {
@@ -257,6 +258,7 @@ const NOT_ONE_SHOT: &[(&str, &str)] = &[
 /// list above, so a new command cannot be added without its coverage.
 #[test]
 fn every_subcommand_survives_a_full_disk_and_a_closed_pipe() {
+    let _busy = common::heavy::slot();
     let mut subs = Vec::new();
     common::subcommands_and_sim_examples(&[], &mut subs);
     assert!(subs.len() > 70, "found only {} subcommands", subs.len());

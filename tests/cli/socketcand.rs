@@ -329,11 +329,16 @@ fn cut_during_move(sim_link: &str, deadman: bool) -> Result<Cut, String> {
     Ok(Cut { code: ended.code, stderr: ended.stderr, at, log: dir })
 }
 
-fn attempts(mut f: impl FnMut() -> Result<Cut, String>) -> Cut {
+/// Up to five attempts of [`cut_during_move`], each on a simulator of its
+/// own: a spoiled attempt can leave module 3 in error (its watchdog tripped
+/// while the tool was not run), and a module in error refuses every move
+/// after it. The simulator and link of the attempt that counted.
+fn attempts(deadman: bool) -> (Sim, String, Cut) {
     let mut spoilt = Vec::new();
     for _ in 0..5 {
-        match f() {
-            Ok(c) => return c,
+        let (sim, link) = served();
+        match cut_during_move(&link, deadman) {
+            Ok(c) => return (sim, link, c),
             Err(e) => {
                 eprintln!("run again: {e}");
                 spoilt.push(e);
@@ -349,8 +354,7 @@ fn attempts(mut f: impl FnMut() -> Result<Cut, String>) -> Cut {
 /// and speed); the tool exits 3 naming the lost link and the backstop.
 #[test]
 fn a_connection_cut_mid_move_with_the_deadman_leaves_the_module_halted_by_its_watchdog() {
-    let (_sim, link) = served();
-    let cut = attempts(|| cut_during_move(&link, true));
+    let (_sim, link, cut) = attempts(true);
     eprintln!("{}", cut.stderr);
     assert_eq!(cut.code, 3, "{}", cut.stderr);
     assert!(cut.stderr.contains("closed the connection"), "{}", cut.stderr);
@@ -379,8 +383,7 @@ fn a_connection_cut_mid_move_with_the_deadman_leaves_the_module_halted_by_its_wa
 /// moving (halted here afterwards).
 #[test]
 fn a_connection_cut_mid_move_without_the_deadman_says_the_module_may_still_move() {
-    let (_sim, link) = served();
-    let cut = attempts(|| cut_during_move(&link, false));
+    let (_sim, link, cut) = attempts(false);
     eprintln!("{}", cut.stderr);
     assert_eq!(cut.code, 3, "{}", cut.stderr);
     assert!(cut.stderr.contains("THE MODULE MAY STILL MOVE"), "{}", cut.stderr);
@@ -466,6 +469,7 @@ fn a_batch_and_a_bench_file_use_the_remote_bus() {
 /// and halted over TCP.
 #[test]
 fn the_commissioning_run_passes_over_the_remote_bus() {
+    let _busy = common::heavy::slot();
     let (_sim, link) = served();
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("report");
