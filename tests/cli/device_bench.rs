@@ -221,6 +221,7 @@ fn checked(report: &Path) -> Vec<String> {
 
 #[test]
 fn commission_d_plans_and_runs_only_the_devices_named() {
+    let _busy = common::heavy::slot();
     let r = run(&["--bench", SIM_BENCH, "--json", "commission", "--print-plan", "-d", "gripper,slide,shoulder"]);
     ok(&r, "print-plan -d");
     assert_eq!(planned(&r.json()), ["powercube:3", "pac:2", "cdios:1/0"], "{}", r.stdout);

@@ -73,6 +73,7 @@ fn docs() -> Vec<(String, String)> {
 
 #[test]
 fn every_sim_example_of_the_docs_runs_as_written() {
+    let _busy = common::heavy::slot();
     let mut lines = Vec::new();
     let mut skipped = Vec::new();
     for (_, text) in docs() {
