@@ -8,12 +8,16 @@ pub mod tmux;
 use std::io::{BufRead, BufReader};
 use std::process::{Child, Command, Output, Stdio};
 
+/// The answer timeout every test run of the binary gets (`AXISCTL_TIMEOUT`).
+pub const TIMEOUT_MS: &str = "1000";
+
 pub fn bin() -> Command {
     let mut c = Command::new(env!("CARGO_BIN_EXE_axisctl"));
     // Tests check behaviour, not timing: a loaded CI machine must not turn a
-    // slow simulator answer into a timeout. Tests that want the real default
-    // remove the variable.
-    c.env_remove("AXISCTL_LINK").env_remove("AXISCTL_BENCH").env("NO_COLOR", "1").env("AXISCTL_TIMEOUT", "400");
+    // slow simulator answer into a timeout (a served PA-CONTROL starved for
+    // 900 ms was seen at three test threads). Tests that want the real
+    // default remove the variable; those that time out on purpose say how long.
+    c.env_remove("AXISCTL_LINK").env_remove("AXISCTL_BENCH").env("NO_COLOR", "1").env("AXISCTL_TIMEOUT", TIMEOUT_MS);
     c
 }
 

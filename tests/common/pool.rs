@@ -100,7 +100,7 @@ pub fn failing_lines(lines: &[String], cwd: &std::path::Path, secs: u64) -> Vec<
             .env_remove("AXISCTL_LINK")
             .env_remove("AXISCTL_BENCH")
             .env("NO_COLOR", "1")
-            .env("AXISCTL_TIMEOUT", "400")
+            .env("AXISCTL_TIMEOUT", crate::common::TIMEOUT_MS)
             .stdin(std::process::Stdio::null())
             .stdout(std::process::Stdio::null())
             .stderr(std::process::Stdio::piped())
