@@ -92,7 +92,7 @@ fn every_documented_example_matches_real_output() {
                 let link = family_link(sim, &args);
                 args.iter_mut().filter(|a| **a == "sim").for_each(|a| *a = link);
             }
-            let r = common::run(&args);
+            let r = if sim.is_some() { common::run_served(&args) } else { common::run(&args) };
             assert_eq!(r.code, 0, "{name}: `axisctl {cmd}` failed: {}", r.stderr);
             let doc: Value = serde_json::from_str(&doc).unwrap_or_else(|e| panic!("{name}: bad JSON for {cmd}: {e}"));
             if let Err(e) = same_shape(&doc, &r.json(), "$") {
