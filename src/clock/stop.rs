@@ -342,11 +342,16 @@ pub fn sleep(d: Duration) {
         if left.is_zero() {
             return;
         }
-        let ms = left.as_millis().clamp(1, i32::MAX as u128) as i32;
+        // ppoll, not poll: a pause shorter than a millisecond (the paced
+        // samples of a recording) must not last one.
+        let timeout = libc::timespec {
+            tv_sec: left.as_secs().min(i32::MAX as u64) as libc::time_t,
+            tv_nsec: left.subsec_nanos().into(),
+        };
         let mut pfd = libc::pollfd { fd, events: libc::POLLIN, revents: 0 };
-        // SAFETY: one valid pollfd.
+        // SAFETY: one valid pollfd, a valid timespec, no signal mask.
         unsafe {
-            libc::poll(&mut pfd, 1, ms);
+            libc::ppoll(&mut pfd, 1, &timeout, std::ptr::null());
         }
         // Drain the wake bytes; `caught` keeps the signal itself.
         let mut buf = [0u8; 16];

@@ -20,7 +20,7 @@ use axisctl::proto::powercube::ModuleId;
 use axisctl::record::cdios::{CdiosSampler, CdiosValue};
 use axisctl::record::pac::{PacSampler, PacValue};
 use axisctl::record::powercube::CubeSampler;
-use axisctl::record::{self, Channel, End, HaltMotion, HaltWhen, RecordError, Recording, Sample, Until};
+use axisctl::record::{self, Channel, End, HaltMotion, HaltWhen, Pace, RecordError, Recording, Sample, Until};
 use axisctl::Address;
 use serde_json::{json, Map, Value};
 
@@ -115,7 +115,7 @@ pub fn run(ctx: &Ctx, mut args: RecordArgs) -> anyhow::Result<()> {
             }
         }
     }
-    let (period, until, format) = pace(ctx, &args)?;
+    let (pace, until, format) = pace(ctx, &args)?;
     // From here on a signal ends the recording between two samples (and
     // halts a motion it started) instead of killing the process mid-line.
     super::arm_interrupt()?;
@@ -125,13 +125,13 @@ pub fn run(ctx: &Ctx, mut args: RecordArgs) -> anyhow::Result<()> {
         Selection::PowerCube { modules, params } => {
             let mut s = CubeSampler::new(Cubes::new(ctx.powercube()?), &modules, &params).map_err(device_error)?;
             let start = |s: &mut CubeSampler, m: &Motion| start_cube(s, m, attempts);
-            go(&mut s, ctx, (period, until), (motion, 0, attempts), &mut writer, start)
+            go(&mut s, ctx, (pace, until), (motion, 0, attempts), &mut writer, start)
         }
         Selection::Pac { axes, values } => {
             let mut ctl = Controller::new(ctx.pac()?);
             ctl.set_axes(axes.clone());
             let mut s = PacSampler::new(ctl, &axes, &values);
-            go(&mut s, ctx, (period, until), (motion, 0, attempts), &mut writer, start_pac)
+            go(&mut s, ctx, (pace, until), (motion, 0, attempts), &mut writer, start_pac)
         }
         Selection::Cdios { node, modules, values } => {
             let mut session = ctx.cdios()?;
@@ -139,13 +139,13 @@ pub fn run(ctx: &Ctx, mut args: RecordArgs) -> anyhow::Result<()> {
             let mut s =
                 CdiosSampler::new(Node::new(session, node, ctx.retry), &modules, &values).map_err(device_error)?;
             let start = move |s: &mut CdiosSampler, m: &Motion| start_cdios(s, m, attempts);
-            go(&mut s, ctx, (period, until), (motion, node.get(), attempts), &mut writer, start)
+            go(&mut s, ctx, (pace, until), (motion, node.get(), attempts), &mut writer, start)
         }
     }
 }
 
 /// The rate, the end and the format of a recording, checked before the link opens.
-fn pace(ctx: &Ctx, args: &RecordArgs) -> anyhow::Result<(Option<Duration>, Until, Format)> {
+fn pace(ctx: &Ctx, args: &RecordArgs) -> anyhow::Result<(Pace, Until, Format)> {
     let period = match args.rate {
         Some(hz) if !(hz.is_finite() && hz > 0.0 && hz <= 100_000.0) => {
             return Err(usage(format!("--rate {hz} is out of range: more than 0 and at most 100000 Hz")))
@@ -164,7 +164,7 @@ fn pace(ctx: &Ctx, args: &RecordArgs) -> anyhow::Result<(Option<Duration>, Until
     if ctx.json && format != Format::Jsonl {
         return Err(usage("--json writes JSON Lines: leave out --format, or give --format csv without --json"));
     }
-    Ok((period, until, format))
+    Ok((Pace::from_period(period), until, format))
 }
 
 /// The devices and values, every name checked before anything is sent.
@@ -344,7 +344,7 @@ impl KindText for clap::Error {
 fn go<S: HaltMotion>(
     s: &mut S,
     ctx: &Ctx,
-    (period, until): (Option<Duration>, Until),
+    (pace, until): (Pace, Until),
     (motion, node, attempts): (Option<Motion>, u8, u32),
     writer: &mut Writer,
     start: impl Fn(&mut S, &Motion) -> Result<String, RecordError>,
@@ -372,7 +372,7 @@ fn go<S: HaltMotion>(
             }
             Ok(())
         };
-        record::record(s, clock.as_ref(), period, until, &|| supervisor::stop_requested(), &mut sink)
+        record::record(s, clock.as_ref(), pace, until, &|| supervisor::stop_requested(), &mut sink)
     });
     output::flush();
     let Some(m) = motion.filter(|_| started) else {

@@ -27,7 +27,7 @@ use crate::proto::powercube::flags::{state, CUBE_STATE};
 use crate::proto::powercube::table::{self, ids};
 use crate::proto::powercube::ModuleId;
 use crate::record::powercube::CubeSampler;
-use crate::record::{self, Sample, Sampler, Until};
+use crate::record::{self, Pace, Sample, Sampler, Until};
 
 /// Motion checks of a device, in order.
 const MOTION_CHECKS: [&str; 4] = ["home", "move_forward", "move_back", "halt"];
@@ -423,6 +423,13 @@ struct Trace {
 /// Points per line of a report's plot.
 const PLOT_POINTS: usize = 1500;
 
+/// The recorded ramps take at most 2000 samples a second. Back to back a
+/// real bus gives fewer (about 1400 at 1 Mbit/s: four reads and their
+/// answers per sample), so this binds only on a link faster than any real
+/// one: the in-process simulator answers at once, and without it gave
+/// 60 000 a second, megabytes of CSV per move and a core kept busy.
+const MIN_SAMPLE_GAP: Duration = Duration::from_micros(500);
+
 const REC_PARAMS: [u8; 4] = [ids::ACT_POS, ids::ACT_VEL, ids::CUR, ids::CUBE_STATE];
 
 /// Records a ramp of `m` to `target` from its first sample on; with
@@ -502,7 +509,8 @@ fn record_ramp(
             Ok(())
         };
         let until = Until::Elapsed(Duration::from_secs_f64(timeout));
-        record::record(s, clock.as_ref(), None, until, &|| stop() || done.get(), &mut sink)
+        let pace = Pace::BackToBack { min_gap: MIN_SAMPLE_GAP };
+        record::record(s, clock.as_ref(), pace, until, &|| stop() || done.get(), &mut sink)
     });
     let interrupted = stop();
     // The motion is halted unless it came to rest by itself and nothing

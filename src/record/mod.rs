@@ -114,27 +114,44 @@ pub enum End {
     Stopped,
 }
 
+/// How samples follow each other.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Pace {
+    /// Sample n is taken at n x the period from the start (a late one is
+    /// taken at once, never twice) and stamped when its requests leave.
+    Every(Duration),
+    /// Back to back: the sampler may keep the next sample's requests in
+    /// flight while the current one is read ([`Sampler::back_to_back`]); a
+    /// sample is then stamped when the devices answered it
+    /// ([`Sampler::read_at`]), since its requests left while the bus still
+    /// carried the sample before. A sample is never taken sooner than
+    /// `min_gap` after the one before (zero: as fast as the link answers).
+    BackToBack { min_gap: Duration },
+}
+
+impl Pace {
+    /// `--rate`'s period, or back to back as fast as the link answers.
+    pub fn from_period(period: Option<Duration>) -> Self {
+        period.map_or(Pace::BackToBack { min_gap: Duration::ZERO }, Pace::Every)
+    }
+}
+
 /// Samples until `until` or `stop`, and hands each sample to `sink` as
 /// soon as it is read, with the sampler (a motion is started from there, on
-/// the same link, between two samples). With a `period`, sample n is taken
-/// at n x period from the start (a late one is taken at once, never twice)
-/// and stamped when its requests leave. Without, samples follow back to back
-/// and the sampler may keep the next sample's requests in flight while the
-/// current one is read ([`Sampler::back_to_back`]); a sample is then stamped
-/// when the devices answered it ([`Sampler::read_at`]), since its requests
-/// left while the bus still carried the sample before. Stamps never go back.
+/// the same link, between two samples), at the given [`Pace`]. Stamps never
+/// go back.
 pub fn record<S: Sampler + ?Sized>(
     sampler: &mut S,
     clock: &dyn Clock,
-    period: Option<Duration>,
+    pace: Pace,
     until: Until,
     stop: &dyn Fn() -> bool,
     sink: &mut dyn FnMut(&Sample, &mut S) -> Result<(), RecordError>,
 ) -> Result<End, RecordError> {
-    if period.is_none() {
+    if let Pace::BackToBack { .. } = pace {
         sampler.back_to_back();
     }
-    let ended = samples(sampler, clock, period, until, stop, sink);
+    let ended = samples(sampler, clock, pace, until, stop, sink);
     sampler.finish();
     ended
 }
@@ -142,12 +159,13 @@ pub fn record<S: Sampler + ?Sized>(
 fn samples<S: Sampler + ?Sized>(
     sampler: &mut S,
     clock: &dyn Clock,
-    period: Option<Duration>,
+    pace: Pace,
     until: Until,
     stop: &dyn Fn() -> bool,
     sink: &mut dyn FnMut(&Sample, &mut S) -> Result<(), RecordError>,
 ) -> Result<End, RecordError> {
     let start = clock.now();
+    let mut last_called: Option<Instant> = None;
     let mut seq = 0u64;
     let mut last_t = 0.0f64;
     loop {
@@ -159,17 +177,17 @@ fn samples<S: Sampler + ?Sized>(
             Until::Elapsed(d) if clock.now().duration_since(start) >= d => return Ok(End::Done),
             _ => {}
         }
-        if let Some(p) = period {
-            let due = p.mul_f64(seq as f64);
-            let now = clock.now().duration_since(start);
-            if due > now {
-                let wait = due - now;
-                // Woken early by a signal: the loop checks `stop` again.
-                sampler.pause(clock, wait);
-                continue;
-            }
+        let due = match pace {
+            Pace::Every(p) => Some(start + p.mul_f64(seq as f64)),
+            Pace::BackToBack { min_gap } => last_called.map(|t| t + min_gap),
+        };
+        if let Some(wait) = due.and_then(|due| due.checked_duration_since(clock.now())).filter(|w| !w.is_zero()) {
+            // Woken early by a signal: the loop checks `stop` again.
+            sampler.pause(clock, wait);
+            continue;
         }
         let called = clock.now();
+        last_called = Some(called);
         let values = sampler.sample()?;
         let at = sampler.read_at().unwrap_or(called);
         let t = at.saturating_duration_since(start).as_secs_f64().max(last_t);

@@ -93,10 +93,17 @@ mod tests {
             [Address::PowerCube { module: 3 }, Address::Pac { axis: Some(2) }]
         );
         let mut rows = Vec::new();
-        let ended = record(&mut s, clock.as_ref() as &dyn Clock, None, Until::Count(3), &|| false, &mut |smp, _| {
-            rows.push((smp.t, smp.seq, smp.values.clone()));
-            Ok(())
-        });
+        let ended = record(
+            &mut s,
+            clock.as_ref() as &dyn Clock,
+            crate::record::Pace::from_period(None),
+            Until::Count(3),
+            &|| false,
+            &mut |smp, _| {
+                rows.push((smp.t, smp.seq, smp.values.clone()));
+                Ok(())
+            },
+        );
         assert!(ended.is_ok());
         // Each sample costs 3 + 7 ms; it is stamped before the first part reads.
         assert_eq!(rows, [(0.0, 0, vec![1.0, 101.0]), (0.01, 1, vec![2.0, 102.0]), (0.02, 2, vec![3.0, 103.0])]);

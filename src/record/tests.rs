@@ -23,6 +23,8 @@ impl Sampler for Fake<'_> {
     }
 }
 
+const BACK_TO_BACK: Pace = Pace::BackToBack { min_gap: Duration::ZERO };
+
 fn fake(clock: &VirtualClock, cost_ms: u64) -> Fake<'_> {
     let channels =
         vec![Channel { address: Address::PowerCube { module: 17 }, name: "ActPos".into(), unit: "m".into() }];
@@ -34,7 +36,7 @@ fn count_takes_that_many_samples_back_to_back() {
     let clock = VirtualClock::new();
     let mut f = fake(&clock, 2);
     let mut got = Vec::new();
-    let end = record(&mut f, &clock, None, Until::Count(5), &|| false, &mut |s, _| {
+    let end = record(&mut f, &clock, BACK_TO_BACK, Until::Count(5), &|| false, &mut |s, _| {
         got.push(s.clone());
         Ok(())
     })
@@ -51,7 +53,7 @@ fn a_rate_spaces_the_samples_and_a_duration_ends_them() {
     let clock = VirtualClock::new();
     let mut f = fake(&clock, 1);
     let mut got = Vec::new();
-    let period = Some(Duration::from_millis(10));
+    let period = Pace::Every(Duration::from_millis(10));
     let until = Until::Elapsed(Duration::from_millis(45));
     record(&mut f, &clock, period, until, &|| false, &mut |s, _| {
         got.push(s.t);
@@ -62,12 +64,30 @@ fn a_rate_spaces_the_samples_and_a_duration_ends_them() {
     assert_eq!(ms, [0.0, 10.0, 20.0, 30.0, 40.0]);
 }
 
+// Back to back with a gap: a sampler that answers at once is waited for,
+// one that takes longer than the gap is not.
+#[test]
+fn back_to_back_samples_keep_at_least_the_gap() {
+    for (cost_ms, want) in [(0, [0.0, 1.0, 2.0, 3.0]), (2, [0.0, 2.0, 4.0, 6.0])] {
+        let clock = VirtualClock::new();
+        let mut f = fake(&clock, cost_ms);
+        let mut ms = Vec::new();
+        let pace = Pace::BackToBack { min_gap: Duration::from_millis(1) };
+        record(&mut f, &clock, pace, Until::Count(4), &|| false, &mut |s, _| {
+            ms.push((s.t * 1000.0).round());
+            Ok(())
+        })
+        .unwrap();
+        assert_eq!(ms, want, "reads taking {cost_ms} ms");
+    }
+}
+
 #[test]
 fn stop_ends_the_recording_between_samples() {
     let clock = VirtualClock::new();
     let mut f = fake(&clock, 1);
     let seen = Cell::new(0);
-    let end = record(&mut f, &clock, None, Until::Stopped, &|| seen.get() >= 3, &mut |_, _| {
+    let end = record(&mut f, &clock, BACK_TO_BACK, Until::Stopped, &|| seen.get() >= 3, &mut |_, _| {
         seen.set(seen.get() + 1);
         Ok(())
     })
@@ -122,7 +142,7 @@ fn back_to_back_samples_are_stamped_when_read_and_never_go_back() {
     let clock = VirtualClock::new();
     let mut s = ahead(&clock, vec![2, 1, 0, 3]);
     let mut ms = Vec::new();
-    record(&mut s, &clock, None, Until::Count(4), &|| false, &mut |x, _| {
+    record(&mut s, &clock, BACK_TO_BACK, Until::Count(4), &|| false, &mut |x, _| {
         ms.push((x.t * 1000.0).round());
         Ok(())
     })
@@ -133,7 +153,7 @@ fn back_to_back_samples_are_stamped_when_read_and_never_go_back() {
     let clock = VirtualClock::new();
     let mut s = ahead(&clock, vec![15, 0]);
     let mut ms = Vec::new();
-    record(&mut s, &clock, None, Until::Count(2), &|| false, &mut |x, _| {
+    record(&mut s, &clock, BACK_TO_BACK, Until::Count(2), &|| false, &mut |x, _| {
         ms.push((x.t * 1000.0).round());
         Ok(())
     })
@@ -148,11 +168,11 @@ fn back_to_back_samples_are_stamped_when_read_and_never_go_back() {
 fn with_a_rate_nothing_is_sent_ahead_and_every_end_is_told() {
     let clock = VirtualClock::new();
     let mut s = ahead(&clock, vec![0; 3]);
-    let period = Some(Duration::from_millis(20));
+    let period = Pace::Every(Duration::from_millis(20));
     record(&mut s, &clock, period, Until::Count(3), &|| false, &mut |_, _| Ok(())).unwrap();
     assert!(!s.back_to_back && s.finished);
     let mut s = ahead(&clock, vec![0; 3]);
-    let failed = record(&mut s, &clock, None, Until::Stopped, &|| false, &mut |_, _| {
+    let failed = record(&mut s, &clock, BACK_TO_BACK, Until::Stopped, &|| false, &mut |_, _| {
         Err(RecordError::from(crate::device::powercube::Error::Refused("full".into())))
     });
     assert!(failed.is_err());

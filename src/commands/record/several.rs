@@ -71,7 +71,7 @@ pub(super) fn run(ctx: &Ctx, args: &RecordArgs) -> anyhow::Result<()> {
     }
     let bench = ctx.bench()?;
     let devices = devices(bench, &args.values)?;
-    let (period, until, format) = pace(ctx, args)?;
+    let (pace, until, format) = pace(ctx, args)?;
     // From here on a signal ends the recording between two samples.
     super::super::arm_interrupt()?;
     ctx.opener().keep_links_open();
@@ -86,7 +86,7 @@ pub(super) fn run(ctx: &Ctx, args: &RecordArgs) -> anyhow::Result<()> {
     let mut writer = Writer::new(format);
     writer.header(record::Sampler::channels(&s), &links);
     let ended =
-        record::record(&mut s, ctx.clock.as_ref(), period, until, &|| supervisor::stop_requested(), &mut |smp, _| {
+        record::record(&mut s, ctx.clock.as_ref(), pace, until, &|| supervisor::stop_requested(), &mut |smp, _| {
             writer.sample(smp);
             Ok(())
         });

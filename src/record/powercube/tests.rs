@@ -8,7 +8,7 @@ use super::*;
 use crate::clock::VirtualClock;
 use crate::device::powercube::Move;
 use crate::proto::powercube::flags::state;
-use crate::record::{halt_motion, record, HaltMotion, HaltWhen, Until};
+use crate::record::{halt_motion, record, HaltMotion, HaltWhen, Pace, Until};
 use crate::session::powercube::PowerCube;
 use crate::sim::bench::Bench;
 use crate::sim::shared::lock;
@@ -50,7 +50,7 @@ fn a_recorded_motion_keeps_the_watchdog_alive_between_samples() {
     let mut worst = 0u32;
     let ramp = Move::Ramp { pos: 1.0, vel: Some(0.5), acc: Some(3.0) };
     let period = Some(Duration::from_millis(200));
-    record(&mut s, clock.as_ref(), period, Until::Count(10), &|| false, &mut |sample, s| {
+    record(&mut s, clock.as_ref(), Pace::from_period(period), Until::Count(10), &|| false, &mut |sample, s| {
         worst |= sample.values[0] as u32;
         if sample.seq == 0 {
             s.cubes().move_supervised(m, ramp, false, false, 1)?;
