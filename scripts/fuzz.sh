@@ -4,6 +4,7 @@
 #
 #   scripts/fuzz.sh [SECONDS] [TARGET...]      each target for SECONDS (default 60)
 #   scripts/fuzz.sh --runs N [TARGET...]       each target for N executions
+#   scripts/fuzz.sh --build-only               install cargo-fuzz if missing, build, run nothing
 #
 # The seed corpora in fuzz/seeds/<target>/ (manual vectors, committed) are
 # copied into the working corpus fuzz/corpus/<target>/ (not committed), which
@@ -23,7 +24,11 @@ export RUSTC_BOOTSTRAP=1
 sanitizer=${FUZZ_SANITIZER:-none}
 
 limit=(-max_total_time=60)
-if [[ ${1:-} == --runs ]]; then
+build_only=
+if [[ ${1:-} == --build-only ]]; then
+    build_only=1
+    shift
+elif [[ ${1:-} == --runs ]]; then
     [[ ${2:-} =~ ^[0-9]+$ ]] || { echo "usage: $0 --runs N [TARGET...]" >&2; exit 2; }
     limit=(-runs="$2")
     shift 2
@@ -44,6 +49,7 @@ fi
 # One build for all targets (the same flags as `cargo fuzz run` below, so it
 # does not rebuild).
 cargo fuzz build -s "$sanitizer"
+[[ -n $build_only ]] && exit 0
 
 mkdir -p logs
 status=0
