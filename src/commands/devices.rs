@@ -16,38 +16,25 @@ use super::{usage, Ctx};
 /// command's (a bench file may put the family on several). A device of
 /// another family, an unknown name or a second link is a usage error.
 pub fn of_family(ctx: &Ctx, family: Family, refs: &[DeviceRef]) -> anyhow::Result<Vec<Address>> {
-    let bench = ctx.bench()?;
-    let mut out: Vec<Address> = Vec::new();
-    let mut on: Option<(&DeviceRef, &axisctl::bench::BenchLink)> = None;
-    for r in refs {
-        let at = bench.resolve(r)?;
-        if at.family() != family {
+    let named = resolved(ctx, refs)?;
+    if let Some((r, at, _)) = named.iter().find(|(_, at, _)| at.family() != family) {
+        return Err(usage(format!(
+            "{command} takes {family} devices ({form}); {r} is a {other} device",
+            command = ctx.command_name(),
+            form = Address::form(family),
+            other = at.family(),
+        )));
+    }
+    if let Some((first, _, on)) = named.first() {
+        if let Some((r, _, link)) = named.iter().find(|(_, _, link)| link.text != on.text) {
             return Err(usage(format!(
-                "{command} takes {family} devices ({form}); {r} is a {other} device",
-                command = ctx.command_name(),
-                form = Address::form(family),
-                other = at.family(),
+                "{first} is on {} and {r} on {}: a {family} command talks to one link; run it once per link",
+                on.text, link.text,
             )));
         }
-        let link = bench.link_of(at)?;
-        match on {
-            Some((first, l)) if l.text != link.text => {
-                return Err(usage(format!(
-                    "{first} is on {} and {r} on {}: a {family} command talks to one link; run it once per link",
-                    l.text, link.text,
-                )));
-            }
-            None => on = Some((r, link)),
-            Some(_) => {}
-        }
-        if !out.contains(&at) {
-            out.push(at);
-        }
+        ctx.pin_link(family, on);
     }
-    if let Some((_, link)) = on {
-        ctx.pin_link(family, link);
-    }
-    Ok(out)
+    Ok(named.into_iter().map(|(_, at, _)| at).collect())
 }
 
 /// The devices `refs` name, of any family, each with the link of the bench
@@ -57,15 +44,26 @@ pub fn of_family(ctx: &Ctx, family: Family, refs: &[DeviceRef]) -> anyhow::Resul
 /// link), is a usage error.
 pub fn any_family<'b>(ctx: &'b Ctx, refs: &[DeviceRef]) -> anyhow::Result<Vec<(Address, &'b BenchLink)>> {
     let bench = ctx.bench()?;
-    let mut out: Vec<(Address, &BenchLink)> = Vec::new();
+    let named = resolved(ctx, refs)?;
+    if let Some((_, at, _)) = named.iter().find(|(_, at, link)| !bench::fits(&link.spec, at.family())) {
+        return Err(BenchError::NoLink { family: at.family(), links: bench.describe() }.into());
+    }
+    Ok(named.into_iter().map(|(_, at, link)| (at, link)).collect())
+}
+
+/// Each device `refs` name as typed, its address and the link of the bench
+/// it is on, in the order given and each address once.
+fn resolved<'b, 'r>(
+    ctx: &'b Ctx,
+    refs: &'r [DeviceRef],
+) -> anyhow::Result<Vec<(&'r DeviceRef, Address, &'b BenchLink)>> {
+    let bench = ctx.bench()?;
+    let mut out: Vec<(&DeviceRef, Address, &BenchLink)> = Vec::new();
     for r in refs {
         let at = bench.resolve(r)?;
         let link = bench.link_of(at)?;
-        if !bench::fits(&link.spec, at.family()) {
-            return Err(BenchError::NoLink { family: at.family(), links: bench.describe() }.into());
-        }
-        if !out.iter().any(|(a, _)| *a == at) {
-            out.push((at, link));
+        if !out.iter().any(|(_, a, _)| *a == at) {
+            out.push((r, at, link));
         }
     }
     Ok(out)

@@ -11,6 +11,7 @@ use std::path::Path;
 use std::process::Stdio;
 use std::time::{Duration, Instant};
 
+use common::bench::bench_file;
 use common::{Run, Sim};
 
 fn run_in(dir: Option<&Path>, env: &[(&str, &str)], args: &[&str]) -> Run {
@@ -44,12 +45,6 @@ fn served() -> (Sim, String, String) {
     let (can, serial) = (sim.link("powercube").to_string(), sim.link("pac").to_string());
     assert_eq!(sim.link("cdios"), can, "one CAN pty");
     (sim, can, serial)
-}
-
-fn bench_file(dir: &Path, text: &str) -> String {
-    let path = dir.join("bench.toml");
-    std::fs::write(&path, text).unwrap();
-    path.to_str().unwrap().to_string()
 }
 
 /// Polls `test` on a state read until it holds, for up to 20 s.

@@ -9,12 +9,12 @@ use crate::common;
 use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
 
+use common::bench::{two_cube_links, SIM_BENCH};
 use common::{run, Run, Sim};
 use serde_json::Value;
 
-/// The simulated bench with names (docs/sim-bench.toml): shoulder =
-/// powercube:3, elbow = powercube:5, slide = pac:2, gripper = cdios:1/0.
-const SIM_BENCH: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/docs/sim-bench.toml");
+// The simulated bench with names (docs/sim-bench.toml): shoulder =
+// powercube:3, elbow = powercube:5, slide = pac:2, gripper = cdios:1/0.
 
 fn ok(r: &Run, what: &str) {
     assert_eq!(r.code, 0, "{what}: stdout {}\nstderr {}", r.stdout, r.stderr);
@@ -297,21 +297,6 @@ fn commission_d_plans_devices_on_two_served_links() {
     ]);
     ok(&r, "print-plan -d on two links");
     assert_eq!(planned(&r.json()), ["powercube:17", "pac:3", "cdios:1/1"], "{}", r.stdout);
-}
-
-/// A bench file whose first PowerCube link is a port that does not exist: a
-/// command that opened it would fail with exit 3.
-fn two_cube_links(dir: &Path) -> String {
-    let path = dir.join("bench.toml");
-    std::fs::write(
-        &path,
-        "[[link]]\nspec = \"slcan:/dev/axisctl-no-such-tty\"\nfamilies = [\"powercube\"]\n\
-         devices = { far = \"powercube:5\" }\n\
-         [[link]]\nspec = \"sim\"\nfamilies = [\"powercube\", \"pac\", \"cdios\"]\n\
-         devices = { arm = \"powercube:3\" }\n",
-    )
-    .unwrap();
-    path.to_str().unwrap().to_string()
 }
 
 /// Each family runs on the link its devices named are on, beside the

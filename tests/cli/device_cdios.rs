@@ -8,24 +8,17 @@ use crate::common;
 
 use std::path::Path;
 
-use common::{run_with_stdin, Run};
+use common::{run, run_with_stdin};
 use serde_json::Value;
-
-fn run(args: &[&str]) -> Run {
-    common::run(args)
-}
 
 /// The simulated bench with its motors enabled, its Cdios modules named
 /// (and a PA-CONTROL axis and a PowerCube module, for the refusals).
 fn bench(dir: &Path) -> String {
-    let path = dir.join("bench.toml");
-    std::fs::write(
-        &path,
+    common::bench::bench_file(
+        dir,
         "[[link]]\nspec = \"sim?cdios=enabled\"\n\
          devices = { gripper = \"cdios:1/0\", wrist = \"cdios:1/1\", slide = \"pac:2\", shoulder = \"powercube:3\" }\n",
     )
-    .unwrap();
-    path.to_str().unwrap().to_string()
 }
 
 /// `args` on the bench file, with --json; exit 0 and the document.

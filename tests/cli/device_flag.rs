@@ -6,34 +6,8 @@
 
 use crate::common;
 
-use std::path::Path;
-
-use common::Run;
-
-/// The simulated bench with names (docs/sim-bench.toml).
-const SIM_BENCH: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/docs/sim-bench.toml");
-
-fn run(args: &[&str]) -> Run {
-    common::run(args)
-}
-
-fn bench_file(dir: &Path, text: &str) -> String {
-    let path = dir.join("bench.toml");
-    std::fs::write(&path, text).unwrap();
-    path.to_str().unwrap().to_string()
-}
-
-/// A bench whose first PowerCube link is a port that does not exist: a
-/// command that opened it would fail with exit 3.
-fn two_cube_links(dir: &Path) -> String {
-    bench_file(
-        dir,
-        "[[link]]\nspec = \"slcan:/dev/axisctl-no-such-tty\"\nfamilies = [\"powercube\"]\n\
-         devices = { far = \"powercube:5\" }\n\
-         [[link]]\nspec = \"sim\"\nfamilies = [\"powercube\", \"pac\", \"cdios\"]\n\
-         devices = { arm = \"powercube:3\" }\n",
-    )
-}
+use common::bench::{two_cube_links, SIM_BENCH};
+use common::run;
 
 #[test]
 fn powercube_reads_take_a_device_as_they_take_a_module() {

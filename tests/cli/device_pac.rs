@@ -8,17 +8,10 @@ use crate::common;
 
 use std::path::Path;
 
+use common::bench::{bench_file, SIM_BENCH};
 use common::{run, run_with_stdin, Run, Sim};
 
 /// The simulated bench with names (docs/sim-bench.toml): `slide = pac:2`.
-const SIM_BENCH: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/docs/sim-bench.toml");
-
-fn bench_file(dir: &Path, text: &str) -> String {
-    let path = dir.join("bench.toml");
-    std::fs::write(&path, text).unwrap();
-    path.to_str().unwrap().to_string()
-}
-
 /// The simulated bench in online mode, its controller and two axes named.
 fn online_bench(dir: &Path) -> String {
     bench_file(

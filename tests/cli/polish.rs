@@ -301,7 +301,7 @@ fn complete_bash_on_bench(bench: &std::path::Path, words: &[&str]) -> Vec<String
 
 #[test]
 fn bash_completes_module_ids_from_the_bench_file() {
-    let bench = std::path::Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/docs/sim-bench.toml"));
+    let bench = std::path::Path::new(common::bench::SIM_BENCH);
     let got = complete_bash_on_bench(bench, &["state", "-m", ""]);
     assert_eq!(got, ["3", "5"], "shoulder and elbow of docs/sim-bench.toml");
     let got = complete_bash_on_bench(bench, &["get-param", "-m", "3,"]);
@@ -310,7 +310,7 @@ fn bash_completes_module_ids_from_the_bench_file() {
 
 #[test]
 fn bash_completes_devices_from_the_bench_file() {
-    let bench = std::path::Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/docs/sim-bench.toml"));
+    let bench = std::path::Path::new(common::bench::SIM_BENCH);
     let got = complete_bash_on_bench(bench, &["state", "-d", ""]);
     assert_eq!(got, ["elbow", "powercube:3", "powercube:5", "shoulder"], "the PowerCube devices, by name and address");
     let got = complete_bash_on_bench(bench, &["cdios-status", "-d", "g"]);

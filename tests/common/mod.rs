@@ -1,6 +1,7 @@
 //! Shared helpers for the CLI tests: run the real binary, serve the bench.
 #![allow(dead_code)]
 
+pub mod bench;
 pub mod heavy;
 pub mod pool;
 pub mod tmux;
