@@ -33,7 +33,8 @@ enum Covered {
     /// completion: what a line of shell cannot drive).
     Test(&'static str),
     /// It is an example of this subcommand's `--help` (comments aside),
-    /// which tests/cli/json_docs.rs runs as written.
+    /// which tests/cli/json_docs.rs runs as written (those that commission
+    /// the whole bench, tests/cli/commission.rs).
     Help(&'static str),
 }
 

@@ -320,3 +320,21 @@ fn stderr_with_deadline(child: &mut std::process::Child, words: &[&str]) -> (i32
     child.stderr.take().unwrap().read_to_string(&mut err).unwrap();
     (child.wait().unwrap().code().unwrap_or(-1), err)
 }
+
+/// A commissioning run whose JSON lines cannot be written stops at the
+/// next motion (halted), marks its report incomplete and exits 1 for the
+/// output, not 5 as if the device had failed the check the stop cut short.
+#[test]
+fn a_commissioning_run_whose_output_fails_stops_and_says_why() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("m3");
+    let args = ["--json", "commission", "-d", "powercube:3", "--out", out.to_str().unwrap(), "--yes"];
+    let child = axisctl(false, &args).stdout(dev_full()).stderr(Stdio::piped()).spawn().unwrap();
+    let (code, err) = stderr_of(child);
+    assert_eq!(code, 1, "{err}");
+    assert!(err.contains("so the motion was stopped") && err.contains("marked incomplete"), "{err}");
+    let report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).unwrap()).unwrap();
+    assert_eq!(report["complete"], false);
+    assert!(report["ended"].as_str().unwrap().starts_with("output failed"), "{}", report["ended"]);
+}
