@@ -178,3 +178,15 @@ fn with_a_rate_nothing_is_sent_ahead_and_every_end_is_told() {
     assert!(failed.is_err());
     assert!(s.finished, "the burst in flight is abandoned after an error too");
 }
+
+// A value is named as the command line types it, case aside; an unknown
+// name is none.
+#[test]
+fn values_are_found_by_name_case_aside() {
+    use crate::record::cdios::CdiosValue;
+    use crate::record::pac::PacValue;
+    assert_eq!(PacValue::parse("Speed"), Some(PacValue::Speed));
+    assert_eq!(PacValue::parse("STATUS"), Some(PacValue::Status));
+    assert_eq!(CdiosValue::parse("position"), Some(CdiosValue::Position));
+    assert_eq!(PacValue::parse("ActPos"), None);
+}
