@@ -269,6 +269,18 @@ pub(crate) fn measure_halt(
 }
 
 /// Six decimals, and no -0: what a report shows.
+/// An error and its causes, as a report's detail: "lost track of module
+/// 17 while homing (module 17 halted): no answer ... within 400 ms".
+pub(crate) fn with_causes(e: &dyn std::error::Error) -> String {
+    let mut text = e.to_string();
+    let mut cause = e.source();
+    while let Some(c) = cause {
+        text = format!("{text}: {c}");
+        cause = c.source();
+    }
+    text
+}
+
 pub(crate) fn round6(v: f64) -> f64 {
     if v.is_finite() {
         (v * 1e6).round() / 1e6 + 0.0
@@ -342,6 +354,25 @@ mod tests {
     use super::*;
     use plan::{Expected, Settings};
     use report::Status;
+
+    #[test]
+    fn a_failed_check_says_the_causes_of_its_error() {
+        use crate::device::powercube::Error;
+        use crate::session::SessionError;
+        let source = SessionError::Timeout {
+            target: "module 17".into(),
+            what: "GetExtended".into(),
+            timeout: std::time::Duration::from_millis(400),
+        };
+        let e = Error::LostTrack {
+            module: crate::proto::powercube::ModuleId::new(17).unwrap(),
+            what: "homing".into(),
+            halt_failed: None,
+            source,
+        };
+        let text = with_causes(&e);
+        assert!(text.starts_with(&format!("{e}: ")) && text.contains("400"), "{text}");
+    }
 
     #[test]
     fn the_halt_test_moves_forward_inside_the_window_else_back() {

@@ -395,7 +395,7 @@ fn home(cubes: &mut Cubes, m: ModuleId, at: &str, plan: &DevicePlan, run: &mut R
             if stop() {
                 run.interrupted = true;
             }
-            c.fail(format!("{e}"))
+            c.fail(super::with_causes(&e))
         }
     }
 }
