@@ -590,7 +590,8 @@ fn a_served_bench_gives_the_same_report_as_the_in_process_one() {
     let served = sim.link("powercube");
     for (name, link) in [("in-process", "sim"), ("served", served), ("served again", served)] {
         let out = dir.path().join(name);
-        let r = run(&[
+        // A served simulator is another process, which a loaded machine can starve.
+        let r = common::run_served(&[
             "--link",
             link,
             "commission",
@@ -631,7 +632,7 @@ fn a_served_slcan_and_serial_bench_gives_the_same_report_for_every_family() {
         let out = dir.path().join(name);
         let mut args: Vec<&str> = links.iter().flat_map(|l| ["--link", *l]).collect();
         args.extend(["commission", "--plan", file.to_str().unwrap(), "--out", out.to_str().unwrap(), "--yes"]);
-        let r = run(&args);
+        let r = common::run_served(&args);
         assert_eq!(r.code, 0, "{name}: {}\n{}", r.stdout, r.stderr);
         reports.push(read_report(&out));
     }

@@ -473,7 +473,7 @@ fn the_commissioning_run_passes_over_the_remote_bus() {
     let (_sim, link) = served();
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("report");
-    let r = run(&["--link", &link, "commission", "--out", out.to_str().unwrap(), "--yes"]);
+    let r = common::run_served(&["--link", &link, "commission", "--out", out.to_str().unwrap(), "--yes"]);
     assert_eq!(r.code, 0, "{}\n{}", r.stdout, r.stderr);
     let report: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).unwrap()).unwrap();
