@@ -125,6 +125,9 @@ where
             Address::Pac { axis } => open.pac.run(sessions, axis, &d.plan, expected, run)?,
             Address::Cdios { node, module } => open.cdios.run(sessions, node, module, &d.plan, expected, run)?,
         }
+        // A check the stop cut short (a failed output as well as a
+        // signal) failed of the stop, not of the device.
+        run.interrupted |= (run.stop)();
     }
     Ok(())
 }

@@ -268,7 +268,6 @@ pub(crate) fn measure_halt(
     Ok(())
 }
 
-/// Six decimals, and no -0: what a report shows.
 /// An error and its causes, as a report's detail: "lost track of module
 /// 17 while homing (module 17 halted): no answer ... within 400 ms".
 pub(crate) fn with_causes(e: &dyn std::error::Error) -> String {
@@ -281,6 +280,7 @@ pub(crate) fn with_causes(e: &dyn std::error::Error) -> String {
     text
 }
 
+/// Six decimals, and no -0: what a report shows.
 pub(crate) fn round6(v: f64) -> f64 {
     if v.is_finite() {
         (v * 1e6).round() / 1e6 + 0.0
