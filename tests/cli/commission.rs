@@ -116,7 +116,7 @@ fn the_simulated_bench_passes_and_every_file_is_written() {
             assert!(text.lines().count() > 20, "a recording of samples: {}", csv.display());
             // At most 2000 samples a second, though the in-process bus
             // answers at once (src/commission/powercube.rs MIN_SAMPLE_GAP).
-            let t: Vec<f64> = text.lines().skip(1).map(|l| l.split(',').next().unwrap().parse().unwrap()).collect();
+            let t = times(&text);
             let rate = (t.len() - 1) as f64 / (t[t.len() - 1] - t[0]);
             assert!(rate <= 2050.0, "{}: {rate:.0} samples a second", csv.display());
         }
@@ -651,11 +651,15 @@ fn a_served_slcan_and_serial_bench_gives_the_same_report_for_every_family() {
     );
 }
 
+/// The first column of a recording's CSV: when each sample was read, in s.
+fn times(csv: &str) -> Vec<f64> {
+    csv.lines().skip(1).map(|l| l.split(',').next().unwrap().parse().unwrap()).collect()
+}
+
 /// The largest step between two samples of a check's recording, in s.
 fn largest_gap(dir: &Path, c: &Value) -> f64 {
     let Some(file) = c["recording"].as_str() else { return 0.0 };
-    let text = std::fs::read_to_string(dir.join(file)).unwrap();
-    let t: Vec<f64> = text.lines().skip(1).map(|l| l.split(',').next().unwrap().parse().unwrap()).collect();
+    let t = times(&std::fs::read_to_string(dir.join(file)).unwrap());
     t.windows(2).map(|w| w[1] - w[0]).fold(0.0, f64::max)
 }
 
